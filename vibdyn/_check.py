@@ -1,0 +1,80 @@
+"""Input checks shared by the scene, the joints and the force elements (all raise ModelError)."""
+
+import numbers
+
+import numpy as np
+
+from .errors import ModelError
+
+
+def finite_array(value, shape, what):
+    """``value`` as a float array of ``shape`` (None entries free), finite, else ModelError naming ``what``."""
+    if callable(value):
+        raise ModelError(f"{what}: expected numbers, got a callable")
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"{what}: expected numbers of shape {_fmt(shape)}, got {value!r}") from None
+    if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+        raise ModelError(f"{what}: expected shape {_fmt(shape)}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{what}: contains NaN or inf ({value!r})")
+    return arr
+
+
+def vector3(value, what):
+    return finite_array(value, (3,), what)
+
+
+def scalar(value, what, *, positive=False, nonnegative=False):
+    """A finite float; ``positive`` (> 0) or ``nonnegative`` (>= 0) if asked."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+        raise ModelError(f"{what}: expected a number, got {value!r}")
+    x = float(value)
+    if not np.isfinite(x):
+        raise ModelError(f"{what}: must be finite, got {x}")
+    if positive and not x > 0:
+        raise ModelError(f"{what}: must be positive, got {x}")
+    if nonnegative and x < 0:
+        raise ModelError(f"{what}: must not be negative, got {x}")
+    return x
+
+
+def unit_axis(value, what):
+    """A direction normalised to unit length; a zero or non-finite axis is a ModelError."""
+    a = vector3(value, what)
+    n = np.linalg.norm(a)
+    if n < 1e-12:
+        raise ModelError(f"{what}: axis has zero length")
+    return a / n
+
+
+def rotation_matrix(value, what):
+    """A 3×3 rotation matrix, or a rotation vector (axis × angle in rad) of 3 numbers; None is identity."""
+    if value is None:
+        return np.eye(3)
+    arr = np.array(value, dtype=float) if not callable(value) else None
+    if arr is not None and arr.shape == (3,):
+        from scipy.spatial.transform import Rotation
+
+        return Rotation.from_rotvec(vector3(arr, what)).as_matrix()
+    R = finite_array(value, (3, 3), what)
+    if not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
+        raise ModelError(f"{what}: not a rotation matrix (RᵀR ≠ 1 or det R < 0)")
+    return R
+
+
+def stiffness_like(value, n, what):
+    """A nonnegative scalar or per-coordinate vector of length ``n``, returned as an array of ``n``."""
+    arr = np.atleast_1d(finite_array(value, (None,) * np.ndim(value), what)).astype(float)
+    if arr.size == 1:
+        arr = np.full(n, float(arr[0]))
+    if arr.shape != (n,):
+        raise ModelError(f"{what}: expected a number or {n} numbers, got shape {arr.shape}")
+    if np.any(arr < 0):
+        raise ModelError(f"{what}: must not be negative, got {arr.tolist()}")
+    return arr
+
+
+def _fmt(shape):
+    return "(" + ", ".join("n" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"

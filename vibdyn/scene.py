@@ -1,0 +1,258 @@
+"""Scene: the plain description of a set of solids, its links and its force elements.
+
+A scene is checked as it is built (every mistake is a ModelError naming the element) and compiled once by
+:meth:`Scene.build` into a :class:`vibdyn.System`. It knows nothing of Pinocchio.
+"""
+
+import copy
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import inertia as _inertia
+from . import joints as _joints
+from ._check import finite_array, scalar, stiffness_like, vector3
+from .elements import (WORLD, BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring, attachment,
+                       joint_force_value, vector_or_callable)
+from .errors import ModelError
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid solid: mass (kg), centre of mass (m, body frame), inertia about it (kg·m², body axes)."""
+
+    name: str
+    parent: str
+    joint: _joints.Joint
+    mass: float
+    com: tuple
+    inertia: tuple
+
+    @property
+    def coordinates(self):
+        """Names of this body's tangent coordinates."""
+        label = self.joint.name or self.name
+        return tuple(label + s for s in self.joint.suffixes)
+
+    def to_dict(self):
+        return {"name": self.name, "parent": self.parent, "mass": self.mass, "com": list(self.com),
+                "inertia": [list(r) for r in self.inertia], "joint": self.joint.to_dict()}
+
+
+class Scene:
+    """A set of rigid solids joined to a tree of links, with springs, dampers, forces and gravity.
+
+    ``gravity`` is the gravity vector (m/s², world axes): a free vector, e.g. ``(0, 0, -9.81)``.
+    ``source`` and ``references`` record where the scene comes from and values it must reproduce.
+    """
+
+    def __init__(self, name="scene", gravity=(0.0, 0.0, 0.0), *, source=None, description=None):
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"scene name must be a non-empty string, got {name!r}")
+        self.name = name
+        self.gravity = tuple(float(x) for x in vector3(gravity, f"scene '{name}' gravity"))
+        self.source = source
+        self.description = description
+        self.references = {}
+        self.bodies = {}
+        self.elements = {}  # name -> element, in insertion order
+
+    # ---------------------------------------------------------------- bodies
+    def add_body(self, name, parent=WORLD, joint=None, mass=0.0, com=(0.0, 0.0, 0.0), inertia=None,
+                 inertia_about=None):
+        """Add a body joined to ``parent`` by ``joint`` (a Fixed weld if None).
+
+        ``mass`` in kg; ``com`` in m (body frame); ``inertia`` a 3×3 tensor (kg·m², body axes) about the
+        centre of mass, or about the point ``inertia_about`` (converted by Huygens); None is a point mass.
+        """
+        what = f"body '{name}'"
+        self._check_new_name(name, "body")
+        if parent == name:
+            raise ModelError(f"{what}: cannot be its own parent (cycle)")
+        if parent != WORLD and self._find_body(parent) is None:
+            raise ModelError(f"{what}: unknown parent '{parent}'")
+        parent = self._find_body(parent).name if parent != WORLD else WORLD
+        joint = _joints.Fixed() if joint is None else joint
+        if not isinstance(joint, _joints.Joint):
+            raise ModelError(f"{what}: joint must be a vibdyn joint (Pivot, Slider, ...), got {joint!r}")
+        if joint.name and (self._find_body(joint.name) is not None):
+            raise ModelError(f"{what}: duplicate name '{joint.name}' for its joint")
+        m = scalar(mass, f"{what} mass")
+        if m < 0:
+            raise ModelError(f"{what}: negative mass {m} kg")
+        c = vector3(com, f"{what} com")
+        I = np.zeros((3, 3)) if inertia is None else finite_array(inertia, (3, 3), f"{what} inertia")
+        if inertia_about is not None:
+            I = _inertia.to_com(I, m, c, vector3(inertia_about, f"{what} inertia_about"))
+        I = _inertia.check(I, m, f"{what} inertia")
+        body = Body(name, parent, joint, m, tuple(map(float, c)), tuple(tuple(map(float, r)) for r in I))
+        self.bodies[name] = body
+        return body
+
+    # ---------------------------------------------------------------- elements
+    def add_spring(self, name, a, b, stiffness, free_length=None):
+        """Linear spring (stiffness N/m, free length m) between points ``a`` and ``b`` (see elements)."""
+        what = f"spring '{name}'"
+        self._check_new_name(name, "element")
+        a, b = self._attachment(a, what + " end a"), self._attachment(b, what + " end b")
+        k = scalar(stiffness, f"{what} stiffness", nonnegative=True)
+        l0 = None if free_length is None else scalar(free_length, f"{what} free_length", nonnegative=True)
+        return self._add(Spring(name, a, b, k, l0))
+
+    def add_damper(self, name, a, b, damping):
+        """Linear viscous damper (N·s/m) between points ``a`` and ``b``."""
+        what = f"damper '{name}'"
+        self._check_new_name(name, "element")
+        a, b = self._attachment(a, what + " end a"), self._attachment(b, what + " end b")
+        return self._add(Damper(name, a, b, scalar(damping, f"{what} damping", nonnegative=True)))
+
+    def add_joint_spring(self, body, stiffness, rest=0.0, name=None):
+        """Spring on the joint of ``body`` (torsion spring on a pivot; on the rotation vector for a ball).
+
+        ``stiffness`` N/m or N·m/rad, one number or one per coordinate; ``rest`` the rest offset from the
+        neutral configuration in tangent coordinates (m or rad).
+        """
+        b = self._joint_body(body, "joint spring")
+        name = name or f"{b.name}.spring"
+        what = f"joint spring '{name}'"
+        self._check_new_name(name, "element")
+        k = stiffness_like(stiffness, b.joint.nv, f"{what} stiffness")
+        r = np.atleast_1d(finite_array(rest, (None,) * np.ndim(rest), f"{what} rest"))
+        if r.size == 1:
+            r = np.full(b.joint.nv, float(r[0]))
+        if r.shape != (b.joint.nv,):
+            raise ModelError(f"{what}: rest needs {b.joint.nv} number(s), got {r.size}")
+        return self._add(JointSpring(name, b.name, tuple(map(float, k)), tuple(map(float, r))))
+
+    def add_joint_damper(self, body, damping, name=None):
+        """Viscous damper on the joint of ``body`` (N·s/m or N·m·s/rad, one number or one per coordinate)."""
+        b = self._joint_body(body, "joint damper")
+        name = name or f"{b.name}.damper"
+        self._check_new_name(name, "element")
+        c = stiffness_like(damping, b.joint.nv, f"joint damper '{name}' damping")
+        return self._add(JointDamper(name, b.name, tuple(map(float, c))))
+
+    def add_joint_force(self, body, value, name=None, velocity_dependent=None, time_dependent=None):
+        """Force/torque on the joint of ``body`` in its coordinates (N or N·m).
+
+        ``value``: a number (one per coordinate), a law from :mod:`vibdyn.laws`, or a callable
+        ``f(t, q, v)`` of time and the joint's own coordinates. A callable counts as depending on v and t
+        unless declared otherwise with ``velocity_dependent=False`` / ``time_dependent=False``.
+        """
+        b = self._joint_body(body, "joint force")
+        name = name or f"{b.name}.force"
+        self._check_new_name(name, "element")
+        v = joint_force_value(value, b.joint.nv, f"joint force '{name}'")
+        vd = bool(getattr(v, "velocity_dependent", callable(v))) if velocity_dependent is None else bool(
+            velocity_dependent)
+        td = bool(getattr(v, "time_dependent", callable(v))) if time_dependent is None else bool(time_dependent)
+        return self._add(JointForce(name, b.name, v, vd, td))
+
+    def add_force(self, name, body, force=(0.0, 0.0, 0.0), at=(0.0, 0.0, 0.0), torque=None, frame="world"):
+        """External force (N) at the point ``at`` of ``body`` (m, body frame) and optional torque (N·m).
+
+        ``force``/``torque``: 3-vectors or callables ``f(t, q, v)`` → 3-vector; ``frame`` "world" or "body"
+        says in which axes they are given.
+        """
+        what = f"force '{name}'"
+        self._check_new_name(name, "element")
+        b = self._find_body(body)
+        if b is None:
+            raise ModelError(f"{what}: unknown body '{body}'")
+        if frame not in ("world", "body"):
+            raise ModelError(f"{what}: frame must be 'world' or 'body', got {frame!r}")
+        f = vector_or_callable(force, f"{what} force")
+        tq = vector_or_callable(torque, f"{what} torque")
+        p = tuple(map(float, vector3(at, f"{what} at")))
+        return self._add(BodyForce(name, b.name, p, f, tq, frame))
+
+    # ---------------------------------------------------------------- queries
+    def elements_of(self, kind):
+        """The elements of one class (e.g. ``Spring``), in insertion order."""
+        return [e for e in self.elements.values() if isinstance(e, kind)]
+
+    def children(self, name):
+        return [b for b in self.bodies.values() if b.parent == name]
+
+    def body(self, name):
+        """A body by its name or its joint's name."""
+        b = self._find_body(name)
+        if b is None:
+            raise ModelError(f"unknown body '{name}' in scene '{self.name}'")
+        return b
+
+    def copy(self):
+        return copy.deepcopy(self)
+
+    def build(self):
+        """Compile the scene into a :class:`vibdyn.System` (checks it as a whole first)."""
+        from .system import System
+
+        return System(self)
+
+    def to_dict(self):
+        from .io.scenefile import scene_to_dict
+
+        return scene_to_dict(self)
+
+    def save(self, path):
+        """Write the scene as a TOML scene file."""
+        from .io.scenefile import save_scene
+
+        save_scene(self, path)
+
+    def __repr__(self):
+        g = "" if not any(self.gravity) else f", gravity={self.gravity}"
+        return f"Scene({self.name!r}, {len(self.bodies)} bodies, {len(self.elements)} elements{g})"
+
+    # ---------------------------------------------------------------- helpers
+    def _find_body(self, name):
+        if name in self.bodies:
+            return self.bodies[name]
+        for b in self.bodies.values():
+            if b.joint.name == name:
+                return b
+        return None
+
+    def _joint_body(self, name, kind):
+        b = self._find_body(name)
+        if b is None:
+            raise ModelError(f"{kind} on '{name}': unknown body")
+        if b.joint.nv == 0:
+            raise ModelError(f"{kind} on '{name}': body is welded (Fixed joint), it has no coordinate")
+        return b
+
+    def _attachment(self, value, what):
+        body, point = attachment(value, what)
+        if body != WORLD:
+            b = self._find_body(body)
+            if b is None:
+                raise ModelError(f"{what}: unknown body '{body}'")
+            body = b.name
+        return body, point
+
+    def _check_new_name(self, name, kind):
+        if not isinstance(name, str) or not name or name.strip() != name:
+            raise ModelError(f"{kind} name must be a non-empty string without surrounding spaces, got {name!r}")
+        if name == WORLD:
+            raise ModelError(f"{kind} name 'world' is reserved for the fixed frame")
+        if name in self.bodies or name in self.elements or self._find_body(name) is not None:
+            raise ModelError(f"duplicate name '{name}' ({kind}): names must be unique in a scene")
+
+    def _add(self, element):
+        self.elements[element.name] = element
+        return element
+
+
+def massless_leaves(scene):
+    """Bodies with coordinates and zero mass that carry no mass below them (their motion is undefined)."""
+    carried = {}
+
+    def below(name):
+        if name not in carried:
+            carried[name] = scene.bodies[name].mass + sum(below(c.name) for c in scene.children(name))
+        return carried[name]
+
+    return [b.name for b in scene.bodies.values() if b.joint.nv > 0 and below(b.name) == 0.0]
+
+

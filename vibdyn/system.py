@@ -1,0 +1,374 @@
+"""System: a scene compiled once into a Pinocchio model plus its force-element groups.
+
+A system computes and keeps no analysis state: M(q) by CRBA, accelerations by ABA with every force element,
+inverse dynamics by RNEA, energies, link reactions, and the Lie-group operations on configurations. SI units:
+q and v in m and rad (per coordinate), forces in N and N·m, energies in J.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from . import forces as _forces
+from .elements import WORLD, Spring
+from .errors import ModelError
+from .scene import massless_leaves
+
+
+@dataclass(frozen=True)
+class BodyInfo:
+    """Where a scene body lives in the Pinocchio model."""
+
+    name: str
+    joint: object  # the vibdyn joint
+    joint_id: int  # Pinocchio joint that moves it (its parent's for a Fixed body)
+    body_in_joint: pin.SE3  # body frame expressed in that joint's frame
+    idx_q: int
+    idx_v: int
+    nq: int
+    nv: int
+    coordinates: tuple
+
+    @property
+    def v_indices(self):
+        return range(self.idx_v, self.idx_v + self.nv)
+
+
+@dataclass(frozen=True)
+class Energy:
+    """Energies of a state (J): kinetic, gravity potential, elastic potential (springs)."""
+
+    kinetic: float
+    gravity: float
+    elastic: float
+
+    @property
+    def potential(self):
+        return self.gravity + self.elastic
+
+    @property
+    def total(self):
+        return self.kinetic + self.gravity + self.elastic
+
+
+@dataclass(frozen=True)
+class Reactions:
+    """Wrench each joint transmits from the parent to the body it carries (the link unknowns).
+
+    ``force`` (N) and ``moment`` (N·m, about the joint origin) per body with coordinates, in world axes;
+    ``force_local``/``moment_local`` in the joint's own axes; ``joint_force[name]`` the part along the
+    joint's coordinates (what its springs, dampers and motors carry), the rest being the ideal reaction.
+    """
+
+    bodies: tuple
+    force: np.ndarray
+    moment: np.ndarray
+    force_local: np.ndarray
+    moment_local: np.ndarray
+    joint_force: dict
+
+    def __getitem__(self, body):
+        i = self.bodies.index(body)
+        return self.force[i], self.moment[i]
+
+
+class System:
+    """A compiled scene. Build it with :meth:`vibdyn.Scene.build`."""
+
+    def __init__(self, scene):
+        self.scene = scene.copy()
+        self.name = scene.name
+        leaves = massless_leaves(self.scene)
+        if leaves:
+            raise ModelError(f"body '{leaves[0]}' has zero mass and carries no mass: its motion is undefined "
+                             "(give it a mass or weld it with Fixed)")
+        self.model, self._bodies = _compile(self.scene)
+        self.model.gravity.linear = np.array(self.scene.gravity)
+        self.data = self.model.createData()
+        self.nq, self.nv = self.model.nq, self.model.nv
+        self.coordinates = tuple(c for b in self._bodies.values() for c in b.coordinates)
+        self.bodies = tuple(self._bodies)
+        self.has_gravity = bool(np.any(self.scene.gravity))
+        self.groups = _forces.compile_groups(self, self.scene, self._free_lengths())
+        self._point_groups = [g for g in self.groups if g.uses_points]
+        self._point_joints = tuple(sorted({int(j) for g in self._point_groups for j in g.joints} - {0}))
+        self._point_velocities = any(g.uses_point_velocities for g in self.groups)
+        self.depends_on_velocity = any(g.velocity_dependent for g in self.groups)
+        self.depends_on_time = any(g.time_dependent for g in self.groups)
+        self._fext = pin.StdVec_Force()
+        for _ in range(self.model.njoints):
+            self._fext.append(pin.Force.Zero())
+        if self.nv:
+            self._check_mass_matrix(self.neutral(), "the neutral configuration")
+
+    # ------------------------------------------------------------- configuration space
+    def neutral(self):
+        """Neutral configuration (every joint at its zero; unit quaternions)."""
+        return pin.neutral(self.model)
+
+    def integrate(self, q, dv):
+        """Configuration reached from q by the tangent displacement dv (exp map; never q + dv)."""
+        return pin.integrate(self.model, self._q(q), self._v(dv, "dv"))
+
+    def difference(self, q0, q1):
+        """Tangent vector dv such that integrate(q0, dv) = q1 (log map)."""
+        return pin.difference(self.model, self._q(q0), self._q(q1, "q1"))
+
+    def random_configuration(self, scale=1.0, rng=None):
+        """A configuration at a random tangent offset (normal, std ``scale`` m or rad) from neutral."""
+        rng = np.random.default_rng(rng)
+        return pin.integrate(self.model, self.neutral(), scale * rng.standard_normal(self.nv))
+
+    # ------------------------------------------------------------- dynamics
+    def mass_matrix(self, q):
+        """Mass matrix M(q) (nv × nv, kg, kg·m or kg·m²) by CRBA, symmetric."""
+        M = pin.crba(self.model, self.data, self._q(q))
+        M = np.triu(M) + np.triu(M, 1).T
+        return M
+
+    def accelerations(self, q, v, t=0.0):
+        """dv/dt (m/s², rad/s²) by ABA with gravity and every force element of the scene."""
+        q, v = self._q(q), self._v(v)
+        Q, fext = self._forces(q, v, t)
+        if fext is None:
+            a = pin.aba(self.model, self.data, q, v, Q)
+        else:
+            a = pin.aba(self.model, self.data, q, v, Q, fext)
+        if not np.all(np.isfinite(a)):
+            self._check_mass_matrix(q, "this configuration")
+            raise ModelError(f"accelerations are not finite at t = {t} (state too large?)")
+        return a.copy()
+
+    def generalized_forces(self, q, v, t=0.0):
+        """Q(q, v, t) (N or N·m per coordinate): the generalized force of every force element (not gravity)."""
+        q, v = self._q(q), self._v(v)
+        Q, fext = self._forces(q, v, t)
+        if fext is not None:
+            zero = np.zeros(self.nv)
+            Q -= pin.rnea(self.model, self.data, q, zero, zero, fext) - self._gravity_forces(q)
+        return Q
+
+    def gravity_forces(self, q):
+        """Generalized gravity force g(q) (N or N·m): the force gravity exerts, −∂V_gravity/∂q."""
+        return -self._gravity_forces(self._q(q))
+
+    def inverse_dynamics(self, q, v, a, t=0.0):
+        """Generalized force (N or N·m) to add to the scene's own forces to move with acceleration a:
+        M a + b(q, v) − Q(q, v, t), by RNEA; zero when a = accelerations(q, v, t)."""
+        q, v, a = self._q(q), self._v(v), self._v(a, "a")
+        Q, fext = self._forces(q, v, t)
+        tau = (pin.rnea(self.model, self.data, q, v, a) if fext is None
+               else pin.rnea(self.model, self.data, q, v, a, fext))
+        return tau - Q
+
+    def energy(self, q, v):
+        """Kinetic, gravity and elastic energies (J). Work of dampers and applied forces is not included."""
+        q, v = self._q(q), self._v(v)
+        kinetic = pin.computeKineticEnergy(self.model, self.data, q, v)
+        gravity = pin.computePotentialEnergy(self.model, self.data, q) if self.has_gravity else 0.0
+        kin = self._kinematics(q, None) if self._point_groups else None
+        elastic = sum(g.potential(q, kin) for g in self.groups)
+        return Energy(float(kinetic), float(gravity), float(elastic))
+
+    def reactions(self, q, v, a, t=0.0):
+        """Link wrenches (:class:`Reactions`) at the state (q, v) moving with accelerations a, by RNEA."""
+        q, v, a = self._q(q), self._v(v), self._v(a, "a")
+        _, fext = self._forces(q, v, t)
+        if fext is None:
+            pin.rnea(self.model, self.data, q, v, a)
+        else:
+            pin.rnea(self.model, self.data, q, v, a, fext)
+        names, fl, ml, fw, mw, jf = [], [], [], [], [], {}
+        for b in self._bodies.values():
+            if b.nv == 0:
+                continue
+            f = self.data.f[b.joint_id]
+            R = self.data.oMi[b.joint_id].rotation
+            names.append(b.name)
+            fl.append(f.linear.copy())
+            ml.append(f.angular.copy())
+            fw.append(R @ f.linear)
+            mw.append(R @ f.angular)
+            S = self.data.joints[b.joint_id].S
+            jf[b.name] = np.asarray(S).reshape(6, -1).T @ f.vector
+        return Reactions(tuple(names), np.array(fw).reshape(-1, 3), np.array(mw).reshape(-1, 3),
+                         np.array(fl).reshape(-1, 3), np.array(ml).reshape(-1, 3), jf)
+
+    # ------------------------------------------------------------- geometry
+    def body_pose(self, body, q):
+        """(R, p): rotation (3×3) and origin (m) of a body's frame in world axes."""
+        b = self.body_info(body)
+        pin.forwardKinematics(self.model, self.data, self._q(q))
+        M = self.data.oMi[b.joint_id] * b.body_in_joint
+        return M.rotation.copy(), M.translation.copy()
+
+    def point_position(self, body, point, q):
+        """World position (m) of a point given in a body's frame."""
+        R, p = self.body_pose(body, q)
+        return R @ np.asarray(point, dtype=float) + p
+
+    def point_velocity(self, body, point, q, v):
+        """World velocity (m/s) of a point given in a body's frame."""
+        b = self.body_info(body)
+        pin.forwardKinematics(self.model, self.data, self._q(q), self._v(v))
+        local = b.body_in_joint.act(np.asarray(point, dtype=float))
+        vj = self.data.v[b.joint_id]
+        return self.data.oMi[b.joint_id].rotation @ (vj.linear + np.cross(vj.angular, local))
+
+    # ------------------------------------------------------------- lookups
+    def body_info(self, name):
+        """Where a body (by its name or its joint's name) lives in the model (:class:`BodyInfo`)."""
+        if name in self._bodies:
+            return self._bodies[name]
+        return self._bodies[self.scene.body(name).name]
+
+    def body_in_joint(self, name):
+        return self.body_info(name).body_in_joint
+
+    def coordinate_index(self, name):
+        """Index in v of a tangent coordinate, by name (see :attr:`coordinates`)."""
+        try:
+            return self.coordinates.index(name)
+        except ValueError:
+            raise ModelError(f"unknown coordinate '{name}' (coordinates: {', '.join(self.coordinates)})") from None
+
+    def attachments(self, atts):
+        """(joint ids, points in joint frames) of ``[(body, point), ...]``; world points on joint 0."""
+        joints, local = [], []
+        for body, point in atts:
+            if body == WORLD:
+                joints.append(0)
+                local.append(np.asarray(point, dtype=float))
+            else:
+                b = self.body_info(body)
+                joints.append(b.joint_id)
+                local.append(b.body_in_joint.act(np.asarray(point, dtype=float)))
+        return np.array(joints, dtype=int), np.array(local, dtype=float).reshape(-1, 3)
+
+    def __repr__(self):
+        return f"System({self.name!r}, nq={self.nq}, nv={self.nv}, {len(self.groups)} force groups)"
+
+    # ------------------------------------------------------------- internals
+    def _forces(self, q, v, t):
+        """Joint-space forces Q and, if the scene has point elements, the external forces for ABA/RNEA."""
+        Q = np.zeros(self.nv)
+        if not self._point_groups:
+            for g in self.groups:
+                g.apply(t, q, v, None, Q, None)
+            return Q, None
+        kin = self._kinematics(q, v if self._point_velocities else None)
+        F = np.zeros((self.model.njoints, 6))
+        for g in self.groups:
+            g.apply(t, q, v, kin, Q, F)
+        for j in self._point_joints:
+            self._fext[j] = pin.Force(F[j, :3], F[j, 3:])
+        return Q, self._fext
+
+    def _kinematics(self, q, v):
+        return _forces.Kinematics(self.model, self.data, self._point_joints, q, v)
+
+    def _gravity_forces(self, q):
+        if not self.has_gravity:
+            return np.zeros(self.nv)
+        return pin.computeGeneralizedGravity(self.model, self.data, q).copy()
+
+    def _free_lengths(self):
+        """Free length of each spring (m): as given, or the distance at the neutral configuration."""
+        springs = self.scene.elements_of(Spring)
+        if not springs:
+            return []
+        q0 = self.neutral()
+        out = []
+        for s in springs:
+            xa = self.point_position(s.a[0], s.a[1], q0) if s.a[0] != WORLD else np.array(s.a[1])
+            xb = self.point_position(s.b[0], s.b[1], q0) if s.b[0] != WORLD else np.array(s.b[1])
+            L = float(np.linalg.norm(xb - xa))
+            l0 = L if s.free_length is None else s.free_length
+            if L < 1e-12 and l0 > 0:
+                raise ModelError(f"spring '{s.name}': its two ends coincide at build time (neutral "
+                                 "configuration), so its direction is undefined")
+            out.append(l0)
+        return out
+
+    def _check_mass_matrix(self, q, where):
+        M = self.mass_matrix(q)
+        try:
+            np.linalg.cholesky(M)
+            return
+        except np.linalg.LinAlgError:
+            pass
+        w, V = np.linalg.eigh(M)
+        i = int(np.argmax(np.abs(V[:, 0])))
+        coord = self.coordinates[i]
+        body = next(b.name for b in self._bodies.values() if i in b.v_indices)
+        raise ModelError(f"singular mass matrix at {where}: body '{body}' has no inertia along its coordinate "
+                         f"'{coord}' (smallest eigenvalue of M {w[0]:.3g}); give it mass or inertia")
+
+    def _q(self, q, what="q"):
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.nq,):
+            raise ModelError(f"{what}: expected a configuration of {self.nq} numbers, got shape {q.shape}")
+        if not np.all(np.isfinite(q)):
+            raise ModelError(f"{what}: contains NaN or inf")
+        return q
+
+    def _v(self, v, what="v"):
+        v = np.asarray(v, dtype=float)
+        if v.shape != (self.nv,):
+            raise ModelError(f"{what}: expected {self.nv} numbers (one per coordinate), got shape {v.shape}")
+        if not np.all(np.isfinite(v)):
+            raise ModelError(f"{what}: contains NaN or inf")
+        return v
+
+
+def _compile(scene):
+    """The Pinocchio model of a scene and, per body, where it lives in it."""
+    model = pin.Model()
+    model.name = scene.name
+    infos = {}
+    for body in _topological(scene):
+        if body.parent == WORLD:
+            parent_jid, parent_B = 0, pin.SE3.Identity()
+        else:
+            p = infos[body.parent]
+            parent_jid, parent_B = p.joint_id, p.body_in_joint
+        J = body.joint
+        placement = parent_B * J.placement
+        if J.nv == 0:
+            jid, B = parent_jid, placement
+            idx_q = idx_v = model.nq if parent_jid == 0 else model.idx_qs[parent_jid]
+        else:
+            A = J.alignment
+            jid = model.addJoint(parent_jid, J.pin_model(), placement * pin.SE3(A, np.zeros(3)),
+                                 J.name or body.name)
+            B = pin.SE3(A.T, np.zeros(3))
+            idx_q, idx_v = model.idx_qs[jid], model.idx_vs[jid]
+        I_body = np.array(body.inertia)
+        inertia = pin.Inertia(body.mass, B.act(np.array(body.com)), B.rotation @ I_body @ B.rotation.T)
+        model.appendBodyToJoint(jid, inertia, pin.SE3.Identity())
+        model.addFrame(pin.Frame(body.name, jid, B, pin.FrameType.BODY))
+        infos[body.name] = BodyInfo(body.name, J, jid, B, idx_q, idx_v, J.nv and model.nqs[jid], J.nv,
+                                    body.coordinates)
+    return model, infos
+
+
+def _topological(scene):
+    """Bodies parents-first; a cycle or an unknown parent is a ModelError."""
+    order, state = [], {}
+
+    def visit(b, path):
+        if state.get(b.name) == "done":
+            return
+        if b.name in path:
+            raise ModelError(f"body '{b.name}': cycle in the parent links ({' -> '.join(path + [b.name])})")
+        if b.parent != WORLD:
+            if b.parent not in scene.bodies:
+                raise ModelError(f"body '{b.name}': unknown parent '{b.parent}'")
+            visit(scene.bodies[b.parent], path + [b.name])
+        state[b.name] = "done"
+        order.append(b)
+
+    for b in scene.bodies.values():
+        visit(b, [])
+    return order
