@@ -7,6 +7,7 @@ Describe a :class:`Scene` (bodies, joints, springs, dampers, forces, gravity), `
 from . import inertia, laws
 from .elements import WORLD
 from .errors import ConvergenceError, ModelError, SceneFileError, VibdynError
+from .modal import mac, rayleigh
 from .joints import Ball, Cylindrical, Fixed, Free, Helical, Pivot, Planar, Slider, Universal
 from .scene import Body, Scene
 from .system import Energy, Reactions, System
@@ -45,4 +46,4 @@ def load_mjcf(path, **kwargs):
 __all__ = ["Scene", "System", "Body", "Energy", "Reactions", "Pivot", "Slider", "Helical", "Ball",
            "Cylindrical", "Universal", "Planar", "Free", "Fixed", "inertia", "laws", "WORLD", "ModelError",
            "ConvergenceError", "SceneFileError", "VibdynError", "load_scene", "load_robot", "load_urdf",
-           "load_mjcf"]
+           "load_mjcf", "mac", "rayleigh"]

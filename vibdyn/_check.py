@@ -8,14 +8,21 @@ from .errors import ModelError
 
 
 def finite_array(value, shape, what):
-    """``value`` as a float array of ``shape`` (None entries free), finite, else ModelError naming ``what``."""
+    """``value`` as a float array of ``shape`` (None entries free; ``shape`` None: any shape), finite, else
+    ModelError naming ``what``. Strings, booleans, complex numbers and None are not numbers here."""
     if callable(value):
         raise ModelError(f"{what}: expected numbers, got a callable")
     try:
-        arr = np.array(value, dtype=float)
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "iufO" or (raw.dtype.kind == "O" and any(
+                x is None or isinstance(x, (str, bytes, bool, np.bool_, complex)) for x in raw.flat)):
+            raise TypeError
+        arr = raw.astype(float)
     except (TypeError, ValueError):
-        raise ModelError(f"{what}: expected numbers of shape {_fmt(shape)}, got {value!r}") from None
-    if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+        expected = "numbers" if shape is None else f"numbers of shape {_fmt(shape)}"
+        raise ModelError(f"{what}: expected {expected}, got {value!r}") from None
+    if shape is not None and (arr.ndim != len(shape)
+                              or any(s is not None and s != a for s, a in zip(shape, arr.shape))):
         raise ModelError(f"{what}: expected shape {_fmt(shape)}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"{what}: contains NaN or inf ({value!r})")
@@ -53,11 +60,14 @@ def rotation_matrix(value, what):
     """A 3×3 rotation matrix, or a rotation vector (axis × angle in rad) of 3 numbers; None is identity."""
     if value is None:
         return np.eye(3)
-    arr = np.array(value, dtype=float) if not callable(value) else None
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = None  # finite_array below says what is wrong
     if arr is not None and arr.shape == (3,):
         from scipy.spatial.transform import Rotation
 
-        return Rotation.from_rotvec(vector3(arr, what)).as_matrix()
+        return Rotation.from_rotvec(vector3(value, what)).as_matrix()
     R = finite_array(value, (3, 3), what)
     if not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
         raise ModelError(f"{what}: not a rotation matrix (RᵀR ≠ 1 or det R < 0)")
@@ -66,7 +76,7 @@ def rotation_matrix(value, what):
 
 def stiffness_like(value, n, what):
     """A nonnegative scalar or per-coordinate vector of length ``n``, returned as an array of ``n``."""
-    arr = np.atleast_1d(finite_array(value, (None,) * np.ndim(value), what)).astype(float)
+    arr = np.atleast_1d(finite_array(value, None, what))
     if arr.size == 1:
         arr = np.full(n, float(arr[0]))
     if arr.shape != (n,):

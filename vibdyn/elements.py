@@ -150,7 +150,7 @@ def joint_force_value(value, nv, what):
         return laws.from_dict(value, what)
     if callable(value):
         return value
-    arr = np.atleast_1d(finite_array(value, (None,) * np.ndim(value), what))
+    arr = np.atleast_1d(finite_array(value, None, what))
     if arr.shape != (nv,):
         raise ModelError(f"{what}: expected {nv} number(s), got shape {arr.shape}")
     return float(arr[0]) if nv == 1 else tuple(float(x) for x in arr)

@@ -8,8 +8,16 @@ frame) that the system hands to ABA/RNEA as external forces. Only the kinds a sc
 import numpy as np
 import pinocchio as pin
 
+from ._check import finite_array
 from .elements import BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring
 from .errors import ModelError
+
+
+def cross(a, b):
+    """Row-wise cross product of (n, 3) arrays (numpy's own is slow on small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 class Kinematics:
@@ -42,7 +50,7 @@ class Kinematics:
 
     def velocities(self, joints, local):
         """World velocities (m/s) of points given in their joint frames."""
-        lin = self.v[joints] + np.cross(self.w[joints], local)
+        lin = self.v[joints] + cross(self.w[joints], local)
         return np.einsum("nij,nj->ni", self.R[joints], lin)
 
 
@@ -51,7 +59,7 @@ def add_point_forces(F, kin, joints, world_points, world_forces):
     Rt = np.transpose(kin.R[joints], (0, 2, 1))
     f = np.einsum("nij,nj->ni", Rt, world_forces)
     r = np.einsum("nij,nj->ni", Rt, world_points - kin.p[joints])
-    np.add.at(F, joints, np.hstack([f, np.cross(r, f)]))
+    np.add.at(F, joints, np.hstack([f, cross(r, f)]))
 
 
 class Group:
@@ -158,10 +166,11 @@ class BodyForces(Group):
             x = getattr(e, attr)
             if x is None:
                 continue
-            val = np.asarray(x(t, q, v) if callable(x) else x, dtype=float)
-            if val.shape != (3,) or not np.all(np.isfinite(val)):
+            val = x(t, q, v) if callable(x) else x
+            arr = _numbers(val, (3,))
+            if arr is None:
                 raise ModelError(f"force '{e.name}': {attr} must be 3 finite numbers, got {val!r} at t = {t}")
-            out[i] = val
+            out[i] = arr
         return out
 
     def apply(self, t, q, v, kin, Q, F):
@@ -258,11 +267,19 @@ class JointForces(Group):
                 val = e.value(t, float(q[b.idx_q]), float(v[b.idx_v]))
             else:
                 val = e.value(t, q[b.idx_q:b.idx_q + b.nq].copy(), v[b.idx_v:b.idx_v + b.nv].copy())
-            val = np.atleast_1d(np.asarray(val, dtype=float))
-            if val.shape != (b.nv,) or not np.all(np.isfinite(val)):
+            arr = _numbers(val, None)
+            if arr is None or np.atleast_1d(arr).shape != (b.nv,):
                 raise ModelError(f"joint force '{e.name}' returned {val!r} at t = {t}: expected {b.nv} finite "
                                  "number(s)")
-            Q[b.idx_v:b.idx_v + b.nv] += val
+            Q[b.idx_v:b.idx_v + b.nv] += np.atleast_1d(arr)
+
+
+def _numbers(value, shape):
+    """``value`` as finite floats of ``shape`` (None: any), or None if it is not (the caller says why)."""
+    try:
+        return finite_array(value, shape, "")
+    except ModelError:
+        return None
 
 
 def _tangent(model, body, rest):

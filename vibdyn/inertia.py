@@ -70,23 +70,25 @@ def check(tensor, mass, what="inertia"):
     equal to the sum of the others (thin disc). A massless body must have a zero tensor.
     """
     I = finite_array(tensor, (3, 3), what)
-    scale = max(np.abs(I).max(), 1e-300)
-    if np.abs(I - I.T).max() > 1e-9 * scale:
+    scale = np.abs(I).max()
+    if scale == 0.0:
+        return I  # point mass (or massless body)
+    S = I / scale  # checks on the scaled tensor: no overflow near 1e308, no absolute tolerance
+    if np.abs(S - S.T).max() > 1e-9:
         raise ModelError(f"{what}: tensor is not symmetric")
-    I = 0.5 * (I + I.T)
+    S = 0.5 * (S + S.T)
     if mass == 0.0:
-        if np.abs(I).max() > 0.0:
-            raise ModelError(f"{what}: a massless body cannot have rotational inertia")
-        return I
-    p = np.linalg.eigvalsh(I)
-    tol = 1e-9 * max(p.max(), 0.0) + 1e-300
+        raise ModelError(f"{what}: a massless body cannot have rotational inertia")
+    p = np.linalg.eigvalsh(S)
+    tol = 1e-9 * max(p.max(), 0.0)
     if p.min() < -tol:
-        raise ModelError(f"{what}: negative principal moment {p.min():.6g} kg·m² (not physical)")
+        raise ModelError(f"{what}: negative principal moment {p.min() * scale:.6g} kg·m² (not physical)")
     a, b, c = np.sort(p)
     if c > a + b + tol:
-        raise ModelError(
-            f"{what}: principal moments ({a:.6g}, {b:.6g}, {c:.6g}) break the triangle inequality C ≤ A + B"
-        )
+        raise ModelError(f"{what}: principal moments ({a * scale:.6g}, {b * scale:.6g}, {c * scale:.6g}) break "
+                         "the triangle inequality C ≤ A + B")
+    I = np.where(I == I.T, I, 0.5 * I + 0.5 * I.T)  # symmetrised; unchanged if it was symmetric
+    np.fill_diagonal(I, np.maximum(I.diagonal(), 0.0))  # round-off below zero: Pinocchio refuses it
     return I
 
 

@@ -22,6 +22,7 @@ Fixed           0   0  none (the body is welded to its parent)
 """
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,12 +46,22 @@ class Joint:
 
     kind = "joint"
     suffixes = ()
+    units = ()  # "m" or "rad" per coordinate
 
     def __post_init__(self):
-        object.__setattr__(self, "at", _floats(vector3(self.at, f"{self.kind} joint 'at'")))
+        if self.name is not None and (not isinstance(self.name, str) or not self.name
+                                      or self.name.strip() != self.name):
+            raise ModelError(f"{self.kind} joint name must be a non-empty string without surrounding spaces,"
+                             f" got {self.name!r}")
+        object.__setattr__(self, "at", _floats(vector3(self.at, f"{self._what} 'at'")))
         if self.rotation is not None:
-            R = rotation_matrix(self.rotation, f"{self.kind} joint 'rotation'")
+            R = rotation_matrix(self.rotation, f"{self._what} 'rotation'")
             object.__setattr__(self, "rotation", tuple(_floats(r) for r in R))
+
+    @property
+    def _what(self):
+        """How error messages name this joint: its kind, and its name if it has one."""
+        return f"{self.kind} joint '{self.name}'" if self.name else f"{self.kind} joint"
 
     @property
     def placement(self):
@@ -89,7 +100,7 @@ class _AxisJoint(Joint):
 
     def __post_init__(self):
         super().__post_init__()
-        object.__setattr__(self, "axis", _floats(unit_axis(self.axis, f"{self.kind} joint axis")))
+        object.__setattr__(self, "axis", _floats(unit_axis(self.axis, f"{self._what} axis")))
 
     def params(self):
         return {"axis": list(self.axis)}
@@ -124,6 +135,7 @@ class Pivot(_AxisJoint):
 
     kind = "pivot"
     suffixes = ("",)
+    units = ("rad",)
     _positional = ("axis",)
 
     def pin_model(self):
@@ -137,6 +149,7 @@ class Slider(_AxisJoint):
 
     kind = "slider"
     suffixes = ("",)
+    units = ("m",)
     _positional = ("axis",)
 
     def pin_model(self):
@@ -154,13 +167,14 @@ class Helical(_AxisJoint):
     pitch: float = 0.0
     kind = "helical"
     suffixes = ("",)
+    units = ("rad",)
     _positional = ("axis", "pitch")
 
     def __post_init__(self):
         super().__post_init__()
-        p = scalar(self.pitch, "helical joint pitch (m/rad)")
+        p = scalar(self.pitch, f"{self._what} pitch (m/rad)")
         if p == 0.0:
-            raise ModelError("helical joint pitch is zero: use a Pivot for a pure rotation")
+            raise ModelError(f"{self._what} pitch is zero: use a Pivot for a pure rotation")
         object.__setattr__(self, "pitch", p)
 
     @classmethod
@@ -182,6 +196,7 @@ class Cylindrical(_AxisJoint):
 
     kind = "cylindrical"
     suffixes = (".s", ".theta")
+    units = ("m", "rad")
     _positional = ("axis",)
 
     def pin_model(self):
@@ -200,14 +215,15 @@ class Universal(Joint):
     axis2: tuple = (0.0, 1.0, 0.0)
     kind = "universal"
     suffixes = (".theta1", ".theta2")
+    units = ("rad", "rad")
     _positional = ("axis1", "axis2")
 
     def __post_init__(self):
         super().__post_init__()
-        a1 = unit_axis(self.axis1, "universal joint axis1")
-        a2 = unit_axis(self.axis2, "universal joint axis2")
+        a1 = unit_axis(self.axis1, f"{self._what} axis1")
+        a2 = unit_axis(self.axis2, f"{self._what} axis2")
         if abs(a1 @ a2) > 1e-9:
-            raise ModelError("universal joint axes must be orthogonal")
+            raise ModelError(f"{self._what}: axes must be orthogonal (axis1·axis2 = {a1 @ a2:.3g})")
         object.__setattr__(self, "axis1", _floats(a1))
         object.__setattr__(self, "axis2", _floats(a2))
 
@@ -229,11 +245,12 @@ class Planar(Joint):
     normal: tuple = (0.0, 0.0, 1.0)
     kind = "planar"
     suffixes = (".x", ".y", ".theta")
+    units = ("m", "m", "rad")
     _positional = ("normal",)
 
     def __post_init__(self):
         super().__post_init__()
-        object.__setattr__(self, "normal", _floats(unit_axis(self.normal, "planar joint normal")))
+        object.__setattr__(self, "normal", _floats(unit_axis(self.normal, f"{self._what} normal")))
 
     @property
     def alignment(self):
@@ -257,6 +274,7 @@ class Ball(Joint):
 
     kind = "ball"
     suffixes = (".rx", ".ry", ".rz")
+    units = ("rad", "rad", "rad")
     _positional = ()
 
     def pin_model(self):
@@ -270,6 +288,7 @@ class Free(Joint):
 
     kind = "free"
     suffixes = (".x", ".y", ".z", ".rx", ".ry", ".rz")
+    units = ("m", "m", "m", "rad", "rad", "rad")
     _positional = ()
 
     def pin_model(self):
@@ -294,8 +313,10 @@ KINDS = {cls.kind: cls for cls in (Pivot, Slider, Helical, Cylindrical, Universa
 
 def from_dict(d, what="joint"):
     """A joint from its plain-data form (``{"type": "pivot", "axis": [...], ...}``)."""
+    if not isinstance(d, Mapping):
+        raise ModelError(f"{what}: expected a table such as {{'type': 'pivot', ...}}, got {d!r}")
     d = dict(d)
     kind = d.pop("type", None)
-    if kind not in KINDS:
+    if not isinstance(kind, str) or kind not in KINDS:
         raise ModelError(f"{what}: unknown joint type {kind!r} (one of {', '.join(KINDS)})")
     return KINDS[kind](**d)

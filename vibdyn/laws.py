@@ -5,6 +5,7 @@ that analyses skip what it does not need (no velocity differences for a law that
 """
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,11 +65,13 @@ LAWS = {"polynomial": Polynomial, "harmonic": Harmonic}
 
 def from_dict(d, what="law"):
     """A law from its plain-data form (``{"law": "polynomial", "coefficients": [...]}``)."""
+    if not isinstance(d, Mapping):
+        raise ModelError(f"{what}: expected a table such as {{'law': 'harmonic', ...}}, got {d!r}")
     d = dict(d)
     kind = d.pop("law", None)
-    if kind not in LAWS:
+    if not isinstance(kind, str) or kind not in LAWS:
         raise ModelError(f"{what}: unknown law {kind!r} (one of {', '.join(LAWS)})")
     try:
         return LAWS[kind](**d)
-    except TypeError as e:
+    except (TypeError, ModelError) as e:  # bad keywords, or bad values: say which element has them
         raise ModelError(f"{what}: {e}") from None

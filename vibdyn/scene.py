@@ -75,7 +75,9 @@ class Scene:
         joint = _joints.Fixed() if joint is None else joint
         if not isinstance(joint, _joints.Joint):
             raise ModelError(f"{what}: joint must be a vibdyn joint (Pivot, Slider, ...), got {joint!r}")
-        if joint.name and (self._find_body(joint.name) is not None):
+        if joint.name == WORLD:
+            raise ModelError(f"{what}: joint name 'world' is reserved for the fixed frame")
+        if joint.name and (joint.name in self.elements or self._find_body(joint.name) is not None):
             raise ModelError(f"{what}: duplicate name '{joint.name}' for its joint")
         m = scalar(mass, f"{what} mass")
         if m < 0:
@@ -117,7 +119,7 @@ class Scene:
         what = f"joint spring '{name}'"
         self._check_new_name(name, "element")
         k = stiffness_like(stiffness, b.joint.nv, f"{what} stiffness")
-        r = np.atleast_1d(finite_array(rest, (None,) * np.ndim(rest), f"{what} rest"))
+        r = np.atleast_1d(finite_array(rest, None, f"{what} rest"))
         if r.size == 1:
             r = np.full(b.joint.nv, float(r[0]))
         if r.shape != (b.joint.nv,):
@@ -207,6 +209,8 @@ class Scene:
 
     # ---------------------------------------------------------------- helpers
     def _find_body(self, name):
+        if not isinstance(name, str):
+            return None
         if name in self.bodies:
             return self.bodies[name]
         for b in self.bodies.values():
@@ -242,17 +246,3 @@ class Scene:
     def _add(self, element):
         self.elements[element.name] = element
         return element
-
-
-def massless_leaves(scene):
-    """Bodies with coordinates and zero mass that carry no mass below them (their motion is undefined)."""
-    carried = {}
-
-    def below(name):
-        if name not in carried:
-            carried[name] = scene.bodies[name].mass + sum(below(c.name) for c in scene.children(name))
-        return carried[name]
-
-    return [b.name for b in scene.bodies.values() if b.joint.nv > 0 and below(b.name) == 0.0]
-
-

@@ -11,9 +11,9 @@ import numpy as np
 import pinocchio as pin
 
 from . import forces as _forces
+from ._check import vector3
 from .elements import WORLD, Spring
 from .errors import ModelError
-from .scene import massless_leaves
 
 
 @dataclass(frozen=True)
@@ -79,15 +79,21 @@ class System:
     def __init__(self, scene):
         self.scene = scene.copy()
         self.name = scene.name
-        leaves = massless_leaves(self.scene)
+        order = _topological(self.scene)
+        leaves = _massless_leaves(order)
         if leaves:
             raise ModelError(f"body '{leaves[0]}' has zero mass and carries no mass: its motion is undefined "
-                             "(give it a mass or weld it with Fixed)")
-        self.model, self._bodies = _compile(self.scene)
+                             "(give it a mass or weld it with Fixed; for a loaded robot: weld_massless=True)")
+        self.model, self._bodies = _compile(self.scene, order)
         self.model.gravity.linear = np.array(self.scene.gravity)
         self.data = self.model.createData()
         self.nq, self.nv = self.model.nq, self.model.nv
+        # unit quaternions (ball, free) and unit (cos, sin) pairs (planar) that q must hold
+        self._unit_blocks = tuple((b.name, b.idx_q + b.nq - n, n) for b in self._bodies.values()
+                                  if b.joint.kind in ("ball", "free", "planar")
+                                  for n in [2 if b.joint.kind == "planar" else 4])
         self.coordinates = tuple(c for b in self._bodies.values() for c in b.coordinates)
+        self.units = tuple(u for b in self._bodies.values() for u in b.joint.units)  # "m" or "rad"
         self.bodies = tuple(self._bodies)
         self.has_gravity = bool(np.any(self.scene.gravity))
         self.groups = _forces.compile_groups(self, self.scene, self._free_lengths())
@@ -114,6 +120,20 @@ class System:
     def difference(self, q0, q1):
         """Tangent vector dv such that integrate(q0, dv) = q1 (log map)."""
         return pin.difference(self.model, self._q(q0), self._q(q1, "q1"))
+
+    @property
+    def length_scale(self):
+        """A characteristic length of the scene (m): the largest distance of a body origin, centre of mass
+        or spring end from the world origin at the neutral configuration (at least 1 mm)."""
+        if not hasattr(self, "_length_scale"):
+            pin.forwardKinematics(self.model, self.data, self.neutral())
+            pts = [np.zeros(3)]
+            for b in self._bodies.values():
+                M = self.data.oMi[b.joint_id] * b.body_in_joint
+                pts += [M.translation, M.act(np.array(self.scene.bodies[b.name].com))]
+            pts += [np.array(e.a[1]) for e in self.scene.elements_of(Spring)]
+            self._length_scale = max(1e-3, float(np.max(np.linalg.norm(pts, axis=1))))
+        return self._length_scale
 
     def random_configuration(self, scale=1.0, rng=None):
         """A configuration at a random tangent offset (normal, std ``scale`` m or rad) from neutral."""
@@ -156,7 +176,10 @@ class System:
     def inverse_dynamics(self, q, v, a, t=0.0):
         """Generalized force (N or N·m) to add to the scene's own forces to move with acceleration a:
         M a + b(q, v) − Q(q, v, t), by RNEA; zero when a = accelerations(q, v, t)."""
-        q, v, a = self._q(q), self._v(v), self._v(a, "a")
+        return self._residual(self._q(q), self._v(v), self._v(a, "a"), t)
+
+    def _residual(self, q, v, a, t):
+        """inverse_dynamics without input checks (the hot path of linearisation and Newton)."""
         Q, fext = self._forces(q, v, t)
         tau = (pin.rnea(self.model, self.data, q, v, a) if fext is None
                else pin.rnea(self.model, self.data, q, v, a, fext))
@@ -179,6 +202,7 @@ class System:
             pin.rnea(self.model, self.data, q, v, a)
         else:
             pin.rnea(self.model, self.data, q, v, a, fext)
+        pin.updateGlobalPlacements(self.model, self.data)  # RNEA leaves oMi as the last call set it
         names, fl, ml, fw, mw, jf = [], [], [], [], [], {}
         for b in self._bodies.values():
             if b.nv == 0:
@@ -195,6 +219,32 @@ class System:
         return Reactions(tuple(names), np.array(fw).reshape(-1, 3), np.array(mw).reshape(-1, 3),
                          np.array(fl).reshape(-1, 3), np.array(ml).reshape(-1, 3), jf)
 
+    # ------------------------------------------------------------- analyses
+    def equilibrium(self, q0=None, t=0.0, tol=1e-10, max_iter=100):
+        """Static equilibrium near q0 (see :func:`vibdyn.equilibrium.static_equilibrium`)."""
+        from .equilibrium import static_equilibrium
+
+        return static_equilibrium(self, q0, t, tol, max_iter)
+
+    def equilibria(self, starts, t=0.0, tol=1e-10, max_iter=100):
+        """Distinct static equilibria from several starts (see :func:`vibdyn.equilibrium.equilibria`)."""
+        from .equilibrium import equilibria
+
+        return equilibria(self, starts, t, tol, max_iter)
+
+    def steady_motion(self, v_cyclic, q0=None, t=0.0, tol=1e-10, max_iter=100, guess=1.0):
+        """Steady motion with the coordinates of ``v_cyclic`` turning at constant speed (given, or None
+        for found) (see :func:`vibdyn.equilibrium.steady_motion`)."""
+        from .equilibrium import steady_motion
+
+        return steady_motion(self, v_cyclic, q0, t, tol, max_iter, guess)
+
+    def linearize(self, at=None, *, v=None, t=0.0, method="fd", step=1e-5):
+        """Linear model (M, C, K, error estimate) about ``at`` (see :func:`vibdyn.linearize.linearize`)."""
+        from .linearize import linearize
+
+        return linearize(self, at, v=v, t=t, method=method, step=step)
+
     # ------------------------------------------------------------- geometry
     def body_pose(self, body, q):
         """(R, p): rotation (3×3) and origin (m) of a body's frame in world axes."""
@@ -206,20 +256,20 @@ class System:
     def point_position(self, body, point, q):
         """World position (m) of a point given in a body's frame."""
         R, p = self.body_pose(body, q)
-        return R @ np.asarray(point, dtype=float) + p
+        return R @ vector3(point, f"point of body '{body}'") + p
 
     def point_velocity(self, body, point, q, v):
         """World velocity (m/s) of a point given in a body's frame."""
         b = self.body_info(body)
         pin.forwardKinematics(self.model, self.data, self._q(q), self._v(v))
-        local = b.body_in_joint.act(np.asarray(point, dtype=float))
+        local = b.body_in_joint.act(vector3(point, f"point of body '{body}'"))
         vj = self.data.v[b.joint_id]
         return self.data.oMi[b.joint_id].rotation @ (vj.linear + np.cross(vj.angular, local))
 
     # ------------------------------------------------------------- lookups
     def body_info(self, name):
         """Where a body (by its name or its joint's name) lives in the model (:class:`BodyInfo`)."""
-        if name in self._bodies:
+        if isinstance(name, str) and name in self._bodies:
             return self._bodies[name]
         return self._bodies[self.scene.body(name).name]
 
@@ -285,7 +335,7 @@ class System:
             xb = self.point_position(s.b[0], s.b[1], q0) if s.b[0] != WORLD else np.array(s.b[1])
             L = float(np.linalg.norm(xb - xa))
             l0 = L if s.free_length is None else s.free_length
-            if L < 1e-12 and l0 > 0:
+            if l0 > 0 and L <= 1e-9 * max(l0, 1e-3):  # the threshold Springs uses at each call
                 raise ModelError(f"spring '{s.name}': its two ends coincide at build time (neutral "
                                  "configuration), so its direction is undefined")
             out.append(l0)
@@ -306,15 +356,26 @@ class System:
                          f"'{coord}' (smallest eigenvalue of M {w[0]:.3g}); give it mass or inertia")
 
     def _q(self, q, what="q"):
-        q = np.asarray(q, dtype=float)
+        try:
+            q = np.asarray(q, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: expected a configuration of {self.nq} numbers, got {q!r}") from None
         if q.shape != (self.nq,):
             raise ModelError(f"{what}: expected a configuration of {self.nq} numbers, got shape {q.shape}")
         if not np.all(np.isfinite(q)):
             raise ModelError(f"{what}: contains NaN or inf")
+        for body, i, n in self._unit_blocks:
+            norm = np.linalg.norm(q[i:i + n])
+            if abs(norm - 1.0) > 1e-3:
+                raise ModelError(f"{what}: the {'quaternion' if n == 4 else '(cos, sin) pair'} of body '{body}'"
+                                 f" (q[{i}:{i + n}]) must have unit norm, got {norm:.6g}")
         return q
 
     def _v(self, v, what="v"):
-        v = np.asarray(v, dtype=float)
+        try:
+            v = np.asarray(v, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: expected {self.nv} numbers (one per coordinate), got {v!r}") from None
         if v.shape != (self.nv,):
             raise ModelError(f"{what}: expected {self.nv} numbers (one per coordinate), got shape {v.shape}")
         if not np.all(np.isfinite(v)):
@@ -322,12 +383,27 @@ class System:
         return v
 
 
-def _compile(scene):
-    """The Pinocchio model of a scene and, per body, where it lives in it."""
+def massless_leaves(scene):
+    """Names of the bodies with coordinates and zero mass that carry no mass below them."""
+    return _massless_leaves(_topological(scene))
+
+
+def _massless_leaves(order):
+    """Bodies with coordinates and zero mass that carry no mass below them (their motion is undefined);
+    ``order`` is parents-first."""
+    carried = {b.name: b.mass for b in order}
+    for b in reversed(order):
+        if b.parent in carried:
+            carried[b.parent] += carried[b.name]
+    return [b.name for b in order if b.joint.nv > 0 and carried[b.name] == 0.0]
+
+
+def _compile(scene, order):
+    """The Pinocchio model of a scene (bodies in ``order``) and, per body, where it lives in it."""
     model = pin.Model()
     model.name = scene.name
     infos = {}
-    for body in _topological(scene):
+    for body in order:
         if body.parent == WORLD:
             parent_jid, parent_B = 0, pin.SE3.Identity()
         else:
@@ -354,21 +430,23 @@ def _compile(scene):
 
 
 def _topological(scene):
-    """Bodies parents-first; a cycle or an unknown parent is a ModelError."""
-    order, state = [], {}
-
-    def visit(b, path):
-        if state.get(b.name) == "done":
-            return
-        if b.name in path:
-            raise ModelError(f"body '{b.name}': cycle in the parent links ({' -> '.join(path + [b.name])})")
-        if b.parent != WORLD:
-            if b.parent not in scene.bodies:
-                raise ModelError(f"body '{b.name}': unknown parent '{b.parent}'")
-            visit(scene.bodies[b.parent], path + [b.name])
-        state[b.name] = "done"
-        order.append(b)
-
+    """Bodies depth-first from the world (Pinocchio's CRBA needs each subtree's coordinates contiguous);
+    a cycle or an unknown parent is a ModelError."""
     for b in scene.bodies.values():
-        visit(b, [])
+        seen, p = [b.name], b.parent
+        while p != WORLD:
+            if p not in scene.bodies:
+                raise ModelError(f"body '{seen[-1]}': unknown parent '{p}'")
+            if p in seen:
+                raise ModelError(f"body '{b.name}': cycle in the parent links ({' -> '.join(seen + [p])})")
+            seen.append(p)
+            p = scene.bodies[p].parent
+    children = {}
+    for b in scene.bodies.values():
+        children.setdefault(b.parent, []).append(b)
+    order, stack = [], list(reversed(children.get(WORLD, [])))
+    while stack:
+        b = stack.pop()
+        order.append(b)
+        stack.extend(reversed(children.get(b.name, [])))
     return order
