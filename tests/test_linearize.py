@@ -1,0 +1,153 @@
+"""Linearisation: finite differences against analytic derivatives, error estimates, closed forms."""
+
+import numpy as np
+import pytest
+
+import vibdyn as vd
+
+G = 9.81
+
+
+def mixed_chain(n=10, seed=0, conservative=False):
+    """A 10-link chain mixing pivots, sliders, helical and ball joints, with every kind of force element."""
+    rng = np.random.default_rng(seed)
+    s = vd.Scene("mixed", gravity=(0.3, -1.0, -G))
+    kinds = [vd.Pivot((0, 1, 0.2), at=(0.1, 0, -0.3)), vd.Slider((1, 0.2, 0), at=(0, 0.1, -0.2)),
+             vd.Helical((0, 0.3, 1), 0.05, at=(0.1, 0, -0.2)), vd.Ball(at=(0, 0.1, -0.3))]
+    parent = "world"
+    for i in range(n):
+        name = f"b{i}"
+        s.add_body(name, parent, kinds[i % 4], mass=1 + rng.random(),
+                   com=tuple(rng.normal(size=3) * 0.1 + [0, 0, -0.15]), inertia=vd.inertia.box(1, (0.1, 0.2, 0.3)))
+        s.add_joint_spring(name, 40.0 + 5 * i)
+        if not conservative:
+            s.add_joint_damper(name, 0.3)
+        parent = name
+    s.add_spring("k1", ("world", (0.5, 0.2, 0)), ("b3", (0.05, 0, 0)), stiffness=200, free_length=0.3)
+    s.add_spring("k2", ("b2", (0, 0, 0)), ("b7", (0.05, 0.02, 0)), stiffness=150)
+    s.add_force("f1", "b6", force=(1, 2, 3), at=(0.1, 0, 0))  # constant in world axes: conservative
+    if not conservative:
+        s.add_damper("c1", ("world", (0.5, -0.3, 0.1)), ("b5", (0.0, 0.05, 0)), damping=3)
+        s.add_damper("c2", ("b1", (0.02, 0, 0)), ("b8", (0.0, 0.05, 0)), damping=2)
+        s.add_force("f2", "b9", force=(0.5, -1, 2), at=(0.1, 0, 0), torque=(0.1, 0.2, 0.3), frame="body")
+        s.add_joint_force("b0", vd.laws.Polynomial((1, 0.5, -0.2)))
+        s.add_joint_force("b1", lambda t, q, v: np.sin(q) + 0.1 * v)
+    return s.build()
+
+
+def rel(a, b):
+    return np.abs(a - b).max() / max(np.abs(b).max(), 1e-300)
+
+
+@pytest.fixture(scope="module")
+def chain():
+    return mixed_chain()
+
+
+@pytest.mark.parametrize("where", ["equilibrium", "moving"])
+def test_fd_equals_analytic_on_mixed_chain(chain, where):
+    if where == "equilibrium":
+        eq = chain.equilibrium()
+        assert eq.residual <= eq.tolerance
+        at, v = eq, None
+    else:
+        rng = np.random.default_rng(3)
+        at, v = chain.random_configuration(0.4, rng=rng), rng.normal(size=chain.nv)
+    fd = chain.linearize(at, v=v)
+    an = chain.linearize(at, v=v, method="analytic")
+    assert rel(fd.K, an.K) <= 1e-7
+    assert rel(fd.C, an.C) <= 1e-7
+    np.testing.assert_array_equal(fd.M, an.M)
+    # the error estimate bounds the actual difference (in the max norm)
+    assert np.abs(fd.K - an.K).max() <= fd.K_error.max()
+    assert np.abs(fd.C - an.C).max() <= fd.C_error.max()
+    assert fd.error < 1e-6 and fd.elapsed > 0 and an.elapsed > 0
+
+
+def test_K_symmetric_at_true_equilibrium_only():
+    system = mixed_chain(conservative=True)
+    eq = system.equilibrium()
+    lin = eq.linearize()
+    assert np.abs(lin.N).max() <= 10 * lin.K_error.max()
+    assert np.abs(lin.N).max() <= 1e-7 * np.abs(lin.K).max()
+    # away from equilibrium (with an acceleration a0 ≠ 0) K is not symmetric in general
+    off = system.linearize(system.random_configuration(0.5, rng=1), method="analytic")
+    assert np.abs(off.N).max() > 1e-4 * np.abs(off.K).max()
+
+
+def test_velocity_differences_skipped_when_nothing_depends_on_velocity():
+    s = vd.Scene("pendulum", gravity=(0, 0, -G))
+    s.add_body("bob", joint=vd.Pivot((0, 1, 0)), mass=2.0, com=(0, 0, -0.7))
+    system = s.build()
+    lin = system.linearize()
+    assert not system.depends_on_velocity
+    assert lin.evaluations == 4 * system.nv
+    assert not lin.C.any() and not lin.C_error.any()
+    assert lin.K[0, 0] == pytest.approx(2.0 * G * 0.7, rel=1e-9)  # closed form m g l
+    # a callable counts as velocity-dependent unless declared otherwise
+    s.add_joint_force("bob", lambda t, q, v: 0.0)
+    assert s.build().linearize().evaluations == 8 * system.nv
+    s2 = vd.Scene("pendulum", gravity=(0, 0, -G))
+    s2.add_body("bob", joint=vd.Pivot((0, 1, 0)), mass=2.0, com=(0, 0, -0.7))
+    s2.add_joint_force("bob", lambda t, q, v: -3.0 * q, velocity_dependent=False)
+    lin2 = s2.build().linearize()
+    assert lin2.evaluations == 4 and lin2.K[0, 0] == pytest.approx(2.0 * G * 0.7 + 3.0, rel=1e-9)
+
+
+def test_prestressed_string_geometric_stiffness():
+    """A mass held between two stretched springs: transverse stiffness 2T/L, axial 2k."""
+    k, l0, L, m = 300.0, 0.4, 0.5, 0.2
+    s = vd.Scene("string")
+    s.add_body("m", joint=vd.Planar(normal=(0, 0, 1)), mass=m, inertia=vd.inertia.sphere(m, 0.01))
+    s.add_spring("left", ("world", (-L, 0, 0)), "m", stiffness=k, free_length=l0)
+    s.add_spring("right", ("world", (L, 0, 0)), "m", stiffness=k, free_length=l0)
+    lin = s.build().linearize(method="analytic")
+    T = k * (L - l0)
+    np.testing.assert_allclose(np.diag(lin.K)[:2], [2 * k, 2 * T / L], rtol=1e-10)
+    fd = s.build().linearize()
+    np.testing.assert_allclose(fd.K, lin.K, rtol=0, atol=1e-7 * 2 * k)
+
+
+def test_gyroscopic_split_of_spinning_rotor():
+    """Rotor carrying a radial slider, spinning at Ω: C has the skew part 2 m s Ω (Coriolis)."""
+    m, s0, omega = 1.5, 0.4, 3.0
+    s = vd.Scene("rotor")
+    s.add_body("rotor", joint=vd.Pivot((0, 0, 1)), mass=1.0, inertia=np.diag([0.05, 0.05, 0.1]))
+    s.add_body("slider", "rotor", vd.Slider((1, 0, 0), at=(s0, 0, 0)), mass=m)
+    system = s.build()
+    v = np.array([omega, 0.0])
+    lin = system.linearize(v=v)
+    an = system.linearize(v=v, method="analytic")
+    assert lin.G[0, 1] == pytest.approx(2 * m * s0 * omega, rel=1e-9)
+    assert rel(lin.C, an.C) < 1e-9
+    assert np.abs(lin.D).max() < 1e-9  # no damping: C is purely gyroscopic
+
+
+def test_input_matrices_are_virtual_work():
+    s = vd.Scene("trailer", gravity=(0, 0, -G))
+    s.add_body("cart", joint=vd.Slider((1, 0, 0)), mass=10.0)
+    s.add_body("rod", "cart", vd.Pivot((0, 1, 0)), mass=2.0, com=(0, 0, -0.5), inertia=vd.inertia.rod(2.0, 1.0))
+    lin = s.build().linearize()
+    B = lin.point_input([("rod", (0, 0, -1.0))])  # force at the rod tip, world axes
+    # a force F along +x at the tip: (F, −F·1 m), since a rotation +θ about y moves the tip by −θ along x
+    np.testing.assert_allclose(B @ [1.0, 0, 0], [1.0, -1.0], atol=1e-12)
+    np.testing.assert_allclose(lin.joint_input(["rod"]).ravel(), [0, 1])
+    A = lin.A
+    assert A.shape == (4, 4)
+    np.testing.assert_allclose(A[2:, 2:], -np.linalg.solve(lin.M, lin.C))
+
+
+def test_ball_chain_analytic_is_accurate_on_long_chain():
+    """Regression guard for the brief's trap: the analytic path (RNEA derivatives, CRBA) stays accurate on
+    a 20-link chain of ball joints, where computeMinverse/ABA derivatives do not."""
+    s = vd.Scene("balls", gravity=(0, 0, -G))
+    parent = "world"
+    for i in range(20):
+        s.add_body(f"b{i}", parent, vd.Ball(at=(0, 0, -0.2 if i else 0)), mass=1.0, com=(0.01, 0, -0.1),
+                   inertia=vd.inertia.box(1.0, (0.05, 0.06, 0.2)))
+        s.add_joint_spring(f"b{i}", 30.0)
+        parent = f"b{i}"
+    system = s.build()
+    q = system.random_configuration(0.3, rng=2)
+    fd, an = system.linearize(q), system.linearize(q, method="analytic")
+    assert rel(fd.K, an.K) < 1e-7

@@ -1,0 +1,277 @@
+"""Linearisation about an operating point: M δv̇ + C δv + K δq = B δu, in the tangent space.
+
+M comes from CRBA; K = ∂r/∂q and C = ∂r/∂v with r(q, v) = inverse_dynamics(q, v, a0, t0) = M a0 + b − Q,
+by central finite differences (configurations perturbed with ``integrate``) or analytically
+(``pin.computeRNEADerivatives`` plus the force elements' own derivatives). Units: K in N/m, N or N·m/rad
+per coordinate pair, C in N·s/m or N·m·s/rad, M in kg, kg·m or kg·m².
+"""
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pinocchio as pin
+import scipy.linalg as sla
+
+from .errors import ModelError
+
+EPS = np.finfo(float).eps
+
+
+@dataclass(frozen=True, eq=False)
+class LinearModel:
+    """Linear model about (q0, v0, t0) with its error estimate and the time it took.
+
+    ``K_error`` and ``C_error`` are elementwise estimates of the absolute error of K and C (zero for an
+    exact part); ``error`` is the largest of them relative to the norm of K (or C).
+    """
+
+    system: object = field(repr=False)
+    q0: np.ndarray
+    v0: np.ndarray
+    a0: np.ndarray
+    t0: float
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    K_error: np.ndarray
+    C_error: np.ndarray
+    method: str
+    elapsed: float  # s
+    evaluations: int  # residual evaluations (finite differences) or derivative calls
+
+    @property
+    def coordinates(self):
+        return self.system.coordinates
+
+    @property
+    def nv(self):
+        return self.M.shape[0]
+
+    @property
+    def D(self):
+        """Damping: symmetric part of C."""
+        return 0.5 * (self.C + self.C.T)
+
+    @property
+    def G(self):
+        """Gyroscopic: skew part of C."""
+        return 0.5 * (self.C - self.C.T)
+
+    @property
+    def K_s(self):
+        """Symmetric part of K (elastic + geometric stiffness)."""
+        return 0.5 * (self.K + self.K.T)
+
+    @property
+    def N(self):
+        """Circulatory: skew part of K (zero at a conservative equilibrium)."""
+        return 0.5 * (self.K - self.K.T)
+
+    @property
+    def error(self):
+        """Largest estimated error of K and C, relative to their norms."""
+        k = float(self.K_error.max(initial=0.0) / max(np.abs(self.K).max(initial=0.0), 1e-300))
+        c = float(self.C_error.max(initial=0.0) / max(np.abs(self.C).max(initial=0.0), 1e-300))
+        return max(k if np.any(self.K) else 0.0, c if np.any(self.C) else 0.0)
+
+    @property
+    def has_damping(self):
+        return bool(np.any(self.C))
+
+    @property
+    def A(self):
+        """State matrix of x = (δq, δv): ẋ = A x + B_state u (2nv × 2nv)."""
+        n = self.nv
+        Minv_K, Minv_C = self._solve_M(self.K), self._solve_M(self.C)
+        return np.block([[np.zeros((n, n)), np.eye(n)], [-Minv_K, -Minv_C]])
+
+    def state_input(self, B):
+        """State input matrix [[0], [M⁻¹ B]] for a generalized input matrix B (nv × m)."""
+        B = np.asarray(B, dtype=float).reshape(self.nv, -1)
+        return np.vstack([np.zeros_like(B), self._solve_M(B)])
+
+    def joint_input(self, coordinates=None):
+        """Input matrix of generalized forces on the named coordinates (nv × m; all if None)."""
+        names = self.coordinates if coordinates is None else coordinates
+        B = np.zeros((self.nv, len(names)))
+        for j, name in enumerate(names):
+            B[self.system.coordinate_index(name), j] = 1.0
+        return B
+
+    def point_jacobian(self, points):
+        """Displacements (m, world axes) of body points per tangent coordinate: (3·npoints × nv).
+
+        ``points``: body names (their origin) or ``(body, (x, y, z))`` with the point in the body frame.
+        """
+        return point_jacobian(self.system, self.q0, points)
+
+    def point_input(self, points):
+        """Input matrix of forces (N, world axes) at body points: Jᵀ (nv × 3·npoints)."""
+        return self.point_jacobian(points).T
+
+    def modes(self, **kwargs):
+        """Modal analysis of this linear model (see :func:`vibdyn.modal.modes`)."""
+        from .modal import modes
+
+        return modes(self, **kwargs)
+
+    def with_damping(self, C):
+        """The same model with the damping matrix C (nv × nv) instead of its own."""
+        C = np.asarray(C, dtype=float)
+        if C.shape != self.M.shape or not np.all(np.isfinite(C)):
+            raise ModelError(f"damping matrix: expected a finite {self.M.shape} array")
+        return replace(self, C=C, C_error=np.zeros_like(C))
+
+    def with_rayleigh(self, zeta, omega):
+        """Rayleigh damping C = αM + βK_s giving ratios ``zeta`` = (ζ1, ζ2) at ``omega`` = (ω1, ω2) rad/s."""
+        from .modal import rayleigh
+
+        alpha, beta = rayleigh(zeta, omega)
+        return self.with_damping(alpha * self.M + beta * self.K_s)
+
+    def with_modal_damping(self, zeta):
+        """Damping giving the ratio ``zeta`` (one number or one per mode) to each undamped mode:
+        C = M Φ diag(2 ζ_r ω_r) Φᵀ M."""
+        m = replace(self, C=np.zeros_like(self.C), C_error=np.zeros_like(self.C)).modes()
+        z = np.broadcast_to(np.asarray(zeta, dtype=float), m.omega.shape)
+        if np.any(z < 0) or not np.all(np.isfinite(z)):
+            raise ModelError(f"modal damping ratios must be finite and ≥ 0, got {zeta!r}")
+        MPhi = self.M @ m.shapes
+        return self.with_damping(MPhi @ np.diag(2 * z * m.omega) @ MPhi.T)
+
+    def summary(self):
+        return (f"LinearModel({self.method}, nv={self.nv}, error ≈ {self.error:.1e}, "
+                f"{self.elapsed * 1e3:.2f} ms, {self.evaluations} evaluations)")
+
+    def _solve_M(self, B):
+        try:
+            return sla.cho_solve(sla.cho_factor(self.M), B)
+        except (np.linalg.LinAlgError, ValueError):
+            self.system._check_mass_matrix(self.q0, "the operating point")
+            raise
+
+
+def operating_point(system, at=None, v=None, t=0.0):
+    """(q0, v0, t0) from an equilibrium/steady-motion result, a configuration, or None (neutral)."""
+    if at is None:
+        q0 = system.neutral()
+    elif hasattr(at, "q") and hasattr(at, "v"):
+        q0, v = at.q, at.v if v is None else v
+        t = getattr(at, "t", t)
+    else:
+        q0 = at
+    q0 = system._q(q0, "operating point q")
+    v0 = system._v(np.zeros(system.nv) if v is None else v, "operating point v")
+    return q0, v0, float(t)
+
+
+def linearize(system, at=None, *, v=None, t=0.0, method="fd", step=1e-5):
+    """Linear model of ``system`` about ``at`` (an Equilibrium/SteadyMotion, a configuration q, or None
+    for the neutral configuration) with velocity ``v`` (zero if None) at time ``t``.
+
+    ``method``: "fd" (central differences with steps ``step`` × scale, scale 1 rad or the scene's length
+    scale; error estimated from a second step 2h) or "analytic" (Pinocchio's RNEA derivatives plus the
+    force elements' derivatives).
+    """
+    start = time.perf_counter()
+    q0, v0, t0 = operating_point(system, at, v, t)
+    M = system.mass_matrix(q0)
+    if not _is_pd(M):
+        system._check_mass_matrix(q0, "the operating point")
+    a0 = system.accelerations(q0, v0, t0)  # zero at an equilibrium; keeps K consistent elsewhere
+    if method == "fd":
+        K, C, K_err, C_err, n = _finite_differences(system, q0, v0, a0, t0, step)
+    elif method == "analytic":
+        from .derivatives import analytic_derivatives
+
+        K, C = analytic_derivatives(system, q0, v0, a0, t0)
+        K_err = np.abs(K) * 1e3 * EPS
+        C_err = np.abs(C) * 1e3 * EPS
+        n = 1
+    else:
+        raise ModelError(f"linearize: unknown method {method!r} (use 'fd' or 'analytic')")
+    for name, X in (("K", K), ("C", C)):
+        if not np.all(np.isfinite(X)):
+            raise ModelError(f"linearize: {name} is not finite at the operating point")
+    return LinearModel(system, q0, v0, a0, t0, M, C, K, K_err, C_err, method, time.perf_counter() - start, n)
+
+
+def steps(system, step):
+    """Finite-difference step per tangent coordinate: ``step`` rad, or ``step`` × length scale m."""
+    L = system.length_scale
+    return np.array([step * (L if u == "m" else 1.0) for u in system.units])
+
+
+def jacobian_q(system, q0, v0, a0, t0, h):
+    """∂r/∂q by central differences in the tangent space (steps h per coordinate)."""
+    nv, model, res = system.nv, system.model, system._residual
+    J = np.empty((nv, nv))
+    e = np.zeros(nv)
+    for k in range(nv):
+        e[k] = h[k]
+        rp = res(pin.integrate(model, q0, e), v0, a0, t0)
+        e[k] = -h[k]
+        rm = res(pin.integrate(model, q0, e), v0, a0, t0)
+        e[k] = 0.0
+        J[:, k] = (rp - rm) / (2 * h[k])
+    return J
+
+
+def jacobian_v(system, q0, v0, a0, t0, h):
+    """∂r/∂v by central differences (steps h per coordinate)."""
+    nv, res = system.nv, system._residual
+    J = np.empty((nv, nv))
+    for k in range(nv):
+        vp, vm = v0.copy(), v0.copy()
+        vp[k] += h[k]
+        vm[k] -= h[k]
+        J[:, k] = (res(q0, vp, a0, t0) - res(q0, vm, a0, t0)) / (2 * h[k])
+    return J
+
+
+def _two_steps(jac, terms, h):
+    """Central difference with step h and its error estimate: the change from step 2h (truncation, and
+    round-off noise) plus the round-off of the terms that cancel in r (|RNEA| + |Q| + |g| per row)."""
+    J1, J2 = jac(h), jac(2 * h)
+    return J1, np.abs(J1 - J2) + 16 * EPS * terms[:, None] / h[None, :]
+
+
+def _finite_differences(system, q0, v0, a0, t0, step):
+    h = steps(system, step)
+    Q, fext = system._forces(q0, v0, t0)
+    tau = pin.rnea(system.model, system.data, q0, v0, a0) if fext is None else pin.rnea(
+        system.model, system.data, q0, v0, a0, fext)
+    terms = np.abs(tau) + np.abs(Q) + np.abs(system._gravity_forces(q0))
+    K, K_err = _two_steps(lambda hh: jacobian_q(system, q0, v0, a0, t0, hh), terms, h)
+    evaluations = 4 * system.nv
+    if system.depends_on_velocity or np.any(v0):
+        hv = h * np.maximum(1.0, np.abs(v0))
+        C, C_err = _two_steps(lambda hh: jacobian_v(system, q0, v0, a0, t0, hh), terms, hv)
+        evaluations *= 2
+    else:  # nothing depends on velocity and v0 = 0: C is exactly zero
+        C, C_err = np.zeros_like(K), np.zeros_like(K)
+    return K, C, K_err, C_err, evaluations
+
+
+def point_jacobian(system, q, points):
+    """(3·npoints × nv) world displacement of body points per tangent coordinate at q."""
+    model, data = system.model, system.data
+    pin.computeJointJacobians(model, data, q)
+    rows = []
+    for p in points:
+        body, point = (p, (0.0, 0.0, 0.0)) if isinstance(p, str) else p
+        b = system.body_info(body)
+        local = b.body_in_joint.act(np.asarray(point, dtype=float))
+        J = pin.getJointJacobian(model, data, b.joint_id, pin.LOCAL).reshape(6, model.nv)
+        R = data.oMi[b.joint_id].rotation
+        rows.append(R @ (J[:3] - pin.skew(local) @ J[3:]))
+    return np.vstack(rows) if rows else np.zeros((0, system.nv))
+
+
+def _is_pd(M):
+    try:
+        np.linalg.cholesky(M)
+        return True
+    except np.linalg.LinAlgError:
+        return False

@@ -1,0 +1,228 @@
+"""Modal analysis: natural frequencies (rad/s, Hz), mass-normalised shapes, damped complex modes, MAC.
+
+Undamped modes solve K_s φ = ω² M φ (``scipy.linalg.eigh``). With damping, gyroscopic or circulatory terms
+the first-order state form gives complex eigenvalues λ = −ζω ± iω√(1−ζ²) and complex shapes.
+"""
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+
+from .errors import ModelError
+
+
+@dataclass(frozen=True, eq=False)
+class Modes:
+    """Modes of a linear model. Arrays are per mode, ascending in ω² (undamped) or |λ| (damped).
+
+    ``omega2`` is signed: a negative ω² is an unstable direction (``unstable`` flag), with
+    ``omega`` = √|ω²| then its growth rate (1/s). Rigid-body / cyclic modes have ω² cleaned to exactly 0
+    (``rigid`` flag) when |ω²| ≤ ``tolerance`` × max|ω²|.
+    """
+
+    linear: object = field(repr=False)
+    omega2: np.ndarray  # rad²/s²
+    omega: np.ndarray  # rad/s
+    shapes: np.ndarray  # nv × n, φᵀ M φ = 1
+    rigid: np.ndarray
+    unstable: np.ndarray
+    modal_mass: np.ndarray  # diag(Φᵀ M Φ) (1 after normalisation)
+    modal_stiffness: np.ndarray  # diag(Φᵀ K_s Φ) = ω² (N·m/rad or N/m per unit modal mass)
+    orthogonality: float  # max |Φᵀ M Φ − 1| and |Φᵀ K Φ − Λ| / max|ω²|
+    residual: np.ndarray  # relative eigen residual per mode
+    tolerance: float
+    # damped / non-symmetric part (state form); empty when the model is undamped and symmetric
+    eigenvalues: np.ndarray  # all 2nv state eigenvalues (1/s), sorted by |Im|, then Re
+    damped_eigenvalues: np.ndarray  # one per mode: Im ≥ 0 of each pair, and the real ones
+    zeta: np.ndarray  # damping ratio −Re λ / |λ| per damped mode
+    omega_n: np.ndarray  # |λ| rad/s
+    omega_d: np.ndarray  # |Im λ| rad/s
+    complex_shapes: np.ndarray  # nv × m, largest component 1
+    classical: bool  # C M⁻¹ K = K M⁻¹ C (proportional damping: real shapes diagonalise C)
+    stability: str  # "stable", "unstable" or "neutral"
+    elapsed: float  # s
+
+    @property
+    def frequency_hz(self):
+        return self.omega / (2 * np.pi)
+
+    @property
+    def damped_frequency_hz(self):
+        return self.omega_d / (2 * np.pi)
+
+    @property
+    def n(self):
+        return self.omega.size
+
+    @property
+    def error(self):
+        """Estimated relative error of the frequencies: linearisation error plus eigen residual."""
+        return float(self.linear.error + self.residual.max(initial=0.0))
+
+    def point_shapes(self, points, direction=None, complex=False):
+        """Mode shapes as displacements (m per unit modal coordinate, world axes) of body points.
+
+        ``points``: body names (origins) or (body, point) pairs. Returns (npoints, 3, n), or
+        (npoints, n) along ``direction`` (3-vector). ``complex=True`` maps the damped complex shapes.
+        """
+        J = self.linear.point_jacobian(points)
+        shapes = self.complex_shapes if complex else self.shapes
+        S = (J @ shapes).reshape(len(points), 3, shapes.shape[1])
+        if direction is None:
+            return S
+        d = np.asarray(direction, dtype=float)
+        return np.einsum("pin,i->pn", S, d / np.linalg.norm(d))
+
+    def to_dict(self):
+        """Plain data (JSON-ready): SI units, complex numbers as [re, im]."""
+        d = {"omega_rad_s": self.omega.tolist(), "frequency_hz": self.frequency_hz.tolist(),
+             "omega2": self.omega2.tolist(), "rigid": self.rigid.tolist(), "unstable": self.unstable.tolist(),
+             "shapes": self.shapes.tolist(), "coordinates": list(self.linear.coordinates),
+             "stability": self.stability, "orthogonality_residual": self.orthogonality,
+             "eigen_residual": self.residual.tolist(), "error_estimate": self.error,
+             "elapsed_s": self.elapsed}
+        if self.eigenvalues.size:
+            d.update({"eigenvalues": [[z.real, z.imag] for z in self.eigenvalues],
+                      "zeta": self.zeta.tolist(), "omega_n_rad_s": self.omega_n.tolist(),
+                      "omega_d_rad_s": self.omega_d.tolist(), "classical_damping": self.classical})
+        return d
+
+    def __str__(self):
+        lines = [f"{'mode':>4} {'omega rad/s':>14} {'f Hz':>12}  note"]
+        for i in range(self.n):
+            note = "rigid" if self.rigid[i] else ("UNSTABLE (growth rate)" if self.unstable[i] else "")
+            lines.append(f"{i + 1:>4} {self.omega[i]:>14.8g} {self.frequency_hz[i]:>12.6g}  {note}")
+        if self.eigenvalues.size:
+            lines.append(f"{'':>4} {'lambda':>30} {'zeta':>10} {'omega_n':>12}")
+            for i, lam in enumerate(self.damped_eigenvalues):
+                lines.append(f"{i + 1:>4} {lam.real:>14.8g}{lam.imag:>+14.8g}i {self.zeta[i]:>10.6g} "
+                             f"{self.omega_n[i]:>12.8g}")
+        lines.append(f"stability {self.stability}; error ≈ {self.error:.1e}; {self.elapsed * 1e3:.2f} ms")
+        return "\n".join(lines)
+
+
+def modes(lin, tolerance=None):
+    """Modes of a :class:`vibdyn.linearize.LinearModel`.
+
+    ``tolerance`` (relative to max|ω²|) for rigid-body modes; default max(1e-9, 100 × the linearisation
+    error estimate).
+    """
+    start = time.perf_counter()
+    M, Ks = lin.M, lin.K_s
+    tol = max(1e-9, 100 * lin.error) if tolerance is None else float(tolerance)
+    try:
+        w2, Phi = sla.eigh(Ks, M)
+    except np.linalg.LinAlgError:
+        lin.system._check_mass_matrix(lin.q0, "the operating point")
+        raise ModelError("modal analysis: the generalized eigenproblem (K, M) failed") from None
+    scale = max(np.abs(w2).max(initial=0.0), 1e-300)
+    rigid = np.abs(w2) <= tol * scale
+    w2 = np.where(rigid, 0.0, w2)
+    unstable = w2 < 0
+    Phi = _sign_fix(Phi)
+    MPhi = M @ Phi
+    mm = np.einsum("ij,ij->j", Phi, MPhi)
+    Phi = Phi / np.sqrt(mm)
+    MPhi = MPhi / np.sqrt(mm)
+    KPhi = Ks @ Phi
+    Mm, Km = Phi.T @ MPhi, Phi.T @ KPhi
+    ortho = max(np.abs(Mm - np.eye(len(w2))).max(initial=0.0),
+                np.abs(Km - np.diag(w2)).max(initial=0.0) / scale)
+    res = np.linalg.norm(KPhi - MPhi * w2, axis=0) / (np.linalg.norm(KPhi, axis=0)
+                                                       + np.abs(w2) * np.linalg.norm(MPhi, axis=0) + 1e-300)
+    omega = np.sqrt(np.abs(w2))
+
+    damped = lin.has_damping or np.any(np.abs(lin.N) > 10 * lin.K_error + 1e-12 * scale)
+    if damped:
+        lam, lam_modes, shapes_c = _state_modes(lin)
+        mag = np.abs(lam_modes)
+        zeta = np.where(mag > 0, -lam_modes.real / np.where(mag > 0, mag, 1.0), 0.0)
+        classical = _is_classical(lin)
+    else:
+        lam = lam_modes = np.zeros(0, complex)
+        shapes_c = np.zeros((lin.nv, 0), complex)
+        mag = zeta = np.zeros(0)
+        classical = True
+    stability = classify(rigid, unstable, lam, tol)
+    return Modes(lin, w2, omega, Phi, rigid, unstable, np.diag(Mm).copy(), np.diag(Km).copy(), float(ortho), res,
+                 tol, lam, lam_modes, zeta, mag, np.abs(lam_modes.imag), shapes_c, bool(classical), stability,
+                 time.perf_counter() - start)
+
+
+def mac(a, b=None):
+    """Modal assurance criterion MAC_ij = |a_iᴴ b_j|² / (a_iᴴ a_i · b_jᴴ b_j) between columns of a and b."""
+    a = np.asarray(a)
+    b = a if b is None else np.asarray(b)
+    a = a.reshape(a.shape[0], -1)
+    b = b.reshape(b.shape[0], -1)
+    if a.shape[0] != b.shape[0]:
+        raise ModelError(f"mac: shapes have {a.shape[0]} and {b.shape[0]} components")
+    num = np.abs(a.conj().T @ b) ** 2
+    den = np.outer(np.einsum("ij,ij->j", a.conj(), a).real, np.einsum("ij,ij->j", b.conj(), b).real)
+    out = num / np.where(den > 0, den, 1.0)
+    return out if out.size > 1 else float(out[0, 0])
+
+
+def rayleigh(zeta, omega):
+    """(α, β) of Rayleigh damping C = αM + βK with ratios ζ = (ζ1, ζ2) at ω = (ω1, ω2) rad/s:
+    ζ_i = α/(2ω_i) + βω_i/2."""
+    z = np.asarray(zeta, dtype=float).reshape(2)
+    w = np.asarray(omega, dtype=float).reshape(2)
+    if not np.all(np.isfinite(z)) or not np.all(np.isfinite(w)) or np.any(w <= 0) or w[0] == w[1]:
+        raise ModelError(f"rayleigh: need two distinct positive frequencies and finite ratios, got {omega}, {zeta}")
+    A = np.array([[1 / (2 * w[0]), w[0] / 2], [1 / (2 * w[1]), w[1] / 2]])
+    alpha, beta = np.linalg.solve(A, z)
+    return float(alpha), float(beta)
+
+
+def _state_modes(lin):
+    lam, V = sla.eig(lin.A)
+    scale = max(np.abs(lam).max(initial=0.0), 1e-300)
+    lam = np.where(np.abs(lam.imag) <= 1e-12 * scale, lam.real + 0j, lam)
+    lam = np.where(np.abs(lam) <= 1e-12 * scale, 0j, lam)
+    order = np.lexsort((lam.real, np.abs(lam.imag)))
+    lam, V = lam[order], V[:, order]
+    keep = lam.imag >= 0  # one of each conjugate pair, and the real eigenvalues
+    lm, Vm = lam[keep], V[: lin.nv, keep]
+    order = np.argsort(np.abs(lm), kind="stable")
+    lm, Vm = lm[order], Vm[:, order]
+    big = np.argmax(np.abs(Vm), axis=0)
+    piv = Vm[big, np.arange(Vm.shape[1])]
+    Vm = Vm / np.where(np.abs(piv) > 0, piv, 1.0)
+    return lam, lm, Vm
+
+
+def classify(rigid, unstable, eigenvalues, tolerance, ignore_zeros=0):
+    """"stable", "unstable" or "neutral" from the undamped flags, or from the state eigenvalues if any.
+
+    State eigenvalues within √tolerance of zero (relative) are rigid/cyclic; up to ``ignore_zeros`` of
+    them (zero modes of cyclic positions in a steady motion) do not make the point neutral.
+    """
+    if eigenvalues.size == 0:
+        if unstable.any():
+            return "unstable"
+        return "neutral" if rigid.sum() > ignore_zeros else "stable"
+    scale = max(np.abs(eigenvalues).max(initial=0.0), 1e-300)
+    zero = np.abs(eigenvalues) <= np.sqrt(tolerance) * scale
+    rest = eigenvalues[~zero].real
+    if np.any(rest > 1e-10 * scale):
+        return "unstable"
+    if zero.sum() > ignore_zeros or np.any(np.abs(rest) <= 1e-10 * scale):
+        return "neutral"
+    return "stable"
+
+
+def _is_classical(lin):
+    M, C, K = lin.M, lin.C, lin.K
+    MiK, MiC = np.linalg.solve(M, K), np.linalg.solve(M, C)
+    X = C @ MiK - K @ MiC
+    return bool(np.abs(X).max() <= 1e-8 * max(np.abs(C @ MiK).max(), 1e-300))
+
+
+def _sign_fix(Phi):
+    """Make the largest component of each shape positive (a reproducible sign)."""
+    idx = np.argmax(np.abs(Phi), axis=0)
+    s = np.sign(Phi[idx, np.arange(Phi.shape[1])])
+    return Phi * np.where(s == 0, 1.0, s)
