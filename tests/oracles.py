@@ -207,8 +207,12 @@ def _fmt(x):
     return " ".join(repr(float(v)) for v in np.ravel(x))
 
 
-def scene_to_mjcf(scene):
+def scene_to_mjcf(scene, joint_elements=False):
     """MJCF text of a vibdyn scene (no force elements): the same solids, links and gravity.
+
+    ``joint_elements=True`` also converts joint springs and joint dampers on pivots and sliders into the
+    MuJoCo joint's ``stiffness``, ``springref`` and ``damping`` (MuJoCo: −k (q − springref) − c q̇, with
+    qpos0 = 0 the neutral configuration, as vibdyn's rest offset); any other force element is refused.
 
     Pivot → hinge, Slider → slide, Ball → ball, Free → free, Fixed → no joint, Cylindrical → slide + hinge
     on the same axis, Universal → two hinges (applied in order, axes in the body frame), Planar → slides
@@ -218,7 +222,8 @@ def scene_to_mjcf(scene):
     armature, damping or joint limits. Every MuJoCo joint carries its body's name (plus a suffix when a
     body has two).
     """
-    if scene.elements:
+    passive = _joint_passive(scene) if joint_elements else {}
+    if scene.elements and not joint_elements:
         raise ValueError("scene_to_mjcf: force elements are not converted (compare rigid-body terms only)")
     lines = ['<mujoco model="%s">' % scene.name,
              '  <compiler angle="radian" inertiafromgeom="false" autolimits="true"/>',
@@ -234,7 +239,9 @@ def scene_to_mjcf(scene):
         x, y, z, w = pin.Quaternion(R).coeffs()
         lines.append(f'{pad}<body name="{body.name}" pos="{_fmt(J.at)}" quat="{_fmt([w, x, y, z])}">')
         if J.kind in ("pivot", "slider"):
-            lines.append(f'{pad}  <joint name="{body.name}" type="{_MJ_JOINT[J.kind]}" axis="{_fmt(J.axis)}"/>')
+            extra = "".join(f' {k}="{v!r}"' for k, v in passive.get(body.name, {}).items())
+            lines.append(f'{pad}  <joint name="{body.name}" type="{_MJ_JOINT[J.kind]}" axis="{_fmt(J.axis)}"'
+                         f'{extra}/>')
         elif J.kind in ("ball", "free"):
             lines.append(f'{pad}  <joint name="{body.name}" type="{_MJ_JOINT[J.kind]}"/>')
         elif J.kind == "cylindrical":
@@ -265,6 +272,37 @@ def scene_to_mjcf(scene):
     return "\n".join(lines)
 
 
+def _joint_passive(scene):
+    """Per body: MuJoCo joint attributes (stiffness, springref, damping) of its joint springs and dampers.
+
+    Several springs on one joint add up: k = Σ k_i, springref = Σ k_i r_i / Σ k_i (same force, same K).
+    """
+    out = {}
+    for e in scene.elements.values():
+        kind = type(e).__name__
+        if kind not in ("JointSpring", "JointDamper"):
+            raise ValueError(f"scene_to_mjcf: force element '{e.name}' ({kind}) is not converted; only joint "
+                             "springs and dampers are (joint_elements=True)")
+        body = scene.body(e.body)
+        if body.joint.kind not in ("pivot", "slider"):
+            raise ValueError(f"scene_to_mjcf: {kind} '{e.name}' on a {body.joint.kind} joint is not converted")
+        a = out.setdefault(body.name, {"k": 0.0, "kr": 0.0, "c": 0.0})
+        if kind == "JointSpring":
+            a["k"] += float(e.stiffness[0])
+            a["kr"] += float(e.stiffness[0]) * float(e.rest[0])
+        else:
+            a["c"] += float(e.damping[0])
+    attrs = {}
+    for name, a in out.items():
+        d = {}
+        if a["k"]:
+            d["stiffness"], d["springref"] = a["k"], a["kr"] / a["k"]
+        if a["c"]:
+            d["damping"] = a["c"]
+        attrs[name] = d
+    return attrs
+
+
 class MuJoCoOracle:
     """A MuJoCo model of a scene and the maps between vibdyn's and MuJoCo's coordinates.
 
@@ -276,12 +314,12 @@ class MuJoCoOracle:
     sin θ), v = (in-plane velocity in body axes, θ̇); MuJoCo (x, y, θ) and (ẋ, ẏ, θ̇): T = diag(R2(θ), 1).
     """
 
-    def __init__(self, scene, system):
+    def __init__(self, scene, system, joint_elements=False):
         import mujoco
 
         self.mujoco = mujoco
         self.scene, self.system = scene, system
-        self.xml = scene_to_mjcf(scene)
+        self.xml = scene_to_mjcf(scene, joint_elements=joint_elements)
         self.model = mujoco.MjModel.from_xml_string(self.xml)
         self.data = mujoco.MjData(self.model)
         assert self.model.nv == system.nv, (self.model.nv, system.nv)

@@ -50,10 +50,13 @@ def scalar(value, what, *, positive=False, nonnegative=False):
 def unit_axis(value, what):
     """A direction normalised to unit length; a zero or non-finite axis is a ModelError."""
     a = vector3(value, what)
-    n = np.linalg.norm(a)
-    if n < 1e-12:
+    scale = np.abs(a).max()
+    if scale < 1e-12:
         raise ModelError(f"{what}: axis has zero length")
-    return a / n
+    if abs(np.linalg.norm(a) - 1.0) <= 4 * np.finfo(float).eps:
+        return a  # already unit: kept bit for bit, so scene files round-trip exactly
+    a = a / scale  # no overflow for huge components
+    return a / np.linalg.norm(a)
 
 
 def rotation_matrix(value, what):
@@ -67,7 +70,10 @@ def rotation_matrix(value, what):
     if arr is not None and arr.shape == (3,):
         from scipy.spatial.transform import Rotation
 
-        return Rotation.from_rotvec(vector3(value, what)).as_matrix()
+        R = Rotation.from_rotvec(vector3(value, what)).as_matrix()
+        if not np.all(np.isfinite(R)):
+            raise ModelError(f"{what}: rotation vector too large ({np.linalg.norm(arr):.3g} rad)")
+        return R
     R = finite_array(value, (3, 3), what)
     if not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
         raise ModelError(f"{what}: not a rotation matrix (RᵀR ≠ 1 or det R < 0)")

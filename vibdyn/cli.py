@@ -1,4 +1,4 @@
-"""The ``vibdyn`` command: ``vibdyn info SCENE``, ``vibdyn demo``.
+"""The ``vibdyn`` command: ``vibdyn info SCENE``, ``vibdyn modes SCENE [--json]``, ``vibdyn demo``.
 
 SCENE is a TOML scene file, or ``robot:NAME`` for a robot of example-robot-data (e.g. ``robot:ur5``).
 """
@@ -31,9 +31,9 @@ def load(spec):
     return vd.load_scene(path)
 
 
-def describe(scene, system, out=sys.stdout):
+def describe(scene, system, out=None):
     """Print a scene's bodies, joints, coordinates and force elements."""
-    p = lambda *a: print(*a, file=out)  # noqa: E731
+    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
     p(f"scene      {scene.name}")
     if scene.source:
         p(f"source     {scene.source}")
@@ -66,30 +66,68 @@ def describe(scene, system, out=sys.stdout):
     p(f"forces depend on: q{''.join(', ' + n for n in needs)}")
 
 
-def demo(out=sys.stdout):
-    """The main job on the bundled trailer scene: dynamics at a state, energies, link reactions."""
-    p = lambda *a: print(*a, file=out)  # noqa: E731
+def modal_report(system, method="fd"):
+    """Operating point, linear model and modes of a system, as plain data (the ``--json`` object)."""
+    op = system.operating_point()
+    lin = op.linearize(method=method)
+    m = lin.modes()
+    return op, lin, m, {
+        "scene": system.name,
+        "coordinates": list(system.coordinates),
+        "units": list(system.units),
+        "operating_point": {
+            "kind": op.kind, "stability": op.stability, "residual": op.residual, "iterations": op.iterations,
+            "q": op.q.tolist(), "v": op.v.tolist(),
+            "offsets": system.difference(system.neutral(), op.q).tolist(),
+            "speeds": op.speeds, "elapsed_s": op.elapsed},
+        "linearization": {"method": lin.method, "error_estimate": lin.error, "elapsed_s": lin.elapsed,
+                          "evaluations": lin.evaluations, "M": lin.M.tolist(), "C": lin.C.tolist(),
+                          "K": lin.K.tolist()},
+        "modes": m.to_dict(),
+    }
+
+
+def print_modes(system, method="fd", out=None):
+    """Print the operating point, natural frequencies, damping ratios, stability and error estimate."""
+    out = out or sys.stdout
+    op, lin, m, _ = modal_report(system, method)
+    print(op, file=out)
+    print(f"linearisation ({lin.method}): error ≈ {lin.error:.1e}, {lin.elapsed * 1e3:.2f} ms, "
+          f"{lin.evaluations} evaluations", file=out)
+    print(m, file=out)
+
+
+def demo(out=None):
+    """The main job on the bundled trailer model: the scene, its equilibrium, linear model and modes,
+    and its nonlinear dynamics at a displaced state."""
+    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
     scene = load(str(models_dir() / "trailer.toml"))
     system = scene.build()
     describe(scene, system, out)
-    q = system.neutral()
-    q[system.coordinate_index("rod")] = 0.3
-    v = np.zeros(system.nv)
-    v[system.coordinate_index("cart")] = 0.2
-    t0 = time.perf_counter()
-    a = system.accelerations(q, v)
-    dt = time.perf_counter() - t0
-    residual = np.abs(system.inverse_dynamics(q, v, a)).max()
     p("")
-    p(f"state      q = {_vec(q)}, v = {_vec(v)}")
-    p(f"M(q)       {np.array2string(system.mass_matrix(q), precision=5)}")
-    p(f"Q(q, v)    {_vec(system.generalized_forces(q, v))} (N, N·m)")
-    p(f"dv/dt      {_vec(a)} (ABA, {dt * 1e6:.0f} µs; RNEA residual {residual:.1e})")
+    print_modes(system, out=out)
+    ref = scene.references.get("omega")
+    if ref is not None:
+        m = system.operating_point().linearize().modes()
+        p(f"reference omega {_vec(ref)} rad/s: largest relative difference "
+          f"{np.max(np.abs(m.omega - np.array(ref)) / np.array(ref)):.1e}")
+    q = system.integrate(system.neutral(), np.full(system.nv, 0.2))
+    v = np.zeros(system.nv)
+    times = []
+    for _ in range(20):
+        t0 = time.perf_counter()
+        a = system.accelerations(q, v)
+        times.append(time.perf_counter() - t0)
+    dt = min(times)
+    p("")
+    p(f"displaced  q = {_vec(q)} (m, rad), v = 0")
+    p(f"dv/dt      {_vec(a)} (ABA, {dt * 1e6:.0f} µs; RNEA residual "
+      f"{np.abs(system.inverse_dynamics(q, v, a)).max():.1e})")
     e = system.energy(q, v)
-    p(f"energy     kinetic {e.kinetic:.6g} J, gravity {e.gravity:.6g} J, elastic {e.elastic:.6g} J")
+    p(f"energy     gravity {e.gravity:.6g} J, elastic {e.elastic:.6g} J")
     r = system.reactions(q, v, a)
-    for name, f, m in zip(r.bodies, r.force, r.moment):
-        p(f"link {name:<6} force {_vec(f)} N, moment {_vec(m)} N·m (world axes, at the joint)")
+    for name, f, mo in zip(r.bodies, r.force, r.moment):
+        p(f"link {name:<8} force {_vec(f)} N, moment {_vec(mo)} N·m (world axes, at the joint)")
 
 
 def main(argv=None):
@@ -97,12 +135,24 @@ def main(argv=None):
     sub = parser.add_subparsers(dest="command", required=True)
     info = sub.add_parser("info", help="print a scene's bodies, joints, coordinates and elements")
     info.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    modes = sub.add_parser("modes", help="equilibrium, natural frequencies, damping ratios and stability")
+    modes.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    modes.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    modes.add_argument("--method", choices=("fd", "analytic"), default="fd", help="linearisation method")
     sub.add_parser("demo", help="run the main job on the bundled trailer model")
     args = parser.parse_args(argv)
     try:
         if args.command == "info":
             scene = load(args.scene)
             describe(scene, scene.build())
+        elif args.command == "modes":
+            system = load(args.scene).build()
+            if args.json:
+                import json
+
+                print(json.dumps(modal_report(system, args.method)[3], indent=1))
+            else:
+                print_modes(system, args.method)
         elif args.command == "demo":
             demo()
     except VibdynError as e:

@@ -130,8 +130,9 @@ def modes(lin, tolerance=None):
     Mm, Km = Phi.T @ MPhi, Phi.T @ KPhi
     ortho = max(np.abs(Mm - np.eye(len(w2))).max(initial=0.0),
                 np.abs(Km - np.diag(w2)).max(initial=0.0) / scale)
+    # backward error relative to the spectrum's scale (a rigid mode's own ω² = 0 is no scale)
     res = np.linalg.norm(KPhi - MPhi * w2, axis=0) / (np.linalg.norm(KPhi, axis=0)
-                                                       + np.abs(w2) * np.linalg.norm(MPhi, axis=0) + 1e-300)
+                                                       + (np.abs(w2) + scale) * np.linalg.norm(MPhi, axis=0))
     omega = np.sqrt(np.abs(w2))
 
     damped = lin.has_damping or np.any(np.abs(lin.N) > 10 * lin.K_error + 1e-12 * scale)

@@ -56,6 +56,8 @@ class Scene:
         self.references = {}
         self.bodies = {}
         self.elements = {}  # name -> element, in insertion order
+        self.operating_point = None  # None: static equilibrium from neutral; see set_operating_point
+        self.robot_source = None  # where a loaded robot came from (vibdyn.io.robots)
 
     # ---------------------------------------------------------------- bodies
     def add_body(self, name, parent=WORLD, joint=None, mass=0.0, com=(0.0, 0.0, 0.0), inertia=None,
@@ -167,6 +169,22 @@ class Scene:
         tq = vector_or_callable(torque, f"{what} torque")
         p = tuple(map(float, vector3(at, f"{what} at")))
         return self._add(BodyForce(name, b.name, p, f, tq, frame))
+
+    def set_operating_point(self, cyclic=None, start=None):
+        """Declare the operating point analyses use by default (``System.operating_point()``).
+
+        ``cyclic``: {coordinate: speed (rad/s or m/s) or None (found from the forces)} for a steady motion;
+        None for a static equilibrium. ``start``: tangent offsets from neutral (one per coordinate) where
+        the search begins. Names are checked when the scene is built.
+        """
+        if cyclic is not None:
+            if not isinstance(cyclic, dict) or not cyclic:
+                raise ModelError("operating point: cyclic must be a non-empty dict {coordinate: speed or None}")
+            cyclic = {str(k): (None if x is None else scalar(x, f"operating point speed of '{k}'"))
+                      for k, x in cyclic.items()}
+        if start is not None:
+            start = tuple(float(x) for x in finite_array(start, (None,), "operating point start"))
+        self.operating_point = None if cyclic is None and start is None else {"cyclic": cyclic, "start": start}
 
     # ---------------------------------------------------------------- queries
     def elements_of(self, kind):

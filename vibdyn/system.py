@@ -239,6 +239,20 @@ class System:
 
         return steady_motion(self, v_cyclic, q0, t, tol, max_iter, guess)
 
+    def operating_point(self, tol=1e-10, max_iter=100):
+        """The scene's declared operating point (:meth:`Scene.set_operating_point`): a steady motion if it
+        names cyclic coordinates, else the static equilibrium nearest its start (neutral by default)."""
+        op = self.scene.operating_point or {}
+        q0 = None
+        if op.get("start") is not None:
+            if len(op["start"]) != self.nv:
+                raise ModelError(f"operating point start: expected {self.nv} offsets (one per coordinate), "
+                                 f"got {len(op['start'])}")
+            q0 = pin.integrate(self.model, self.neutral(), np.array(op["start"]))
+        if op.get("cyclic"):
+            return self.steady_motion(op["cyclic"], q0, tol=tol, max_iter=max_iter)
+        return self.equilibrium(q0, tol=tol, max_iter=max_iter)
+
     def linearize(self, at=None, *, v=None, t=0.0, method="fd", step=1e-5):
         """Linear model (M, C, K, error estimate) about ``at`` (see :func:`vibdyn.linearize.linearize`)."""
         from .linearize import linearize

@@ -1,0 +1,784 @@
+"""TOML scene files: read them into a :class:`vibdyn.Scene` and write scenes back.
+
+A scene file is data, never code: it is parsed with :mod:`tomllib` and checked key by key. Every problem
+raises :class:`vibdyn.SceneFileError` (a ``ModelError``, hence a ``ValueError``) whose message names the file
+and the key path, e.g. ``file trailer.toml, key 'body[1].joint.axis': ...``. Array-of-table entries are
+numbered from 0 in file order (``body[0]`` is the first ``[[body]]``). SI units throughout.
+
+Format
+------
+
+.. code-block:: toml
+
+    [scene]
+    name = "trailer"                      # optional, default: the file's stem
+    gravity = [0.0, 0.0, -9.81]           # m/s², optional (default zero)
+    source = "where the case comes from"  # optional
+    description = "..."                   # optional
+
+    [[body]]                      # any order: parents are resolved after reading every body
+    name = "cart"
+    parent = "world"              # optional, default "world"; a body's name or its joint's name
+    mass = 10.0                   # kg (required; 0 for a massless body)
+    com = [0.0, 0.0, 0.0]         # m, body frame, optional
+    inertia = [[0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]]   # kg·m² about the com, optional
+    # or a helper table using the body's mass (tensor about the com):
+    # inertia = { shape = "rod", length = 1.0, axis = [0, 0, 1] }
+    #   shapes: point | rod {length, axis} | box {size} | cylinder {radius, length, axis}
+    #           | disc {radius, axis} | sphere {radius, hollow}         (axis optional, default z)
+    inertia_about = [0.0, 0.0, 0.0]   # optional, with a matrix only: the tensor is about this point
+    joint = { type = "slider", axis = [1.0, 0.0, 0.0], at = [0.0, 0.0, 0.0] }   # omitted: fixed weld
+    # joint types and their parameters:
+    #   pivot, slider, cylindrical: axis          helical: axis, and pitch (m/rad) or lead (m/turn)
+    #   universal: axis1, axis2                    planar: normal
+    #   ball, free, fixed: none
+    # every joint also takes at (m, parent frame), rotation (3×3 matrix or rotation vector, rad), name
+
+    [[spring]]        # linear spring between two points: force k (L − free_length) along the line
+    name = "k1"
+    a = ["world", [-1.0, 0.0, 0.0]]   # [body, [x, y, z]] (point in the body frame, m), or "body" (its origin)
+    b = "cart"
+    stiffness = 100.0                 # N/m
+    free_length = 1.0                 # m, optional (default: the length at the neutral configuration)
+
+    [[damper]]        # name, a, b, damping (N·s/m)
+    [[joint_spring]]  # body, stiffness (N/m or N·m/rad: number or one per coordinate),
+                      # rest (optional, same form, tangent offset from neutral), name (optional)
+    [[joint_damper]]  # body, damping (number or list), name (optional)
+    [[joint_force]]   # body, name (optional), and either value = number | list (N or N·m),
+                      # or law = "polynomial", coefficients = [c0, c1, ...]     (Σ c_k v^k)
+                      # or law = "harmonic", amplitude, omega, phase = 0, offset = 0
+    [[force]]         # name, body, force = [fx, fy, fz] (N, default 0), at = [x, y, z] (m, body frame),
+                      # torque = [...] (N·m, optional), frame = "world" (default) | "body"
+
+    [robot]           # optional: start from a robot, then add the bodies and elements above to it
+    name = "ur5"      # an example-robot-data robot (vibdyn.load_robot), or:
+    # urdf = "relative/path.urdf"   (relative to the scene file; vibdyn.load_urdf)
+    floating = false  # optional (default: the robot's usual base; fixed for a URDF)
+    package_dirs = ["meshes"]       # optional, with urdf (relative to the scene file)
+    # [scene] name, gravity, source and description, when given, replace the robot's; bodies may name
+    # the robot's bodies (or joints) as parents
+
+    [operating_point] # optional: where analyses linearise by default (System.operating_point())
+    cyclic = { rotor = "free" }   # a steady motion: coordinate = speed (rad/s or m/s) or "free" (found)
+    start = [0.0, 0.1]            # optional: tangent offsets from neutral where the search starts
+    # omitted: the static equilibrium nearest the neutral configuration
+
+    [reference]       # free-form: the values this scene must reproduce and their source;
+                      # kept as ``scene.references`` (a dict) and written back as is
+
+Writing: :func:`save_scene` writes every body explicitly (a scene started from a ``[robot]`` is saved
+with the robot's bodies spelled out), the elements grouped by kind, and the references. Floats are written
+with ``repr`` so that a saved scene reads back bit for bit. Python callables cannot be written (their
+``to_dict`` raises ``ModelError``); use a law of :mod:`vibdyn.laws`. Comments are not kept.
+"""
+
+import copy
+import datetime as _dt
+import math
+import numbers
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .. import inertia as _inertia
+from .. import joints as _joints
+from .. import laws as _laws
+from ..elements import WORLD, BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring
+from ..errors import ModelError, SceneFileError
+from ..scene import Scene
+
+try:  # Python ≥ 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = ["load_scene", "save_scene", "scene_to_dict", "scene_from_dict", "dumps"]
+
+# ------------------------------------------------------------------ reading
+
+
+def load_scene(path):
+    """Read a TOML scene file into a :class:`vibdyn.Scene` (see the module docstring for the format)."""
+    p = Path(path)
+    try:
+        text = p.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise SceneFileError("no such scene file", path=str(p)) from None
+    except IsADirectoryError:
+        raise SceneFileError("is a directory, not a scene file", path=str(p)) from None
+    except UnicodeDecodeError as e:
+        raise SceneFileError(f"not UTF-8 text ({e.reason} at byte {e.start})", path=str(p)) from None
+    except OSError as e:
+        raise SceneFileError(f"cannot read: {e.strerror or e}", path=str(p)) from None
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise SceneFileError(f"TOML syntax error: {e}", path=str(p)) from None
+    return scene_from_dict(doc, path=p)
+
+
+def scene_from_dict(d, path=None):
+    """A :class:`vibdyn.Scene` from the plain data of a scene file (as read by ``tomllib`` or written by
+    :func:`scene_to_dict`). ``path`` names the file in errors and anchors relative robot paths."""
+    return _Reader(path).scene(d)
+
+
+# value kinds: each checker returns the value (lists for arrays) or raises _Bad with what was expected
+
+
+class _Bad(Exception):
+    pass
+
+
+def _is_number(x):
+    return isinstance(x, (numbers.Real, np.floating, np.integer)) and not isinstance(x, (bool, np.bool_))
+
+
+def _as_list(x):
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, (list, tuple)):
+        return list(x)
+    return None
+
+
+def _show(x):
+    s = repr(x)
+    return s if len(s) <= 60 else s[:57] + "..."
+
+
+def _string(x):
+    if not isinstance(x, str):
+        raise _Bad(f"expected a string, got {_show(x)}")
+    return x
+
+
+def _number(x):
+    if not _is_number(x):
+        raise _Bad(f"expected a number, got {_show(x)}")
+    if not math.isfinite(x):
+        raise _Bad(f"must be finite, got {x}")
+    return float(x)
+
+
+def _nonnegative(x):
+    v = _number(x)
+    if v < 0:
+        raise _Bad(f"must not be negative, got {v}")
+    return v
+
+
+def _boolean(x):
+    if not isinstance(x, (bool, np.bool_)):
+        raise _Bad(f"expected true or false, got {_show(x)}")
+    return bool(x)
+
+
+def _vec3(x):
+    a = _as_list(x)
+    if a is None or len(a) != 3 or not all(_is_number(v) for v in a):
+        raise _Bad(f"expected 3 numbers [x, y, z], got {_show(x)}")
+    return _finite([float(v) for v in a], x)
+
+
+def _finite(values, x):
+    if not all(math.isfinite(v) for v in values):
+        raise _Bad(f"must be finite, got {_show(x)}")
+    return values
+
+
+def _mat3(x):
+    rows = _as_list(x)
+    if rows is None or len(rows) != 3:
+        raise _Bad(f"expected a 3×3 matrix [[...], [...], [...]], got {_show(x)}")
+    try:
+        return [_vec3(r) for r in rows]
+    except _Bad:
+        raise _Bad(f"expected a 3×3 matrix [[...], [...], [...]], got {_show(x)}") from None
+
+
+def _rotation(x):
+    a = _as_list(x)
+    if a is not None and len(a) == 3 and all(_is_number(v) for v in a):
+        return _finite([float(v) for v in a], x)
+    try:
+        return _mat3(x)
+    except _Bad:
+        raise _Bad(f"expected a 3×3 rotation matrix or a rotation vector of 3 numbers (rad), got {_show(x)}") \
+            from None
+
+
+def _numbers_list(x):
+    a = _as_list(x)
+    if a is None or not a or not all(_is_number(v) for v in a):
+        raise _Bad(f"expected a non-empty list of numbers, got {_show(x)}")
+    return _finite([float(v) for v in a], x)
+
+
+def _number_or_list(x, nonnegative=False):
+    if _is_number(x):
+        vals, out = _finite([float(x)], x), float(x)
+    else:
+        try:
+            vals = out = _numbers_list(x)
+        except _Bad:
+            raise _Bad(f"expected a number or a list of numbers, got {_show(x)}") from None
+    if nonnegative and any(v < 0 for v in vals):
+        raise _Bad(f"must not be negative, got {_show(x)}")
+    return out
+
+
+def _nonnegative_number_or_list(x):
+    return _number_or_list(x, nonnegative=True)
+
+
+def _attachment(x):
+    if isinstance(x, str):
+        return x
+    a = _as_list(x)
+    if a is None or len(a) != 2 or not isinstance(a[0], str):
+        raise _Bad(f'expected "body" or ["body", [x, y, z]], got {_show(x)}')
+    try:
+        return [a[0], _vec3(a[1])]
+    except _Bad:
+        raise _Bad(f'expected "body" or ["body", [x, y, z]], got {_show(x)}') from None
+
+
+def _table(x):
+    if not isinstance(x, dict):
+        raise _Bad(f"expected a table, got {_show(x)}")
+    return x
+
+
+def _matrix_or_table(x):
+    if isinstance(x, dict):
+        return x
+    try:
+        return _mat3(x)
+    except _Bad:
+        raise _Bad(f"expected a 3×3 matrix (kg·m², about the com) or a helper table such as "
+                   f'{{ shape = "rod", length = 1.0 }}, got {_show(x)}') from None
+
+
+def _strings(x):
+    a = _as_list(x)
+    if a is None or not all(isinstance(v, str) for v in a):
+        raise _Bad(f"expected a list of strings, got {_show(x)}")
+    return a
+
+
+SCENE_KEYS = {"name": _string, "gravity": _vec3, "source": _string, "description": _string}
+ROBOT_KEYS = {"name": _string, "urdf": _string, "floating": _boolean, "package_dirs": _strings}
+BODY_KEYS = {"name": _string, "parent": _string, "mass": _nonnegative, "com": _vec3,
+             "inertia": _matrix_or_table, "inertia_about": _vec3, "joint": _table}
+JOINT_COMMON = {"type": _string, "at": _vec3, "rotation": _rotation, "name": _string}
+JOINT_PARAMS = {
+    "pivot": ({"axis": _vec3}, ("axis",)),
+    "slider": ({"axis": _vec3}, ("axis",)),
+    "cylindrical": ({"axis": _vec3}, ("axis",)),
+    "helical": ({"axis": _vec3, "pitch": _number, "lead": _number}, ("axis",)),
+    "universal": ({"axis1": _vec3, "axis2": _vec3}, ("axis1", "axis2")),
+    "planar": ({"normal": _vec3}, ("normal",)),
+    "ball": ({}, ()),
+    "free": ({}, ()),
+    "fixed": ({}, ()),
+}
+INERTIA_SHAPES = {  # shape: (keys, required, helper(mass, **params))
+    "point": ({}, (), lambda m: _inertia.point(m)),
+    "rod": ({"length": _nonnegative, "axis": _vec3}, ("length",), _inertia.rod),
+    "box": ({"size": _vec3}, ("size",), _inertia.box),
+    "cylinder": ({"radius": _nonnegative, "length": _nonnegative, "axis": _vec3}, ("radius", "length"),
+                 _inertia.cylinder),
+    "disc": ({"radius": _nonnegative, "axis": _vec3}, ("radius",), _inertia.disc),
+    "sphere": ({"radius": _nonnegative, "hollow": _boolean}, ("radius",), _inertia.sphere),
+}
+ELEMENT_KEYS = {  # table: (keys, required)
+    "spring": ({"name": _string, "a": _attachment, "b": _attachment, "stiffness": _nonnegative,
+                "free_length": _nonnegative}, ("name", "a", "b", "stiffness")),
+    "damper": ({"name": _string, "a": _attachment, "b": _attachment, "damping": _nonnegative},
+               ("name", "a", "b", "damping")),
+    "joint_spring": ({"body": _string, "stiffness": _nonnegative_number_or_list, "rest": _number_or_list,
+                      "name": _string}, ("body", "stiffness")),
+    "joint_damper": ({"body": _string, "damping": _nonnegative_number_or_list, "name": _string},
+                     ("body", "damping")),
+    "joint_force": ({"body": _string, "name": _string, "value": _number_or_list, "law": _string,
+                     "coefficients": _numbers_list, "amplitude": _number, "omega": _number, "phase": _number,
+                     "offset": _number}, ("body",)),
+    "force": ({"name": _string, "body": _string, "force": _vec3, "at": _vec3, "torque": _vec3,
+               "frame": _string}, ("name", "body")),
+}
+LAW_KEYS = {"polynomial": (("coefficients",), ("coefficients",)),
+            "harmonic": (("amplitude", "omega", "phase", "offset"), ("amplitude", "omega"))}
+OPERATING_POINT_KEYS = {"cyclic": _table, "start": _numbers_list}
+TOP_LEVEL = ("scene", "robot", "body", "spring", "damper", "joint_spring", "joint_damper", "joint_force",
+             "force", "operating_point", "reference")
+
+
+class _Reader:
+    def __init__(self, path):
+        self.path = None if path is None else Path(path)
+        self.file = None if path is None else str(path)
+
+    def error(self, key, message):
+        return SceneFileError(message, path=self.file, key=key)
+
+    def fields(self, d, key, spec, required=(), what=None):
+        """Check a table: known keys only, required ones present, each of the right kind."""
+        if not isinstance(d, dict):
+            raise self.error(key, f"expected a table, got {_show(d)}")
+        prefix = f"{what}: " if what else ""
+        for k in d:
+            if k not in spec:
+                raise self.error(f"{key}.{k}", f"{prefix}unknown key '{k}' (allowed: {', '.join(spec)})")
+        for k in required:
+            if k not in d:
+                raise self.error(f"{key}.{k}", f"{prefix}missing required key '{k}'")
+        out = {}
+        for k, v in d.items():
+            try:
+                out[k] = spec[k](v)
+            except _Bad as e:
+                raise self.error(f"{key}.{k}", f"{prefix}{e}") from None
+        return out
+
+    def entries(self, d, table):
+        """The entries of an array of tables ``[[table]]`` (a list of dicts), checked for shape."""
+        value = d.get(table, [])
+        if not isinstance(value, (list, tuple)) or not all(isinstance(x, dict) for x in value):
+            raise self.error(table, f"expected an array of tables [[{table}]], got {_show(value)}")
+        return list(value)
+
+    # ---------------------------------------------------------------- whole scene
+    def scene(self, d):
+        if not isinstance(d, dict):
+            raise self.error(None, f"a scene file holds a table, got {_show(d)}")
+        for k, v in d.items():
+            if k not in TOP_LEVEL:
+                if isinstance(v, (dict, list)):
+                    raise self.error(k, f"unknown table '{k}' (allowed: {', '.join(TOP_LEVEL)})")
+                raise self.error(k, f"unknown top-level key '{k}': keys go in a table such as [scene] "
+                                    f"(tables: {', '.join(TOP_LEVEL)})")
+        for k in ("scene", "robot", "operating_point", "reference"):
+            if k in d and not isinstance(d[k], dict):
+                raise self.error(k, f"expected a table [{k}], got {_show(d[k])}")
+        head = self.fields(d.get("scene", {}), "scene", SCENE_KEYS)
+        bodies = self.entries(d, "body")
+        elements = {t: self.entries(d, t) for t in ELEMENT_KEYS}
+
+        if "name" in head:
+            try:
+                Scene(head["name"])  # the same check as the Scene's own
+            except ModelError as e:
+                raise self.error("scene.name", str(e)) from None
+        if "robot" in d:
+            scene = self.robot(d["robot"])
+            for k in ("name", "source", "description"):
+                if k in head:
+                    setattr(scene, k, head[k])
+            if "gravity" in head:
+                scene.gravity = tuple(head["gravity"])
+        else:
+            default = self.path.stem if self.path is not None and self.path.stem else "scene"
+            try:
+                scene = Scene(head.get("name", default), head.get("gravity", (0.0, 0.0, 0.0)),
+                              source=head.get("source"), description=head.get("description"))
+            except ModelError as e:
+                raise self.error("scene", str(e)) from None
+
+        for i, b in self.ordered_bodies(bodies, scene):
+            self.body(scene, i, b)
+        for table, entries in elements.items():
+            for i, e in enumerate(entries):
+                self.element(scene, table, i, e)
+        if "operating_point" in d:
+            self.operating_point(scene, d["operating_point"])
+        if "reference" in d:
+            scene.references = copy.deepcopy(dict(d["reference"]))
+        return scene
+
+    def operating_point(self, scene, d):
+        op = self.fields(d, "operating_point", OPERATING_POINT_KEYS)
+        cyclic = None
+        if "cyclic" in op:
+            cyclic = {}
+            for name, speed in op["cyclic"].items():
+                if speed == "free":
+                    cyclic[name] = None
+                elif _is_number(speed):
+                    cyclic[name] = speed
+                else:
+                    raise self.error(f"operating_point.cyclic.{name}",
+                                     f"speed must be a number (rad/s or m/s) or \"free\", got {_show(speed)}")
+        try:
+            scene.set_operating_point(cyclic, op.get("start"))
+        except ModelError as e:
+            raise self.error("operating_point", str(e)) from None
+
+    def robot(self, d):
+        r = self.fields(d, "robot", ROBOT_KEYS)
+        if ("name" in r) == ("urdf" in r):
+            raise self.error("robot", "give either name (an example-robot-data robot) or urdf (a file path)")
+        options = {"floating": r["floating"]} if "floating" in r else {}  # else the loader's default
+        base = self.path.parent if self.path is not None else Path.cwd()
+        try:
+            from . import robots
+        except ImportError as e:
+            raise self.error("robot", f"robot loading is not available ({e})") from None
+        try:
+            if "name" in r:
+                if "package_dirs" in r:
+                    raise self.error("robot.package_dirs", "package_dirs goes with urdf, not with name")
+                return robots.load_robot(r["name"], **options)
+            dirs = [str(base / p) for p in r["package_dirs"]] if "package_dirs" in r else None
+            urdf = base / r["urdf"]
+            if not urdf.is_file():
+                raise self.error("robot.urdf", f"no such URDF file: {urdf}")
+            return robots.load_urdf(str(urdf), package_dirs=dirs, **options)
+        except SceneFileError:
+            raise
+        except (ModelError, ValueError, OSError, RuntimeError) as e:
+            raise self.error("robot", f"cannot load the robot: {e}") from None
+
+    # ---------------------------------------------------------------- bodies
+    def ordered_bodies(self, bodies, scene):
+        """Body entries parents first; unknown parents and parent cycles are errors naming the body."""
+        names = {}  # body name or joint name -> entry index
+        for i, b in enumerate(bodies):
+            key = f"body[{i}]"
+            if "name" not in b:
+                raise self.error(f"{key}.name", "missing required key 'name'")
+            name = b["name"]
+            if not isinstance(name, str):
+                raise self.error(f"{key}.name", f"expected a string, got {_show(name)}")
+            if name in names:
+                raise self.error(f"{key}.name", f"duplicate body name '{name}' (also body[{names[name]}])")
+            names[name] = i
+        for i, b in enumerate(bodies):
+            j = b.get("joint")
+            jname = j.get("name") if isinstance(j, dict) else None
+            if isinstance(jname, str) and jname not in names:
+                names[jname] = i
+        parent = {}
+        for i, b in enumerate(bodies):
+            p = b.get("parent", WORLD)
+            if not isinstance(p, str):
+                raise self.error(f"body[{i}].parent", f"body '{b['name']}': expected a string, got {_show(p)}")
+            if p == WORLD or (p not in names and _has_body(scene, p)):
+                parent[i] = None
+            elif p in names:
+                parent[i] = names[p]
+            else:
+                raise self.error(f"body[{i}].parent", f"body '{b['name']}': unknown parent '{p}'")
+        order, state = [], {}
+        for start in range(len(bodies)):
+            path, i = [], start
+            while i is not None and state.get(i) != "done":
+                if i in path:
+                    cycle = path[path.index(i):] + [i]
+                    names_ = " -> ".join(bodies[k]["name"] for k in cycle)
+                    raise self.error(f"body[{i}].parent", f"body '{bodies[i]['name']}': cycle in the parent "
+                                                           f"links ({names_})")
+                path.append(i)
+                i = parent[i]
+            for k in reversed(path):
+                state[k] = "done"
+                order.append(k)
+        return [(i, bodies[i]) for i in order]
+
+    def body(self, scene, i, d):
+        key = f"body[{i}]"
+        what = f"body '{d['name']}'"
+        b = self.fields(d, key, BODY_KEYS, ("name", "mass"), what)
+        joint = self.joint(b["joint"], f"{key}.joint", what) if "joint" in b else None
+        inertia = b.get("inertia")
+        if isinstance(inertia, dict):
+            if "inertia_about" in b:
+                raise self.error(f"{key}.inertia_about", f"{what}: inertia_about goes with an inertia matrix; "
+                                                         "a helper table gives the tensor about the com")
+            inertia = self.inertia_table(inertia, b["mass"], f"{key}.inertia", what)
+        try:
+            scene.add_body(b["name"], parent=b.get("parent", WORLD), joint=joint, mass=b["mass"],
+                           com=b.get("com", (0.0, 0.0, 0.0)), inertia=inertia,
+                           inertia_about=b.get("inertia_about"))
+        except ModelError as e:
+            raise self.error(key, str(e)) from None
+
+    def joint(self, d, key, what):
+        kind = d.get("type")
+        if kind is None:
+            raise self.error(f"{key}.type", f"{what}: missing required key 'type' (one of "
+                                            f"{', '.join(JOINT_PARAMS)})")
+        if not isinstance(kind, str) or kind not in JOINT_PARAMS:
+            raise self.error(f"{key}.type", f"{what}: unknown joint type {_show(kind)} (one of "
+                                            f"{', '.join(JOINT_PARAMS)})")
+        params, required = JOINT_PARAMS[kind]
+        j = self.fields(d, key, {**JOINT_COMMON, **params}, required, f"{what} {kind} joint")
+        j.pop("type")
+        if kind == "helical":
+            if ("pitch" in j) == ("lead" in j):
+                raise self.error(f"{key}.pitch", f"{what}: a helical joint needs either pitch (m/rad) or "
+                                                 "lead (m/turn)")
+            if "lead" in j:
+                j["pitch"] = j.pop("lead") / (2.0 * math.pi)
+        try:
+            return _joints.KINDS[kind](**j)
+        except ModelError as e:
+            raise self.error(key, f"{what}: {e}") from None
+
+    def inertia_table(self, d, mass, key, what):
+        shape = d.get("shape")
+        if shape is None:
+            raise self.error(f"{key}.shape", f"{what}: missing required key 'shape' (one of "
+                                             f"{', '.join(INERTIA_SHAPES)})")
+        if not isinstance(shape, str) or shape not in INERTIA_SHAPES:
+            raise self.error(f"{key}.shape", f"{what}: unknown inertia shape {_show(shape)} (one of "
+                                             f"{', '.join(INERTIA_SHAPES)})")
+        params, required, helper = INERTIA_SHAPES[shape]
+        p = self.fields(d, key, {"shape": _string, **params}, required, f"{what} {shape} inertia")
+        p.pop("shape")
+        try:
+            return helper(mass, **p)
+        except ModelError as e:
+            raise self.error(key, f"{what}: {e}") from None
+
+    # ---------------------------------------------------------------- elements
+    def element(self, scene, table, i, d):
+        key = f"{table}[{i}]"
+        spec, required = ELEMENT_KEYS[table]
+        name, body = d.get("name"), d.get("body")
+        what = table.replace("_", " ")
+        if isinstance(name, str):
+            what += f" '{name}'"
+        elif isinstance(body, str):
+            what += f" on '{body}'"
+
+        e = self.fields(d, key, spec, required, what)
+        try:
+            if table == "spring":
+                scene.add_spring(e["name"], _att(e["a"]), _att(e["b"]), e["stiffness"], e.get("free_length"))
+            elif table == "damper":
+                scene.add_damper(e["name"], _att(e["a"]), _att(e["b"]), e["damping"])
+            elif table == "joint_spring":
+                scene.add_joint_spring(e["body"], e["stiffness"], e.get("rest", 0.0), name=e.get("name"))
+            elif table == "joint_damper":
+                scene.add_joint_damper(e["body"], e["damping"], name=e.get("name"))
+            elif table == "joint_force":
+                scene.add_joint_force(e["body"], self.joint_force_value(e, key, what), name=e.get("name"))
+            elif table == "force":
+                frame = e.get("frame", "world")
+                if frame not in ("world", "body"):
+                    raise self.error(f"{key}.frame", f"{what}: frame must be \"world\" or \"body\", got "
+                                                     f"{_show(frame)}")
+                scene.add_force(e["name"], e["body"], e.get("force", (0.0, 0.0, 0.0)), e.get("at", (0.0, 0.0, 0.0)),
+                                e.get("torque"), frame)
+        except ModelError as err:
+            if isinstance(err, SceneFileError):
+                raise
+            raise self.error(key, str(err)) from None
+
+    def joint_force_value(self, e, key, what):
+        law_params = {k for k in e if k in ("coefficients", "amplitude", "omega", "phase", "offset")}
+        if ("value" in e) == ("law" in e):
+            raise self.error(f"{key}.value", f"{what}: give either value (a constant) or law "
+                                             f"({' or '.join(_laws.LAWS)})")
+        if "value" in e:
+            if law_params:
+                k = sorted(law_params)[0]
+                raise self.error(f"{key}.{k}", f"{what}: '{k}' goes with a law, not with value")
+            return e["value"]
+        law = e["law"]
+        if law not in LAW_KEYS:
+            raise self.error(f"{key}.law", f"{what}: unknown law {_show(law)} (one of {', '.join(LAW_KEYS)})")
+        allowed, required = LAW_KEYS[law]
+        for k in sorted(law_params - set(allowed)):
+            raise self.error(f"{key}.{k}", f"{what}: unknown key '{k}' for law \"{law}\" (allowed: "
+                                           f"{', '.join(allowed)})")
+        for k in required:
+            if k not in e:
+                raise self.error(f"{key}.{k}", f"{what}: missing required key '{k}' for law \"{law}\"")
+        try:
+            return _laws.from_dict({"law": law, **{k: e[k] for k in law_params}}, what)
+        except ModelError as err:
+            raise self.error(key, str(err)) from None
+
+
+def _has_body(scene, name):
+    try:
+        scene.body(name)
+        return True
+    except ModelError:
+        return False
+
+
+def _att(a):
+    return a if isinstance(a, str) else (a[0], tuple(a[1]))
+
+
+# ------------------------------------------------------------------ writing
+
+_ELEMENT_TABLES = ((Spring, "spring"), (Damper, "damper"), (JointSpring, "joint_spring"),
+                   (JointDamper, "joint_damper"), (JointForce, "joint_force"), (BodyForce, "force"))
+
+
+def scene_to_dict(scene):
+    """The plain data of a scene file (the structure :func:`scene_from_dict` reads).
+
+    Raises ``ModelError`` for elements that hold Python callables (they cannot be written).
+    """
+    head = {"name": scene.name, "gravity": [float(g) for g in scene.gravity]}
+    if scene.source is not None:
+        head["source"] = scene.source
+    if scene.description is not None:
+        head["description"] = scene.description
+    out = {"scene": head}
+    bodies = []
+    for body in scene.bodies.values():  # insertion order is parents first
+        d = body.to_dict()
+        b = {"name": d["name"]}
+        if d["parent"] != WORLD:
+            b["parent"] = d["parent"]
+        b["mass"] = d["mass"]
+        if any(d["com"]):
+            b["com"] = d["com"]
+        if any(any(r) for r in d["inertia"]):
+            b["inertia"] = d["inertia"]
+        j = d["joint"]
+        if j["type"] != "fixed" or any(j["at"]) or "rotation" in j or "name" in j:
+            b["joint"] = j
+        bodies.append(b)
+    if bodies:
+        out["body"] = bodies
+    for cls, table in _ELEMENT_TABLES:
+        entries = []
+        for e in scene.elements_of(cls):
+            d = e.to_dict()
+            if table == "joint_spring" and not np.any(d.get("rest", 0.0)):
+                d.pop("rest", None)
+            if table == "force" and d.get("frame") == "world":
+                d.pop("frame")
+            entries.append(d)
+        if entries:
+            out[table] = entries
+    op = scene.operating_point
+    if op:
+        out["operating_point"] = {}
+        if op.get("cyclic"):
+            out["operating_point"]["cyclic"] = {k: "free" if x is None else x for k, x in op["cyclic"].items()}
+        if op.get("start") is not None:
+            out["operating_point"]["start"] = list(op["start"])
+    if scene.references:
+        out["reference"] = copy.deepcopy(dict(scene.references))
+    return out
+
+
+def save_scene(scene, path):
+    """Write ``scene`` as a TOML scene file that :func:`load_scene` reads back identically."""
+    text = "# vibdyn scene file\n\n" + dumps(scene_to_dict(scene), path=str(path))
+    Path(path).write_text(text, encoding="utf-8")
+
+
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+def dumps(doc, path=None):
+    """TOML text of a dict (strings, numbers, booleans, dates, arrays, tables, arrays of tables).
+
+    Tables nested in the top-level tables are written as ``[a.b]`` sections; tables inside arrays of
+    tables (and inside arrays) are written inline. ``None`` values in tables are left out (TOML has no
+    null); anything else that TOML cannot hold raises ``SceneFileError`` naming the key.
+    """
+    if not isinstance(doc, dict):
+        raise SceneFileError(f"expected a dict at the top level, got {_show(doc)}", path=path)
+    lines = []
+    _emit_table(lines, [], "", doc, inline=False, path=path)
+    return "\n".join(lines).strip("\n") + "\n"
+
+
+def _emit_table(lines, header, where, table, inline, path):
+    """Write one table: its plain keys first, then (unless ``inline``) its sub-tables and arrays of tables in
+    their order."""
+    simple, nested = [], []
+    for k, v in table.items():
+        if not isinstance(k, str):
+            raise SceneFileError(f"table keys must be strings, got {_show(k)}", path=path, key=where or None)
+        if v is None:
+            continue
+        if not inline and (isinstance(v, dict) or (isinstance(v, (list, tuple)) and v
+                                                   and all(isinstance(x, dict) for x in v))):
+            nested.append((k, v))
+        else:
+            simple.append((k, v))
+    for k, v in simple:
+        lines.append(f"{_key(k)} = {_value(v, _join(where, k), path)}")
+    for k, v in nested:
+        name = ".".join(_key(h) for h in header + [k])
+        if isinstance(v, dict):
+            lines.extend(["", f"[{name}]"])
+            _emit_table(lines, header + [k], _join(where, k), v, inline=False, path=path)
+        else:
+            for i, item in enumerate(v):
+                lines.extend(["", f"[[{name}]]"])
+                _emit_table(lines, header + [k], f"{_join(where, k)}[{i}]", item, inline=True, path=path)
+
+
+def _join(where, k):
+    return f"{where}.{k}" if where else k
+
+
+def _key(k):
+    return k if _BARE_KEY.fullmatch(k) else _string_literal(k)
+
+
+def _string_literal(s):
+    out = ['"']
+    for ch in s:
+        c = ord(ch)
+        if ch == '"':
+            out.append('\\"')
+        elif ch == "\\":
+            out.append("\\\\")
+        elif ch == "\n":
+            out.append("\\n")
+        elif ch == "\t":
+            out.append("\\t")
+        elif ch == "\r":
+            out.append("\\r")
+        elif c < 0x20 or c == 0x7F:
+            out.append(f"\\u{c:04X}")
+        else:
+            out.append(ch)
+    out.append('"')
+    return "".join(out)
+
+
+def _value(v, where, path):
+    if isinstance(v, (bool, np.bool_)):
+        return "true" if v else "false"
+    if isinstance(v, (numbers.Integral, np.integer)):
+        return str(int(v))
+    if isinstance(v, (numbers.Real, np.floating)):
+        x = float(v)
+        if math.isnan(x):
+            return "nan"
+        if math.isinf(x):
+            return "inf" if x > 0 else "-inf"
+        return repr(x)
+    if isinstance(v, str):
+        return _string_literal(v)
+    if isinstance(v, (_dt.datetime, _dt.date, _dt.time)):
+        return v.isoformat()
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value(x, f"{where}[{i}]", path) for i, x in enumerate(v)) + "]"
+    if isinstance(v, dict):
+        items = []
+        for k, x in v.items():
+            if not isinstance(k, str):
+                raise SceneFileError(f"table keys must be strings, got {_show(k)}", path=path, key=where or None)
+            if x is not None:
+                items.append(f"{_key(k)} = {_value(x, _join(where, k), path)}")
+        return "{ " + ", ".join(items) + " }" if items else "{}"
+    raise SceneFileError(f"cannot write {_show(v)} ({type(v).__name__}) to TOML", path=path, key=where or None)
