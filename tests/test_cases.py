@@ -123,3 +123,17 @@ def test_cli_reports_model_errors(tmp_path, capsys):
     bad.write_text('[[body]]\nname = "b"\nmass = -1.0\n')
     assert main(["modes", str(bad)]) == 2
     assert "bad.toml" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("path", sorted(MODELS.glob("*.toml")), ids=lambda p: p.stem)
+def test_cli_info_on_every_model(path, capsys):
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    scene = vd.load_scene(path)
+    assert f"scene      {scene.name}" in out
+    assert all(name in out for name in scene.bodies) and all(name in out for name in scene.elements)
+
+
+def test_cli_info_on_a_robot(capsys):
+    assert main(["info", "robot:ur5"]) == 0
+    assert "shoulder_pan_joint" in capsys.readouterr().out

@@ -151,3 +151,17 @@ def test_ball_chain_analytic_is_accurate_on_long_chain():
     q = system.random_configuration(0.3, rng=2)
     fd, an = system.linearize(q), system.linearize(q, method="analytic")
     assert rel(fd.K, an.K) < 1e-7
+
+
+def test_singular_mass_matrix_at_the_operating_point_names_the_body():
+    """A massless carriage on a pivot carries a point mass on a radial slider: when the mass reaches the
+    axis, nothing has inertia about it."""
+    s = vd.Scene("carriage")
+    s.add_body("carriage", joint=vd.Pivot((0, 0, 1)), mass=0.0)
+    s.add_body("bead", "carriage", vd.Slider((1, 0, 0), at=(0.5, 0, 0)), mass=1.0)
+    system = s.build()  # fine at neutral: the bead is 0.5 m from the axis
+    q = system.integrate(system.neutral(), [0.0, -0.5])
+    with pytest.raises(vd.ModelError, match="singular mass matrix.*'carriage'"):
+        system.linearize(q)
+    with pytest.raises(vd.ModelError, match="singular mass matrix.*'carriage'"):
+        system.accelerations(q, np.zeros(2))
