@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import VibdynError
+from .errors import ModelError, VibdynError
 
 
 def models_dir():
@@ -172,7 +172,13 @@ def _kind(e):
 
 
 def _details(e):
-    from .elements import BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring
+    from .elements import BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring, Support
+
+    if isinstance(e, Support):
+        try:
+            return f"moving support: {e.motion.to_dict()}"
+        except (ModelError, AttributeError):  # callables: no plain-data form
+            return f"moving support: {type(e.motion).__name__}"
 
     if isinstance(e, Spring):
         l0 = "neutral distance" if e.free_length is None else f"{e.free_length:g} m"

@@ -77,7 +77,7 @@ def analytic_derivatives(system, q, v, a, t):
     if system._point_groups:
         kin = _PointKinematics(system, q, v, a, need_velocity_derivatives=any(
             isinstance(g, F.Dampers) for g in system.groups))
-        fkin = system._kinematics(q, v if system._point_velocities else None)
+        fkin = system._kinematics(q, v if system._point_velocities else None, t)
         dFq = {j: np.zeros((6, nv)) for j in system._point_joints}
         dFv = {j: np.zeros((6, nv)) for j in system._point_joints}
         for g in system._point_groups:
@@ -115,7 +115,8 @@ def _springs(g, system, kin, fkin, dFq, dFv, q, v, t):
 
 def _dampers(g, system, kin, fkin, dFq, dFv, q, v, t):
     xa, xb, d, L = g._geometry(fkin)
-    vrel = fkin.velocities(g.jb, g.pb) - fkin.velocities(g.ja, g.pa)
+    va, vb = g.end_velocities(fkin)
+    vrel = vb - va
     for i in range(len(g.c)):
         ja, jb = int(g.ja[i]), int(g.jb[i])
         u = d[i] / L[i]

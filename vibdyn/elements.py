@@ -144,6 +144,19 @@ class BodyForce:
         return d
 
 
+@dataclass(frozen=True)
+class Support:
+    """A moving support: a frame of the world translated by ``motion`` (a law with ``position(t)`` in m and
+    ``velocity(t)`` in m/s, e.g. :class:`vibdyn.laws.HarmonicMotion`). Springs and dampers attach to it as
+    ``(support_name, point)``, the point given in world axes at zero displacement (base excitation)."""
+
+    name: str
+    motion: object
+
+    def to_dict(self):
+        return {"name": self.name, "motion": self.motion.to_dict()}
+
+
 def joint_force_value(value, nv, what):
     """Check a joint force value: a number (or nv numbers), a law, or a callable."""
     if isinstance(value, dict):

@@ -20,12 +20,18 @@ def cross(a, b):
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
+_NO_SUPPORT = np.zeros((1, 3))
+
+
 class Kinematics:
     """Poses (and local velocities if asked) of the joints that point elements attach to."""
 
-    __slots__ = ("R", "p", "v", "w")
+    __slots__ = ("R", "p", "v", "w", "sp", "sv")
 
-    def __init__(self, model, data, joints, q, v=None):
+    def __init__(self, model, data, joints, q, v=None, supports=None):
+        # support displacements and velocities (m, m/s), one row per support and a last zero row, so that
+        # index −1 (an end on no support) adds nothing
+        self.sp, self.sv = supports if supports is not None else (_NO_SUPPORT, _NO_SUPPORT)
         if v is None:
             pin.forwardKinematics(model, data, q)
         else:
@@ -85,10 +91,18 @@ class _TwoPoint(Group):
         self.names = [e.name for e in elements]
         self.ja, self.pa = system.attachments([e.a for e in elements])
         self.jb, self.pb = system.attachments([e.b for e in elements])
+        self.sa = system.support_indices([e.a for e in elements])
+        self.sb = system.support_indices([e.b for e in elements])
         self.joints = tuple(sorted(set(self.ja) | set(self.jb)))
 
+    def end_velocities(self, kin):
+        """World velocities (m/s) of the two ends, supports' motion included."""
+        return (kin.velocities(self.ja, self.pa) + kin.sv[self.sa],
+                kin.velocities(self.jb, self.pb) + kin.sv[self.sb])
+
     def _geometry(self, kin, zero_ok=None):
-        xa, xb = kin.points(self.ja, self.pa), kin.points(self.jb, self.pb)
+        xa = kin.points(self.ja, self.pa) + kin.sp[self.sa]
+        xb = kin.points(self.jb, self.pb) + kin.sp[self.sb]
         d = xb - xa
         L = np.linalg.norm(d, axis=1)
         tiny = L <= self._tiny
@@ -140,7 +154,8 @@ class Dampers(_TwoPoint):
     def apply(self, t, q, v, kin, Q, F):
         xa, xb, d, L = self._geometry(kin)
         u = d / L[:, None]
-        rate = np.einsum("ni,ni->n", u, kin.velocities(self.jb, self.pb) - kin.velocities(self.ja, self.pa))
+        va, vb = self.end_velocities(kin)
+        rate = np.einsum("ni,ni->n", u, vb - va)
         fb = (-self.c * rate)[:, None] * u
         add_point_forces(F, kin, self.jb, xb, fb)
         add_point_forces(F, kin, self.ja, xa, -fb)

@@ -60,7 +60,60 @@ class Harmonic:
                 "offset": self.offset}
 
 
-LAWS = {"polynomial": Polynomial, "harmonic": Harmonic}
+@dataclass(frozen=True)
+class HarmonicMotion:
+    """Harmonic motion of a support: displacement amplitude · sin(omega·t + phase) (m, world axes;
+    omega in rad/s, phase in rad), velocity amplitude · omega · cos(omega·t + phase)."""
+
+    amplitude: tuple
+    omega: float
+    phase: float = 0.0
+
+    def __post_init__(self):
+        a = finite_array(self.amplitude, (3,), "harmonic motion amplitude")
+        object.__setattr__(self, "amplitude", tuple(float(x) for x in a))
+        object.__setattr__(self, "omega", scalar(self.omega, "harmonic motion omega"))
+        object.__setattr__(self, "phase", scalar(self.phase, "harmonic motion phase"))
+
+    def position(self, t):
+        return np.array(self.amplitude) * math.sin(self.omega * t + self.phase)
+
+    def velocity(self, t):
+        return np.array(self.amplitude) * (self.omega * math.cos(self.omega * t + self.phase))
+
+    def to_dict(self):
+        return {"law": "harmonic_motion", "amplitude": list(self.amplitude), "omega": self.omega,
+                "phase": self.phase}
+
+
+def road(amplitude, wavelength, speed, direction=(0.0, 0.0, 1.0), phase=0.0):
+    """A road of harmonic profile (amplitude m, wavelength m) driven over at ``speed`` m/s: the wheel's
+    support moves along ``direction`` at ω = 2π·speed/wavelength rad/s."""
+    lam = scalar(wavelength, "road wavelength", positive=True)
+    d = finite_array(direction, (3,), "road direction")
+    if not np.any(d):
+        raise ModelError("road direction: zero vector")
+    amp = scalar(amplitude, "road amplitude") * d / np.linalg.norm(d)
+    return HarmonicMotion(tuple(amp), 2 * math.pi * scalar(speed, "road speed") / lam, phase)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Support motion from two callables of t: ``position(t)`` (m) and ``velocity(t)`` (m/s), 3-vectors."""
+
+    position: object
+    velocity: object
+
+    def __post_init__(self):
+        if not (callable(self.position) and callable(self.velocity)):
+            raise ModelError("support motion: position and velocity must both be callables of t")
+
+    def to_dict(self):
+        raise ModelError("support motion given as Python callables cannot be written to a scene file "
+                         "(use vibdyn.laws.HarmonicMotion)")
+
+
+LAWS = {"polynomial": Polynomial, "harmonic": Harmonic, "harmonic_motion": HarmonicMotion}
 
 
 def from_dict(d, what="law"):

@@ -110,6 +110,25 @@ class LinearModel:
         """Input matrix of forces (N, world axes) at body points: Jᵀ (nv × 3·npoints)."""
         return self.point_jacobian(points).T
 
+    def support_input(self, name, step=1e-5):
+        """(B_y, B_v): generalized force (N or N·m) per unit displacement (m) and per unit velocity (m/s)
+        of the support ``name`` along the world axes (nv × 3 each), by central differences: the linear
+        model's base-excitation input, M δv̇ + C δv + K δq = B_y y + B_v ẏ."""
+        system = self.system
+        if name not in system._support_index:
+            raise ModelError(f"unknown support '{name}' (supports: {', '.join(system._support_index) or 'none'})")
+        i = system._support_index[name]
+        h = step * system.length_scale
+        out = np.zeros((self.nv, 6))
+        for k in range(6):
+            shift = np.zeros((len(system.supports), 6))
+            shift[i, k] = h
+            rp = system._residual(self.q0, self.v0, self.a0, self.t0, shift)
+            shift[i, k] = -h
+            rm = system._residual(self.q0, self.v0, self.a0, self.t0, shift)
+            out[:, k] = -(rp - rm) / (2 * h)  # r = RNEA − Q: the support's pull is −∂r
+        return out[:, :3], out[:, 3:]
+
     def modes(self, **kwargs):
         """Modal analysis of this linear model (see :func:`vibdyn.modal.modes`)."""
         from .modal import modes

@@ -12,7 +12,8 @@ import numpy as np
 from . import inertia as _inertia
 from . import joints as _joints
 from ._check import finite_array, scalar, stiffness_like, vector3
-from .elements import (WORLD, BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring, attachment,
+from .elements import (WORLD, BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring, Support,
+                       attachment,
                        joint_force_value, vector_or_callable)
 from .errors import ModelError
 
@@ -152,6 +153,20 @@ class Scene:
         td = bool(getattr(v, "time_dependent", callable(v))) if time_dependent is None else bool(time_dependent)
         return self._add(JointForce(name, b.name, v, vd, td))
 
+    def add_support(self, name, motion):
+        """A moving support (base excitation): springs and dampers attach to ``(name, point)``, the point in
+        world axes, moved by ``motion`` — a :class:`vibdyn.laws.HarmonicMotion`, ``vibdyn.laws.road(...)``,
+        a :class:`vibdyn.laws.Motion` of two callables of t, or a dict of a law."""
+        self._check_new_name(name, "support")
+        from . import laws
+
+        if isinstance(motion, dict):
+            motion = laws.from_dict(motion, f"support '{name}' motion")
+        if not (callable(getattr(motion, "position", None)) and callable(getattr(motion, "velocity", None))):
+            raise ModelError(f"support '{name}': motion must have position(t) and velocity(t) (m, m/s), e.g. "
+                             "vibdyn.laws.HarmonicMotion")
+        return self._add(Support(name, motion))
+
     def add_force(self, name, body, force=(0.0, 0.0, 0.0), at=(0.0, 0.0, 0.0), torque=None, frame="world"):
         """External force (N) at the point ``at`` of ``body`` (m, body frame) and optional torque (N·m).
 
@@ -246,7 +261,7 @@ class Scene:
 
     def _attachment(self, value, what):
         body, point = attachment(value, what)
-        if body != WORLD:
+        if body != WORLD and not isinstance(self.elements.get(body), Support):
             b = self._find_body(body)
             if b is None:
                 raise ModelError(f"{what}: unknown body '{body}'")

@@ -12,7 +12,7 @@ import pinocchio as pin
 
 from . import forces as _forces
 from ._check import vector3
-from .elements import WORLD, Spring
+from .elements import WORLD, Spring, Support
 from .errors import ModelError
 
 
@@ -96,12 +96,14 @@ class System:
         self.units = tuple(u for b in self._bodies.values() for u in b.joint.units)  # "m" or "rad"
         self.bodies = tuple(self._bodies)
         self.has_gravity = bool(np.any(self.scene.gravity))
+        self.supports = tuple(self.scene.elements_of(Support))
+        self._support_index = {s.name: i for i, s in enumerate(self.supports)}
         self.groups = _forces.compile_groups(self, self.scene, self._free_lengths())
         self._point_groups = [g for g in self.groups if g.uses_points]
         self._point_joints = tuple(sorted({int(j) for g in self._point_groups for j in g.joints} - {0}))
         self._point_velocities = any(g.uses_point_velocities for g in self.groups)
         self.depends_on_velocity = any(g.velocity_dependent for g in self.groups)
-        self.depends_on_time = any(g.time_dependent for g in self.groups)
+        self.depends_on_time = any(g.time_dependent for g in self.groups) or bool(self.supports)
         self._fext = pin.StdVec_Force()
         for _ in range(self.model.njoints):
             self._fext.append(pin.Force.Zero())
@@ -178,19 +180,21 @@ class System:
         M a + b(q, v) − Q(q, v, t), by RNEA; zero when a = accelerations(q, v, t)."""
         return self._residual(self._q(q), self._v(v), self._v(a, "a"), t)
 
-    def _residual(self, q, v, a, t):
-        """inverse_dynamics without input checks (the hot path of linearisation and Newton)."""
-        Q, fext = self._forces(q, v, t)
+    def _residual(self, q, v, a, t, shift=None):
+        """inverse_dynamics without input checks (the hot path of linearisation and Newton); ``shift``
+        offsets the supports' displacements and velocities (n_supports × 6) for base-excitation inputs."""
+        Q, fext = self._forces(q, v, t, shift)
         tau = (pin.rnea(self.model, self.data, q, v, a) if fext is None
                else pin.rnea(self.model, self.data, q, v, a, fext))
         return tau - Q
 
-    def energy(self, q, v):
-        """Kinetic, gravity and elastic energies (J). Work of dampers and applied forces is not included."""
+    def energy(self, q, v, t=0.0):
+        """Kinetic, gravity and elastic energies (J) at time t (springs on moving supports depend on it).
+        Work of dampers and applied forces is not included."""
         q, v = self._q(q), self._v(v)
         kinetic = pin.computeKineticEnergy(self.model, self.data, q, v)
         gravity = pin.computePotentialEnergy(self.model, self.data, q) if self.has_gravity else 0.0
-        kin = self._kinematics(q, None) if self._point_groups else None
+        kin = self._kinematics(q, None, t) if self._point_groups else None
         elastic = sum(g.potential(q, kin) for g in self.groups)
         return Energy(float(kinetic), float(gravity), float(elastic))
 
@@ -301,7 +305,7 @@ class System:
         """(joint ids, points in joint frames) of ``[(body, point), ...]``; world points on joint 0."""
         joints, local = [], []
         for body, point in atts:
-            if body == WORLD:
+            if body == WORLD or body in self._support_index:
                 joints.append(0)
                 local.append(np.asarray(point, dtype=float))
             else:
@@ -310,18 +314,22 @@ class System:
                 local.append(b.body_in_joint.act(np.asarray(point, dtype=float)))
         return np.array(joints, dtype=int), np.array(local, dtype=float).reshape(-1, 3)
 
+    def support_indices(self, atts):
+        """Index of the support each attachment of ``[(body, point), ...]`` is on, −1 for none."""
+        return np.array([self._support_index.get(body, -1) for body, _ in atts], dtype=int)
+
     def __repr__(self):
         return f"System({self.name!r}, nq={self.nq}, nv={self.nv}, {len(self.groups)} force groups)"
 
     # ------------------------------------------------------------- internals
-    def _forces(self, q, v, t):
+    def _forces(self, q, v, t, shift=None):
         """Joint-space forces Q and, if the scene has point elements, the external forces for ABA/RNEA."""
         Q = np.zeros(self.nv)
         if not self._point_groups:
             for g in self.groups:
                 g.apply(t, q, v, None, Q, None)
             return Q, None
-        kin = self._kinematics(q, v if self._point_velocities else None)
+        kin = self._kinematics(q, v if self._point_velocities else None, t, shift)
         F = np.zeros((self.model.njoints, 6))
         for g in self.groups:
             g.apply(t, q, v, kin, Q, F)
@@ -329,8 +337,22 @@ class System:
             self._fext[j] = pin.Force(F[j, :3], F[j, 3:])
         return Q, self._fext
 
-    def _kinematics(self, q, v):
-        return _forces.Kinematics(self.model, self.data, self._point_joints, q, v)
+    def _kinematics(self, q, v, t=0.0, shift=None):
+        supports = None
+        if self.supports:
+            n = len(self.supports)
+            sp, sv = np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
+            for i, s in enumerate(self.supports):
+                sp[i], sv[i] = s.motion.position(t), s.motion.velocity(t)
+            if shift is not None:
+                sp[:n] += shift[:, :3]
+                sv[:n] += shift[:, 3:]
+            if not (np.all(np.isfinite(sp)) and np.all(np.isfinite(sv))):
+                bad = next(s.name for i, s in enumerate(self.supports)
+                           if not (np.all(np.isfinite(sp[i])) and np.all(np.isfinite(sv[i]))))
+                raise ModelError(f"support '{bad}': motion is not finite at t = {t}")
+            supports = (sp, sv)
+        return _forces.Kinematics(self.model, self.data, self._point_joints, q, v, supports)
 
     def _gravity_forces(self, q):
         if not self.has_gravity:
@@ -345,8 +367,7 @@ class System:
         q0 = self.neutral()
         out = []
         for s in springs:
-            xa = self.point_position(s.a[0], s.a[1], q0) if s.a[0] != WORLD else np.array(s.a[1])
-            xb = self.point_position(s.b[0], s.b[1], q0) if s.b[0] != WORLD else np.array(s.b[1])
+            xa, xb = self._anchor(s.a, q0), self._anchor(s.b, q0)
             L = float(np.linalg.norm(xb - xa))
             l0 = L if s.free_length is None else s.free_length
             if l0 > 0 and L <= 1e-9 * max(l0, 1e-3):  # the threshold Springs uses at each call
@@ -354,6 +375,15 @@ class System:
                                  "configuration), so its direction is undefined")
             out.append(l0)
         return out
+
+    def _anchor(self, att, q, t=0.0):
+        """World position (m) of an attachment (body point, world point or support point) at (q, t)."""
+        body, point = att
+        if body == WORLD:
+            return np.array(point, dtype=float)
+        if body in self._support_index:
+            return np.array(point, dtype=float) + self.supports[self._support_index[body]].motion.position(t)
+        return self.point_position(body, point, q)
 
     def _check_mass_matrix(self, q, where):
         M = self.mass_matrix(q)

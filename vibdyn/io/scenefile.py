@@ -41,6 +41,10 @@ Format
     stiffness = 100.0                 # N/m
     free_length = 1.0                 # m, optional (default: the length at the neutral configuration)
 
+    [[support]]       # a moving support (base excitation): springs and dampers attach to [name, [x, y, z]]
+    name = "ground"   # (point in world axes at zero displacement)
+    motion = { law = "harmonic_motion", amplitude = [0.0, 0.0, 0.01], omega = 15.0, phase = 0.0 }   # m, rad/s
+
     [[damper]]        # name, a, b, damping (N·s/m)
     [[joint_spring]]  # body, stiffness (N/m or N·m/rad: number or one per coordinate),
                       # rest (optional, same form, tangent offset from neutral), name (optional)
@@ -85,7 +89,7 @@ import numpy as np
 from .. import inertia as _inertia
 from .. import joints as _joints
 from .. import laws as _laws
-from ..elements import WORLD, BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring
+from ..elements import WORLD, BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring, Support
 from ..errors import ModelError, SceneFileError
 from ..scene import Scene
 
@@ -294,7 +298,8 @@ INERTIA_SHAPES = {  # shape: (keys, required, helper(mass, **params))
     "disc": ({"radius": _nonnegative, "axis": _vec3}, ("radius",), _inertia.disc),
     "sphere": ({"radius": _nonnegative, "hollow": _boolean}, ("radius",), _inertia.sphere),
 }
-ELEMENT_KEYS = {  # table: (keys, required)
+ELEMENT_KEYS = {  # table: (keys, required); supports first, so that springs and dampers can attach to them
+    "support": ({"name": _string, "motion": _table}, ("name", "motion")),
     "spring": ({"name": _string, "a": _attachment, "b": _attachment, "stiffness": _nonnegative,
                 "free_length": _nonnegative}, ("name", "a", "b", "stiffness")),
     "damper": ({"name": _string, "a": _attachment, "b": _attachment, "damping": _nonnegative},
@@ -312,7 +317,7 @@ ELEMENT_KEYS = {  # table: (keys, required)
 LAW_KEYS = {"polynomial": (("coefficients",), ("coefficients",)),
             "harmonic": (("amplitude", "omega", "phase", "offset"), ("amplitude", "omega"))}
 OPERATING_POINT_KEYS = {"cyclic": _table, "start": _numbers_list}
-TOP_LEVEL = ("scene", "robot", "body", "spring", "damper", "joint_spring", "joint_damper", "joint_force",
+TOP_LEVEL = ("scene", "robot", "body", "support", "spring", "damper", "joint_spring", "joint_damper", "joint_force",
              "force", "operating_point", "reference")
 
 
@@ -556,7 +561,9 @@ class _Reader:
 
         e = self.fields(d, key, spec, required, what)
         try:
-            if table == "spring":
+            if table == "support":
+                scene.add_support(e["name"], e["motion"])
+            elif table == "spring":
                 scene.add_spring(e["name"], _att(e["a"]), _att(e["b"]), e["stiffness"], e.get("free_length"))
             elif table == "damper":
                 scene.add_damper(e["name"], _att(e["a"]), _att(e["b"]), e["damping"])
@@ -618,7 +625,7 @@ def _att(a):
 
 # ------------------------------------------------------------------ writing
 
-_ELEMENT_TABLES = ((Spring, "spring"), (Damper, "damper"), (JointSpring, "joint_spring"),
+_ELEMENT_TABLES = ((Support, "support"), (Spring, "spring"), (Damper, "damper"), (JointSpring, "joint_spring"),
                    (JointDamper, "joint_damper"), (JointForce, "joint_force"), (BodyForce, "force"))
 
 
