@@ -23,29 +23,28 @@ def load(name):
     return vd.load_scene(MODELS / f"{name}.toml")
 
 
+def _central(f, n, h):
+    """Columns (f(+h e_k) − f(−h e_k)) / 2h, k = 0…n−1."""
+    J = np.empty((n, n))
+    for k in range(n):
+        e = np.zeros(n)
+        e[k] = h
+        J[:, k] = (f(e) - f(-e)) / (2 * h)
+    return J
+
+
 def stiffness(system, q0, v0=None, a0=None, h=1e-6):
     """K = ∂/∂q inverse_dynamics(q, v0, a0) in the tangent space, by central differences."""
     v0 = np.zeros(system.nv) if v0 is None else v0
     a0 = np.zeros(system.nv) if a0 is None else a0
-    K = np.empty((system.nv, system.nv))
-    for k in range(system.nv):
-        e = np.zeros(system.nv)
-        e[k] = h
-        K[:, k] = (system.inverse_dynamics(system.integrate(q0, e), v0, a0)
-                   - system.inverse_dynamics(system.integrate(q0, -e), v0, a0)) / (2 * h)
-    return K
+    return _central(lambda e: system.inverse_dynamics(system.integrate(q0, e), v0, a0), system.nv, h)
 
 
 def damping(system, q0, v0=None, a0=None, h=1e-6):
     """C = ∂/∂v inverse_dynamics(q0, v, a0), by central differences (exact up to round-off: quadratic in v)."""
     v0 = np.zeros(system.nv) if v0 is None else v0
     a0 = np.zeros(system.nv) if a0 is None else a0
-    C = np.empty((system.nv, system.nv))
-    for k in range(system.nv):
-        e = np.zeros(system.nv)
-        e[k] = h
-        C[:, k] = (system.inverse_dynamics(q0, v0 + e, a0) - system.inverse_dynamics(q0, v0 - e, a0)) / (2 * h)
-    return C
+    return _central(lambda e: system.inverse_dynamics(q0, v0 + e, a0), system.nv, h)
 
 
 def modes(system, q0):

@@ -94,3 +94,17 @@ def stiffness_like(value, n, what):
 
 def _fmt(shape):
     return "(" + ", ".join("n" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
+
+
+def kind_of(d, field, registry, what, example, noun):
+    """(registry[d[field]], the other entries) of a plain-data table such as ``{"type": "pivot", ...}``."""
+    from collections.abc import Mapping
+
+    if not isinstance(d, Mapping):
+        raise ModelError(f"{what}: expected a table such as {example}, got {d!r}")
+    d = dict(d)
+    kind = d.pop(field, None)
+    if not isinstance(kind, str) or kind not in registry:
+        raise ModelError(f"{what}: unknown {noun} {kind!r} (one of {', '.join(registry)})")
+    return registry[kind], d
+

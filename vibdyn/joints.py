@@ -22,13 +22,12 @@ Fixed           0   0  none (the body is welded to its parent)
 """
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
-from ._check import rotation_matrix, scalar, unit_axis, vector3
+from ._check import kind_of, rotation_matrix, scalar, unit_axis, vector3
 from .errors import ModelError
 
 
@@ -313,10 +312,5 @@ KINDS = {cls.kind: cls for cls in (Pivot, Slider, Helical, Cylindrical, Universa
 
 def from_dict(d, what="joint"):
     """A joint from its plain-data form (``{"type": "pivot", "axis": [...], ...}``)."""
-    if not isinstance(d, Mapping):
-        raise ModelError(f"{what}: expected a table such as {{'type': 'pivot', ...}}, got {d!r}")
-    d = dict(d)
-    kind = d.pop("type", None)
-    if not isinstance(kind, str) or kind not in KINDS:
-        raise ModelError(f"{what}: unknown joint type {kind!r} (one of {', '.join(KINDS)})")
-    return KINDS[kind](**d)
+    cls, params = kind_of(d, "type", KINDS, what, "{'type': 'pivot', ...}", "joint type")
+    return cls(**params)

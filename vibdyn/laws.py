@@ -5,12 +5,11 @@ that analyses skip what it does not need (no velocity differences for a law that
 """
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from ._check import finite_array, scalar
+from ._check import finite_array, kind_of, scalar
 from .errors import ModelError
 
 
@@ -118,13 +117,8 @@ LAWS = {"polynomial": Polynomial, "harmonic": Harmonic, "harmonic_motion": Harmo
 
 def from_dict(d, what="law"):
     """A law from its plain-data form (``{"law": "polynomial", "coefficients": [...]}``)."""
-    if not isinstance(d, Mapping):
-        raise ModelError(f"{what}: expected a table such as {{'law': 'harmonic', ...}}, got {d!r}")
-    d = dict(d)
-    kind = d.pop("law", None)
-    if not isinstance(kind, str) or kind not in LAWS:
-        raise ModelError(f"{what}: unknown law {kind!r} (one of {', '.join(LAWS)})")
+    cls, params = kind_of(d, "law", LAWS, what, "{'law': 'harmonic', ...}", "law")
     try:
-        return LAWS[kind](**d)
+        return cls(**params)
     except (TypeError, ModelError) as e:  # bad keywords, or bad values: say which element has them
         raise ModelError(f"{what}: {e}") from None

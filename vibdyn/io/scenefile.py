@@ -510,14 +510,19 @@ class _Reader:
         except ModelError as e:
             raise self.error(key, str(e)) from None
 
-    def joint(self, d, key, what):
-        kind = d.get("type")
+    def kind(self, d, field, registry, key, what, noun):
+        """The value of the table's ``field`` (e.g. a joint's type), which must name an entry of registry."""
+        kind = d.get(field)
         if kind is None:
-            raise self.error(f"{key}.type", f"{what}: missing required key 'type' (one of "
-                                            f"{', '.join(JOINT_PARAMS)})")
-        if not isinstance(kind, str) or kind not in JOINT_PARAMS:
-            raise self.error(f"{key}.type", f"{what}: unknown joint type {_show(kind)} (one of "
-                                            f"{', '.join(JOINT_PARAMS)})")
+            raise self.error(f"{key}.{field}", f"{what}: missing required key '{field}' (one of "
+                                               f"{', '.join(registry)})")
+        if not isinstance(kind, str) or kind not in registry:
+            raise self.error(f"{key}.{field}", f"{what}: unknown {noun} {_show(kind)} (one of "
+                                               f"{', '.join(registry)})")
+        return kind
+
+    def joint(self, d, key, what):
+        kind = self.kind(d, "type", JOINT_PARAMS, key, what, "joint type")
         params, required = JOINT_PARAMS[kind]
         j = self.fields(d, key, {**JOINT_COMMON, **params}, required, f"{what} {kind} joint")
         j.pop("type")
@@ -533,13 +538,7 @@ class _Reader:
             raise self.error(key, f"{what}: {e}") from None
 
     def inertia_table(self, d, mass, key, what):
-        shape = d.get("shape")
-        if shape is None:
-            raise self.error(f"{key}.shape", f"{what}: missing required key 'shape' (one of "
-                                             f"{', '.join(INERTIA_SHAPES)})")
-        if not isinstance(shape, str) or shape not in INERTIA_SHAPES:
-            raise self.error(f"{key}.shape", f"{what}: unknown inertia shape {_show(shape)} (one of "
-                                             f"{', '.join(INERTIA_SHAPES)})")
+        shape = self.kind(d, "shape", INERTIA_SHAPES, key, what, "inertia shape")
         params, required, helper = INERTIA_SHAPES[shape]
         p = self.fields(d, key, {"shape": _string, **params}, required, f"{what} {shape} inertia")
         p.pop("shape")
