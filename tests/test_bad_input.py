@@ -573,3 +573,18 @@ def test_add_body_garbage_only_ever_raises_model_error(field, value, others):
     except vd.ModelError:
         return
     assert np.all(np.isfinite(a))
+
+
+def test_model_too_large_for_pinocchio_data_is_a_clear_error(monkeypatch):
+    """Pinocchio 4.1 fills 32·nv³ bytes of tensors in every Data (pinocchio#2949): say so, do not crash."""
+    import os
+
+    s = vd.Scene("chain")
+    parent = "world"
+    for i in range(20):
+        s.add_body(f"b{i}", parent, vd.Pivot((0, 1, 0)), mass=1.0, com=(0, 0, -0.1))
+        parent = f"b{i}"
+    real = os.sysconf
+    monkeypatch.setattr(os, "sysconf", lambda k: 1 if k == "SC_AVPHYS_PAGES" else real(k))
+    with pytest.raises(vd.ModelError, match=r"scene 'chain' has nv = 20.*pinocchio#2949"):
+        s.build()

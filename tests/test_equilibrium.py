@@ -123,3 +123,17 @@ def test_bad_names_are_model_errors():
         rotor().steady_motion({"nope": None})
     with pytest.raises(vd.ModelError):
         rotor().steady_motion({})
+
+
+def test_held_speed_is_linearised_about_the_held_motion():
+    """At a given speed the drive holds Ω: no spurious ∂M/∂q·a term. K = diag(0, k − mΩ²), and C has the
+    motor's 2Ω, the damper and the Coriolis pair ±2 m s Ω."""
+    omega, k, m, c, l0 = 3.0, 100.0, 1.0, 2.0, 0.5
+    st = rotor(c=c, k=k, m=m, l0=l0).steady_motion({"rotor": omega})
+    lin = st.linearize()
+    np.testing.assert_allclose(lin.a0, 0.0)
+    s = k * l0 / (k - m * omega**2)
+    np.testing.assert_allclose(lin.K, np.diag([0.0, k - m * omega**2]), atol=1e-6)
+    np.testing.assert_allclose(lin.C, [[2 * omega, 2 * m * s * omega], [-2 * m * s * omega, c]], rtol=1e-7)
+    an = st.linearize(method="analytic")
+    assert np.abs(an.K - lin.K).max() <= lin.K_error.max()

@@ -146,3 +146,18 @@ def test_modes_to_dict_is_json_ready():
     d = json.loads(json.dumps(modes.to_dict()))
     assert d["omega_rad_s"] == pytest.approx([1.0, np.sqrt(12)], rel=1e-9)
     assert len(d["eigenvalues"]) == 4 and "1" in str(modes).split("\n")[1]
+
+
+@pytest.mark.parametrize("method", ["fd", "analytic"])
+def test_stiff_spectrum_keeps_its_low_modes(method):
+    """Stiffness ratio 1e8 along a chain: the soft mode is genuine, not rigid, and its own error estimate
+    bounds its actual error (rule 2: right, or says how wrong). K = [[k_s + k_t, −k_t], [−k_t, k_t]], unit
+    masses: ω² = (k_s + 2k_t ∓ √(k_s² + 4k_t²))/2, the low root in its cancellation-free form."""
+    ks, kt = 1.0, 1e8  # wall–m1 soft, m1–m2 stiff
+    modes = slider_chain([1.0, 1.0], [ks, kt, 0.0]).linearize(method=method).modes()
+    assert not modes.rigid.any() and modes.stability == "stable"
+    root = np.hypot(ks, 2 * kt)
+    exact = np.sqrt([2 * ks * kt / (ks + 2 * kt + root), (ks + 2 * kt + root) / 2])
+    actual = np.abs(modes.omega - exact) / exact
+    assert np.all(actual <= modes.residual)
+    assert modes.residual[0] < 1e-3

@@ -162,9 +162,9 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
             break  # stagnated at round-off
         J = jacobian(q, v)
     q, v = best[1], best[2]
-    lin = linearize(system, q, v=v, t=t)
+    lin = linearize(system, q, v=v, t=t, a=np.zeros(nv))
     m = lin.modes()
-    stability = classify(m.rigid, m.unstable, m.eigenvalues, m.tolerance, ignore_zeros=len(cyclic))
+    stability = classify(m.rigid, m.unstable, m.eigenvalues, m.zero_threshold, ignore_zeros=len(cyclic))
     names = system.coordinates
     drive = {names[i]: float(r[i]) for i in given}
     return Equilibrium(system, q, v, float(t), "steady" if cyclic else "static", float(best[0]), float(target), it,

@@ -185,10 +185,12 @@ def operating_point(system, at=None, v=None, t=0.0):
     return q0, v0, float(t)
 
 
-def linearize(system, at=None, *, v=None, t=0.0, method="fd", step=1e-5):
+def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=1e-5):
     """Linear model of ``system`` about ``at`` (an Equilibrium/SteadyMotion, a configuration q, or None
     for the neutral configuration) with velocity ``v`` (zero if None) at time ``t``.
 
+    ``a``: the acceleration of the reference motion; default zero about an equilibrium or steady motion
+    (a given speed is held by its drive), else the free acceleration at (q, v, t).
     ``method``: "fd" (central differences with steps ``step`` × scale, scale 1 rad or the scene's length
     scale; error estimated from a second step 2h) or "analytic" (Pinocchio's RNEA derivatives plus the
     force elements' derivatives).
@@ -198,15 +200,23 @@ def linearize(system, at=None, *, v=None, t=0.0, method="fd", step=1e-5):
     M = system.mass_matrix(q0)
     if not _is_pd(M):
         system._check_mass_matrix(q0, "the operating point")
-    a0 = system.accelerations(q0, v0, t0)  # zero at an equilibrium; keeps K consistent elsewhere
+    if a is not None:
+        a0 = system._v(a, "a")
+    elif hasattr(at, "drive"):  # an equilibrium or steady motion: the reference motion does not accelerate
+        a0 = np.zeros(system.nv)
+    else:
+        a0 = system.accelerations(q0, v0, t0)
+    terms = _terms(system, q0, v0, a0, t0)
     if method == "fd":
-        K, C, K_err, C_err, n = _finite_differences(system, q0, v0, a0, t0, step)
+        K, C, K_err, C_err, n = _finite_differences(system, q0, v0, a0, t0, step, terms)
     elif method == "analytic":
         from .derivatives import analytic_derivatives
 
         K, C = analytic_derivatives(system, q0, v0, a0, t0)
-        K_err = np.abs(K) * 1e3 * EPS
-        C_err = np.abs(C) * 1e3 * EPS
+        # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad)
+        unit = steps(system, 1.0)
+        K_err = 16 * EPS * (np.abs(K) + terms[:, None] / unit[None, :])
+        C_err = 16 * EPS * (np.abs(C) + terms[:, None] / unit[None, :]) if np.any(C) else np.zeros_like(C)
         n = 1
     else:
         raise ModelError(f"linearize: unknown method {method!r} (use 'fd' or 'analytic')")
@@ -253,15 +263,19 @@ def _two_steps(jac, terms, h):
     """Central difference with step h and its error estimate: the change from step 2h (truncation, and
     round-off noise) plus the round-off of the terms that cancel in r (|RNEA| + |Q| + |g| per row)."""
     J1, J2 = jac(h), jac(2 * h)
-    return J1, np.abs(J1 - J2) + 16 * EPS * terms[:, None] / h[None, :]
+    return J1, np.abs(J1 - J2) + 16 * EPS * terms[:, None] / h[None, :] + 4 * EPS * np.abs(J1)
 
 
-def _finite_differences(system, q0, v0, a0, t0, step):
-    h = steps(system, step)
+def _terms(system, q0, v0, a0, t0):
+    """|RNEA| + |Q| + |g| per coordinate: the size of the terms that cancel in r (for round-off)."""
     Q, fext = system._forces(q0, v0, t0)
     tau = pin.rnea(system.model, system.data, q0, v0, a0) if fext is None else pin.rnea(
         system.model, system.data, q0, v0, a0, fext)
-    terms = np.abs(tau) + np.abs(Q) + np.abs(system._gravity_forces(q0))
+    return np.abs(tau) + np.abs(Q) + np.abs(system._gravity_forces(q0))
+
+
+def _finite_differences(system, q0, v0, a0, t0, step, terms):
+    h = steps(system, step)
     K, K_err = _two_steps(lambda hh: jacobian_q(system, q0, v0, a0, t0, hh), terms, h)
     evaluations = 4 * system.nv
     if system.depends_on_velocity or np.any(v0):

@@ -12,6 +12,8 @@ import scipy.linalg as sla
 
 from .errors import ModelError
 
+EPS = np.finfo(float).eps
+
 
 @dataclass(frozen=True, eq=False)
 class Modes:
@@ -19,7 +21,7 @@ class Modes:
 
     ``omega2`` is signed: a negative ω² is an unstable direction (``unstable`` flag), with
     ``omega`` = √|ω²| then its growth rate (1/s). Rigid-body / cyclic modes have ω² cleaned to exactly 0
-    (``rigid`` flag) when |ω²| ≤ ``tolerance`` × max|ω²|.
+    (``rigid`` flag) when |ω²| is within 10 times its own uncertainty (see :func:`modes`).
     """
 
     linear: object = field(repr=False)
@@ -31,8 +33,8 @@ class Modes:
     modal_mass: np.ndarray  # diag(Φᵀ M Φ) (1 after normalisation)
     modal_stiffness: np.ndarray  # diag(Φᵀ K_s Φ) = ω² (N·m/rad or N/m per unit modal mass)
     orthogonality: float  # max |Φᵀ M Φ − 1| and |Φᵀ K Φ − Λ| / max|ω²|
-    residual: np.ndarray  # relative eigen residual per mode
-    tolerance: float
+    residual: np.ndarray  # estimated relative error of ω per mode (eigen residual + K's error)
+    zero_threshold: float  # 1/s: state eigenvalues this small count as rigid/cyclic
     # damped / non-symmetric part (state form); empty when the model is undamped and symmetric
     eigenvalues: np.ndarray  # all 2nv state eigenvalues (1/s), sorted by |Im|, then Re
     damped_eigenvalues: np.ndarray  # one per mode: Im ≥ 0 of each pair, and the real ones
@@ -58,8 +60,8 @@ class Modes:
 
     @property
     def error(self):
-        """Estimated relative error of the frequencies: linearisation error plus eigen residual."""
-        return float(self.linear.error + self.residual.max(initial=0.0))
+        """Largest estimated relative error of the frequencies (per mode: ``residual``)."""
+        return float(self.residual.max(initial=0.0))
 
     def point_shapes(self, points, direction=None, complex=False):
         """Mode shapes as displacements (m per unit modal coordinate, world axes) of body points.
@@ -81,7 +83,7 @@ class Modes:
              "omega2": self.omega2.tolist(), "rigid": self.rigid.tolist(), "unstable": self.unstable.tolist(),
              "shapes": self.shapes.tolist(), "coordinates": list(self.linear.coordinates),
              "stability": self.stability, "orthogonality_residual": self.orthogonality,
-             "eigen_residual": self.residual.tolist(), "error_estimate": self.error,
+             "error_per_mode": self.residual.tolist(), "error_estimate": self.error,
              "elapsed_s": self.elapsed}
         if self.eigenvalues.size:
             d.update({"eigenvalues": [[z.real, z.imag] for z in self.eigenvalues],
@@ -106,36 +108,46 @@ class Modes:
 def modes(lin, tolerance=None):
     """Modes of a :class:`vibdyn.linearize.LinearModel`.
 
-    ``tolerance`` (relative to max|ω²|) for rigid-body modes; default max(1e-9, 100 × the linearisation
-    error estimate).
+    A mode is rigid (ω² cleaned to exactly 0) when |ω²| ≤ 10 × its own uncertainty δω² — the eigen
+    residual ‖Kφ − ω²Mφ‖_M⁻¹ plus φᵀ(K's error estimate + n·ε·|K|)φ — so stiff spectra keep their genuine
+    low modes. ``tolerance`` (relative to max|ω²|) overrides this with a fixed threshold.
     """
     start = time.perf_counter()
     M, Ks = lin.M, lin.K_s
-    tol = max(1e-9, 100 * lin.error) if tolerance is None else float(tolerance)
     try:
         w2, Phi = sla.eigh(Ks, M)
+        chol = sla.cho_factor(M)
     except np.linalg.LinAlgError:
         lin.system._check_mass_matrix(lin.q0, "the operating point")
         raise ModelError("modal analysis: the generalized eigenproblem (K, M) failed") from None
+    n = len(w2)
     scale = max(np.abs(w2).max(initial=0.0), 1e-300)
-    rigid = np.abs(w2) <= tol * scale
-    w2 = np.where(rigid, 0.0, w2)
-    unstable = w2 < 0
     Phi = _sign_fix(Phi)
     MPhi = M @ Phi
     mm = np.einsum("ij,ij->j", Phi, MPhi)
     Phi = Phi / np.sqrt(mm)
     MPhi = MPhi / np.sqrt(mm)
     KPhi = Ks @ Phi
+    R = KPhi - MPhi * w2
+    A = np.abs(Phi)
+    uncertainty = (np.sqrt(np.abs(np.einsum("ij,ij->j", R, sla.cho_solve(chol, R))))
+                   + np.einsum("ij,ij->j", A, (n * EPS * np.abs(Ks) + 0.5 * (lin.K_error + lin.K_error.T)) @ A))
+    if tolerance is None:
+        rigid = np.abs(w2) <= 10 * uncertainty
+    else:
+        rigid = np.abs(w2) <= float(tolerance) * scale
+    w2 = np.where(rigid, 0.0, w2)
+    unstable = w2 < 0
     Mm, Km = Phi.T @ MPhi, Phi.T @ KPhi
-    ortho = max(np.abs(Mm - np.eye(len(w2))).max(initial=0.0),
-                np.abs(Km - np.diag(w2)).max(initial=0.0) / scale)
-    # backward error relative to the spectrum's scale (a rigid mode's own ω² = 0 is no scale)
-    res = np.linalg.norm(KPhi - MPhi * w2, axis=0) / (np.linalg.norm(KPhi, axis=0)
-                                                       + (np.abs(w2) + scale) * np.linalg.norm(MPhi, axis=0))
+    ortho = max(np.abs(Mm - np.eye(n)).max(initial=0.0), np.abs(Km - np.diag(w2)).max(initial=0.0) / scale)
+    # relative error of ω per mode (half that of ω²); a rigid mode's, relative to the spectrum's scale
+    rel = np.where(rigid, uncertainty / scale, 0.5 * uncertainty / np.where(rigid, 1.0, np.abs(w2)))
     omega = np.sqrt(np.abs(w2))
+    # a rigid mode's zero may split by ±√δω² in the state form (a Jordan block): that is still zero
+    zero_threshold = float(np.sqrt(10 * uncertainty[rigid].max(initial=0.0))) + 1e-12 * np.sqrt(scale)
 
-    damped = lin.has_damping or np.any(np.abs(lin.N) > 10 * lin.K_error + 1e-12 * scale)
+    N_error = 0.5 * (lin.K_error + lin.K_error.T)
+    damped = lin.has_damping or np.any(np.abs(lin.N) > 10 * N_error + 1e-12 * np.abs(Ks).max(initial=0.0))
     if damped:
         lam, lam_modes, shapes_c = _state_modes(lin)
         mag = np.abs(lam_modes)
@@ -146,10 +158,10 @@ def modes(lin, tolerance=None):
         shapes_c = np.zeros((lin.nv, 0), complex)
         mag = zeta = np.zeros(0)
         classical = True
-    stability = classify(rigid, unstable, lam, tol)
-    return Modes(lin, w2, omega, Phi, rigid, unstable, np.diag(Mm).copy(), np.diag(Km).copy(), float(ortho), res,
-                 tol, lam, lam_modes, zeta, mag, np.abs(lam_modes.imag), shapes_c, bool(classical), stability,
-                 time.perf_counter() - start)
+    stability = classify(rigid, unstable, lam, zero_threshold)
+    return Modes(lin, w2, omega, Phi, rigid, unstable, np.diag(Mm).copy(), np.diag(Km).copy(), float(ortho), rel,
+                 zero_threshold, lam, lam_modes, zeta, mag, np.abs(lam_modes.imag), shapes_c, bool(classical),
+                 stability, time.perf_counter() - start)
 
 
 def mac(a, b=None):
@@ -195,24 +207,22 @@ def _state_modes(lin):
     return lam, lm, Vm
 
 
-def classify(rigid, unstable, eigenvalues, tolerance, ignore_zeros=0):
+def classify(rigid, unstable, eigenvalues, zero_threshold, ignore_zeros=0):
     """"stable", "unstable" or "neutral" from the undamped flags, or from the state eigenvalues if any.
 
-    State eigenvalues within √tolerance of zero (relative) are rigid/cyclic; up to ``ignore_zeros`` of
-    them (zero modes of cyclic positions in a steady motion) do not make the point neutral.
+    State eigenvalues with |λ| ≤ ``zero_threshold`` (1/s) are rigid/cyclic; up to ``ignore_zeros`` of them
+    (zero modes of cyclic positions in a steady motion) do not make the point neutral. Other eigenvalues on
+    the imaginary axis are undamped oscillations: bounded, so stable (in the linear sense).
     """
     if eigenvalues.size == 0:
         if unstable.any():
             return "unstable"
         return "neutral" if rigid.sum() > ignore_zeros else "stable"
     scale = max(np.abs(eigenvalues).max(initial=0.0), 1e-300)
-    zero = np.abs(eigenvalues) <= np.sqrt(tolerance) * scale
-    rest = eigenvalues[~zero].real
-    if np.any(rest > 1e-10 * scale):
+    zero = np.abs(eigenvalues) <= zero_threshold
+    if np.any(eigenvalues[~zero].real > 1e-10 * scale):
         return "unstable"
-    if zero.sum() > ignore_zeros or np.any(np.abs(rest) <= 1e-10 * scale):
-        return "neutral"
-    return "stable"
+    return "neutral" if zero.sum() > ignore_zeros else "stable"  # an undamped oscillation is bounded
 
 
 def _is_classical(lin):

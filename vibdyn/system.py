@@ -5,6 +5,7 @@ inverse dynamics by RNEA, energies, link reactions, and the Lie-group operations
 q and v in m and rad (per coordinate), forces in N and N·m, energies in J.
 """
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,7 +87,7 @@ class System:
                              "(give it a mass or weld it with Fixed; for a loaded robot: weld_massless=True)")
         self.model, self._bodies = _compile(self.scene, order)
         self.model.gravity.linear = np.array(self.scene.gravity)
-        self.data = self.model.createData()
+        self.data = _create_data(self.model)
         self.nq, self.nv = self.model.nq, self.model.nv
         # unit quaternions (ball, free) and unit (cos, sin) pairs (planar) that q must hold
         self._unit_blocks = tuple((b.name, b.idx_q + b.nq - n, n) for b in self._bodies.values()
@@ -152,15 +153,19 @@ class System:
     def accelerations(self, q, v, t=0.0):
         """dv/dt (m/s², rad/s²) by ABA with gravity and every force element of the scene."""
         q, v = self._q(q), self._v(v)
-        Q, fext = self._forces(q, v, t)
-        if fext is None:
-            a = pin.aba(self.model, self.data, q, v, Q)
-        else:
-            a = pin.aba(self.model, self.data, q, v, Q, fext)
+        a = self._accelerations(q, v, t)
         if not np.all(np.isfinite(a)):
             self._check_mass_matrix(q, "this configuration")
             raise ModelError(f"accelerations are not finite at t = {t} (state too large?)")
         return a.copy()
+
+    def _accelerations(self, q, v, t):
+        """accelerations without input or output checks (the hot path of time integration). The result may
+        share memory with Pinocchio's data: copy it to keep it across dynamics calls."""
+        Q, fext = self._forces(q, v, t)
+        if fext is None:
+            return pin.aba(self.model, self.data, q, v, Q)
+        return pin.aba(self.model, self.data, q, v, Q, fext)
 
     def generalized_forces(self, q, v, t=0.0):
         """Q(q, v, t) (N or N·m per coordinate): the generalized force of every force element (not gravity)."""
@@ -257,11 +262,11 @@ class System:
             return self.steady_motion(op["cyclic"], q0, tol=tol, max_iter=max_iter)
         return self.equilibrium(q0, tol=tol, max_iter=max_iter)
 
-    def linearize(self, at=None, *, v=None, t=0.0, method="fd", step=1e-5):
+    def linearize(self, at=None, *, v=None, t=0.0, a=None, method="fd", step=1e-5):
         """Linear model (M, C, K, error estimate) about ``at`` (see :func:`vibdyn.linearize.linearize`)."""
         from .linearize import linearize
 
-        return linearize(self, at, v=v, t=t, method=method, step=step)
+        return linearize(self, at, v=v, t=t, a=a, method=method, step=step)
 
     # ------------------------------------------------------------- geometry
     def body_pose(self, body, q):
@@ -427,6 +432,25 @@ class System:
         return v
 
 
+def _create_data(model):
+    """Pinocchio's Data, refused with a clear error where it cannot fit: Pinocchio 4.1 allocates and fills
+    four nv×nv×nv tensors in every Data (32·nv³ bytes; upstream issue stack-of-tasks/pinocchio#2949)."""
+    need = 32.0 * model.nv**3
+    try:
+        free = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        free = float("inf")
+    message = (f"scene '{model.name}' has nv = {model.nv} coordinates: Pinocchio {pin.__version__} allocates "
+               f"{need / 1e9:.3g} GB of second-order-derivative tensors in every Data (32·nv³ bytes, "
+               "stack-of-tasks/pinocchio#2949), more than this machine has free ({free / 1e9:.3g} GB)")
+    if need > 0.5 * free:
+        raise ModelError(message)
+    try:
+        return model.createData()
+    except MemoryError:
+        raise ModelError(message) from None
+
+
 def massless_leaves(scene):
     """Names of the bodies with coordinates and zero mass that carry no mass below them."""
     return _massless_leaves(_topological(scene))
@@ -476,15 +500,18 @@ def _compile(scene, order):
 def _topological(scene):
     """Bodies depth-first from the world (Pinocchio's CRBA needs each subtree's coordinates contiguous);
     a cycle or an unknown parent is a ModelError."""
+    rooted = {WORLD}  # bodies known to reach the world
     for b in scene.bodies.values():
-        seen, p = [b.name], b.parent
-        while p != WORLD:
+        path, on_path, p = [b.name], {b.name}, b.parent
+        while p not in rooted:
             if p not in scene.bodies:
-                raise ModelError(f"body '{seen[-1]}': unknown parent '{p}'")
-            if p in seen:
-                raise ModelError(f"body '{b.name}': cycle in the parent links ({' -> '.join(seen + [p])})")
-            seen.append(p)
+                raise ModelError(f"body '{path[-1]}': unknown parent '{p}'")
+            if p in on_path:
+                raise ModelError(f"body '{b.name}': cycle in the parent links ({' -> '.join(path + [p])})")
+            path.append(p)
+            on_path.add(p)
             p = scene.bodies[p].parent
+        rooted.update(path)
     children = {}
     for b in scene.bodies.values():
         children.setdefault(b.parent, []).append(b)
