@@ -8,6 +8,9 @@ from . import inertia, laws
 from .elements import WORLD
 from .errors import ConvergenceError, ModelError, SceneFileError, VibdynError
 from .modal import mac, rayleigh
+from . import identify, plots, response
+from .identify import fit_rayleigh, log_decrement
+from .response import FRF, Hysteretic, transmissibility
 from .joints import Ball, Cylindrical, Fixed, Free, Helical, Pivot, Planar, Slider, Universal
 from .scene import Body, Scene
 from .system import Energy, Reactions, System
@@ -46,4 +49,5 @@ def load_mjcf(path, **kwargs):
 __all__ = ["Scene", "System", "Body", "Energy", "Reactions", "Pivot", "Slider", "Helical", "Ball",
            "Cylindrical", "Universal", "Planar", "Free", "Fixed", "inertia", "laws", "WORLD", "ModelError",
            "ConvergenceError", "SceneFileError", "VibdynError", "load_scene", "load_robot", "load_urdf",
-           "load_mjcf", "mac", "rayleigh"]
+           "load_mjcf", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
+           "transmissibility", "fit_rayleigh", "log_decrement"]

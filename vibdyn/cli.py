@@ -140,6 +140,18 @@ def main(argv=None):
     modes.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     modes.add_argument("--method", choices=("fd", "analytic"), default="fd", help="linearisation method")
     sub.add_parser("demo", help="run the main job on the bundled trailer model")
+    frf = sub.add_parser("frf", help="frequency response between two channels: peaks, half-power damping, plots")
+    frf.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    frf.add_argument("--input", required=True, help="coordinate name, BODY:X,Y,Z:DX,DY,DZ (point force), or "
+                     "support:NAME[:DX,DY,DZ] (base motion: transmissibility)")
+    frf.add_argument("--output", required=True, help="coordinate name or BODY:X,Y,Z:DX,DY,DZ (point displacement)")
+    frf.add_argument("--from", dest="w0", type=float, help="lowest frequency, rad/s (default 0.1 × lowest ω)")
+    frf.add_argument("--to", dest="w1", type=float, help="highest frequency, rad/s (default 2 × highest ω)")
+    frf.add_argument("--points", type=int, default=400, help="number of frequencies (log-spaced; default 400)")
+    frf.add_argument("--method", choices=("direct", "modal"), default="direct", help="direct solve or modal sum")
+    frf.add_argument("--png", help="save a Bode plot (amplitude and phase) to this PNG file")
+    frf.add_argument("--nyquist", help="save a Nyquist plot to this PNG file")
+    frf.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     args = parser.parse_args(argv)
     try:
         if args.command == "info":
@@ -155,6 +167,28 @@ def main(argv=None):
                 print_modes(system, args.method)
         elif args.command == "demo":
             demo()
+        elif args.command == "frf":
+            from .response import frf_report, print_frf
+
+            system = load(args.scene).build()
+            frf, peaks, hp, data = frf_report(system, args.input, args.output, args.w0, args.w1, args.points,
+                                              args.method)
+            if args.png or args.nyquist:
+                from . import plots
+
+                if args.png:
+                    plots.bode(frf, path=args.png)
+                if args.nyquist:
+                    plots.nyquist(frf, path=args.nyquist)
+            if args.json:
+                import json
+
+                print(json.dumps(data, indent=1))
+            else:
+                print_frf(frf, peaks, hp)
+                for path in (args.png, args.nyquist):
+                    if path:
+                        print(f"saved {path}")
     except VibdynError as e:
         print(f"vibdyn: error: {e}", file=sys.stderr)
         return 2

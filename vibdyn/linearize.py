@@ -129,6 +129,44 @@ class LinearModel:
             out[:, k] = -(rp - rm) / (2 * h)  # r = RNEA − Q: the support's pull is −∂r
         return out[:, :3], out[:, 3:]
 
+    # responses (vibdyn.response): thin entry points
+    def free_response(self, t, x0, v0=None, **kwargs):
+        """Free response from δq(0) = x0, δv(0) = v0 at times t (s) (:func:`vibdyn.response.free_response`)."""
+        from .response import free_response
+
+        return free_response(self, t, x0, v0, **kwargs)
+
+    def receptance(self, omega, inputs=None, outputs=None, **kwargs):
+        """Receptance α(ω) (m/N, ...) between inputs and outputs (:func:`vibdyn.response.receptance`)."""
+        from .response import receptance
+
+        return receptance(self, omega, inputs, outputs, **kwargs)
+
+    def harmonic_response(self, omega, force, inputs=None, outputs=None, **kwargs):
+        """Steady response to harmonic forces (:func:`vibdyn.response.harmonic_response`)."""
+        from .response import harmonic_response
+
+        return harmonic_response(self, omega, force, inputs, outputs, **kwargs)
+
+    def base_response(self, omega, support, direction=None, outputs=None, **kwargs):
+        """Steady response to a harmonic motion of a support or prescribed joint: transmissibility
+        (:func:`vibdyn.response.base_response`)."""
+        from .response import base_response
+
+        return base_response(self, omega, support, direction, outputs, **kwargs)
+
+    def forced_response(self, t, force=None, inputs=None, **kwargs):
+        """Transient response to force histories and/or base motion (:func:`vibdyn.response.forced_response`)."""
+        from .response import forced_response
+
+        return forced_response(self, t, force, inputs, **kwargs)
+
+    def appropriation(self, mode, inputs=None, **kwargs):
+        """Force pattern exciting one undamped mode alone (:func:`vibdyn.response.appropriation`)."""
+        from .response import appropriation
+
+        return appropriation(self, mode, inputs, **kwargs)
+
     def modes(self, **kwargs):
         """Modal analysis of this linear model (see :func:`vibdyn.modal.modes`)."""
         from .modal import modes

@@ -1,0 +1,85 @@
+"""Plots and the ``vibdyn frf`` command: PNG files that exist and are not blank; matplotlib stays out of
+``import vibdyn``."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import vibdyn as vd
+from vibdyn.cli import main
+
+from conftest import MODELS
+
+matplotlib = pytest.importorskip("matplotlib")
+
+
+def assert_png(path, min_bytes=5000):
+    from matplotlib.image import imread
+
+    assert path.exists() and path.stat().st_size > min_bytes
+    img = imread(path)
+    assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100
+    assert float(img[..., :3].var()) > 1e-3  # not blank
+
+
+def test_import_vibdyn_does_not_import_matplotlib():
+    code = "import sys, vibdyn, vibdyn.plots, vibdyn.response, vibdyn.identify; print('matplotlib' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+def test_cli_frf_writes_bode_and_nyquist_pngs(tmp_path, capsys):
+    bode, nyq = tmp_path / "bode.png", tmp_path / "nyquist.png"
+    model = str(MODELS / "receptance_damped.toml")
+    assert main(["frf", model, "--input", "m1", "--output", "m1", "--png", str(bode), "--nyquist", str(nyq)]) == 0
+    out = capsys.readouterr().out
+    assert "resonance" in out and "0.9452737" in out and "3.352711" in out and "anti-resonance" in out
+    assert_png(bode)
+    assert_png(nyq)
+
+
+def test_cli_frf_json_with_point_channels(capsys):
+    model = str(MODELS / "receptance_damped.toml")
+    ref = vd.load_scene(MODELS / "receptance_damped.toml").references
+    assert main(["frf", model, "--input", "m1:0,0,0:1,0,0", "--output", "m1", "--from", "0.2", "--to", "5",
+                 "--points", "80", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(d["peaks"]["resonances_rad_s"], ref["peaks_alpha11"], rtol=1e-7)
+    np.testing.assert_allclose(d["peaks"]["antiresonances_rad_s"], [ref["antiresonance_alpha11"]], rtol=1e-7)
+    assert d["units"] == "m/N" and len(d["omega_rad_s"]) == 80 and d["error_estimate"] < 1e-8
+    assert d["inputs"] == ["m1(0,0,0)·(1,0,0)"] and d["elapsed_s"] > 0
+
+
+def test_cli_frf_transmissibility_and_errors(tmp_path, capsys):
+    scene = tmp_path / "base.toml"
+    scene.write_text('[[support]]\nname = "ground"\n'
+                     'motion = { law = "harmonic_motion", amplitude = [0.0, 0.0, 0.01], omega = 15.0 }\n'
+                     '[[body]]\nname = "mass"\nmass = 2.0\njoint = { type = "slider", axis = [0, 0, 1], at = [0, 0, 1] }\n'
+                     '[[spring]]\nname = "k"\na = ["ground", [0, 0, 0]]\nb = "mass"\nstiffness = 800.0\n'
+                     '[[damper]]\nname = "c"\na = ["ground", [0, 0, 0]]\nb = "mass"\ndamping = 8.0\n')
+    assert main(["frf", str(scene), "--input", "support:ground:0,0,1", "--output", "mass", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    w = np.array(d["omega_rad_s"])
+    H = np.array(d["alpha"])[:, 0, 0, :]
+    np.testing.assert_allclose(np.hypot(H[:, 0], H[:, 1]), vd.transmissibility(w / 20.0, 0.1), rtol=1e-8)
+    assert main(["frf", str(scene), "--input", "mass:0,0:1,0,0", "--output", "mass"]) == 2
+    assert "not three comma-separated numbers" in capsys.readouterr().err
+
+
+def test_mode_shape_and_time_history_plots(tmp_path):
+    lin = vd.load_scene(MODELS / "two_mass_modal.toml").build().linearize()
+    modes = lin.modes()
+    fig = vd.plots.mode_shapes(modes, points=["m1", "m2"], direction=(1, 0, 0), path=tmp_path / "modes.png")
+    assert len(fig.axes) == 2
+    assert_png(tmp_path / "modes.png")
+    r = lin.free_response(np.linspace(0, 20, 400), [0.0, 1.0])
+    vd.plots.time_history(r, path=tmp_path / "t.png")
+    assert_png(tmp_path / "t.png")
+    frf = lin.with_modal_damping(0.05).receptance(np.geomspace(0.5, 5, 200), "m2", ["m1", "m2"])
+    fig = vd.plots.bode(frf, "m1", "m2", quantity="accelerance", hz=True, db=True, path=tmp_path / "b.png")
+    assert_png(tmp_path / "b.png")
+    with pytest.raises(vd.ModelError, match="need a direction"):
+        vd.plots.mode_shapes(modes, points=["m1"])
