@@ -137,3 +137,23 @@ def test_held_speed_is_linearised_about_the_held_motion():
     np.testing.assert_allclose(lin.C, [[2 * omega, 2 * m * s * omega], [-2 * m * s * omega, c]], rtol=1e-7)
     an = st.linearize(method="analytic")
     assert np.abs(an.K - lin.K).max() <= lin.K_error.max()
+
+
+@pytest.mark.parametrize("method", ["fd", "analytic"])
+def test_high_spin_state_eigenvalues_within_their_error_estimate(method):
+    """R6 rotor held at 1e4 rad/s with a 1e9 N/m slider spring (extreme gyroscopic coupling): the state
+    eigenvalues match those of the exact linear model to within vibdyn's own per-mode error estimate."""
+    omega, k, m, c, l0, J = 1e4, 1e9, 1.0, 2.0, 0.5, 0.1 + 0.001
+    st = rotor(c=c, k=k, m=m, l0=l0).steady_motion({"rotor": omega})
+    s = k * l0 / (k - m * omega**2)
+    assert 0.5 + st.coordinate("slider") == pytest.approx(s, rel=1e-9)
+    M = np.diag([J + m * s * s, m])
+    C = np.array([[2 * omega, 2 * m * s * omega], [-2 * m * s * omega, c]])
+    K = np.diag([0.0, k - m * omega**2])
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+    exact = np.linalg.eigvals(A)
+    modes = st.linearize(method=method).modes()
+    for lam, err in zip(modes.damped_eigenvalues, modes.eigenvalue_error):
+        ref = exact[np.argmin(np.abs(exact - lam))]
+        assert abs(lam - ref) <= max(err * abs(lam), 1e-9 * np.abs(exact).max())
+    assert modes.error < 1e-6 and st.stability == "stable"

@@ -41,6 +41,7 @@ class Modes:
     zeta: np.ndarray  # damping ratio −Re λ / |λ| per damped mode
     omega_n: np.ndarray  # |λ| rad/s
     omega_d: np.ndarray  # |Im λ| rad/s
+    eigenvalue_error: np.ndarray  # estimated relative error of each damped eigenvalue
     complex_shapes: np.ndarray  # nv × m, largest component 1
     classical: bool  # C M⁻¹ K = K M⁻¹ C (proportional damping: real shapes diagonalise C)
     stability: str  # "stable", "unstable" or "neutral"
@@ -60,8 +61,9 @@ class Modes:
 
     @property
     def error(self):
-        """Largest estimated relative error of the frequencies (per mode: ``residual``)."""
-        return float(self.residual.max(initial=0.0))
+        """Largest estimated relative error of the frequencies and damped eigenvalues (per mode:
+        ``residual`` and ``eigenvalue_error``)."""
+        return float(max(self.residual.max(initial=0.0), self.eigenvalue_error.max(initial=0.0)))
 
     def point_shapes(self, points, direction=None, complex=False):
         """Mode shapes as displacements (m per unit modal coordinate, world axes) of body points.
@@ -88,7 +90,8 @@ class Modes:
         if self.eigenvalues.size:
             d.update({"eigenvalues": [[z.real, z.imag] for z in self.eigenvalues],
                       "zeta": self.zeta.tolist(), "omega_n_rad_s": self.omega_n.tolist(),
-                      "omega_d_rad_s": self.omega_d.tolist(), "classical_damping": self.classical})
+                      "omega_d_rad_s": self.omega_d.tolist(), "eigenvalue_error": self.eigenvalue_error.tolist(),
+                      "classical_damping": self.classical})
         return d
 
     def __str__(self):
@@ -149,18 +152,19 @@ def modes(lin, tolerance=None):
     N_error = 0.5 * (lin.K_error + lin.K_error.T)
     damped = lin.has_damping or np.any(np.abs(lin.N) > 10 * N_error + 1e-12 * np.abs(Ks).max(initial=0.0))
     if damped:
-        lam, lam_modes, shapes_c = _state_modes(lin)
+        lam, lam_modes, shapes_c, lam_error = _state_modes(lin)
         mag = np.abs(lam_modes)
         zeta = np.where(mag > 0, -lam_modes.real / np.where(mag > 0, mag, 1.0), 0.0)
         classical = _is_classical(lin)
     else:
         lam = lam_modes = np.zeros(0, complex)
+        lam_error = np.zeros(0)
         shapes_c = np.zeros((lin.nv, 0), complex)
         mag = zeta = np.zeros(0)
         classical = True
     stability = classify(rigid, unstable, lam, zero_threshold)
     return Modes(lin, w2, omega, Phi, rigid, unstable, np.diag(Mm).copy(), np.diag(Km).copy(), float(ortho), rel,
-                 zero_threshold, lam, lam_modes, zeta, mag, np.abs(lam_modes.imag), shapes_c, bool(classical),
+                 zero_threshold, lam, lam_modes, zeta, mag, np.abs(lam_modes.imag), lam_error, shapes_c, bool(classical),
                  stability, time.perf_counter() - start)
 
 
@@ -191,20 +195,32 @@ def rayleigh(zeta, omega):
 
 
 def _state_modes(lin):
-    lam, V = sla.eig(lin.A)
+    """State eigenvalues (all, and one per mode), complex shapes, and each mode's estimated relative error:
+    first-order perturbation |wᴴ δA v| / |wᴴ v| with δA from the error estimates of K and C (and the
+    round-off of the eigensolver), w and v the left and right eigenvectors."""
+    A = lin.A
+    lam, W, V = sla.eig(A, left=True, right=True)
+    n = lin.nv
+    Minv = np.abs(np.linalg.inv(lin.M))
+    E = np.zeros_like(A)
+    E[n:, :n], E[n:, n:] = Minv @ lin.K_error, Minv @ lin.C_error
+    E += 2 * n * EPS * np.abs(A)
+    dlam = (np.einsum("ij,ij->j", np.abs(W), E @ np.abs(V))
+            / np.maximum(np.abs(np.einsum("ij,ij->j", W.conj(), V)), 1e-300))
     scale = max(np.abs(lam).max(initial=0.0), 1e-300)
     lam = np.where(np.abs(lam.imag) <= 1e-12 * scale, lam.real + 0j, lam)
     lam = np.where(np.abs(lam) <= 1e-12 * scale, 0j, lam)
     order = np.lexsort((lam.real, np.abs(lam.imag)))
-    lam, V = lam[order], V[:, order]
+    lam, V, dlam = lam[order], V[:, order], dlam[order]
     keep = lam.imag >= 0  # one of each conjugate pair, and the real eigenvalues
-    lm, Vm = lam[keep], V[: lin.nv, keep]
+    lm, Vm, dm = lam[keep], V[:n, keep], dlam[keep]
     order = np.argsort(np.abs(lm), kind="stable")
-    lm, Vm = lm[order], Vm[:, order]
+    lm, Vm, dm = lm[order], Vm[:, order], dm[order]
     big = np.argmax(np.abs(Vm), axis=0)
     piv = Vm[big, np.arange(Vm.shape[1])]
     Vm = Vm / np.where(np.abs(piv) > 0, piv, 1.0)
-    return lam, lm, Vm
+    rel = dm / np.where(np.abs(lm) > 0, np.abs(lm), scale)
+    return lam, lm, Vm, rel
 
 
 def classify(rigid, unstable, eigenvalues, zero_threshold, ignore_zeros=0):
