@@ -118,8 +118,8 @@ def modes(lin, tolerance=None):
     start = time.perf_counter()
     M, Ks = lin.M, lin.K_s
     try:
-        w2, Phi = sla.eigh(Ks, M)
-        chol = sla.cho_factor(M)
+        w2, Phi = sla.eigh(Ks, M, check_finite=False)  # K and M were checked finite by linearize
+        chol = sla.cho_factor(M, check_finite=False)
     except np.linalg.LinAlgError:
         lin.system._check_mass_matrix(lin.q0, "the operating point")
         raise ModelError("modal analysis: the generalized eigenproblem (K, M) failed") from None
@@ -133,7 +133,7 @@ def modes(lin, tolerance=None):
     KPhi = Ks @ Phi
     R = KPhi - MPhi * w2
     A = np.abs(Phi)
-    uncertainty = (np.sqrt(np.abs(np.einsum("ij,ij->j", R, sla.cho_solve(chol, R))))
+    uncertainty = (np.sqrt(np.abs(np.einsum("ij,ij->j", R, sla.cho_solve(chol, R, check_finite=False))))
                    + np.einsum("ij,ij->j", A, (n * EPS * np.abs(Ks) + 0.5 * (lin.K_error + lin.K_error.T)) @ A))
     if tolerance is None:
         rigid = np.abs(w2) <= 10 * uncertainty
