@@ -13,6 +13,7 @@ from .identify import fit_rayleigh, log_decrement
 from .response import FRF, Hysteretic, transmissibility
 from .joints import Ball, Cylindrical, Fixed, Free, Helical, Pivot, Planar, Slider, Universal
 from .scene import Body, Scene
+from .simulate import SimulationError, Trajectory
 from .system import Energy, Reactions, System
 
 __version__ = "0.1.0"
@@ -50,4 +51,4 @@ __all__ = ["Scene", "System", "Body", "Energy", "Reactions", "Pivot", "Slider", 
            "Cylindrical", "Universal", "Planar", "Free", "Fixed", "inertia", "laws", "WORLD", "ModelError",
            "ConvergenceError", "SceneFileError", "VibdynError", "load_scene", "load_robot", "load_urdf",
            "load_mjcf", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
-           "transmissibility", "fit_rayleigh", "log_decrement"]
+           "transmissibility", "fit_rayleigh", "log_decrement", "Trajectory", "SimulationError"]

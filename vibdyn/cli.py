@@ -152,6 +152,19 @@ def main(argv=None):
     frf.add_argument("--png", help="save a Bode plot (amplitude and phase) to this PNG file")
     frf.add_argument("--nyquist", help="save a Nyquist plot to this PNG file")
     frf.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    sim = sub.add_parser("simulate", help="nonlinear time simulation: error estimate, energy balance, export")
+    sim.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    sim.add_argument("--t-end", type=float, required=True, help="simulated time, s")
+    sim.add_argument("--method", default="dop853", help="dop853 (default), rk4, radau, bdf or symplectic")
+    sim.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance (adaptive methods)")
+    sim.add_argument("--atol", type=float, help="absolute tolerance (default rtol × 1 rad or the length scale)")
+    sim.add_argument("--dt", type=float, help="step of rk4/symplectic, first step of adaptive methods (s)")
+    sim.add_argument("--error", help="error estimate: local, rerun or richardson (default: the method's own)")
+    sim.add_argument("--samples", type=int, help="number of equally spaced outputs (default: every step)")
+    sim.add_argument("--offset", type=float, nargs="+", help="initial tangent offsets from neutral (m, rad)")
+    sim.add_argument("--v0", type=float, nargs="+", help="initial velocities (m/s, rad/s)")
+    sim.add_argument("--out", help="write the trajectory to this .npz or .csv file")
+    sim.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     try:
         if args.command == "info":
@@ -189,6 +202,10 @@ def main(argv=None):
                 for path in (args.png, args.nyquist):
                     if path:
                         print(f"saved {path}")
+        elif args.command == "simulate":
+            from .simulate import command
+
+            command(load(args.scene).build(), args)
     except VibdynError as e:
         print(f"vibdyn: error: {e}", file=sys.stderr)
         return 2

@@ -268,6 +268,14 @@ class System:
 
         return linearize(self, at, v=v, t=t, a=a, method=method, step=step)
 
+    def simulate(self, t_end, q0=None, v0=None, method="dop853", rtol=1e-8, atol=None, dt=None, t_eval=None,
+                 **options):
+        """Nonlinear motion from (q0, v0) at t = 0 to ``t_end`` (s): a Trajectory with energies, error
+        estimate and elapsed time (see :func:`vibdyn.simulate.simulate`)."""
+        from .simulate import simulate
+
+        return simulate(self, t_end, q0, v0, method, rtol, atol, dt, t_eval, **options)
+
     # ------------------------------------------------------------- geometry
     def body_pose(self, body, q):
         """(R, p): rotation (3×3) and origin (m) of a body's frame in world axes."""
@@ -442,7 +450,7 @@ def _create_data(model):
         free = float("inf")
     message = (f"scene '{model.name}' has nv = {model.nv} coordinates: Pinocchio {pin.__version__} allocates "
                f"{need / 1e9:.3g} GB of second-order-derivative tensors in every Data (32·nv³ bytes, "
-               "stack-of-tasks/pinocchio#2949), more than this machine has free ({free / 1e9:.3g} GB)")
+               f"stack-of-tasks/pinocchio#2949), more than this machine has free ({free / 1e9:.3g} GB)")
     if need > 0.5 * free:
         raise ModelError(message)
     try:
