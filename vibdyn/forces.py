@@ -62,10 +62,11 @@ class Kinematics:
 
 def add_point_forces(F, kin, joints, world_points, world_forces):
     """Accumulate forces (world axes) applied at world points into the local spatial forces ``F``."""
-    Rt = np.transpose(kin.R[joints], (0, 2, 1))
-    f = np.einsum("nij,nj->ni", Rt, world_forces)
-    r = np.einsum("nij,nj->ni", Rt, world_points - kin.p[joints])
-    np.add.at(F, joints, np.hstack([f, cross(r, f)]))
+    # Rᵀ applied to the force and to the lever arm at once: (n, 3, 3)ᵀ @ (n, 3, 2)
+    fr = np.matmul(np.transpose(kin.R[joints], (0, 2, 1)),
+                   np.stack([world_forces, world_points - kin.p[joints]], axis=2))
+    f, r = fr[:, :, 0], fr[:, :, 1]
+    np.add.at(F, joints, np.concatenate([f, cross(r, f)], axis=1))
 
 
 class Group:
@@ -94,6 +95,11 @@ class _TwoPoint(Group):
         self.sa = system.support_indices([e.a for e in elements])
         self.sb = system.support_indices([e.b for e in elements])
         self.joints = tuple(sorted(set(self.ja) | set(self.jb)))
+        self.j_ends = np.concatenate([self.ja, self.jb])
+
+    def _add_end_forces(self, F, kin, xa, xb, fb):
+        """Force fb (world axes) on every end b and −fb on every end a, in one accumulation."""
+        add_point_forces(F, kin, self.j_ends, np.concatenate([xa, xb]), np.concatenate([-fb, fb]))
 
     def end_velocities(self, kin):
         """World velocities (m/s) of the two ends, supports' motion included."""
@@ -131,8 +137,7 @@ class Springs(_TwoPoint):
         xa, xb, d, L = self._geometry(kin, self.zero_l0)
         Ls = np.where(self.zero_l0, 1.0, L)
         fb = (-self.k * np.where(self.zero_l0, 1.0, (L - self.l0) / Ls))[:, None] * d
-        add_point_forces(F, kin, self.jb, xb, fb)
-        add_point_forces(F, kin, self.ja, xa, -fb)
+        self._add_end_forces(F, kin, xa, xb, fb)
 
     def potential(self, q, kin):
         _, _, _, L = self._geometry(kin, self.zero_l0)
@@ -157,8 +162,7 @@ class Dampers(_TwoPoint):
         va, vb = self.end_velocities(kin)
         rate = np.einsum("ni,ni->n", u, vb - va)
         fb = (-self.c * rate)[:, None] * u
-        add_point_forces(F, kin, self.jb, xb, fb)
-        add_point_forces(F, kin, self.ja, xa, -fb)
+        self._add_end_forces(F, kin, xa, xb, fb)
 
 
 class BodyForces(Group):
