@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import forces as F
-from .linearize import steps
+from .linearize import steps, tangent_derivative, vector_derivative, world_point_jacobian
 
 _skew = pin.skew
 
@@ -39,8 +39,7 @@ class _PointKinematics:
         """World position Jacobian (3 × nv) of the point r (joint frame) on joint j (zero for the world)."""
         if j == 0:
             return np.zeros((3, self.nv))
-        J = self.J[j]
-        return self.R[j] @ (J[:3] - _skew(r) @ J[3:])
+        return world_point_jacobian(self.R[j], self.J[j], r)
 
     def point_velocity_dq(self, j, r):
         """∂(world velocity of the point)/∂q (3 × nv)."""
@@ -201,8 +200,7 @@ def _joint_forces(g, system, q, v, t):
             c = np.asarray(law.coefficients)
             dV[b.idx_v, b.idx_v] += np.polynomial.polynomial.polyval(v[b.idx_v], np.arange(1, c.size) * c[1:])
         elif not isinstance(law, Harmonic):  # a user callable: differenced on its own
-            one = F.JointForces.__new__(F.JointForces)
-            one.constant, one.has_constant, one.laws = None, False, [(e, b)]
+            one = F.JointForces(system, [e])
             fd = _element_fd(system, q, v, t, lambda qq, vv: _group_force(one, system, qq, vv, t))
             dQ += fd[0]
             dV += fd[1]
@@ -221,21 +219,6 @@ def _group_force(g, system, q, v, t):
 def _element_fd(system, q, v, t, fun, with_v=True):
     """Central differences of an element's own output (for user callables, which have no derivative)."""
     h = steps(system, 1e-6)
-    y0 = fun(q, v)
-    nv = system.nv
-    Dq = np.zeros((np.size(y0), nv))
-    Dv = np.zeros((np.size(y0), nv))
-    e = np.zeros(nv)
-    for k in range(nv):
-        e[k] = h[k]
-        yp = fun(pin.integrate(system.model, q, e), v)
-        e[k] = -h[k]
-        ym = fun(pin.integrate(system.model, q, e), v)
-        e[k] = 0.0
-        Dq[:, k] = (np.ravel(yp) - np.ravel(ym)) / (2 * h[k])
-        if with_v:
-            vp, vm = v.copy(), v.copy()
-            vp[k] += h[k]
-            vm[k] -= h[k]
-            Dv[:, k] = (np.ravel(fun(q, vp)) - np.ravel(fun(q, vm))) / (2 * h[k])
+    Dq = tangent_derivative(system, lambda qq: fun(qq, v), q, h)
+    Dv = vector_derivative(lambda vv: fun(q, vv), v, h) if with_v else np.zeros_like(Dq)
     return Dq, Dv

@@ -118,15 +118,13 @@ class LinearModel:
         if name not in system._support_index:
             raise ModelError(f"unknown support '{name}' (supports: {', '.join(system._support_index) or 'none'})")
         i = system._support_index[name]
-        h = step * system.length_scale
-        out = np.zeros((self.nv, 6))
-        for k in range(6):
+
+        def residual(x):
             shift = np.zeros((len(system.supports), 6))
-            shift[i, k] = h
-            rp = system._residual(self.q0, self.v0, self.a0, self.t0, shift)
-            shift[i, k] = -h
-            rm = system._residual(self.q0, self.v0, self.a0, self.t0, shift)
-            out[:, k] = -(rp - rm) / (2 * h)  # r = RNEA − Q: the support's pull is −∂r
+            shift[i] = x
+            return system._residual(self.q0, self.v0, self.a0, self.t0, shift)
+
+        out = -vector_derivative(residual, np.zeros(6), np.full(6, step * system.length_scale))  # Q = −r
         return out[:, :3], out[:, 3:]
 
     # responses (vibdyn.response): thin entry points
@@ -270,31 +268,48 @@ def steps(system, step):
     return np.array([step * (L if u == "m" else 1.0) for u in system.units])
 
 
+def tangent_derivative(system, fun, q0, h):
+    """∂fun/∂q at q0 by central differences in the tangent space: column k is
+    (fun(q0 ⊕ h_k e_k) − fun(q0 ⊖ h_k e_k)) / 2h_k, configurations moved with ``integrate``."""
+    model, e = system.model, np.zeros(system.nv)
+
+    def shifted(k, hk):
+        e[k] = hk
+        y = np.ravel(fun(pin.integrate(model, q0, e)))
+        e[k] = 0.0
+        return y
+
+    return _columns(shifted, h)
+
+
+def vector_derivative(fun, x0, h):
+    """∂fun/∂x at x0 for a plain vector x, by central differences with steps h (one per component)."""
+    def shifted(k, hk):
+        x = x0.copy()
+        x[k] += hk
+        return np.ravel(fun(x))
+
+    return _columns(shifted, h)
+
+
+def _columns(shifted, h):
+    J = None
+    for k, hk in enumerate(h):
+        col = (shifted(k, hk) - shifted(k, -hk)) / (2 * hk)
+        if J is None:
+            J = np.empty((col.size, len(h)))
+        J[:, k] = col
+    return J
+
+
 def jacobian_q(system, q0, v0, a0, t0, h):
     """∂r/∂q by central differences in the tangent space (steps h per coordinate)."""
-    nv, model, res = system.nv, system.model, system._residual
-    J = np.empty((nv, nv))
-    e = np.zeros(nv)
-    for k in range(nv):
-        e[k] = h[k]
-        rp = res(pin.integrate(model, q0, e), v0, a0, t0)
-        e[k] = -h[k]
-        rm = res(pin.integrate(model, q0, e), v0, a0, t0)
-        e[k] = 0.0
-        J[:, k] = (rp - rm) / (2 * h[k])
-    return J
+    return tangent_derivative(system, lambda q: system._residual(q, v0, a0, t0), q0, h)
 
 
 def jacobian_v(system, q0, v0, a0, t0, h):
     """∂r/∂v by central differences (steps h per coordinate)."""
-    nv, res = system.nv, system._residual
-    J = np.empty((nv, nv))
-    for k in range(nv):
-        vp, vm = v0.copy(), v0.copy()
-        vp[k] += h[k]
-        vm[k] -= h[k]
-        J[:, k] = (res(q0, vp, a0, t0) - res(q0, vm, a0, t0)) / (2 * h[k])
-    return J
+    return vector_derivative(lambda v: system._residual(q0, v, a0, t0), v0, h)
 
 
 def _two_steps(jac, terms, h):
@@ -335,9 +350,14 @@ def point_jacobian(system, q, points):
         b = system.body_info(body)
         local = b.body_in_joint.act(np.asarray(point, dtype=float))
         J = pin.getJointJacobian(model, data, b.joint_id, pin.LOCAL).reshape(6, model.nv)
-        R = data.oMi[b.joint_id].rotation
-        rows.append(R @ (J[:3] - pin.skew(local) @ J[3:]))
+        rows.append(world_point_jacobian(data.oMi[b.joint_id].rotation, J, local))
     return np.vstack(rows) if rows else np.zeros((0, system.nv))
+
+
+def world_point_jacobian(R, J, r):
+    """World-axes velocity Jacobian (3 × nv) of the point r (joint frame) of a joint with rotation R and
+    LOCAL Jacobian J (6 × nv): R (J_lin − [r]× J_ang)."""
+    return R @ (J[:3] - pin.skew(r) @ J[3:])
 
 
 def _is_pd(M):
