@@ -390,7 +390,7 @@ def test_bad_inputs_are_model_errors():
         (lambda: lin.forced_response([0.0, 1.0], lambda t: [1.0, 2.0, 3.0]), "2 finite value"),
         (lambda: lin.forced_response([0.0, 1.0], lambda t: [np.nan, 0.0]), "finite"),
         (lambda: lin.forced_response([0.0, 1.0], np.zeros((3, 2))), "shape"),
-        (lambda: lin.base_response(1.0, "nowhere"), "neither a support"),
+        (lambda: lin.base_response(1.0, "nowhere"), "unknown support or coordinate 'nowhere'"),
         (lambda: lin.base_response(1.0, "m1"), None),  # a prescribed joint: valid
         (lambda: lin.forced_response([0.0, 1.0], support="m1"), "give motion="),
         (lambda: lin.harmonic_response(1.0, [1.0, 2.0, 3.0]), "one per input"),

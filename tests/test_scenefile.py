@@ -402,7 +402,7 @@ ERRORS = [
     ("duplicate_element", BODY + '[[damper]]\nname = "b"\na = ["world", [-1, 0, 0]]\nb = "b"\ndamping = 1.0\n',
      "damper[0]", "duplicate name 'b'"),
     ("joint_spring_wrong_count", BODY + '[[joint_spring]]\nbody = "b"\nstiffness = [1.0, 2.0]\n', "joint_spring[0]",
-     "expected a number or 1 numbers"),
+     "expected a number, got shape (2,)"),
     ("joint_damper_negative", BODY + '[[joint_damper]]\nbody = "b"\ndamping = [-1.0]\n', "joint_damper[0].damping",
      "joint damper on 'b': must not be negative"),
     ("joint_force_both", BODY + '[[joint_force]]\nbody = "b"\nvalue = 1.0\nlaw = "harmonic"\n',

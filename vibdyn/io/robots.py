@@ -40,6 +40,7 @@ import numpy as np
 import pinocchio as pin
 
 from .. import joints as _joints
+from .._check import unknown_name
 from ..elements import WORLD
 from ..errors import ModelError
 from ..scene import Scene
@@ -243,7 +244,7 @@ def load_robot(name, floating=None, **kwargs):
     postures :func:`reference_configuration` reads.
     """
     if name not in ROBOTS:
-        raise ModelError(f"unknown robot {name!r}; known robots: {', '.join(known_robots())}")
+        raise unknown_name(name, known_robots(), "robot", "known robots")
     rel, free, srdf, posture = ROBOTS[name]
     root = robots_dir()
     path = root / rel
@@ -267,7 +268,7 @@ def known_robots():
 def robot_path(name):
     """Path of the URDF file of a robot of the table."""
     if name not in ROBOTS:
-        raise ModelError(f"unknown robot {name!r}; known robots: {', '.join(known_robots())}")
+        raise unknown_name(name, known_robots(), "robot", "known robots")
     return robots_dir() / ROBOTS[name][0]
 
 

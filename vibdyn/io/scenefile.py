@@ -533,7 +533,7 @@ class _Reader:
             if "lead" in j:
                 j["pitch"] = j.pop("lead") / (2.0 * math.pi)
         try:
-            return _joints.KINDS[kind](**j)
+            return _joints.KINDS[kind](**j).checked()
         except ModelError as e:
             raise self.error(key, f"{what}: {e}") from None
 
