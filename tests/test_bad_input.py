@@ -3,6 +3,11 @@
 Every case asserts a :class:`vibdyn.ModelError` whose message names the element at fault (body, spring,
 joint, force, coordinate...) and what is wrong. Limit cases that are physical (point mass, thin rod, thin
 disc, massless carriage between two joints, zero-free-length spring) must be accepted and stay finite.
+
+Tolerances: direct evaluations (CRBA, RNEA, ABA, kinematics, energies, parsed numbers) carry no error
+estimate; their error is round-off, a few ε × the size of the terms (× κ(M) where M is solved). Fixed
+1e-15..1e-12 relative (≈ 4.5–4500 ε) bound it on these small, well-conditioned models; 1e-10 where M is
+solved or another engine's arithmetic is compared. Results that carry an estimate are checked against it.
 """
 
 import dataclasses
