@@ -307,7 +307,7 @@ def test_reference_configuration_from_srdf():
     q_ref = model.referenceConfigurations["half_sitting"]
     assert np.allclose(robots.to_pin(system, q), pin.normalize(model, q_ref), atol=1e-12)
     assert q[2] == pytest.approx(q_ref[2])
-    with pytest.raises(vd.ModelError, match="no posture"):
+    with pytest.raises(vd.ModelError, match="unknown posture 'moonwalk'"):
         robots.reference_configuration(system, "moonwalk")
 
 

@@ -128,6 +128,6 @@ def kind_of(d, field, registry, what, example, noun):
     d = dict(d)
     kind = d.pop(field, None)
     if not isinstance(kind, str) or kind not in registry:
-        raise ModelError(f"{what}: unknown {noun} {kind!r} (one of {', '.join(registry)})")
+        raise unknown_name(kind, registry, noun, f"{noun}s", what)
     return registry[kind], d
 

@@ -802,7 +802,7 @@ def reference_configuration(system, posture=None):
             raise ModelError(f"SRDF {src.srdf}: name the posture, one of {', '.join(names)}")
         posture = names[0]
     if posture not in names:
-        raise ModelError(f"SRDF {src.srdf}: no posture {posture!r} (postures: {', '.join(names)})")
+        raise unknown_name(posture, names, "posture", what=f"SRDF {src.srdf}")
     return from_pin(system, pin.normalize(model, model.referenceConfigurations[posture]))
 
 
