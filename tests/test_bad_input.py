@@ -687,3 +687,16 @@ def test_robot_joint_names_are_suggested():
         scene.add_joint_damper("shoulder_pan_jiont", 0.5)
     with err("unknown robot 'ur55'", "did you mean 'ur5'?"):
         vd.load_robot("ur55")
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda s: s.build().accelerations([0.0], [0.0, 1.0]), "expected 1 number (one per coordinate), got shape (2,)"),
+    (lambda s: s.build().mass_matrix([0.0, 0.0]), "expected a configuration of 1 number, got shape (2,)"),
+    (lambda s: s.add_joint_spring("cart", [1.0, 2.0]), "stiffness: expected a number, got shape (2,)"),
+    (lambda s: s.add_joint_force("cart", [1.0, 2.0]), "expected 1 number (one per coordinate), got shape (2,)"),
+])
+def test_counts_read_as_english(call, message):
+    """"expected a number or 1 numbers" was the message for one coordinate: counts agree with their nouns."""
+    with pytest.raises(vd.ModelError) as e:
+        call(cart())
+    assert message in str(e.value) and "1 numbers" not in str(e.value)

@@ -12,7 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import forces as _forces
-from ._check import unknown_name, vector3
+from ._check import count, unknown_name, vector3
 from .elements import WORLD, Spring, Support
 from .errors import ModelError
 
@@ -255,7 +255,7 @@ class System:
         q0 = None
         if op.get("start") is not None:
             if len(op["start"]) != self.nv:
-                raise ModelError(f"operating point start: expected {self.nv} offsets (one per coordinate), "
+                raise ModelError(f"operating point start: expected {count(self.nv, 'offset')} (one per coordinate), "
                                  f"got {len(op['start'])}")
             q0 = pin.integrate(self.model, self.neutral(), np.array(op["start"]))
         if op.get("cyclic"):
@@ -420,9 +420,9 @@ class System:
         try:
             q = np.asarray(q, dtype=float)
         except (TypeError, ValueError):
-            raise ModelError(f"{what}: expected a configuration of {self.nq} numbers, got {q!r}") from None
+            raise ModelError(f"{what}: expected a configuration of {count(self.nq, 'number')}, got {q!r}") from None
         if q.shape != (self.nq,):
-            raise ModelError(f"{what}: expected a configuration of {self.nq} numbers, got shape {q.shape}")
+            raise ModelError(f"{what}: expected a configuration of {count(self.nq, 'number')}, got shape {q.shape}")
         if not np.all(np.isfinite(q)):
             raise ModelError(f"{what}: contains NaN or inf")
         for body, i, n in self._unit_blocks:
@@ -436,9 +436,9 @@ class System:
         try:
             v = np.asarray(v, dtype=float)
         except (TypeError, ValueError):
-            raise ModelError(f"{what}: expected {self.nv} numbers (one per coordinate), got {v!r}") from None
+            raise ModelError(f"{what}: expected {count(self.nv, 'number')} (one per coordinate), got {v!r}") from None
         if v.shape != (self.nv,):
-            raise ModelError(f"{what}: expected {self.nv} numbers (one per coordinate), got shape {v.shape}")
+            raise ModelError(f"{what}: expected {count(self.nv, 'number')} (one per coordinate), got shape {v.shape}")
         if not np.all(np.isfinite(v)):
             raise ModelError(f"{what}: contains NaN or inf")
         return v

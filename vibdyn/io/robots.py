@@ -40,7 +40,7 @@ import numpy as np
 import pinocchio as pin
 
 from .. import joints as _joints
-from .._check import unknown_name
+from .._check import count, unknown_name
 from ..elements import WORLD
 from ..errors import ModelError
 from ..scene import Scene
@@ -763,7 +763,7 @@ def from_pin(system, q_pin, v_pin=None):
     src = _source(system)
     q_pin = np.asarray(q_pin, dtype=float)
     if q_pin.shape != (src.pin_nq,):
-        raise ModelError(f"q_pin: expected {src.pin_nq} numbers, got shape {q_pin.shape}")
+        raise ModelError(f"q_pin: expected {count(src.pin_nq, 'number')}, got shape {q_pin.shape}")
     q = system.neutral()
     v = np.zeros(system.nv) if v_pin is not None else None
     for c in src.coordinates:
