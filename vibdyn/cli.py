@@ -139,6 +139,7 @@ def main(argv=None):
     modes.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
     modes.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     modes.add_argument("--method", choices=("fd", "analytic"), default="fd", help="linearisation method")
+    modes.add_argument("--png", help="also draw every mode (deformed over undeformed) into this PNG file")
     sub.add_parser("demo", help="run the main job on the bundled trailer model")
     frf = sub.add_parser("frf", help="frequency response between two channels: peaks, half-power damping, plots")
     frf.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
@@ -165,6 +166,18 @@ def main(argv=None):
     sim.add_argument("--v0", type=float, nargs="+", help="initial velocities (m/s, rad/s)")
     sim.add_argument("--out", help="write the trajectory to this .npz or .csv file")
     sim.add_argument("--no-progress", action="store_true", help="no progress bar")
+    view = sub.add_parser("view", help="browser viewer of the modes (live, on 127.0.0.1) or an offline HTML page",
+                          description="Show the modes (or a trajectory) in the browser: a live meshcat server on "
+                          "127.0.0.1 (Ctrl-C stops it), or with --html a self-contained page.")
+    view.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    view.add_argument("--mode", type=int, default=1, help="motion shown first (1-based; default 1)")
+    view.add_argument("--amplitude", type=float, help="largest point displacement shown, m (default 10%% of the "
+                      "scene's size)")
+    view.add_argument("--trajectory", help="replay this .npz trajectory (vibdyn simulate --out) instead of the modes")
+    view.add_argument("--speed", type=float, default=1.0, help="replay speed, × real time (default 1)")
+    view.add_argument("--html", help="write a self-contained HTML page (every mode) to this file and exit")
+    view.add_argument("--no-browser", action="store_true", help="live: print the URL, do not open a browser")
+    view.add_argument("--duration", type=float, help="live: stop after this many seconds (default: until Ctrl-C)")
     args = parser.parse_args(argv)
     try:
         if args.command == "info":
@@ -178,8 +191,16 @@ def main(argv=None):
                 print(json.dumps(modal_report(system, args.method)[3], indent=1))
             else:
                 print_modes(system, args.method)
+            if args.png:
+                modal_report(system, args.method)[2].plot(args.png)
+                if not args.json:
+                    print(f"saved {args.png}")
         elif args.command == "demo":
             demo()
+        elif args.command == "view":
+            from .viewer.cli import command as view_command
+
+            view_command(load(args.scene), args)
         elif args.command == "frf":
             from .response import frf_report, print_frf
 

@@ -28,6 +28,7 @@ class Body:
     mass: float
     com: tuple
     inertia: tuple
+    shape: tuple = ()  # visual shapes (vibdyn.shapes.Shape), for the viewer only
 
     @property
     def coordinates(self):
@@ -36,8 +37,11 @@ class Body:
         return tuple(label + s for s in self.joint.suffixes)
 
     def to_dict(self):
-        return {"name": self.name, "parent": self.parent, "mass": self.mass, "com": list(self.com),
-                "inertia": [list(r) for r in self.inertia], "joint": self.joint.to_dict()}
+        d = {"name": self.name, "parent": self.parent, "mass": self.mass, "com": list(self.com),
+             "inertia": [list(r) for r in self.inertia], "joint": self.joint.to_dict()}
+        if self.shape:
+            d["shape"] = [s.to_dict() for s in self.shape]
+        return d
 
 
 class Scene:
@@ -59,14 +63,17 @@ class Scene:
         self.elements = {}  # name -> element, in insertion order
         self.operating_point = None  # None: static equilibrium from neutral; see set_operating_point
         self.robot_source = None  # where a loaded robot came from (vibdyn.io.robots)
+        self.shape_folder = None  # where relative mesh paths of shapes start (a scene file's folder)
 
     # ---------------------------------------------------------------- bodies
     def add_body(self, name, parent=WORLD, joint=None, mass=0.0, com=(0.0, 0.0, 0.0), inertia=None,
-                 inertia_about=None):
+                 inertia_about=None, shape=None):
         """Add a body joined to ``parent`` by ``joint`` (a Fixed weld if None).
 
         ``mass`` in kg; ``com`` in m (body frame); ``inertia`` a 3×3 tensor (kg·m², body axes) about the
         centre of mass, or about the point ``inertia_about`` (converted by Huygens); None is a point mass.
+        ``shape``: what the viewer draws (a table or a list, see :mod:`vibdyn.shapes`); None draws the box
+        of equal inertia.
         """
         what = f"body '{name}'"
         self._check_new_name(name, "body")
@@ -90,7 +97,10 @@ class Scene:
         if inertia_about is not None:
             I = _inertia.to_com(I, m, c, vector3(inertia_about, f"{what} inertia_about"))
         I = _inertia.check(I, m, f"{what} inertia")
-        body = Body(name, parent, joint, m, tuple(map(float, c)), tuple(tuple(map(float, r)) for r in I))
+        from .shapes import shapes
+
+        body = Body(name, parent, joint, m, tuple(map(float, c)), tuple(tuple(map(float, r)) for r in I),
+                    shapes(shape, what, self.shape_folder))
         self.bodies[name] = body
         return body
 
