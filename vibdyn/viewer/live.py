@@ -146,11 +146,17 @@ class LiveViewer:
         return self.state()
 
     def toggle(self):
-        """Pause (back to the motion's first frame) or play again."""
+        """Pause (on the motion's first frame) or play again."""
         anim = self.content.animation(self.current, self.amplitude)
         self.playing = not self.playing
         self._send({"type": "set_animation", "path": "", "animations": anim,
                     "options": {"play": self.playing, "repetitions": 1_000_000_000}})
+        if not self.playing:  # a stopped animation leaves the nodes where they were: put them on frame 0
+            for clip in anim:
+                for track in clip["clip"]["tracks"]:
+                    n = 4 if track["type"] == "quaternion" else 3
+                    self._send({"type": "set_property", "path": clip["path"], "property": track["name"][1:],
+                                "value": track["values"][:n]})
         return self.state()
 
     def state(self):
