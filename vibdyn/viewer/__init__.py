@@ -37,6 +37,7 @@ class Content:
     speed: float = 1.0
     title: str = ""
     subtitle: str = ""
+    _jacobian: np.ndarray = None
 
     @property
     def n(self):
@@ -60,7 +61,12 @@ class Content:
         return out
 
     def amplitude(self, view, amplitude=None):
-        return _motion.scale(self.drawing, self.linear, view, amplitude)
+        """The factor the mode's shape is shown with (see :func:`vibdyn.viewer.motion.scale`)."""
+        if self._jacobian is None:
+            d = self.drawing
+            self._jacobian = (self.linear.point_jacobian(d.probes) if d.probes
+                              else np.zeros((0, self.system.nv)))
+        return _motion.scale(self.drawing, self.linear, view, amplitude, self._jacobian)
 
     def animation(self, k, amplitude=None):
         """meshcat animation of motion k (0-based, the trajectory first when there is one)."""

@@ -47,35 +47,48 @@ class Drawing:
     size: float = 1.0  # m, the scene's size (diagonal of its bounding box)
     center: np.ndarray = None
     ground: float = 0.0  # height (z, m) of the ground grid
+    _anchors: tuple = None  # (joint ids, points in joint frames) of the link ends
 
     def poses(self, q):
         """{node path under ROOT: 4×4 matrix in world axes} for configuration q (springs scaled along z)."""
+        names, mats, ends = self.state(q)
+        out = dict(zip(names, mats))
+        for (name, _, _), (a, b) in zip(self.links, ends):
+            out["links/" + name] = stretch(a, b)
+        return out
+
+    def state(self, q):
+        """(node names, their 4×4 world matrices (n × 4 × 4), link ends (links × 2 × 3)) at q: the bodies
+        and robot meshes, then the spring and damper anchors in world axes (m)."""
         system = self.system
         pin.forwardKinematics(system.model, system.data, q)
         oMi = system.data.oMi
-        out = {}
+        names, mats = [], []
         for name in self.bodies:
             b = system.body_info(name)
-            M = oMi[b.joint_id] * b.body_in_joint
-            out["bodies/" + name] = M.homogeneous
+            names.append("bodies/" + name)
+            mats.append((oMi[b.joint_id] * b.body_in_joint).homogeneous)
         if self.robot is not None:
             from ..io.robots import to_pin
 
             model, data, gmodel, gdata = self.robot
             pin.updateGeometryPlacements(model, data, gmodel, gdata, to_pin(system, q))
-            for k, g in enumerate(gmodel.geometryObjects):
-                out[f"robot/{k}"] = gdata.oMg[k].homogeneous
-        for name, a, b in self.links:
-            pa, pb = self._point(a, oMi), self._point(b, oMi)
-            out["links/" + name] = stretch(pa, pb)
-        return out
-
-    def _point(self, att, oMi):
-        body, point = att
-        if body == WORLD or body not in self.system.scene.bodies:
-            return np.asarray(point, dtype=float)
-        b = self.system.body_info(body)
-        return (oMi[b.joint_id] * b.body_in_joint).act(np.asarray(point, dtype=float))
+            for k in range(gmodel.ngeoms):
+                names.append(f"robot/{k}")
+                mats.append(gdata.oMg[k].homogeneous)
+        if self._anchors is None:
+            atts = [end for _, a, b in self.links for end in (a, b)]
+            self._anchors = system.attachments(atts) if atts else (np.zeros(0, int), np.zeros((0, 3)))
+        joints, local = self._anchors
+        if joints.size:
+            used = np.unique(joints)
+            R = np.array([oMi[int(j)].rotation for j in used])
+            p = np.array([oMi[int(j)].translation for j in used])
+            k = np.searchsorted(used, joints)
+            ends = (np.einsum("nij,nj->ni", R[k], local) + p[k]).reshape(-1, 2, 3)
+        else:
+            ends = np.zeros((0, 2, 3))
+        return names, np.array(mats).reshape(-1, 4, 4), ends
 
     def points(self, q):
         """World positions (m) of the probe points at q, (n × 3)."""
@@ -140,7 +153,11 @@ def drawing(system, q0):
     d.size = max(float(np.linalg.norm(hi - lo)), 0.1)
     d.center = 0.5 * (lo + hi)
     d.ground = float(lo[2]) - 0.05 * d.size
-    s = d.size
+    # details (rods, markers, point masses) sized by the scene, and by its links when they are short
+    lengths = [np.linalg.norm(p - np.asarray(b.com)) for b in scene.bodies.values()
+               for p in [np.zeros(3)] + anchors[b.name]]
+    lengths = [x for x in lengths if x > 1e-6 * d.size]
+    s = min(d.size, 6 * float(np.median(lengths))) if lengths else d.size
     rod, joint_r = 0.008 * s, 0.02 * s
 
     for i, b in enumerate(scene.bodies.values()):

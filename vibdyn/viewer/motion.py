@@ -11,7 +11,6 @@ overdamped ones grow (sawtooth loops, labelled).
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
 from ..errors import ModelError
 
@@ -88,13 +87,14 @@ def _phases(view, n=FRAMES):
     return (np.expm1(3 * u) / np.expm1(3) * 2 - 1).astype(complex)  # grows (or decays, shown growing)
 
 
-def scale(drawing, linear, view, amplitude=None):
+def scale(drawing, linear, view, amplitude=None, J=None):
     """The factor a: largest probe displacement = ``amplitude`` m (default 10 % of the scene size), joints
-    turning at most 0.6 rad."""
+    turning at most 0.6 rad. ``J``: the probes' point Jacobian at the operating point, if known."""
     target = 0.1 * drawing.size if amplitude is None else float(amplitude)
     if not np.isfinite(target) or target <= 0:
         raise ModelError(f"amplitude must be a positive length in m, got {amplitude!r}")
-    J = linear.point_jacobian(drawing.probes) if drawing.probes else np.zeros((0, linear.nv))
+    if J is None:
+        J = linear.point_jacobian(drawing.probes) if drawing.probes else np.zeros((0, linear.nv))
     ph = np.exp(2j * np.pi * np.arange(8) / 8)
     d = (J @ view.shape)[:, None] * ph[None, :]  # (3P × 8)
     disp = np.sqrt((d.real.reshape(-1, 3, 8) ** 2).sum(axis=1)).max(initial=0.0)
@@ -159,22 +159,70 @@ def load_trajectory(system, path):
 def animation(drawing, times, frames, root):
     """meshcat ``set_animation`` payload (list of per-node clips) of configurations at the given times (s)."""
     times = np.asarray(times, float)
-    poses = [drawing.poses(q) for q in frames]
-    out = []
-    for node in poses[0]:
-        M = np.array([p[node] for p in poses])  # (n, 4, 4)
-        pos = M[:, :3, 3]
-        S = np.linalg.norm(M[:, :3, :3], axis=1)  # column norms: the scale
-        R = M[:, :3, :3] / S[:, None, :]
-        quat = np.array([pin.Quaternion(r).coeffs() for r in R])  # x, y, z, w
-        for k in range(1, len(quat)):  # the short way between frames
-            if np.dot(quat[k], quat[k - 1]) < 0:
-                quat[k] = -quat[k]
-        tracks = [_track(".position", "vector3", times, pos), _track(".quaternion", "quaternion", times, quat)]
-        if np.ptp(S, axis=0).max() > 1e-12 or np.abs(S - 1).max() > 1e-12:
-            tracks.append(_track(".scale", "vector3", times, S))
-        out.append({"path": f"{root}/{node}", "clip": {"fps": 1, "name": "default", "tracks": tracks}})
+    states = [drawing.state(q) for q in frames]
+    names = states[0][0]
+    mats = np.array([s[1] for s in states]).reshape(len(frames), len(names), 4, 4)
+    ends = np.array([s[2] for s in states]).reshape(len(frames), -1, 2, 3)
+    out = [_clip(f"{root}/{name}", times, mats[:, i, :3, 3], quaternions(mats[:, i, :3, :3]), None)
+           for i, name in enumerate(names)]
+    for j, (name, _, _) in enumerate(drawing.links):
+        a, b = ends[:, j, 0], ends[:, j, 1]
+        d = b - a
+        L = np.linalg.norm(d, axis=1)
+        u = d / np.where(L > 0, L, 1.0)[:, None]
+        u[L == 0] = (0.0, 0.0, 1.0)
+        quat = np.column_stack([-u[:, 1], u[:, 0], np.zeros(len(u)), 1.0 + u[:, 2]])  # z → u (x, y, z, w)
+        flip = quat[:, 3] < 1e-9  # u = −z: half a turn about x
+        quat[flip] = (1.0, 0.0, 0.0, 0.0)
+        quat /= np.linalg.norm(quat, axis=1)[:, None]
+        scale = np.column_stack([np.ones_like(L), np.ones_like(L), np.maximum(L, 1e-9)])
+        out.append(_clip(f"{root}/links/{name}", times, a, quat, scale))
     return out
+
+
+def quaternions(R):
+    """Unit quaternions (x, y, z, w) of rotation matrices (n × 3 × 3), each on the side of its predecessor
+    (so that interpolation between frames takes the short way)."""
+    q = _quaternions(np.asarray(R, float).reshape(-1, 3, 3))
+    for k in range(1, len(q)):
+        if np.dot(q[k], q[k - 1]) < 0:
+            q[k] = -q[k]
+    return q
+
+
+def _quaternions(R):
+    """Vectorised rotation matrix → quaternion (x, y, z, w), the best-conditioned of the four formulas."""
+    t = np.einsum("nii->n", R)
+    cand = np.column_stack([t, R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]])
+    k = np.argmax(cand, axis=1)
+    q = np.empty((len(R), 4))
+    for case in range(4):
+        m = k == case
+        if not m.any():
+            continue
+        r = R[m]
+        if case == 0:
+            s = 2 * np.sqrt(1 + t[m])
+            q[m] = np.column_stack([(r[:, 2, 1] - r[:, 1, 2]) / s, (r[:, 0, 2] - r[:, 2, 0]) / s,
+                                    (r[:, 1, 0] - r[:, 0, 1]) / s, s / 4])
+        else:
+            i = case - 1
+            j, l = (i + 1) % 3, (i + 2) % 3
+            s = 2 * np.sqrt(1 + r[:, i, i] - r[:, j, j] - r[:, l, l])
+            v = np.empty((m.sum(), 4))
+            v[:, i] = s / 4
+            v[:, j] = (r[:, j, i] + r[:, i, j]) / s
+            v[:, l] = (r[:, l, i] + r[:, i, l]) / s
+            v[:, 3] = (r[:, l, j] - r[:, j, l]) / s
+            q[m] = v
+    return q / np.linalg.norm(q, axis=1)[:, None]
+
+
+def _clip(path, times, pos, quat, scale):
+    tracks = [_track(".position", "vector3", times, pos), _track(".quaternion", "quaternion", times, quat)]
+    if scale is not None:
+        tracks.append(_track(".scale", "vector3", times, scale))
+    return {"path": path, "clip": {"fps": 1, "name": "default", "tracks": tracks}}
 
 
 def _track(name, kind, times, values):
