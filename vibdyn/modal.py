@@ -143,8 +143,10 @@ def modes(lin, tolerance=None):
     unstable = w2 < 0
     Mm, Km = Phi.T @ MPhi, Phi.T @ KPhi
     ortho = max(np.abs(Mm - np.eye(n)).max(initial=0.0), np.abs(Km - np.diag(w2)).max(initial=0.0) / scale)
-    # relative error of ω per mode (half that of ω²); a rigid mode's, relative to the spectrum's scale
-    rel = np.where(rigid, uncertainty / scale, 0.5 * uncertainty / np.where(rigid, 1.0, np.abs(w2)))
+    # relative error of ω per mode (half that of ω²); a rigid mode's, relative to the spectrum's scale (or,
+    # when every mode is rigid, to the largest |ω²| that still counts as rigid)
+    rigid_scale = max(scale, 10 * uncertainty.max(initial=0.0))
+    rel = np.where(rigid, uncertainty / rigid_scale, 0.5 * uncertainty / np.where(rigid, 1.0, np.abs(w2)))
     omega = np.sqrt(np.abs(w2))
     # a rigid mode's zero may split by ±√δω² in the state form (a Jordan block): that is still zero
     zero_threshold = float(np.sqrt(10 * uncertainty[rigid].max(initial=0.0))) + 1e-12 * np.sqrt(scale)
