@@ -91,7 +91,7 @@ def modal_report(system, method="fd"):
             "kind": op.kind, "stability": op.stability, "residual": op.residual, "iterations": op.iterations,
             "q": op.q.tolist(), "v": op.v.tolist(),
             "offsets": system.difference(system.neutral(), op.q).tolist(),
-            "speeds": op.speeds, "elapsed_s": op.elapsed},
+            "speeds": op.speeds, "drive": op.drive, "elapsed_s": op.elapsed},
         "linearization": {"method": lin.method, "error_estimate": lin.error, "elapsed_s": lin.elapsed,
                           "evaluations": lin.evaluations, "M": lin.M.tolist(), "C": lin.C.tolist(),
                           "K": lin.K.tolist()},
