@@ -138,6 +138,7 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
     nv, model = system.nv, system.model
     q = system.neutral() if q0 is None else system._q(np.array(q0, dtype=float), "q0").copy()
     system.check_limits(q, "equilibrium search start")
+    q_start = q.copy()
     v = np.zeros(nv)
     given = {i: s for i, s in cyclic.items() if s is not None}
     unknown = [i for i, s in cyclic.items() if s is None]
@@ -210,17 +211,21 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
         if np.abs(step * alpha).max() <= 1e-15 * max(1.0, np.abs(max_step).max()) and res <= 1e3 * target:
             break  # stagnated at round-off
         J = jacobian(q, v)
+    travel = float(np.abs(system.difference(q_start, best[1])).max(initial=0.0))
     q, v = best[1], best[2]
     r = residual(q, v)
     names = system.coordinates
     drive = {names[i]: float(r[i]) for i in given}
     return _finish(system, q, v, t, "steady" if cyclic else "static", float(best[0]), float(target), it,
-                   len(cyclic), {names[i]: float(v[i]) for i in cyclic}, drive, start)
+                   len(cyclic), {names[i]: float(v[i]) for i in cyclic}, drive, start, travel)
 
 
-def _finish(system, q, v, t, kind, residual, tolerance, iterations, ignore_zeros, speeds, drive, start):
+def _finish(system, q, v, t, kind, residual, tolerance, iterations, ignore_zeros, speeds, drive, start,
+            travel=0.0):
     """The Equilibrium at (q, v): its stability from the modes of the linear model (a = 0), and the error
-    of its offsets, |K⁺| × the remaining forces."""
+    of its offsets: |K⁺| × the remaining forces, and along rigid (neutral) directions, where any offset is an
+    equilibrium, the drift of a search that travelled ``travel`` (m or rad) with a Jacobian differenced to a
+    relative √eps."""
     nv = system.nv
     lin = linearize(system, q, v=v, t=t, a=np.zeros(nv))
     m = lin.modes()
@@ -228,6 +233,9 @@ def _finish(system, q, v, t, kind, residual, tolerance, iterations, ignore_zeros
     q_error = np.abs(np.linalg.pinv(lin.K, rcond=1e-10)) @ np.full(nv, residual) if nv else np.zeros(0)
     if iterations:  # the offsets carry the round-off of the steps that reached them
         q_error = q_error + 4 * np.finfo(float).eps * (np.abs(system.difference(system.neutral(), q)) + 1.0)
+        if m.rigid.any():
+            P = np.abs(m.shapes[:, m.rigid] @ (m.shapes[:, m.rigid].T @ lin.M))  # M-projector on rigid modes
+            q_error = q_error + np.sqrt(np.finfo(float).eps) * travel * P.sum(axis=1)
     return Equilibrium(system, q, v, float(t), kind, residual, tolerance, iterations, stability, speeds, drive,
                        time.perf_counter() - start, m, q_error)
 

@@ -429,9 +429,7 @@ class _Reader:
         for name, value in d.get("limits", {}).items():
             try:
                 scene.set_limits(name, *_limits(value))
-            except _Bad as e:
-                raise self.error(f"limits.{name}", str(e)) from None
-            except ModelError as e:
+            except (_Bad, ModelError) as e:
                 raise self.error(f"limits.{name}", str(e)) from None
         if "operating_point" in d:
             self.operating_point(scene, d["operating_point"])
