@@ -112,6 +112,15 @@ def test_modes_of_panda_keep_the_fingers_within_their_limits(capsys):
         assert 0.0 <= offsets[finger] <= 0.04
 
 
+def test_start_of_a_held_robot_moves_its_configuration_within_limits(capsys):
+    code, out, _ = run(capsys, "modes", "robot:panda", "--start", "panda_joint4=-1.5", "--json")
+    offsets = dict(zip(json.loads(out)["coordinates"], json.loads(out)["operating_point"]["offsets"]))
+    assert code == 0 and offsets["panda_joint4"] == pytest.approx(-1.5, abs=1e-15)
+    assert offsets["panda_joint2"] == pytest.approx(-0.785398, abs=1e-15)  # the SRDF posture for the others
+    code, _, err = run(capsys, "modes", "robot:ur5", "--start", "elbow_joint=9")
+    assert code == 2 and "'elbow_joint' = 9 rad is beyond its upper limit 3.14159 rad" in err
+
+
 def test_a_search_that_would_leave_the_limits_refuses_naming_coordinate_and_limit():
     s = vd.Scene("stop")
     s.add_body("cart", joint=vd.Slider((1, 0, 0)), mass=1.0)

@@ -165,8 +165,9 @@ def _damped_note(m):
     kinds = [f"{k} {what}" for k, what in ((zero, "zero (rigid or cyclic)"), (decay, "decaying (overdamped)"),
                                            (grow, "growing (unstable)")) if k]
     text = (f"{m.eigenvalues.size} eigenvalues for {m.n} coordinates: each complex pair λ, λ̄ is one row "
-            f"({pairs} pair{'s' * (pairs != 1)}), each real eigenvalue a row of its own ({len(real)}"
-            f"{': ' + ', '.join(kinds) if kinds else ''})")
+            f"({pairs} pair{'s' * (pairs != 1)}), "
+            + (f"each real eigenvalue a row of its own ({len(real)}: {', '.join(kinds)})" if len(real)
+               else "none is real"))
     if len(lam) != m.n:
         text += f", hence {len(lam)} rows against {m.n} undamped modes"
     return "note: " + text
