@@ -228,7 +228,7 @@ def demo(out=None):
     p(f"dv/dt      {vector(a)} (ABA, {dt * 1e6:.0f} µs; RNEA residual "
       f"{np.abs(system.inverse_dynamics(q, v, a)).max():.1e})")
     e = system.energy(q, v)
-    p(f"energy     gravity {e.gravity:.6g} J, elastic {e.elastic:.6g} J")
+    p(f"energy     gravity {number(e.gravity, 'J')}, elastic {number(e.elastic, 'J')}")
     r = system.reactions(q, v, a)
     for name, f, mo in zip(r.bodies, r.force, r.moment):
         p(f"link {name:<8} force {vector(f)} N, moment {vector(mo)} N·m (world axes, at the joint)")

@@ -1,5 +1,6 @@
 """Equilibria: static (Q − g = 0 at v = 0) and steady motions (some coordinates turning at constant speed,
-the others at rest relative to them), found by Newton in the tangent space, and their stability.
+the others at rest relative to them), found by Newton in the tangent space, and their stability; and
+configurations held by drives (robots under gravity, which have no free equilibrium).
 """
 
 import time

@@ -75,7 +75,12 @@ class Reactions:
 
 
 class System:
-    """A compiled scene. Build it with :meth:`vibdyn.Scene.build`."""
+    """A compiled scene. Build it with :meth:`vibdyn.Scene.build`.
+
+    ``coordinates`` and ``units`` ("m" or "rad") name the tangent coordinates; ``limits`` maps a
+    coordinate to its position limits (lower, upper) in m or rad (from a URDF or ``Scene.set_limits``),
+    which equilibrium searches refuse to leave.
+    """
 
     def __init__(self, scene):
         self.scene = scene.copy()
