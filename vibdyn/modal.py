@@ -156,6 +156,10 @@ def modes(lin, tolerance=None):
     if damped:
         lam, lam_modes, shapes_c, lam_error = _state_modes(lin)
         mag = np.abs(lam_modes)
+        # a rigid mode's zero is a Jordan block (x = a + b t; left and right eigenvectors orthogonal), where
+        # first-order perturbation does not apply: its error is the split that still counts as zero
+        lam_scale = max(mag.max(initial=0.0), 1e-300)
+        lam_error = np.where(mag <= zero_threshold, np.minimum(lam_error, zero_threshold / lam_scale), lam_error)
         zeta = np.where(mag > 0, -lam_modes.real / np.where(mag > 0, mag, 1.0), 0.0)
         classical = _is_classical(lin)
     else:
