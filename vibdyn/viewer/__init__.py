@@ -80,8 +80,22 @@ class Content:
         times = np.linspace(0.0, _motion.PERIOD, len(frames))
         return _motion.animation(self.drawing, times, frames, ROOT)
 
+    def displacements(self):
+        """Point displacements (m) of the motions shown: the modes' (complex, per unit factor) or those
+        along the trajectory; (n × 3)."""
+        d = self.drawing
+        rows = []
+        if self.views and d.probes:
+            self.amplitude(self.views[0])  # the point Jacobian
+            rows += [(self._jacobian @ v.shape).reshape(-1, 3) for v in self.views]
+        if self.trajectory is not None and d.probes:
+            p0 = d.points(self.q0)
+            q = self.trajectory[1]
+            rows += [d.points(q[k]) - p0 for k in np.linspace(0, len(q) - 1, min(len(q), 20)).astype(int)]
+        return np.concatenate(rows) if rows else np.zeros((0, 3))
+
     def scene_commands(self):
-        return scene_commands(self.drawing, self.q0, view_direction(self.drawing, self.linear, self.views))
+        return scene_commands(self.drawing, self.q0, view_direction(self.displacements()))
 
 
 def content(obj, trajectory=None, speed=1.0):

@@ -95,6 +95,7 @@ class LiveViewer:
         self.amplitude = amplitude
         self.current = 0
         self.playing = True
+        self._started = time.monotonic()
         self._lock = threading.Lock()
         self._umsgpack = umsgpack
         self._http = None
@@ -142,13 +143,13 @@ class LiveViewer:
         anim = self.content.animation(k, self.amplitude)
         self._send({"type": "set_animation", "path": "", "animations": anim,
                     "options": {"play": True, "repetitions": 1_000_000_000}})
-        self.current, self.playing = k, True
+        self.current, self.playing, self._started = k, True, time.monotonic()
         return self.state()
 
     def toggle(self):
         """Pause (on the motion's first frame) or play again."""
         anim = self.content.animation(self.current, self.amplitude)
-        self.playing = not self.playing
+        self.playing, self._started = not self.playing, time.monotonic()
         self._send({"type": "set_animation", "path": "", "animations": anim,
                     "options": {"play": self.playing, "repetitions": 1_000_000_000}})
         if not self.playing:  # a stopped animation leaves the nodes where they were: put them on frame 0
@@ -160,8 +161,15 @@ class LiveViewer:
         return self.state()
 
     def state(self):
-        return {"current": self.current, "playing": self.playing, "amplitude": self.amplitude,
-                "motions": self.content.n}
+        """What the page shows: current motion, playing, amplitude, and ``t`` (s) of a replayed trajectory."""
+        out = {"current": self.current, "playing": self.playing, "amplitude": self.amplitude,
+               "motions": self.content.n}
+        traj = self.content.trajectory
+        if traj is not None and self.current == 0:
+            shown = (traj[0][-1] - traj[0][0]) / self.content.speed
+            elapsed = (time.monotonic() - self._started) % shown if self.playing and shown > 0 else 0.0
+            out["t"] = float(traj[0][0] + elapsed * self.content.speed)
+        return out
 
     def page(self):
         c = self.content

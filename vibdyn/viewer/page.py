@@ -56,12 +56,12 @@ def scene_commands(drawing, q0, view_dir=None):
     return cmds
 
 
-def view_direction(drawing, linear, views):
-    """A viewing direction across the motions: along the direction the probe points move least."""
-    if linear is None or not views or not drawing.probes:
+def view_direction(displacements):
+    """A viewing direction across a motion: along the direction its points move least ((n × 3) point
+    displacements, m); None (the usual oblique view) when they move in every direction."""
+    D = np.asarray(displacements).reshape(-1, 3)
+    if D.size == 0:
         return None
-    J = linear.point_jacobian(drawing.probes)
-    D = np.concatenate([(J @ v.shape).reshape(-1, 3) for v in views])
     D = np.vstack([D.real, D.imag])
     C = D.T @ D
     if not np.any(C):
@@ -180,6 +180,11 @@ function vdToggle() {
     document.getElementById("vd-play").textContent = s.playing ? "pause" : "play"; });
 }
 document.querySelectorAll(".vd-row").forEach((r, i) => r.addEventListener("click", () => vdShow(i)));
+setInterval(() => {
+  if (!VD.motions[VD.current].clock) { document.getElementById("vd-time").textContent = ""; return; }
+  fetch("state").then(r => r.json()).then(s => {
+    if (s.t !== undefined) document.getElementById("vd-time").textContent = "t = " + s.t.toFixed(2) + " s"; });
+}, 250);
 const vdP = vdParams();
 if (vdP.mode !== undefined) vdShow(Math.max(0, (parseInt(vdP.mode) || 1) - 1)); else vdMark(VD.current);
 """
