@@ -4,7 +4,6 @@
 import signal
 import sys
 import time
-import webbrowser
 
 
 def command(scene, args, out=None):
@@ -20,18 +19,15 @@ def command(scene, args, out=None):
         print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB, {time.perf_counter() - start:.2f} s); "
               "open it in any browser (no network needed)", file=out)
         return
-    from .live import LiveViewer
+    from .live import LiveViewer, open_in_browser
 
     previous = signal.signal(signal.SIGTERM, _interrupt)
     try:
         with LiveViewer(content(system, args.trajectory, args.speed), amplitude=args.amplitude,
                         mode=args.mode) as viewer:
             print(f"viewer: {viewer.url}  (meshcat: {viewer.meshcat_url}); Ctrl-C stops it", file=out, flush=True)
-            if not args.no_browser:
-                try:
-                    webbrowser.open(viewer.url, new=2)
-                except webbrowser.Error:  # no browser: the URL above is enough
-                    pass
+            if not args.no_browser and not open_in_browser(viewer.url):
+                print("no graphical browser here: open the URL above in one", file=out, flush=True)
             deadline = None if args.duration is None else time.monotonic() + args.duration
             try:
                 while viewer.running and (deadline is None or time.monotonic() < deadline):

@@ -120,7 +120,7 @@ class LiveViewer:
             raise
         atexit.register(self.close)
         if open_browser:
-            webbrowser.open(self.url, new=2)
+            open_in_browser(self.url)
 
     # ------------------------------------------------------------ commands
     def _send(self, cmd):
@@ -204,6 +204,17 @@ class LiveViewer:
 
     def __repr__(self):
         return f"LiveViewer({self.url!r}, meshcat {self.meshcat_url!r}, {'running' if self.running else 'closed'})"
+
+
+def open_in_browser(url):
+    """Open url in the user's graphical browser; False when there is none (then print the URL instead).
+    Without a display, Python's webbrowser would fall back on a text browser taking over the terminal."""
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        return False
+    try:
+        return bool(webbrowser.open(url, new=2))
+    except webbrowser.Error:
+        return False
 
 
 def _ext(obj, umsgpack):
