@@ -1,6 +1,7 @@
 """Every ```python block of README.md runs as written, top to bottom, as one session (a tour: later blocks
 use names from earlier ones), in a temporary directory where the repository's models/ are reachable."""
 
+import fnmatch
 import os
 import re
 
@@ -38,3 +39,10 @@ def test_readme_blocks_run_top_to_bottom(tmp_path, monkeypatch):
                 raise AssertionError(f"README.md block at line {line} raised {type(exc).__name__}: {exc}") from exc
     finally:
         plt.close("all")
+    # what the tour wrote is covered by .gitignore (simple glob lines there), so it never lands in a commit
+    ignored = [line.strip() for line in (ROOT / ".gitignore").read_text().splitlines()
+               if line.strip() and not line.startswith(("#", "!"))]
+    written = [p.name for p in tmp_path.iterdir() if p.name != "models"]
+    assert written, "the tour writes files (a01.csv, bode.png, ...): were they moved?"
+    uncovered = [name for name in written if not any(fnmatch.fnmatch(name, g.rstrip("/")) for g in ignored)]
+    assert not uncovered, f"README examples write files .gitignore does not cover: {uncovered}"
