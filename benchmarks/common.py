@@ -91,17 +91,20 @@ class Settings:
 
 
 def measure(fn, repeat=1, memory=True):
-    """Best wall time of ``repeat`` calls of ``fn`` (after one warm-up call when repeat > 1), then, for runs
-    shorter than MEMORY_MAX_S, one more call under tracemalloc for the peak Python/numpy allocation (MB;
-    Pinocchio's C++ allocations are not seen; tracemalloc slows Python-heavy code several times, so that
-    call is never timed). Longer runs report peak_mb None (see the process peak in the machine record).
+    """Best wall time of up to ``repeat`` calls of ``fn`` after a first call (a warm-up, itself timed: runs
+    longer than REPEAT_MAX_S are not repeated), then, for runs shorter than MEMORY_MAX_S, one more call
+    under tracemalloc for the peak Python/numpy allocation (MB; Pinocchio's C++ allocations are not seen;
+    tracemalloc slows Python-heavy code several times, so that call is never timed).
     Returns (result of the last call, best time in s, peak MB or None). Exceptions propagate."""
-    out = fn() if repeat > 1 else None
-    best = math.inf
-    for _ in range(max(repeat, 1)):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
+    t = time.perf_counter()
+    out = fn()
+    best = first = time.perf_counter() - t
+    if repeat > 1 and first < REPEAT_MAX_S:
+        best = math.inf
+        for _ in range(repeat):
+            t = time.perf_counter()
+            out = fn()
+            best = min(best, time.perf_counter() - t)
     peak = None
     if memory and best < MEMORY_MAX_S:
         tracemalloc.start()
@@ -113,6 +116,7 @@ def measure(fn, repeat=1, memory=True):
     return out, best, peak
 
 
+REPEAT_MAX_S = 0.5
 MEMORY_MAX_S = 1.0
 
 

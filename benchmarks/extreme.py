@@ -60,12 +60,17 @@ def scipy_runs(system, T, q0, v0, error_of, methods, **kw):
         return np.concatenate([x[n:], system.accelerations(x[:n], x[n:], t)])
 
     for m in methods:
+        label = f"scipy {m} " + (" ".join(f"{k}={v:g}" for k, v in kw.items()) or "defaults")
         t = time.perf_counter()
-        sol = solve_ivp(f, (0.0, T), np.concatenate([q0, v0]), method=m, t_eval=[T], **kw)
+        try:
+            sol = solve_ivp(f, (0.0, T), np.concatenate([q0, v0]), method=m, t_eval=[T], **kw)
+        except vd.VibdynError as e:  # scipy fed vibdyn a non-finite state
+            runs.append(C.run_record(label, "scipy", None, None, time.perf_counter() - t, verdict_=C.UNCHECKED,
+                                     note=f"stopped: {type(e).__name__}: {e}"))
+            continue
         wall = time.perf_counter() - t
         ok = sol.success and sol.y.shape[1] == 1
-        runs.append(C.run_record(f"scipy {m} " + (" ".join(f"{k}={v:g}" for k, v in kw.items()) or "defaults"),
-                                 "scipy", error_of(sol.y[:n, -1]) if ok else None, None, wall, sol.nfev,
+        runs.append(C.run_record(label, "scipy", error_of(sol.y[:n, -1]) if ok else None, None, wall, sol.nfev,
                                  note=f"scipy status: {'success' if sol.success else sol.message}"))
     return runs
 

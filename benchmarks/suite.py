@@ -45,8 +45,14 @@ def run_suite(mode="quick", only=None, out=RESULTS, plots=True, log=print):
     for name in names:
         start = time.perf_counter()
         log(f"== {name} ({mode})")
-        module = importlib.import_module(REGISTRY[name])
-        cases = module.run(S)
+        try:
+            cases = importlib.import_module(REGISTRY[name]).run(S)
+        except Exception as e:  # noqa: BLE001 — one broken module must not hide the others' results
+            import traceback
+
+            cases = [C.case_record(f"{name}: the module crashed", name, "—", [C.refused(
+                "module", "vibdyn", e, time.perf_counter() - start,
+                traceback="".join(traceback.format_exception(e))[-2000:])])]
         res = {"name": name, "mode": mode, "machine": info, "estimate_slack": C.ESTIMATE_SLACK,
                "total_s": time.perf_counter() - start, "cases": cases}
         (out / f"{name}.json").write_text(json.dumps(res, indent=1, default=_json_default))
