@@ -59,7 +59,7 @@ def refused(label, solver, exc, time_s, **extra):
 
 def case_record(name, group, reference, runs, unit="", **extra):
     c = {"name": name, "group": group, "reference": reference, "unit": unit, "runs": runs,
-         "verdict": case_verdict(runs)}
+         "verdict": case_verdict(runs), "process_peak_mb": process_peak_mb()}
     c.update(extra)
     return c
 
