@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._format import number, table, vector
 from .errors import ModelError, VibdynError
 
 
@@ -55,25 +56,36 @@ def load(spec):
 
 
 def describe(scene, system, out=None):
-    """Print a scene's bodies, joints, coordinates and force elements."""
+    """Print a scene's bodies (joint, mass, centre of mass, inertia), coordinates and force elements."""
     p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
     p(f"scene      {scene.name}")
     if scene.source:
         p(f"source     {scene.source}")
-    p(f"gravity    {_vec(scene.gravity)} m/s²")
+    p(f"gravity    {vector(scene.gravity, 'm/s²')}")
     p(f"size       {len(scene.bodies)} bodies, nq = {system.nq}, nv = {system.nv}")
     p("")
-    p(f"{'body':<22} {'parent':<18} {'joint':<12} {'axis / params':<28} {'mass kg':>9}  coordinates")
+    p("bodies: joint placed at `at` (m) in the parent's frame, axes in the body frame; centre of mass (m) in the "
+      "body frame; inertia (kg·m²) about the centre of mass, body axes")
     for b in scene.bodies.values():
-        params = b.joint.params()
-        extra = ", ".join(f"{k}={_vec(v) if isinstance(v, list) else f'{v:g}'}" for k, v in params.items())
-        p(f"{b.name:<22} {b.parent:<18} {b.joint.kind:<12} {extra:<28} {b.mass:>9.4g}  "
-          f"{' '.join(b.coordinates) or '-'}")
+        J = b.joint
+        place = f"at {vector(J.at, 'm')}" + (f", rotated {_rotation(J.rotation)}" if J.rotation is not None else "")
+        if J.nv == 0 and b.mass == 0.0:
+            p(f"  {b.name} (on {b.parent}): fixed {place}, no mass (a marker)")
+            continue
+        p(f"  {b.name} (on {b.parent})")
+        params = ", ".join(f"{k} {vector(v) if isinstance(v, (list, tuple)) else number(v)}"
+                           for k, v in J.params().items())
+        coords = ", ".join(f"{c} ({u}{_limits(system, c)})" for c, u in zip(b.coordinates, J.units))
+        p(f"    joint    {J.kind}{', ' + params if params else ''}, {place}"
+          + (f"; coordinates {coords}" if coords else ""))
+        p(f"    mass     {number(b.mass, 'kg')}, centre of mass {vector(b.com, 'm')}")
+        p(f"    inertia  {_inertia(b.inertia)}")
     if scene.elements:
         p("")
-        p(f"{'element':<22} {'kind':<13} details")
-        for e in scene.elements.values():
-            p(f"{e.name:<22} {_kind(e):<13} {_details(e)}")
+        p("force elements")
+        for line in table(["name", "kind", "details"], [[e.name, _kind(e), _details(e)] for e in scene.elements.values()],
+                          ["<", "<", "<"]):
+            p("  " + line)
     if scene.references:
         p("")
         p("reference values: " + ", ".join(sorted(k for k in scene.references if k not in ("source", "note"))))
@@ -102,7 +114,7 @@ def modal_report(system, method="fd"):
             "kind": op.kind, "stability": op.stability, "residual": op.residual, "iterations": op.iterations,
             "q": op.q.tolist(), "v": op.v.tolist(),
             "offsets": system.difference(system.neutral(), op.q).tolist(),
-            "speeds": op.speeds, "elapsed_s": op.elapsed},
+            "speeds": op.speeds, "drive": op.drive, "elapsed_s": op.elapsed},
         "linearization": {"method": lin.method, "error_estimate": lin.error, "elapsed_s": lin.elapsed,
                           "evaluations": lin.evaluations, "M": lin.M.tolist(), "C": lin.C.tolist(),
                           "K": lin.K.tolist()},
@@ -111,13 +123,105 @@ def modal_report(system, method="fd"):
 
 
 def print_modes(system, method="fd", out=None):
-    """Print the operating point, natural frequencies, damping ratios, stability and error estimate."""
+    """Print the operating point, the modes (ascending in ω²) with their shapes, the damped modes, stability
+    and error estimates."""
     out = out or sys.stdout
     op, lin, m, _ = modal_report(system, method)
     print(op, file=out)
     print(f"linearisation ({lin.method}): error ≈ {lin.error:.1e}, {lin.elapsed * 1e3:.2f} ms, "
           f"{lin.evaluations} evaluations", file=out)
-    print(m, file=out)
+    print("", file=out)
+    print(modes_text(lin, m), file=out)
+
+
+def modes_text(lin, m, per_block=8):
+    """The modes of ``m`` as text: undamped modes in ascending order of signed ω² (unstable directions
+    first, then rigid ones, then natural frequencies), their shapes per coordinate (largest entry 1), and
+    the damped modes with a note on how they are counted."""
+    order = np.argsort(m.omega2, kind="stable")
+    lines = ["modes, in ascending order of ω² (unstable directions, ω² < 0, first; then rigid ones, ω² = 0)"]
+    rows = []
+    for j in order:
+        if m.unstable[j]:
+            w, f, note = "-", "-", f"unstable: grows as exp({number(m.omega[j], digits=5)} t), t in s"
+        else:
+            w, f = number(m.omega[j], digits=8), number(m.frequency_hz[j], digits=6)
+            note = "rigid" if m.rigid[j] else ""
+        rows.append([str(j + 1), number(m.omega2[j], digits=6), w, f, number(m.residual[j], digits=1), note])
+    lines += ["  " + x for x in table(["mode", "ω² 1/s²", "ω rad/s", "f Hz", "error", "note"], rows,
+                                      ["<", ">", ">", ">", ">", "<"])]
+    if m.n:
+        # a shape is known to about K's relative error (first order): entries below it are noise
+        cut = 10 * (lin.error + m.n * np.finfo(float).eps)
+        lines.append("")
+        lines.append("mode shapes (each scaled so its largest entry is 1; m or rad per coordinate)")
+        S = m.shapes / np.abs(m.shapes).max(axis=0, initial=1e-300)
+        names, units = lin.coordinates, lin.system.units
+        for b in range(0, len(order), per_block):
+            cols = order[b:b + per_block]
+            rows = [[c, u] + [number(S[i, j], error=cut, digits=4) for j in cols]
+                    for i, (c, u) in enumerate(zip(names, units))]
+            lines += ["  " + x for x in table(["coordinate", "unit"] + [f"mode {j + 1}" for j in cols], rows,
+                                              ["<", "<"] + [">"] * len(cols))]
+    if m.eigenvalues.size:
+        lines.append("")
+        lines.append("damped modes (state form: eigenvalues λ = −ζω_n ± iω_d, 1/s)")
+        rows = []
+        for i, lam in enumerate(m.damped_eigenvalues):
+            im = "" if lam.imag == 0 else f" ± {number(abs(lam.imag), digits=8)}i"
+            rows.append([str(i + 1), number(lam.real, digits=8) + im, number(m.zeta[i], digits=6),
+                         number(m.omega_n[i], digits=8), number(m.eigenvalue_error[i], digits=1)])
+        lines += ["  " + x for x in table(["mode", "λ 1/s", "ζ", "ω_n rad/s", "error"], rows)]
+        lines.append("  " + _damped_note(m))
+    lines.append(f"stability {m.stability}; error ≈ {m.error:.1e}; {m.elapsed * 1e3:.2f} ms")
+    return "\n".join(lines)
+
+
+def _damped_note(m):
+    """Why the damped table's length differs from the undamped one's."""
+    lam = m.damped_eigenvalues
+    pairs = int(np.sum(lam.imag > 0))
+    real = lam[lam.imag == 0]
+    zero = int(np.sum(np.abs(real) <= m.zero_threshold))
+    decay = int(np.sum(real.real < -m.zero_threshold))
+    grow = len(real) - zero - decay
+    kinds = [f"{k} {what}" for k, what in ((zero, "zero (rigid or cyclic)"), (decay, "decaying (overdamped)"),
+                                           (grow, "growing (unstable)")) if k]
+    text = (f"{m.eigenvalues.size} eigenvalues for {m.n} coordinates: each complex pair λ, λ̄ is one row "
+            f"({pairs} pair{'s' * (pairs != 1)}), "
+            + (f"each real eigenvalue a row of its own ({len(real)}: {', '.join(kinds)})" if len(real)
+               else "none is real"))
+    if len(lam) != m.n:
+        text += f", hence {len(lam)} rows against {m.n} undamped modes"
+    return "note: " + text
+
+
+def start_offsets(items):
+    """{coordinate: offset (m or rad)} from ``NAME=VALUE`` strings (the ``--start`` option)."""
+    out = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        try:
+            if not sep or not name.strip():
+                raise ValueError
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise ModelError(f"--start {item!r}: expected NAME=VALUE, a coordinate and its offset from neutral "
+                             "(m or rad), e.g. --start pendulum=-1.5") from None
+    return out
+
+
+def with_start(scene, start):
+    """``scene`` with its operating point starting from ``start`` ({coordinate: offset}); coordinates not
+    named keep the scene's own start."""
+    if not start:
+        return scene
+    op = scene.operating_point or {}
+    own = op.get("start")
+    if own is not None and not isinstance(own, dict):
+        own = dict(zip(scene.build().coordinates, own))
+    scene.set_operating_point(op.get("cyclic"), {**(own or {}), **start}, op.get("held", False))
+    return scene
 
 
 def demo(out=None):
@@ -132,7 +236,7 @@ def demo(out=None):
     ref = scene.references.get("omega")
     if ref is not None:
         m = system.operating_point().linearize().modes()
-        p(f"reference omega {_vec(ref)} rad/s: largest relative difference "
+        p(f"reference omega {vector(ref)} rad/s: largest relative difference "
           f"{np.max(np.abs(m.omega - np.array(ref)) / np.array(ref)):.1e}")
     q = system.integrate(system.neutral(), np.full(system.nv, 0.2))
     v = np.zeros(system.nv)
@@ -143,14 +247,14 @@ def demo(out=None):
         times.append(time.perf_counter() - t0)
     dt = min(times)
     p("")
-    p(f"displaced  q = {_vec(q)} (m, rad), v = 0")
-    p(f"dv/dt      {_vec(a)} (ABA, {dt * 1e6:.0f} µs; RNEA residual "
+    p(f"displaced  q = {vector(q)} (m, rad), v = 0")
+    p(f"dv/dt      {vector(a)} (ABA, {dt * 1e6:.0f} µs; RNEA residual "
       f"{np.abs(system.inverse_dynamics(q, v, a)).max():.1e})")
     e = system.energy(q, v)
-    p(f"energy     gravity {e.gravity:.6g} J, elastic {e.elastic:.6g} J")
+    p(f"energy     gravity {number(e.gravity, 'J')}, elastic {number(e.elastic, 'J')}")
     r = system.reactions(q, v, a)
     for name, f, mo in zip(r.bodies, r.force, r.moment):
-        p(f"link {name:<8} force {_vec(f)} N, moment {_vec(mo)} N·m (world axes, at the joint)")
+        p(f"link {name:<8} force {vector(f)} N, moment {vector(mo)} N·m (world axes, at the joint)")
 
 
 def main(argv=None):
@@ -169,6 +273,10 @@ def main(argv=None):
     modes.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
     modes.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     modes.add_argument("--method", choices=("fd", "analytic"), default="fd", help="linearisation method")
+    modes.add_argument("--start", nargs="+", metavar="NAME=VALUE",
+                       help="where the operating point's search starts (or the held configuration): offsets "
+                            "from neutral by coordinate, m or rad (others: the scene's start, else 0)")
+    modes.add_argument("--png", help="also draw every mode (deformed over undeformed) into this PNG file")
     sub.add_parser("demo", help="run the main job on the bundled trailer model")
     frf = sub.add_parser("frf", help="frequency response between two channels: peaks, half-power damping, plots")
     frf.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
@@ -182,6 +290,8 @@ def main(argv=None):
     frf.add_argument("--png", help="save a Bode plot (amplitude and phase) to this PNG file")
     frf.add_argument("--nyquist", help="save a Nyquist plot to this PNG file")
     frf.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    frf.add_argument("--start", nargs="+", metavar="NAME=VALUE",
+                     help="where the operating point's search starts (offsets from neutral by coordinate)")
     sub.add_parser("bench", help="the regression benchmarks (vibdyn bench --help; needs a source checkout)")
     sim = sub.add_parser("simulate", help="nonlinear time simulation: error estimate, energy balance, export")
     sim.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
@@ -196,25 +306,45 @@ def main(argv=None):
     sim.add_argument("--v0", type=float, nargs="+", help="initial velocities (m/s, rad/s)")
     sim.add_argument("--out", help="write the trajectory to this .npz or .csv file")
     sim.add_argument("--no-progress", action="store_true", help="no progress bar")
+    view = sub.add_parser("view", help="browser viewer of the modes (live, on 127.0.0.1) or an offline HTML page",
+                          description="Show the modes (or a trajectory) in the browser: a live meshcat server on "
+                          "127.0.0.1 (Ctrl-C stops it), or with --html a self-contained page.")
+    view.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    view.add_argument("--mode", type=int, default=1, help="motion shown first (1-based; default 1)")
+    view.add_argument("--amplitude", type=float, help="largest point displacement shown, m (default 10%% of the "
+                      "scene's size)")
+    view.add_argument("--trajectory", help="replay this .npz trajectory (vibdyn simulate --out) instead of the modes")
+    view.add_argument("--speed", type=float, default=1.0, help="replay speed, × real time (default 1)")
+    view.add_argument("--html", help="write a self-contained HTML page (every mode) to this file and exit")
+    view.add_argument("--no-browser", action="store_true", help="live: print the URL, do not open a browser")
+    view.add_argument("--duration", type=float, help="live: stop after this many seconds (default: until Ctrl-C)")
     args = parser.parse_args(argv)
     try:
         if args.command == "info":
             scene = load(args.scene)
             describe(scene, scene.build())
         elif args.command == "modes":
-            system = load(args.scene).build()
+            system = with_start(load(args.scene), start_offsets(args.start)).build()
             if args.json:
                 import json
 
                 print(json.dumps(modal_report(system, args.method)[3], indent=1))
             else:
                 print_modes(system, args.method)
+            if args.png:
+                modal_report(system, args.method)[2].plot(args.png)
+                if not args.json:
+                    print(f"saved {args.png}")
         elif args.command == "demo":
             demo()
+        elif args.command == "view":
+            from .viewer.cli import command as view_command
+
+            view_command(load(args.scene), args)
         elif args.command == "frf":
             from .response import frf_report, print_frf
 
-            system = load(args.scene).build()
+            system = with_start(load(args.scene), start_offsets(args.start)).build()
             frf, peaks, hp, data = frf_report(system, args.input, args.output, args.w0, args.w1, args.points,
                                               args.method)
             if args.png or args.nyquist:
@@ -243,8 +373,23 @@ def main(argv=None):
     return 0
 
 
-def _vec(x):
-    return "(" + ", ".join(f"{float(v):.6g}" for v in np.ravel(x)) + ")"
+def _rotation(R):
+    """A rotation matrix as its rotation vector (rad)."""
+    import pinocchio as pin
+
+    return vector(pin.log3(np.array(R)), "rad (rotation vector)")
+
+
+def _inertia(I):
+    I = np.array(I)
+    if not np.any(I - np.diag(np.diag(I))):
+        return f"diag{vector(np.diag(I))} kg·m²"
+    return "[" + ", ".join(vector(r) for r in I) + "] kg·m²"
+
+
+def _limits(system, coordinate):
+    lim = system.limits.get(coordinate)
+    return "" if lim is None else f", limits {number(lim[0])} … {number(lim[1])}"
 
 
 def _kind(e):
@@ -263,25 +408,25 @@ def _details(e):
             return f"moving support: {type(e.motion).__name__}"
 
     if isinstance(e, Spring):
-        l0 = "neutral distance" if e.free_length is None else f"{e.free_length:g} m"
-        return f"{_end(e.a)} – {_end(e.b)}, k = {e.stiffness:g} N/m, free length {l0}"
+        l0 = "neutral distance" if e.free_length is None else number(e.free_length, "m")
+        return f"{_end(e.a)} – {_end(e.b)}, k = {number(e.stiffness, 'N/m')}, free length {l0}"
     if isinstance(e, Damper):
-        return f"{_end(e.a)} – {_end(e.b)}, c = {e.damping:g} N·s/m"
+        return f"{_end(e.a)} – {_end(e.b)}, c = {number(e.damping, 'N·s/m')}"
     if isinstance(e, JointSpring):
-        return f"on {e.body}, k = {_vec(e.stiffness)}, rest {_vec(e.rest)}"
+        return f"on {e.body}, k = {vector(e.stiffness)}, rest {vector(e.rest)}"
     if isinstance(e, JointDamper):
-        return f"on {e.body}, c = {_vec(e.damping)}"
+        return f"on {e.body}, c = {vector(e.damping)}"
     if isinstance(e, JointForce):
         value = e.value.to_dict() if hasattr(e.value, "to_dict") else (
-            "callable" if callable(e.value) else _vec(e.value))
+            "callable" if callable(e.value) else vector(e.value))
         return f"on {e.body}: {value}"
     if isinstance(e, BodyForce):
-        return f"on {e.body} at {_vec(e.at)}, force {'callable' if callable(e.force) else _vec(e.force)} ({e.frame})"
+        return f"on {e.body} at {vector(e.at)}, force {'callable' if callable(e.force) else vector(e.force)} ({e.frame})"
     return ""
 
 
 def _end(a):
-    return f"{a[0]}{_vec(a[1])}"
+    return f"{a[0]}{vector(a[1])}"
 
 
 if __name__ == "__main__":

@@ -75,7 +75,12 @@ class Reactions:
 
 
 class System:
-    """A compiled scene. Build it with :meth:`vibdyn.Scene.build`."""
+    """A compiled scene. Build it with :meth:`vibdyn.Scene.build`.
+
+    ``coordinates`` and ``units`` ("m" or "rad") name the tangent coordinates; ``limits`` maps a
+    coordinate to its position limits (lower, upper) in m or rad (from a URDF or ``Scene.set_limits``),
+    which equilibrium searches refuse to leave.
+    """
 
     def __init__(self, scene):
         self.scene = scene.copy()
@@ -96,6 +101,11 @@ class System:
         self.coordinates = tuple(c for b in self._bodies.values() for c in b.coordinates)
         self.units = tuple(u for b in self._bodies.values() for u in b.joint.units)  # "m" or "rad"
         self.bodies = tuple(self._bodies)
+        # position limits (m or rad, offsets from neutral) of one-coordinate joints, from a URDF or set_limits
+        self.limits = dict(self.scene.limits)
+        self._lower, self._upper = np.full(self.nv, -np.inf), np.full(self.nv, np.inf)
+        for name, (lo, up) in self.limits.items():
+            self._lower[self.coordinate_index(name)], self._upper[self.coordinate_index(name)] = lo, up
         self.has_gravity = bool(np.any(self.scene.gravity))
         self.supports = tuple(self.scene.elements_of(Support))
         self._support_index = {s.name: i for i, s in enumerate(self.supports)}
@@ -137,6 +147,36 @@ class System:
             pts += [np.array(e.a[1]) for e in self.scene.elements_of(Spring)]
             self._length_scale = max(1e-3, float(np.max(np.linalg.norm(pts, axis=1))))
         return self._length_scale
+
+    def configuration(self, offsets):
+        """Configuration at tangent offsets from neutral (m or rad): one per coordinate, or a dict
+        {coordinate: offset} (the others at 0)."""
+        dv = np.zeros(self.nv)
+        if isinstance(offsets, dict):
+            for name, x in offsets.items():
+                dv[self.coordinate_index(name)] = x
+        else:
+            dv = np.asarray(offsets, dtype=float)
+            if dv.shape != (self.nv,):
+                raise ModelError(f"offsets: expected {self.nv} numbers (one per coordinate: "
+                                 f"{', '.join(self.coordinates)}), got {dv.size}")
+        return self.integrate(self.neutral(), dv)
+
+    def limit_bounds(self):
+        """(lower, upper): position limits per tangent coordinate (offsets from neutral, m or rad; ±inf
+        where a coordinate has none). See :attr:`limits` (coordinate -> (lower, upper))."""
+        return self._lower.copy(), self._upper.copy()
+
+    def check_limits(self, q, what="q"):
+        """Raise ModelError naming the first coordinate of ``q`` outside its position limits."""
+        if not self.limits:
+            return
+        x = self.difference(self.neutral(), q)
+        for i in np.flatnonzero((x < self._lower) | (x > self._upper)):
+            side, bound = ("lower", self._lower[i]) if x[i] < self._lower[i] else ("upper", self._upper[i])
+            u = self.units[i]
+            raise ModelError(f"{what}: coordinate '{self.coordinates[i]}' = {x[i]:.6g} {u} is beyond its {side} "
+                             f"limit {bound:.6g} {u}")
 
     def random_configuration(self, scale=1.0, rng=None):
         """A configuration at a random tangent offset (normal, std ``scale`` m or rad) from neutral."""
@@ -248,16 +288,28 @@ class System:
 
         return steady_motion(self, v_cyclic, q0, t, tol, max_iter, guess)
 
+    def held(self, q=None, v=None, t=0.0):
+        """The configuration ``q`` (neutral if None), moving at constant velocity ``v`` (0 if None), held by
+        drives on every coordinate: an operating point (like :meth:`steady_motion`'s) whose ``drive`` is the
+        generalized force (N or N·m per coordinate) that balances gravity, the elastic and the other forces
+        there (see :func:`vibdyn.equilibrium.held`). Linearise it with ``.linearize()``."""
+        from .equilibrium import held
+
+        return held(self, q, v, t)
+
     def operating_point(self, tol=1e-10, max_iter=100):
-        """The scene's declared operating point (:meth:`Scene.set_operating_point`): a steady motion if it
-        names cyclic coordinates, else the static equilibrium nearest its start (neutral by default)."""
+        """The scene's declared operating point (:meth:`Scene.set_operating_point`): the configuration held
+        by drives (:meth:`held`) if it says so (robots' default), a steady motion if it names cyclic
+        coordinates, else the static equilibrium nearest its start (neutral by default)."""
         op = self.scene.operating_point or {}
         q0 = None
         if op.get("start") is not None:
-            if len(op["start"]) != self.nv:
-                raise ModelError(f"operating point start: expected {self.nv} offsets (one per coordinate), "
-                                 f"got {len(op['start'])}")
-            q0 = pin.integrate(self.model, self.neutral(), np.array(op["start"]))
+            try:
+                q0 = self.configuration(op["start"])
+            except ModelError as e:
+                raise ModelError(f"operating point start: {e}") from None
+        if op.get("held"):
+            return self.held(q0)
         if op.get("cyclic"):
             return self.steady_motion(op["cyclic"], q0, tol=tol, max_iter=max_iter)
         return self.equilibrium(q0, tol=tol, max_iter=max_iter)

@@ -18,7 +18,11 @@ extend (``scene.add_joint_spring("shoulder_pan_joint", 10.0)``) and ``build()``.
 * massless moving bodies that carry no mass (a dummy end-effector joint) are kept, so the coordinates are
   those of the file, but ``build()`` refuses them (their motion is undefined): loading warns, and
   ``weld_massless=True`` welds them instead (their coordinates disappear);
-* URDF mimic joints are read as independent joints (Pinocchio's default); joint limits are not kept.
+* URDF mimic joints are read as independent joints (Pinocchio's default);
+* position limits of revolute and prismatic joints are kept (``scene.limits``, ``system.limits``):
+  equilibrium searches refuse to leave them; velocity and effort limits are not kept;
+* the scene's operating point is the neutral configuration held by the drives (``System.held``): under
+  gravity a robot has no free equilibrium (``scene.set_operating_point(...)`` changes it).
 
 Geometry (meshes) is not needed for the dynamics and is not loaded; ``scene.robot_source``
 (:class:`RobotSource`) records the file, its package folders and the correspondence of configurations,
@@ -256,7 +260,21 @@ def load_robot(name, floating=None, **kwargs):
     scene.robot_source = _replace(scene.robot_source, robot=name, srdf=srdf_path and str(srdf_path),
                                   posture=posture if srdf_path else None)
     scene.source = f"example-robot-data '{name}': URDF {path}"
+    if scene.robot_source.posture:  # held at the SRDF's posture rather than at neutral
+        scene.set_operating_point(start=_posture_offsets(scene), held=True)
     return scene
+
+
+def _posture_offsets(scene):
+    """{coordinate: offset from neutral} of the robot's default SRDF posture (None if it breaks a limit)."""
+    system = scene.build()
+    q = reference_configuration(system)
+    try:
+        system.check_limits(q)
+    except ModelError:
+        return scene.operating_point["start"]
+    dv = system.difference(system.neutral(), q)
+    return {c: float(x) for c, x in zip(system.coordinates, dv) if x != 0.0} or None
 
 
 def known_robots():
@@ -402,6 +420,18 @@ def scene_from_model(model, name=None, gravity=DEFAULT_GRAVITY, source=None, dam
             c = np.asarray(model.damping[sl], dtype=float)
             if np.any(c > 0.0):
                 scene.add_joint_damper(jname, c)
+
+    # -- position limits of the file (revolute and prismatic joints; equal bounds are a URDF's "no limit")
+    for jname, i, s, continuous, w in links:
+        jq = _sub_qslice(model, i, s)
+        if w or continuous or jq.stop - jq.start != 1:
+            continue
+        lo, up = float(model.lowerPositionLimit[jq.start]), float(model.upperPositionLimit[jq.start])
+        if lo < up and abs(lo) < 1e300 and abs(up) < 1e300:
+            scene.set_limits(jname, lo, up)
+    # under gravity a robot has no free equilibrium: its drives hold it, at neutral brought within the limits
+    inside = {k: min(max(0.0, lo), up) for k, (lo, up) in scene.limits.items() if not lo <= 0.0 <= up}
+    scene.set_operating_point(start=inside or None, held=True)
 
     # -- record where it came from
     if source is not None:

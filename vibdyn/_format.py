@@ -1,0 +1,34 @@
+"""Numbers as text for reports: exact zeros and values below their error estimate print as ``0``; no ``+0``,
+``-0`` or round-off noise such as ``1e-10 rad``."""
+
+import numpy as np
+
+
+def number(x, unit="", error=0.0, digits=6):
+    """``x`` with ``digits`` significant digits (and `` unit`` if given); ``0`` when |x| ≤ ``error``."""
+    x = float(x)
+    if not np.isfinite(x):
+        text = "inf" if x > 0 else "-inf" if x < 0 else "nan"
+    elif abs(x) <= error or x == 0.0:
+        text = "0"
+    else:
+        text = f"{x:.{digits}g}"
+        if float(text) == 0.0:
+            text = "0"
+    return f"{text} {unit}" if unit else text
+
+
+def vector(xs, unit="", error=0.0, digits=6):
+    """``(a, b, c)`` of :func:`number` (and `` unit`` if given)."""
+    text = "(" + ", ".join(number(x, error=error, digits=digits) for x in np.ravel(xs)) + ")"
+    return f"{text} {unit}" if unit else text
+
+
+def table(header, rows, align=None):
+    """Columns of text padded to their widest entry; ``align`` "<" or ">" per column (default: first left,
+    the others right)."""
+    cols = list(zip(*([header] + rows))) if rows else [[h] for h in header]
+    width = [max(len(str(c)) for c in col) for col in cols]
+    align = align or ["<"] + [">"] * (len(header) - 1)
+    return ["  ".join(f"{str(c):{a}{w}}" for c, a, w in zip(row, align, width)).rstrip()
+            for row in [header] + rows]
