@@ -91,15 +91,16 @@ class Settings:
 
 
 def measure(fn, repeat=1, memory=True):
-    """Best wall time of up to ``repeat`` calls of ``fn`` after a first call (a warm-up, itself timed: runs
-    longer than REPEAT_MAX_S are not repeated), then, for runs shorter than MEMORY_MAX_S, one more call
-    under tracemalloc for the peak Python/numpy allocation (MB; Pinocchio's C++ allocations are not seen;
-    tracemalloc slows Python-heavy code several times, so that call is never timed).
+    """Best wall time of ``repeat`` calls of ``fn`` after a first, warm-up call (runs longer than
+    REPEAT_MAX_S are not repeated: their first call is the time), then, for runs shorter than
+    MEMORY_MAX_S, one more call under tracemalloc for the peak Python/numpy allocation (MB; Pinocchio's C++
+    allocations are not seen; tracemalloc slows Python-heavy code several times, so that call is never
+    timed).
     Returns (result of the last call, best time in s, peak MB or None). Exceptions propagate."""
     t = time.perf_counter()
     out = fn()
     best = first = time.perf_counter() - t
-    if repeat > 1 and first < REPEAT_MAX_S:
+    if first < REPEAT_MAX_S:  # the first call was a warm-up (imports, caches): time fresh ones
         best = math.inf
         for _ in range(repeat):
             t = time.perf_counter()
