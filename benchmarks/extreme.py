@@ -48,7 +48,7 @@ def guarded(label, fn, error_of, estimate_of, evals_of, S, repeat=1, **extra):
 def sim_run(system, label, T, q0, v0, error_of, S, repeat=1, **kw):
     return guarded(label, lambda: system.simulate(T, q0, v0, t_eval=[T], progress=False, **kw),
                    lambda tr: error_of(tr.q[-1]), lambda tr: tr.error, lambda tr: tr.nfev + tr.error_nfev, S,
-                   repeat, options=dict(kw))
+                   repeat, options=dict(kw), method=kw.get("method", "dop853"))
 
 
 def scipy_runs(system, T, q0, v0, error_of, methods, **kw):

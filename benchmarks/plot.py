@@ -9,7 +9,8 @@ MARKERS = {"vibdyn": "o", "mujoco": "s", "scipy": "^"}
 def _family(r):
     """Runs of one method form one line: vibdyn dop853 / rk4 / …, mujoco RK4 / implicitfast, scipy X."""
     m = r.get("method") or r["label"].split()[1]
-    return f"{r['solver']} {m}"
+    how = r.get("error_method") or ("rerun" if "error=rerun" in r["label"] else None)
+    return f"{r['solver']} {m}" + (f" ({how} estimate)" if how and r["solver"] == "vibdyn" else "")
 
 
 def work_precision(results, path):
@@ -32,7 +33,7 @@ def work_precision(results, path):
     for ax in list(axes.flat)[len(cases):]:
         ax.axis("off")
     fig.suptitle(f"{results['name']}: error against run time ({results['mode']} run; one core)", fontsize=11)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path, dpi=90)
     plt.close(fig)
     return path
