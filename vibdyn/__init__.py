@@ -19,6 +19,14 @@ from .system import Energy, Reactions, System
 __version__ = "0.1.0"
 
 
+def campbell(system, spin, speeds, orders=(1,), **kwargs):
+    """Campbell diagram of ``system`` against the speed (rad/s) of coordinate ``spin``
+    (see :func:`vibdyn.campbell_diagram.campbell`)."""
+    from .campbell_diagram import campbell as _campbell
+
+    return _campbell(system, spin, speeds, orders, **kwargs)
+
+
 def load_scene(path):
     """Read a TOML scene file (see the README for its format) into a :class:`Scene`."""
     from .io.scenefile import load_scene as _load
@@ -66,6 +74,6 @@ def export_html(obj, path, **kwargs):
 __all__ = ["Scene", "System", "Body", "Energy", "Reactions", "Pivot", "Slider", "Helical", "Ball",
            "Cylindrical", "Universal", "Planar", "Free", "Fixed", "inertia", "laws", "WORLD", "ModelError",
            "ConvergenceError", "SceneFileError", "VibdynError", "load_scene", "load_robot", "load_urdf",
-           "load_mjcf", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
+           "load_mjcf", "campbell", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
            "transmissibility", "fit_rayleigh", "log_decrement", "Trajectory", "SimulationError", "view",
            "export_html"]
