@@ -165,6 +165,13 @@ class LinearModel:
 
         return appropriation(self, mode, inputs, **kwargs)
 
+    def state_space(self, inputs=None, outputs=None, **kwargs):
+        """State-space form ẋ = A x + B u, y = C x + D u, x = (δq, δv), for control tools
+        (:func:`vibdyn.statespace.state_space`)."""
+        from .statespace import state_space
+
+        return state_space(self, inputs, outputs, **kwargs)
+
     def modes(self, **kwargs):
         """Modal analysis of this linear model (see :func:`vibdyn.modal.modes`)."""
         from .modal import modes
