@@ -75,10 +75,26 @@ def load_mjcf(path, **kwargs):
     return _load(path, **kwargs)
 
 
+def view(obj, **kwargs):
+    """Show a Modes, Trajectory, System or Scene in the browser (live meshcat server on 127.0.0.1); returns
+    a handle with ``.url`` and ``.close()`` (see :func:`vibdyn.viewer.view`)."""
+    from .viewer import view as _view
+
+    return _view(obj, **kwargs)
+
+
+def export_html(obj, path, **kwargs):
+    """Write a self-contained HTML page of every mode (or a trajectory) of ``obj`` (see
+    :func:`vibdyn.viewer.export_html`); returns its path."""
+    from .viewer import export_html as _export
+
+    return _export(obj, path, **kwargs)
+
+
 __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot", "Slider", "Helical", "Ball",
            "Cylindrical", "Universal", "Planar", "Free", "Fixed", "inertia", "laws", "WORLD", "ModelError",
            "ConvergenceError", "SceneFileError", "VibdynError", "load_scene", "load_robot", "load_urdf",
            "load_mjcf", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
            "transmissibility", "fit_rayleigh", "log_decrement", "Trajectory", "SimulationError",
            "LinearModel", "Modes", "Equilibrium", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",
-           "HalfPower", "LogDecrement", "RayleighFit", "StateSpace"]
+           "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html"]

@@ -1,4 +1,5 @@
-"""The ``vibdyn`` command: ``vibdyn info SCENE``, ``vibdyn modes SCENE [--json]``, ``vibdyn demo``.
+"""The ``vibdyn`` command: ``vibdyn info SCENE``, ``vibdyn modes SCENE [--json]``, ``vibdyn demo``,
+``vibdyn bench [--quick] [--smoke] [--check] [--only NAME]`` (the repository's benchmark suite).
 
 SCENE is a TOML scene file, or ``robot:NAME`` for a robot of example-robot-data (e.g. ``robot:ur5``).
 """
@@ -18,6 +19,28 @@ from .errors import ModelError, VibdynError
 def models_dir():
     """The bundled ``models/`` folder (override with the VIBDYN_MODELS environment variable)."""
     return Path(os.environ.get("VIBDYN_MODELS", Path(__file__).resolve().parents[1] / "models"))
+
+
+def benchmarks_dir():
+    """The repository's ``benchmarks/`` folder (override with the VIBDYN_BENCHMARKS environment variable).
+    It is not part of the installed package: it exists in a source checkout (an editable install)."""
+    return Path(os.environ.get("VIBDYN_BENCHMARKS", Path(__file__).resolve().parents[1] / "benchmarks"))
+
+
+def bench(argv):
+    """``vibdyn bench ARGS``: run ``python -m benchmarks ARGS`` from the repository's benchmarks folder."""
+    folder = benchmarks_dir()
+    if not (folder / "suite.py").is_file():
+        raise ModelError(f"vibdyn bench: no benchmark suite at {folder} (it lives in the source repository, not "
+                         "in an installed package): run it from a checkout (pip install -e .) or set "
+                         "VIBDYN_BENCHMARKS to the repository's benchmarks/ folder")
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    root = str(folder.resolve().parent)
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    from benchmarks.suite import main as bench_main
+
+    return bench_main(argv, prog="vibdyn bench")
 
 
 def load(spec):
@@ -235,6 +258,13 @@ def demo(out=None):
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"]:  # forwarded whole to the suite's own parser (vibdyn bench --help)
+        try:
+            return bench(argv[1:])
+        except VibdynError as e:
+            print(f"vibdyn: error: {e}", file=sys.stderr)
+            return 2
     parser = argparse.ArgumentParser(prog="vibdyn", description="Vibration analysis of sets of rigid solids.")
     sub = parser.add_subparsers(dest="command", required=True)
     info = sub.add_parser("info", help="print a scene's bodies, joints, coordinates and elements")
@@ -246,6 +276,7 @@ def main(argv=None):
     modes.add_argument("--start", nargs="+", metavar="NAME=VALUE",
                        help="where the operating point's search starts (or the held configuration): offsets "
                             "from neutral by coordinate, m or rad (others: the scene's start, else 0)")
+    modes.add_argument("--png", help="also draw every mode (deformed over undeformed) into this PNG file")
     sub.add_parser("demo", help="run the main job on the bundled trailer model")
     frf = sub.add_parser("frf", help="frequency response between two channels: peaks, half-power damping, plots")
     frf.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
@@ -261,6 +292,7 @@ def main(argv=None):
     frf.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     frf.add_argument("--start", nargs="+", metavar="NAME=VALUE",
                      help="where the operating point's search starts (offsets from neutral by coordinate)")
+    sub.add_parser("bench", help="the regression benchmarks (vibdyn bench --help; needs a source checkout)")
     sim = sub.add_parser("simulate", help="nonlinear time simulation: error estimate, energy balance, export")
     sim.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
     sim.add_argument("--t-end", type=float, required=True, help="simulated time, s")
@@ -274,6 +306,18 @@ def main(argv=None):
     sim.add_argument("--v0", type=float, nargs="+", help="initial velocities (m/s, rad/s)")
     sim.add_argument("--out", help="write the trajectory to this .npz or .csv file")
     sim.add_argument("--no-progress", action="store_true", help="no progress bar")
+    view = sub.add_parser("view", help="browser viewer of the modes (live, on 127.0.0.1) or an offline HTML page",
+                          description="Show the modes (or a trajectory) in the browser: a live meshcat server on "
+                          "127.0.0.1 (Ctrl-C stops it), or with --html a self-contained page.")
+    view.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    view.add_argument("--mode", type=int, default=1, help="motion shown first (1-based; default 1)")
+    view.add_argument("--amplitude", type=float, help="largest point displacement shown, m (default 10%% of the "
+                      "scene's size)")
+    view.add_argument("--trajectory", help="replay this .npz trajectory (vibdyn simulate --out) instead of the modes")
+    view.add_argument("--speed", type=float, default=1.0, help="replay speed, × real time (default 1)")
+    view.add_argument("--html", help="write a self-contained HTML page (every mode) to this file and exit")
+    view.add_argument("--no-browser", action="store_true", help="live: print the URL, do not open a browser")
+    view.add_argument("--duration", type=float, help="live: stop after this many seconds (default: until Ctrl-C)")
     args = parser.parse_args(argv)
     try:
         if args.command == "info":
@@ -287,8 +331,16 @@ def main(argv=None):
                 print(json.dumps(modal_report(system, args.method)[3], indent=1))
             else:
                 print_modes(system, args.method)
+            if args.png:
+                modal_report(system, args.method)[2].plot(args.png)
+                if not args.json:
+                    print(f"saved {args.png}")
         elif args.command == "demo":
             demo()
+        elif args.command == "view":
+            from .viewer.cli import command as view_command
+
+            view_command(load(args.scene), args)
         elif args.command == "frf":
             from .response import frf_report, print_frf
 

@@ -79,6 +79,15 @@ class Modes:
         d = np.asarray(direction, dtype=float)
         return np.einsum("pin,i->pn", S, d / np.linalg.norm(d))
 
+    def plot(self, path=None, which=None, amplitude=None, dpi=100):
+        """Draw each mode (or those of ``which``, 0-based) as the deformed scene over the undeformed one, a
+        panel per mode with its frequency (Hz, rad/s) in the title; saved as PNG when ``path`` is given.
+        ``amplitude``: largest point displacement (m; default 10 % of the scene's size). Needs matplotlib;
+        returns the Figure (see :func:`vibdyn.viewer.pictures.plot_modes`)."""
+        from .viewer.pictures import plot_modes
+
+        return plot_modes(self, path=path, which=which, amplitude=amplitude, dpi=dpi)
+
     def to_dict(self):
         """Plain data (JSON-ready): SI units, complex numbers as [re, im]."""
         d = {"omega_rad_s": self.omega.tolist(), "frequency_hz": self.frequency_hz.tolist(),

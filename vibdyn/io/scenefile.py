@@ -282,7 +282,8 @@ def _strings(x):
 SCENE_KEYS = {"name": _string, "gravity": _vec3, "source": _string, "description": _string}
 ROBOT_KEYS = {"name": _string, "urdf": _string, "floating": _boolean, "package_dirs": _strings}
 BODY_KEYS = {"name": _string, "parent": _string, "mass": _nonnegative, "com": _vec3,
-             "inertia": _matrix_or_table, "inertia_about": _vec3, "joint": _table}
+             "inertia": _matrix_or_table, "inertia_about": _vec3, "joint": _table,
+             "shape": lambda x: x}  # shape: checked by vibdyn.shapes
 JOINT_COMMON = {"type": _string, "at": _vec3, "rotation": _rotation, "name": _string}
 JOINT_PARAMS = {
     "pivot": ({"axis": _vec3}, ("axis",)),
@@ -421,6 +422,8 @@ class _Reader:
             except ModelError as e:
                 raise self.error("scene", str(e)) from None
 
+        if self.path is not None:
+            scene.shape_folder = str(self.path.resolve().parent)
         for i, b in self.ordered_bodies(bodies, scene):
             self.body(scene, i, b)
         for table, entries in elements.items():
@@ -540,7 +543,7 @@ class _Reader:
         try:
             scene.add_body(b["name"], parent=b.get("parent", WORLD), joint=joint, mass=b["mass"],
                            com=b.get("com", (0.0, 0.0, 0.0)), inertia=inertia,
-                           inertia_about=b.get("inertia_about"))
+                           inertia_about=b.get("inertia_about"), shape=b.get("shape"))
         except ModelError as e:
             raise self.error(key, str(e)) from None
 
@@ -567,7 +570,7 @@ class _Reader:
             if "lead" in j:
                 j["pitch"] = j.pop("lead") / (2.0 * math.pi)
         try:
-            return _joints.KINDS[kind](**j)
+            return _joints.KINDS[kind](**j).checked()
         except ModelError as e:
             raise self.error(key, f"{what}: {e}") from None
 
@@ -687,6 +690,8 @@ def scene_to_dict(scene):
         j = d["joint"]
         if j["type"] != "fixed" or any(j["at"]) or "rotation" in j or "name" in j:
             b["joint"] = j
+        if "shape" in d:
+            b["shape"] = d["shape"]
         bodies.append(b)
     if bodies:
         out["body"] = bodies
