@@ -251,6 +251,29 @@ class FRF:
     natural: np.ndarray = field(repr=False)  # natural frequencies of the model (rad/s): seeds for peaks
     evaluate: object = field(repr=False)  # ω array ↦ H (n_ω × n_out × n_in) with the same settings
 
+    def __repr__(self):
+        from ._format import duration, number, summary
+
+        return summary("FRF", f"{self.kind} {'/'.join(self.outputs[:2])}{'…' if len(self.outputs) > 2 else ''} per "
+                       f"{'/'.join(self.inputs[:2])}{'…' if len(self.inputs) > 2 else ''}",
+                       f"{self.omega.size} frequencies {number(self.omega[0])}…{number(self.omega[-1])} rad/s",
+                       self.method, self.damping, f"error {number(self.error, digits=2)}", duration(self.elapsed))
+
+    def _repr_html_(self):
+        from ._format import html_table, number
+
+        rows = []
+        for j, o in enumerate(self.outputs):
+            for k, i in enumerate(self.inputs):
+                p = self.peaks(j, k)
+                rows.append([f"{o} / {i}", self.units(j, k),
+                             ", ".join("∞ at " + number(w) if not np.isfinite(a) else f"{number(a)} at {number(w)}"
+                                       for w, a in zip(p.resonances, p.amplitudes)) or "-",
+                             ", ".join(number(w) for w in p.antiresonances) or "-"])
+        return html_table(f"{self.kind}: {self.omega.size} frequencies {number(self.omega[0])} … "
+                          f"{number(self.omega[-1])} rad/s, error {number(self.error, digits=2)}",
+                          ["output / input", "unit", "resonances |H| at ω (rad/s)", "anti-resonances (rad/s)"], rows)
+
     @property
     def frequency_hz(self):
         return self.omega / (2 * np.pi)
@@ -393,6 +416,14 @@ class Peaks:
     tolerance: float
     elapsed: float
     unbounded: np.ndarray = None  # per resonance: an undamped resonance (amplitude inf)
+
+    def __repr__(self):
+        from ._format import summary, values
+
+        res = ", ".join(f"{w:.6g}" + (" (unbounded)" if not np.isfinite(a) else "")
+                        for w, a in zip(self.resonances, self.amplitudes)) or "none"
+        return summary("Peaks", f"{self.output} / {self.input}", f"resonances {res} rad/s",
+                       f"anti-resonances {values(self.antiresonances, 'rad/s', digits=6)}")
 
     @property
     def resonances_hz(self):
@@ -543,6 +574,12 @@ class HarmonicResponse:
     frf: FRF = field(repr=False)
     elapsed: float = 0.0
 
+    def __repr__(self):
+        from ._format import summary, values
+
+        return summary("HarmonicResponse", f"{np.size(self.omega)} frequencies", f"outputs {', '.join(self.outputs)}",
+                       f"|x| = {values(np.abs(self.x))}")
+
     @property
     def amplitude(self):
         return np.abs(self.x)
@@ -678,6 +715,13 @@ class TimeResponse:
     elapsed: float
     linear: object = field(repr=False)
     imaginary: float = 0.0
+
+    def __repr__(self):
+        from ._format import duration, number, summary
+
+        return summary("TimeResponse", f"{self.t.size} times {number(self.t[0])}…{number(self.t[-1])} s" if self.t.size
+                       else "empty", f"{len(self.coordinates)} coordinates", self.method,
+                       f"error {number(self.error, digits=2)}", duration(self.elapsed))
 
     def displacement(self, outputs=None, direction=None):
         """Displacements of outputs (coordinate names, body points with a direction; None: all) (n_t × k)."""
@@ -1171,6 +1215,12 @@ class Appropriation:
     exact: bool
     residual: float
     elapsed: float
+
+    def __repr__(self):
+        from ._format import number, summary
+
+        return summary("Appropriation", f"mode {self.mode}", f"ω = {number(self.omega)} rad/s (ω_r {number(self.omega_r)})",
+                       f"inputs {', '.join(self.inputs)}", f"in-phase {number(self.in_phase, digits=2)}")
 
     @property
     def frequency_hz(self):
