@@ -168,8 +168,10 @@ def modes_text(lin, m, per_block=8):
         lines.append("damped modes (state form: eigenvalues λ = −ζω_n ± iω_d, 1/s)")
         rows = []
         for i, lam in enumerate(m.damped_eigenvalues):
+            err = m.eigenvalue_error[i] * abs(lam)  # absolute: a real part below it is round-off, shown as 0
             im = "" if lam.imag == 0 else f" ± {number(abs(lam.imag), digits=8)}i"
-            rows.append([str(i + 1), number(lam.real, digits=8) + im, number(m.zeta[i], digits=6),
+            rows.append([str(i + 1), number(lam.real, error=err, digits=8) + im,
+                         number(m.zeta[i], error=m.eigenvalue_error[i], digits=6),
                          number(m.omega_n[i], digits=8), number(m.eigenvalue_error[i], digits=1)])
         lines += ["  " + x for x in table(["mode", "λ 1/s", "ζ", "ω_n rad/s", "error"], rows)]
         lines.append("  " + _damped_note(m))
@@ -367,7 +369,7 @@ def main(argv=None):
 
                 print(json.dumps(data, indent=1))
             else:
-                print_frf(frf, peaks, hp)
+                print_frf(frf, peaks, hp, notes=data["notes"])
                 for path in (args.png, args.nyquist):
                     if path:
                         print(f"saved {path}")

@@ -39,7 +39,7 @@ class Spring:
     a: tuple
     b: tuple
     stiffness: float
-    free_length: float = None
+    free_length: float | None = None
 
     def to_dict(self):
         d = {"name": self.name, "a": _att(self.a), "b": _att(self.b), "stiffness": self.stiffness}

@@ -23,6 +23,7 @@ Fixed           0   0  none (the body is welded to its parent)
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import pinocchio as pin
@@ -41,11 +42,11 @@ class Joint:
 
     at: tuple = (0.0, 0.0, 0.0)
     rotation: object = None
-    name: str = None  # optional joint name (URDF joint name); body name is used otherwise
+    name: str | None = None  # optional joint name (URDF joint name); body name is used otherwise
 
     kind = "joint"
-    suffixes = ()
-    units = ()  # "m" or "rad" per coordinate
+    suffixes: ClassVar[tuple[str, ...]] = ()
+    units: ClassVar[tuple[str, ...]] = ()  # "m" or "rad" per coordinate
     problem = None  # what is wrong with the parameters (str), reported when the joint joins a scene
 
     def __post_init__(self):

@@ -41,6 +41,14 @@ class LinearModel:
     elapsed: float  # s
     evaluations: int  # residual evaluations (finite differences) or derivative calls
 
+    def __repr__(self):
+        from ._format import duration, number, summary
+
+        kind = "damped" if self.has_damping else "undamped"
+        return summary("LinearModel", f"nv = {self.nv}", f"method {self.method}", kind,
+                       f"error {number(self.error, digits=2)}", f"{self.evaluations} evaluations",
+                       duration(self.elapsed))
+
     @property
     def coordinates(self):
         return self.system.coordinates
@@ -165,6 +173,13 @@ class LinearModel:
         from .response import appropriation
 
         return appropriation(self, mode, inputs, **kwargs)
+
+    def state_space(self, inputs=None, outputs=None, **kwargs):
+        """State-space form ẋ = A x + B u, y = C x + D u, x = (δq, δv), for control tools
+        (:func:`vibdyn.statespace.state_space`)."""
+        from .statespace import state_space
+
+        return state_space(self, inputs, outputs, **kwargs)
 
     def modes(self, **kwargs):
         """Modal analysis of this linear model (see :func:`vibdyn.modal.modes`)."""

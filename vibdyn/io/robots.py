@@ -169,9 +169,9 @@ class RobotSource:
     path: str
     floating: bool
     package_dirs: tuple
-    robot: str = None  # name in the example-robot-data table
-    srdf: str = None  # SRDF file with reference postures
-    posture: str = None  # default posture of the SRDF
+    robot: str | None = None  # name in the example-robot-data table
+    srdf: str | None = None  # SRDF file with reference postures
+    posture: str | None = None  # default posture of the SRDF
     pin_neutral: tuple = ()
     coordinates: tuple = ()  # CoordinateLink per Pinocchio (sub-)joint, in Pinocchio's order
 
@@ -290,7 +290,7 @@ def robot_path(name):
     return robots_dir() / ROBOTS[name][0]
 
 
-_ROBOTS_DIR = []
+_ROBOTS_DIR: list[Path] = []
 
 
 def robots_dir():

@@ -102,7 +102,7 @@ from ..scene import Scene
 try:  # Python ≥ 3.11
     import tomllib
 except ModuleNotFoundError:  # pragma: no cover
-    import tomli as tomllib
+    import tomli as tomllib  # type: ignore[no-redef]
 
 __all__ = ["load_scene", "save_scene", "scene_to_dict", "scene_from_dict", "dumps"]
 
