@@ -134,3 +134,11 @@ def test_campbell_cli_refuses_bad_input(argv, words):
 def test_campbell_refuses_a_translation_as_spin():
     with pytest.raises(vd.ModelError, match="not a rotation"):
         vd.campbell(crossing_rotor(), "axial", [0.0, 1.0])
+
+
+def test_modes_of_the_spinning_gimbal_print_no_round_off_noise():
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["modes", "gimbal_rotor"]) == 0
+    text = out.getvalue()
+    assert "0 ± 21.824584i" in text and "0 ± 171.82458i" in text and "e-10" not in text

@@ -24,7 +24,7 @@ import numpy as np
 
 from .errors import ModelError, VibdynError
 
-ANALYSES = ("modes", "equilibrium")
+ANALYSES = ("modes", "equilibrium", "campbell")
 
 
 # ------------------------------------------------------------------------------------------ samples
@@ -78,7 +78,7 @@ def sample(distributions: dict, n: int, method: str = "lhs", seed=None) -> Sampl
 
 
 # ------------------------------------------------------------------------------------------ one point
-def evaluate(build: Callable, point: dict, analysis) -> dict:
+def evaluate(build: Callable, point: dict, analysis, options: dict | None = None) -> dict:
     """One point of a sweep: its outputs (numbers and arrays as lists), error estimate, elapsed time (s)
     and status ("ok" or "failed: message"). Never raises for a failing point."""
     start = time.perf_counter()
@@ -87,14 +87,14 @@ def evaluate(build: Callable, point: dict, analysis) -> dict:
         system = obj.build() if hasattr(obj, "build") and not hasattr(obj, "linearize") else obj
         if not hasattr(system, "linearize"):
             raise ModelError(f"sweep: build(**point) returned {type(obj).__name__}, not a Scene or System")
-        out = _analyse(system, analysis)
+        out = _analyse(system, analysis, options or {})
         status = "ok"
     except (VibdynError, ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
         out, status = {}, f"failed: {type(e).__name__}: {e}"
     return {"outputs": out, "elapsed": time.perf_counter() - start, "status": status}
 
 
-def _analyse(system, analysis) -> dict:
+def _analyse(system, analysis, options) -> dict:
     if callable(analysis):
         res = analysis(system)
         if not isinstance(res, dict):
@@ -104,6 +104,16 @@ def _analyse(system, analysis) -> dict:
         eq = system.operating_point()
         return {"q": eq.q.tolist(), "residual": float(eq.residual), "stability": eq.stability,
                 "error": float(np.max(eq.q_error, initial=0.0)) if eq.q_error is not None else float(eq.residual)}
+    if analysis == "campbell":
+        from .campbell_diagram import campbell
+
+        if "spin" not in options or "speeds" not in options:
+            raise ModelError("sweep: analysis 'campbell' needs options={'spin': NAME, 'speeds': [...], 'orders': (1,)}")
+        c = campbell(system, options["spin"], options["speeds"], options.get("orders", (1,)),
+                     method=options.get("method", "analytic"))
+        crit = [k for o in c.orders for k in c.critical_speeds(o)]
+        return {"critical_speeds": [k.speed for k in crit], "frequencies": c.frequencies.ravel().tolist(),
+                "error": float(c.error.max(initial=0.0))}
     if analysis == "modes":
         m = system.operating_point().linearize().modes()
         return {"omega": m.omega.tolist(), "zeta": m.zeta.tolist() if m.zeta.size else [0.0] * m.n,
@@ -120,8 +130,8 @@ def _plain(v, name):
     return a.tolist() if a.ndim else a.item()
 
 
-def _chunk(build, points, analysis):  # module level: picklable for process pools and Dask
-    return [evaluate(build, p, analysis) for p in points]
+def _chunk(build, points, analysis, options=None):  # module level: picklable for process pools and Dask
+    return [evaluate(build, p, analysis, options) for p in points]
 
 
 # ------------------------------------------------------------------------------------------ the sweep
@@ -317,7 +327,7 @@ def _key(point: dict) -> str:
 
 
 def sweep(build: Callable, parameters, analysis="modes", executor=None, progress=True, store=None,
-          chunksize: int | None = None) -> Sweep:
+          chunksize: int | None = None, options: dict | None = None) -> Sweep:
     """Run ``analysis`` at every point of ``parameters`` (a dict of value lists: their full grid, in
     row-major order; or :func:`sample`'s table) on ``build(**point)``.
 
@@ -325,6 +335,7 @@ def sweep(build: Callable, parameters, analysis="modes", executor=None, progress
     any ``concurrent.futures.Executor``, or a Dask ``distributed.Client``: the results are the same, bit
     for bit. ``store``: a JSON-lines file that receives each finished point; a sweep restarted with the same
     store recomputes nothing that finished. A point that fails is recorded with its message; the rest run.
+    ``options``: for analysis "campbell", ``{"spin": NAME, "speeds": [...], "orders": (1,)}``.
     """
     start = time.perf_counter()
     if not callable(build):
@@ -335,7 +346,7 @@ def sweep(build: Callable, parameters, analysis="modes", executor=None, progress
     done = _load_store(store)
     todo = [i for i, p in enumerate(points) if _key(p) not in done]
     results: dict[int, dict] = {i: done[_key(p)] for i, p in enumerate(points) if _key(p) in done}
-    kind, run = _runner(executor)
+    kind, run = _runner(executor, options)
     size = chunksize or max(1, min(64, len(todo) // (4 * _workers(executor)) or 1))
     chunks = [todo[k:k + size] for k in range(0, len(todo), size)]
     bar = _bar(progress, len(points), len(results))
@@ -389,20 +400,24 @@ def _workers(executor) -> int:
     return getattr(executor, "_max_workers", None) or 2
 
 
-def _runner(executor):
+def _runner(executor, options=None):
     """(kind, run): run(build, analysis, point chunks, index chunks) yields (indices, results) as they end."""
     if executor is None:
         def serial(build, analysis, chunks, idx):
             for c, i in zip(chunks, idx):
-                yield i, _chunk(build, c, analysis)
+                yield i, _chunk(build, c, analysis, options)
         return "serial", serial
     if executor == "processes":
         def pool(build, analysis, chunks, idx):
             import multiprocessing as mp
 
-            with mp.get_context("spawn").Pool(os.cpu_count() or 1) as p:
+            import threading
+
+            # fork starts workers without re-importing (fast); with other threads alive it may deadlock: spawn
+            method = "fork" if threading.active_count() == 1 and "fork" in mp.get_all_start_methods() else "spawn"
+            with mp.get_context(method).Pool(os.cpu_count() or 1) as p:
                 try:
-                    jobs = [p.apply_async(_chunk, (build, c, analysis)) for c in chunks]
+                    jobs = [p.apply_async(_chunk, (build, c, analysis, options)) for c in chunks]
                     for j, i in zip(jobs, idx):
                         yield i, j.get()
                 except BaseException:
@@ -413,7 +428,7 @@ def _runner(executor):
         def futures(build, analysis, chunks, idx):
             from concurrent.futures import as_completed
 
-            fut = {executor.submit(_chunk, build, c, analysis): i for c, i in zip(chunks, idx)}
+            fut = {executor.submit(_chunk, build, c, analysis, options): i for c, i in zip(chunks, idx)}
             try:
                 for f in as_completed(fut):
                     yield fut[f], f.result()
@@ -426,7 +441,8 @@ def _runner(executor):
         def dask(build, analysis, chunks, idx):
             from distributed import as_completed
 
-            fut = {executor.submit(_chunk, build, c, analysis, pure=False): tuple(i) for c, i in zip(chunks, idx)}
+            fut = {executor.submit(_chunk, build, c, analysis, options, pure=False): tuple(i)
+                   for c, i in zip(chunks, idx)}
             try:
                 for f in as_completed(list(fut)):
                     yield list(fut[f]), f.result()
