@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._format import number, table, vector
+from ._format import json_ready, number, table, vector
 from .errors import ModelError, VibdynError
 
 
@@ -352,8 +352,6 @@ def main(argv=None):
 
             view_command(load(args.scene), args)
         elif args.command == "frf":
-            from .response import frf_report, print_frf
-
             system = with_start(load(args.scene), start_offsets(args.start)).build()
             frf, peaks, hp, data = frf_report(system, args.input, args.output, args.w0, args.w1, args.points,
                                               args.method)
@@ -490,6 +488,89 @@ def _details(e):
 
 def _end(a):
     return f"{a[0]}{vector(a[1])}"
+
+
+# ------------------------------------------------------------- vibdyn frf
+def parse_channel(spec):
+    """A CLI channel: a coordinate name, or BODY:X,Y,Z:DX,DY,DZ (a body point, in the body frame, m, and a
+    direction in world axes)."""
+    parts = spec.split(":")
+    if len(parts) == 1:
+        return spec
+    if len(parts) != 3:
+        raise ModelError(f"channel '{spec}': expected a coordinate name or BODY:X,Y,Z:DX,DY,DZ")
+    return parts[0], _numbers(parts[1], spec), _numbers(parts[2], spec)
+
+
+def frf_report(system, input_spec, output_spec, w0=None, w1=None, points=400, method="direct"):
+    """The receptance (or, for ``support:NAME:DX,DY,DZ`` inputs, the transmissibility) between two channels
+    at the scene's operating point: (FRF, peaks, half power, plain-data dict)."""
+    lin = system.operating_point().linearize()
+    m = lin.modes()
+    notes = []
+    if m.stability == "unstable":
+        notes.append("the operating point is unstable: no steady harmonic response exists; this is the transfer "
+                     "function H(iω) of the linear model (as used in control design)")
+    if w0 is None or w1 is None:
+        w = m.omega[(~m.rigid) & (m.omega > 0)]  # unstable directions give their growth rate as the scale
+        if w.size:
+            lo, hi = 0.1 * w.min(), 2.0 * w.max()
+        else:
+            lo, hi = 0.1, 100.0
+            notes.append("no natural frequency (every mode is rigid): default range 0.1 … 100 rad/s; "
+                         "give --from and --to")
+        w0 = lo if w0 is None else w0
+        w1 = hi if w1 is None else w1
+    if not (0 <= w0 < w1) or points < 3:
+        raise ModelError(f"frf: need 0 ≤ --from < --to and --points ≥ 3, got {w0}, {w1}, {points}")
+    omega = np.geomspace(w0, w1, points) if w0 > 0 else np.linspace(w0, w1, points)
+    out = parse_channel(output_spec)
+    if input_spec.startswith("support:"):
+        parts = input_spec.split(":")
+        if len(parts) not in (2, 3):
+            raise ModelError(f"input '{input_spec}': expected support:NAME or support:NAME:DX,DY,DZ")
+        d = _numbers(parts[2], input_spec) if len(parts) == 3 else (0.0, 0.0, 1.0)
+        frf = lin.base_response(omega, parts[1], direction=d, outputs=[out], method=method)
+    else:
+        frf = lin.receptance(omega, [parse_channel(input_spec)], [out], method=method)
+    peaks, hp = frf.peaks(), frf.half_power()
+    data = json_ready({"scene": system.name, **frf.to_dict(), "peaks": peaks.to_dict(), "half_power": hp.to_dict(),
+                       "units": frf.units(), "notes": notes})
+    return frf, peaks, hp, data
+
+
+def print_frf(frf, peaks, hp, out=None, notes=()):
+    """Print a frequency response's summary: resonances with half-power ζ (undamped ones: unbounded, no
+    band), anti-resonances, and ``notes``."""
+    import sys
+
+    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
+    p(f"{frf.kind} {frf.outputs[0]} / {frf.inputs[0]} ({frf.units()}), {frf.omega.size} frequencies "
+      f"{frf.omega[0]:.6g} … {frf.omega[-1]:.6g} rad/s")
+    p(f"method {frf.method}, damping {frf.damping}; residual {frf.residual:.1e}, error ≈ {frf.error:.1e}, "
+      f"{frf.elapsed * 1e3:.1f} ms")
+    for n in notes:
+        p(f"note: {n}")
+    p(f"{'':<16} {'omega rad/s':>14} {'f Hz':>12} {'|H|':>12} {'zeta (half power)':>18}")
+    for w, a in zip(peaks.resonances, peaks.amplitudes):
+        if not np.isfinite(a):
+            p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {'unbounded':>12} {'0 (undamped)':>18}")
+            continue
+        i = np.flatnonzero(np.isclose(hp.omega_peak, w, rtol=1e-9))
+        z = f"{hp.zeta[i[0]]:.6g}" if i.size else "-"
+        p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {a:>12.6g} {z:>18}")
+    for w, a in zip(peaks.antiresonances, peaks.antiresonance_amplitudes):
+        p(f"{'anti-resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {a:>12.6g}")
+
+
+def _numbers(text, spec):
+    try:
+        x = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        x = ()
+    if len(x) != 3:
+        raise ModelError(f"channel '{spec}': '{text}' is not three comma-separated numbers")
+    return x
 
 
 if __name__ == "__main__":
