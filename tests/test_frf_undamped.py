@@ -101,3 +101,11 @@ def test_cli_frf_rigid_only_and_unstable_models_explain_themselves():
     assert code == 0 and "every mode is rigid" in out
     code, out, _ = run(["frf", str(MODELS / "inverted_bar_unstable.toml"), "--input", "bar", "--output", "bar"])
     assert code == 0 and "unstable" in out and "no steady harmonic response" in out
+
+
+def test_end_to_end_transfer_of_a_chain_has_no_antiresonance():
+    # H_15 of a spring chain is (Π k_i) / det(K − ω²M): no zeros, so the minima of |H| between poles (where
+    # H keeps its sign) are not anti-resonances
+    lin, m = chain()
+    p = lin.receptance(np.geomspace(1, 100, 300), inputs=["m1"], outputs=["m5"]).peaks("m5", "m1")
+    assert p.antiresonances.size == 0 and p.resonances.size == 5

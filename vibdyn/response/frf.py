@@ -118,7 +118,9 @@ class FRF:
         model's natural frequencies are added to the grid so that sharp resonances are not missed.
 
         An undamped resonance (the dynamic stiffness singular at a natural frequency that H_jk sees) is a
-        resonance at exactly that natural frequency with unbounded amplitude (``inf``, ``unbounded`` True)."""
+        resonance at exactly that natural frequency with unbounded amplitude (``inf``, ``unbounded`` True).
+        On such an undamped channel an anti-resonance is a zero of H_jk (a sign change); minima of |H_jk|
+        where H_jk keeps its sign are not listed."""
         from ..identify import extrema
 
         start = time.perf_counter()
@@ -131,10 +133,23 @@ class FRF:
                           np.concatenate([er[~near], np.zeros(poles.size)]))
             order = np.argsort(wr)
             wr, ar, er = wr[order], ar[order], er[order]
+            zero = np.array([self._crosses_zero(x, output, input) for x in wa], dtype=bool)
+            wa, aa, ea = wa[zero], aa[zero], ea[zero]
         j, k = self.index(output, input)
         return Peaks(self.outputs[j], self.inputs[k], _quantity(quantity), wr, ar, wa, aa,
                      float(max(er.max(initial=0.0), ea.max(initial=0.0))), time.perf_counter() - start,
                      ~np.isfinite(ar))
+
+    def _crosses_zero(self, w, output, input, step=1e-4):
+        """Whether the (real) undamped H_jk changes sign across ``w`` (rad/s): a true anti-resonance, a zero
+        of H_jk. A minimum of |H_jk| between two poles without a sign change (an end-to-end transfer of a
+        chain has no zeros at all) is no anti-resonance."""
+        j, k = self.index(output, input)
+        try:
+            h = self.evaluate(np.array([w * (1 - step), w * (1 + step)]))[:, j, k].real
+        except SingularResponse:
+            return True  # a pole within the step: keep the minimum rather than guess
+        return bool(h[0] * h[1] <= 0)
 
     def half_power(self, output=0, input=0, quantity="receptance"):
         """Half-power bandwidth and damping ratio of each resonance of |H_jk|
