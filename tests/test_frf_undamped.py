@@ -109,3 +109,10 @@ def test_end_to_end_transfer_of_a_chain_has_no_antiresonance():
     lin, m = chain()
     p = lin.receptance(np.geomspace(1, 100, 300), inputs=["m1"], outputs=["m5"]).peaks("m5", "m1")
     assert p.antiresonances.size == 0 and p.resonances.size == 5
+
+
+def test_half_power_of_an_undamped_channel_reads_well():
+    lin, m = chain()
+    hp = lin.receptance(np.geomspace(1, 100, 300), inputs=["m1"], outputs=["m5"]).half_power("m5", "m1")
+    text = repr(hp)
+    assert "undamped" in text and f"{m.omega[0]:.6g}" in text and "0 resonances" not in text and len(text) < 400

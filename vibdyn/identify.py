@@ -64,9 +64,11 @@ class HalfPower:
     def __repr__(self):
         from ._format import summary, values
 
-        return summary("HalfPower", f"{self.omega_peak.size} resonances at {values(self.omega_peak, 'rad/s', digits=6)}",
+        return summary("HalfPower", f"{self.omega_peak.size} resonances at {values(self.omega_peak, 'rad/s', digits=6)}"
+                       if self.omega_peak.size or not self.undamped.size else "",
                        f"ζ = {values(self.zeta)}" if self.zeta.size else "",
-                       f"{self.undamped.size} undamped" if self.undamped.size else "",
+                       f"undamped (ζ = 0, no band) at {values(self.undamped, 'rad/s', digits=6)}"
+                       if self.undamped.size else "",
                        f"{self.unresolved.size} unresolved" if self.unresolved.size else "")
 
     @property
