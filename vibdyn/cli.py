@@ -559,8 +559,10 @@ def print_frf(frf, peaks, hp, out=None, notes=()):
         i = np.flatnonzero(np.isclose(hp.omega_peak, w, rtol=1e-9))
         z = f"{hp.zeta[i[0]]:.6g}" if i.size else "-"
         p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {a:>12.6g} {z:>18}")
+    undamped = peaks.unbounded is not None and peaks.unbounded.any()
     for w, a in zip(peaks.antiresonances, peaks.antiresonance_amplitudes):
-        p(f"{'anti-resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {a:>12.6g}")
+        # undamped: an anti-resonance is a zero of H; what Brent leaves of it is round-off
+        p(f"{'anti-resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {'0' if undamped else f'{a:.6g}':>12}")
 
 
 def _numbers(text, spec):

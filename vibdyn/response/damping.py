@@ -114,7 +114,8 @@ class _Model:
 
 def _model(lin, damping):
     if damping is None or damping == "viscous":
-        return _Model(lin, lin.C, np.zeros_like(lin.M), "viscous (the model's C)")
+        return _Model(lin, lin.C, np.zeros_like(lin.M),
+                      "viscous (the model's C)" if np.any(lin.C) else "undamped (the model's C = 0)")
     if damping in ("none", "undamped"):
         return _Model(lin, np.zeros_like(lin.M), np.zeros_like(lin.M), "undamped")
     if isinstance(damping, Hysteretic):
