@@ -285,3 +285,22 @@ def test_bad_loop_tables_in_scene_files(tmp_path):
         with pytest.raises(vd.SceneFileError, match=message) as info:
             vd.load_scene(path)
         assert "loop" in str(info.value)
+
+
+def test_trammel_receptance_and_free_response_in_the_independent_motion():
+    """A vertical force on B: α(ω) = (dy_B/dγ)² / (I (ω_n² − ω²)), y_B = 2ℓ cos γ, at γ = π/4."""
+    lin = load("trammel").build().operating_point().linearize()
+    wn = lin.modes().omega[0]
+    point = ("B", (0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    omega = np.array([0.5, 3.0, 10.0])
+    frf = lin.receptance(omega, inputs=[point], outputs=[point, ("A", (0, 0, 0), (1, 0, 0))])
+    dy, dx = 2 * L * math.sin(math.pi / 4), 2 * L * math.cos(math.pi / 4)  # |dy_B/dγ|, |dx_A/dγ|
+    alpha = dy**2 / (INERTIA * (wn**2 - omega**2))
+    assert frf.alpha[:, 0, 0].real == pytest.approx(alpha, rel=1e-7)
+    assert frf.alpha[:, 1, 0].real == pytest.approx(-dx * dy / (INERTIA * (wn**2 - omega**2)), rel=1e-7)
+    with pytest.raises(vd.ModelError, match="not an independent motion"):
+        lin.receptance(omega, inputs=["disk" if lin.coordinates != ("disk",) else "A"])
+    # free response from an offset of the independent coordinate: a cosine at ω_n
+    t = np.linspace(0, 1, 5)
+    r = lin.free_response(t, [1e-3])
+    assert r.q[:, 0] == pytest.approx(1e-3 * np.cos(wn * t), abs=1e-12)

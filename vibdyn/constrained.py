@@ -7,7 +7,7 @@ mechanism's independent motions: a basis N (nv × dof) of Φ_q N = 0.
 """
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 import pinocchio as pin
@@ -110,7 +110,6 @@ def equilibrium(system, q0=None, t=0.0, tol=1e-10, max_iter=100):
         Kr = vector_derivative(lambda x: reduced(q, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
     lam = c.multipliers(J, r)
     res = float(np.abs(r - J.T @ lam).max(initial=0.0))
-    names = system.coordinates
     lin = linearize(system, q, t=t, multipliers=lam)
     m = lin.modes()
     stability = classify(m.rigid, m.unstable, m.eigenvalues, m.zero_threshold)
@@ -121,43 +120,107 @@ def equilibrium(system, q0=None, t=0.0, tol=1e-10, max_iter=100):
                            {}, time.perf_counter() - start, m, q_error, lam, c.split(lam), phi)
 
 
+class IndependentView:
+    """A system seen in the independent coordinates of its mechanism (what the responses of a
+    :class:`ConstrainedLinearModel` name): ``coordinates``, ``units`` and ``coordinate_index`` are the
+    independent ones'; everything else is the system's."""
+
+    def __init__(self, system, independent):
+        self.system = system
+        self.independent = tuple(int(i) for i in independent)
+        self.coordinates = tuple(system.coordinates[i] for i in self.independent)
+        self.units = tuple(system.units[i] for i in self.independent)
+        self.nv = len(self.independent)
+
+    def coordinate_index(self, name):
+        if name in self.coordinates:
+            return self.coordinates.index(name)
+        if name in self.system.coordinates:
+            raise ModelError(f"coordinate '{name}' is not an independent motion of the mechanism (its loops fix "
+                             f"it; independent: {', '.join(self.coordinates)}): give a body point "
+                             "(body, (x, y, z), (dx, dy, dz)) instead")
+        raise ModelError(f"unknown coordinate '{name}' (independent coordinates: {', '.join(self.coordinates)})")
+
+    def __getattr__(self, name):
+        return getattr(self.system, name)
+
+
 @dataclass(frozen=True, eq=False)
-class ConstrainedLinearModel(LinearModel):
+class ReducedLinearModel(LinearModel):
     """Linear model of a mechanism with loops in its independent motions: M, C, K (dof × dof) are
     NᵀM N, NᵀC N and Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N, N (``basis``, nv × dof) the motions that keep the loops closed,
-    whose rows at the ``independent`` tree coordinates are the identity (so the model's coordinates are those
-    tree coordinates). ``tree`` is the nv × nv model (K with the constraint-force curvature) that mode shapes,
-    given in the tree's coordinates (φ = N ψ), refer to. ``rank``: rank of Φ_q at q0."""
+    whose rows at the ``independent`` tree coordinates are the identity: the model's coordinates are those
+    tree coordinates (``system`` is the system seen in them, :class:`IndependentView`). ``tree`` is the
+    nv × nv model (K with the constraint-force curvature). ``rank``: rank of Φ_q at q0. Inputs and outputs of
+    responses are the independent coordinates and body points (any point: J N)."""
 
     basis: np.ndarray = field(repr=False, default=None)
-    independent: tuple = ()
     tree: LinearModel = field(repr=False, default=None)
     multipliers: np.ndarray = field(repr=False, default=None)
     rank: int = 0
 
     @property
-    def coordinates(self):
-        return tuple(self.system.coordinates[i] for i in self.independent)
+    def independent(self):
+        return self.system.independent
 
     def point_jacobian(self, points):
         """Displacements (m, world axes) of body points per independent coordinate (3·npoints × dof)."""
         return self.tree.point_jacobian(points) @ self.basis
 
     def joint_input(self, coordinates=None):
-        """Reduced input matrix Nᵀ B of generalized forces on the named tree coordinates (dof × m)."""
-        return self.basis.T @ self.tree.joint_input(coordinates)
+        """Reduced input Nᵀ B of generalized forces on the named tree coordinates (dof × m; None: the
+        independent ones)."""
+        names = self.coordinates if coordinates is None else coordinates
+        return self.basis.T @ self.tree.joint_input(names)
+
+    def support_input(self, name, step=1e-5):
+        """(Nᵀ B_y, Nᵀ B_v): the tree's base-excitation inputs reduced (see :meth:`LinearModel.support_input`)."""
+        By, Bv = self.tree.support_input(name, step)
+        return self.basis.T @ By, self.basis.T @ Bv
+
+    def summary(self):
+        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, dof={self.nv}, rank {self.rank}, "
+                f"error ≈ {self.error:.1e}, {self.elapsed * 1e3:.2f} ms)")
+
+
+@dataclass(frozen=True, eq=False)
+class ConstrainedLinearModel(ReducedLinearModel):
+    """:class:`ReducedLinearModel` whose :meth:`modes` give their shapes in the tree's coordinates (nv each,
+    φ = N ψ, Φ_q φ = 0, φᵀ M φ = 1 with the tree's M; ``modes.linear`` is the tree model). Responses run on
+    :attr:`reduced` (modes in the independent coordinates): receptances between tree coordinates are
+    N (K_r − ω²M_r + iωC_r)⁻¹ Nᵀ."""
+
+    @property
+    def reduced(self):
+        return ReducedLinearModel(**{f.name: getattr(self, f.name) for f in fields(ReducedLinearModel)})
 
     def modes(self, **kwargs):
-        """Exactly dof modes; shapes in the tree's coordinates (nv each, φ = N ψ, Φ_q φ = 0), mass-normalised
-        with the tree's M (φᵀ M φ = 1); ``modes.linear`` is the tree model."""
+        """Exactly dof modes, shapes in the tree's coordinates (see the class)."""
         m = _modes(self, **kwargs)
         N = self.basis
         cs = m.complex_shapes
         return replace(m, linear=self.tree, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
 
-    def summary(self):
-        return (f"ConstrainedLinearModel({self.method}, nv={self.tree.nv}, dof={self.nv}, rank {self.rank}, "
-                f"error ≈ {self.error:.1e}, {self.elapsed * 1e3:.2f} ms)")
+    def with_modal_damping(self, zeta):
+        return self.with_damping(self.reduced.with_modal_damping(zeta).C)
+
+    def free_response(self, *args, **kwargs):
+        return self.reduced.free_response(*args, **kwargs)
+
+    def receptance(self, *args, **kwargs):
+        return self.reduced.receptance(*args, **kwargs)
+
+    def harmonic_response(self, *args, **kwargs):
+        return self.reduced.harmonic_response(*args, **kwargs)
+
+    def base_response(self, *args, **kwargs):
+        return self.reduced.base_response(*args, **kwargs)
+
+    def forced_response(self, *args, **kwargs):
+        return self.reduced.forced_response(*args, **kwargs)
+
+    def appropriation(self, *args, **kwargs):
+        return self.reduced.appropriation(*args, **kwargs)
 
 
 def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=1e-5, multipliers=None):
@@ -193,10 +256,9 @@ def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=1e-5,
     M_r, C_r, K_r = N.T @ tree.M @ N, N.T @ tree.C @ N, N.T @ K_tree @ N
     M_r = 0.5 * (M_r + M_r.T)
     rank = system.nv - ind.size
-    return ConstrainedLinearModel(system, q0, zero, zero, t0, M_r, C_r, K_r, aN.T @ tree.K_error @ aN,
-                                  aN.T @ tree.C_error @ aN, tree.method, time.perf_counter() - start,
-                                  tree.evaluations + 4 * system.nv, N, tuple(int(i) for i in ind), tree, lam,
-                                  rank)
+    return ConstrainedLinearModel(IndependentView(system, ind), q0, zero, zero, t0, M_r, C_r, K_r,
+                                  aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN, tree.method,
+                                  time.perf_counter() - start, tree.evaluations + 4 * system.nv, N, tree, lam, rank)
 
 
 def projected_ode(base):
