@@ -1,4 +1,5 @@
-"""The ``vibdyn`` command: ``vibdyn info SCENE``, ``vibdyn modes SCENE [--json]``, ``vibdyn demo``.
+"""The ``vibdyn`` command: ``vibdyn info SCENE``, ``vibdyn modes SCENE [--json]``, ``vibdyn demo``,
+``vibdyn bench [--quick] [--smoke] [--check] [--only NAME]`` (the repository's benchmark suite).
 
 SCENE is a TOML scene file, or ``robot:NAME`` for a robot of example-robot-data (e.g. ``robot:ur5``).
 """
@@ -18,6 +19,28 @@ from .errors import ModelError, VibdynError
 def models_dir():
     """The bundled ``models/`` folder (override with the VIBDYN_MODELS environment variable)."""
     return Path(os.environ.get("VIBDYN_MODELS", Path(__file__).resolve().parents[1] / "models"))
+
+
+def benchmarks_dir():
+    """The repository's ``benchmarks/`` folder (override with the VIBDYN_BENCHMARKS environment variable).
+    It is not part of the installed package: it exists in a source checkout (an editable install)."""
+    return Path(os.environ.get("VIBDYN_BENCHMARKS", Path(__file__).resolve().parents[1] / "benchmarks"))
+
+
+def bench(argv):
+    """``vibdyn bench ARGS``: run ``python -m benchmarks ARGS`` from the repository's benchmarks folder."""
+    folder = benchmarks_dir()
+    if not (folder / "suite.py").is_file():
+        raise ModelError(f"vibdyn bench: no benchmark suite at {folder} (it lives in the source repository, not "
+                         "in an installed package): run it from a checkout (pip install -e .) or set "
+                         "VIBDYN_BENCHMARKS to the repository's benchmarks/ folder")
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    root = str(folder.resolve().parent)
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    from benchmarks.suite import main as bench_main
+
+    return bench_main(argv, prog="vibdyn bench")
 
 
 def load(spec):
@@ -235,6 +258,13 @@ def demo(out=None):
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"]:  # forwarded whole to the suite's own parser (vibdyn bench --help)
+        try:
+            return bench(argv[1:])
+        except VibdynError as e:
+            print(f"vibdyn: error: {e}", file=sys.stderr)
+            return 2
     parser = argparse.ArgumentParser(prog="vibdyn", description="Vibration analysis of sets of rigid solids.")
     sub = parser.add_subparsers(dest="command", required=True)
     info = sub.add_parser("info", help="print a scene's bodies, joints, coordinates and elements")
@@ -262,6 +292,7 @@ def main(argv=None):
     frf.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     frf.add_argument("--start", nargs="+", metavar="NAME=VALUE",
                      help="where the operating point's search starts (offsets from neutral by coordinate)")
+    sub.add_parser("bench", help="the regression benchmarks (vibdyn bench --help; needs a source checkout)")
     sim = sub.add_parser("simulate", help="nonlinear time simulation: error estimate, energy balance, export")
     sim.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
     sim.add_argument("--t-end", type=float, required=True, help="simulated time, s")
