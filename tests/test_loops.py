@@ -327,3 +327,13 @@ def test_andrews_squeezer_against_the_test_set_reference():
     # the loops stay closed, and the energy balance T + V − E0 − τ(β − β0) holds (the motor's work is W_nc)
     assert traj.constraint_residual.max() <= 1e-12
     assert traj.drift_relative <= 1e-8
+
+
+def test_loop_model_modal_damping_and_four_bar_shapes_in_tree_coordinates():
+    lin = load("four_bar").build().operating_point().linearize()
+    damped = lin.with_modal_damping(0.05)
+    m = damped.modes()
+    assert m.zeta == pytest.approx([0.05], rel=1e-9)
+    # the shape moves all three tree coordinates and keeps the loop closed
+    assert m.shapes.shape == (3, 1) and np.all(np.abs(m.shapes) > 1e-3)
+    assert lin.tree.nv == 3 and lin.nv == 1 and lin.basis.shape == (3, 1)

@@ -204,23 +204,20 @@ class ConstrainedLinearModel(ReducedLinearModel):
     def with_modal_damping(self, zeta):
         return self.with_damping(self.reduced.with_modal_damping(zeta).C)
 
-    def free_response(self, *args, **kwargs):
-        return self.reduced.free_response(*args, **kwargs)
 
-    def receptance(self, *args, **kwargs):
-        return self.reduced.receptance(*args, **kwargs)
+def _on_reduced(name):
+    """A response method of ConstrainedLinearModel that runs on its reduced model."""
+    def method(self, *args, **kwargs):
+        return getattr(self.reduced, name)(*args, **kwargs)
 
-    def harmonic_response(self, *args, **kwargs):
-        return self.reduced.harmonic_response(*args, **kwargs)
+    method.__name__ = name
+    method.__doc__ = getattr(LinearModel, name).__doc__
+    return method
 
-    def base_response(self, *args, **kwargs):
-        return self.reduced.base_response(*args, **kwargs)
 
-    def forced_response(self, *args, **kwargs):
-        return self.reduced.forced_response(*args, **kwargs)
-
-    def appropriation(self, *args, **kwargs):
-        return self.reduced.appropriation(*args, **kwargs)
+for _name in ("free_response", "receptance", "harmonic_response", "base_response", "forced_response",
+              "appropriation"):
+    setattr(ConstrainedLinearModel, _name, _on_reduced(_name))
 
 
 def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=1e-5, multipliers=None):
