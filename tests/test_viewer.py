@@ -263,10 +263,16 @@ def _gone(before, timeout=10.0):
 pytestmark_linux = pytest.mark.skipif(not Path("/proc/self/cmdline").exists(), reason="needs /proc")
 
 
+def _interruptible():
+    """Ctrl-C reaches the child as a user's would: a suite run from a background shell inherits SIGINT
+    ignored, and Python then installs no KeyboardInterrupt handler."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start_cli(*args):
     p = subprocess.Popen([sys.executable, "-m", "vibdyn.cli", "view", str(MODELS / "triple_pendulum.toml"),
                           "--no-browser", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=ENV,
-                         text=True)
+                         text=True, preexec_fn=_interruptible)
     line = p.stdout.readline()
     return p, line
 

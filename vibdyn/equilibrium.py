@@ -39,7 +39,7 @@ class Equilibrium:
     drive: dict
     elapsed: float  # s
     modes: object = field(repr=False, default=None)
-    q_error: np.ndarray = field(repr=False, default=None)
+    q_error: np.ndarray | None = field(repr=False, default=None)
 
     def linearize(self, **kwargs):
         """The linear model about this point (see :meth:`vibdyn.System.linearize`)."""

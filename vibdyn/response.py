@@ -27,7 +27,7 @@ from functools import cached_property
 import numpy as np
 import scipy.linalg as sla
 
-from ._check import finite_array, scalar, unit_axis, vector3
+from ._check import count, finite_array, scalar, unit_axis, unknown_name, vector3
 from .errors import ModelError
 
 EPS = np.finfo(float).eps
@@ -390,7 +390,7 @@ def _pick(x, labels, what):
         return int(x) % len(labels)
     if x in labels:
         return labels.index(x)
-    raise ModelError(f"unknown {what} {x!r} (one of {', '.join(labels)})")
+    raise unknown_name(x, labels, what)
 
 
 def _omegas(omega):
@@ -537,7 +537,7 @@ def harmonic_response(lin, omega, force, inputs=None, outputs=None, *, phase=0.0
     if F.size == 1:
         F = np.full(n_in, F[0])
     if F.size != n_in or not np.all(np.isfinite(F)):
-        raise ModelError(f"harmonic force: expected {n_in} finite amplitude(s) (one per input), got {force!r}")
+        raise ModelError(f"harmonic force: expected {count(n_in, 'finite amplitude')} (one per input), got {force!r}")
     ph = np.broadcast_to(finite_array(phase, None, "harmonic force phase"), (n_in,))
     F = F * np.exp(1j * ph)
     return HarmonicResponse(frf.omega, frf.alpha @ F, frf.outputs, frf.output_units, F, frf,
@@ -577,8 +577,8 @@ def _support(lin, support, direction):
             raise ModelError(f"base excitation: prescribing '{support}' leaves no free coordinate")
         p = system.coordinate_index(support)
         return "joint", p, np.array([i for i in range(system.nv) if i != p]), [support]
-    raise ModelError(f"base excitation: '{support}' is neither a support ({', '.join(system._support_index) or 'none'})"
-                     f" nor a coordinate ({', '.join(system.coordinates)})")
+    raise unknown_name(support, [*(s.name for s in system.supports), *system.coordinates], "support or coordinate",
+                       "supports and coordinates", "base excitation")
 
 
 def _reduced(model, free):
@@ -861,7 +861,7 @@ def _force_function(lin, t, force, inputs, direction, what):
             if f.size == 1 and m > 1:
                 raise ModelError(f"{what}: force(t) must return {m} values (one per input), got 1")
             if f.size != m or not np.all(np.isfinite(f)):
-                raise ModelError(f"{what}: force(t) must return {m} finite value(s) (one per input) at t = {s}, "
+                raise ModelError(f"{what}: force(t) must return {count(m, 'finite value')} (one per input) at t = {s}, "
                                  f"got {f!r}")
             return B @ f
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from . import inertia as _inertia
 from . import joints as _joints
-from ._check import finite_array, scalar, stiffness_like, vector3
+from ._check import finite_array, one_or_each, scalar, stiffness_like, unknown_name, vector3
 from .elements import (WORLD, BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring, Support,
                        attachment,
                        joint_force_value, vector_or_callable)
@@ -82,11 +82,12 @@ class Scene:
         if parent == name:
             raise ModelError(f"{what}: cannot be its own parent (cycle)")
         if parent != WORLD and self._find_body(parent) is None:
-            raise ModelError(f"{what}: unknown parent '{parent}'")
+            raise self.unknown_body(parent, what, noun="parent", extra=(WORLD,))
         parent = self._find_body(parent).name if parent != WORLD else WORLD
         joint = _joints.Fixed() if joint is None else joint
         if not isinstance(joint, _joints.Joint):
             raise ModelError(f"{what}: joint must be a vibdyn joint (Pivot, Slider, ...), got {joint!r}")
+        joint.checked(what)
         if joint.name == WORLD:
             raise ModelError(f"{what}: joint name 'world' is reserved for the fixed frame")
         if joint.name and (joint.name in self.elements or self._find_body(joint.name) is not None):
@@ -138,7 +139,7 @@ class Scene:
         if r.size == 1:
             r = np.full(b.joint.nv, float(r[0]))
         if r.shape != (b.joint.nv,):
-            raise ModelError(f"{what}: rest needs {b.joint.nv} number(s), got {r.size}")
+            raise ModelError(f"{what}: rest needs {one_or_each(b.joint.nv)}, got {r.size}")
         return self._add(JointSpring(name, b.name, tuple(map(float, k)), tuple(map(float, r))))
 
     def add_joint_damper(self, body, damping, name=None):
@@ -189,7 +190,7 @@ class Scene:
         self._check_new_name(name, "element")
         b = self._find_body(body)
         if b is None:
-            raise ModelError(f"{what}: unknown body '{body}'")
+            raise self.unknown_body(body, what)
         if frame not in ("world", "body"):
             raise ModelError(f"{what}: frame must be 'world' or 'body', got {frame!r}")
         f = vector_or_callable(force, f"{what} force")
@@ -267,8 +268,16 @@ class Scene:
         """A body by its name or its joint's name."""
         b = self._find_body(name)
         if b is None:
-            raise ModelError(f"unknown body '{name}' in scene '{self.name}'")
+            raise self.unknown_body(name, f"scene '{self.name}'")
         return b
+
+    def unknown_body(self, name, what, *, noun="body", extra=(), moving=False):
+        """The ModelError for an unknown body name: the valid names (bodies and their joints' names, after
+        ``extra``; only bodies with a coordinate if ``moving``) and the closest match."""
+        bodies = [b for b in self.bodies.values() if not moving or b.joint.nv]
+        names = [*extra, *(n for b in bodies for n in (b.name, b.joint.name) if n)]
+        plural = "valid parents" if noun == "parent" else "bodies with a coordinate" if moving else "bodies"
+        return unknown_name(name, names, noun, plural, what)
 
     def copy(self):
         return copy.deepcopy(self)
@@ -308,7 +317,7 @@ class Scene:
     def _joint_body(self, name, kind):
         b = self._find_body(name)
         if b is None:
-            raise ModelError(f"{kind} on '{name}': unknown body")
+            raise self.unknown_body(name, kind, moving=True)
         if b.joint.nv == 0:
             raise ModelError(f"{kind} on '{name}': body is welded (Fixed joint), it has no coordinate")
         return b
@@ -318,7 +327,8 @@ class Scene:
         if body != WORLD and not isinstance(self.elements.get(body), Support):
             b = self._find_body(body)
             if b is None:
-                raise ModelError(f"{what}: unknown body '{body}'")
+                supports = [e.name for e in self.elements.values() if isinstance(e, Support)]
+                raise self.unknown_body(body, what, extra=(WORLD, *supports))
             body = b.name
         return body, point
 

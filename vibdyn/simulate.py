@@ -351,7 +351,7 @@ class _Run:
     ode: object = None
     status: str = "finished"
     message: str = ""
-    failure: BaseException = None
+    failure: BaseException | None = None
 
     @property
     def local(self):

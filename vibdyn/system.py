@@ -12,7 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import forces as _forces
-from ._check import vector3
+from ._check import count, unknown_name, vector3
 from .elements import WORLD, Spring, Support
 from .errors import ModelError
 
@@ -163,7 +163,7 @@ class System:
         else:
             dv = np.asarray(offsets, dtype=float)
             if dv.shape != (self.nv,):
-                raise ModelError(f"offsets: expected {self.nv} numbers (one per coordinate: "
+                raise ModelError(f"offsets: expected {count(self.nv, 'number')} (one per coordinate: "
                                  f"{', '.join(self.coordinates)}), got {dv.size}")
         return self.integrate(self.neutral(), dv)
 
@@ -421,7 +421,7 @@ class System:
         try:
             return self.coordinates.index(name)
         except ValueError:
-            raise ModelError(f"unknown coordinate '{name}' (coordinates: {', '.join(self.coordinates)})") from None
+            raise unknown_name(name, self.coordinates, "coordinate") from None
 
     def attachments(self, atts):
         """(joint ids, points in joint frames) of ``[(body, point), ...]``; world points on joint 0."""
@@ -492,6 +492,10 @@ class System:
             xa, xb = self._anchor(s.a, q0), self._anchor(s.b, q0)
             L = float(np.linalg.norm(xb - xa))
             l0 = L if s.free_length is None else s.free_length
+            if s.free_length is None and L <= 1e-12:  # the threshold below with l0 = L
+                raise ModelError(f"spring '{s.name}': its two ends coincide at the neutral configuration (at "
+                                 f"{np.round(xa, 12).tolist()} m) and no free_length is given: attach the ends at "
+                                 "distinct points, or give free_length=0 for a zero-length spring (force −k·d)")
             if l0 > 0 and L <= 1e-9 * max(l0, 1e-3):  # the threshold Springs uses at each call
                 raise ModelError(f"spring '{s.name}': its two ends coincide at build time (neutral "
                                  "configuration), so its direction is undefined")
@@ -525,9 +529,9 @@ class System:
         try:
             q = np.asarray(q, dtype=float)
         except (TypeError, ValueError):
-            raise ModelError(f"{what}: expected a configuration of {self.nq} numbers, got {q!r}") from None
+            raise ModelError(f"{what}: expected a configuration of {count(self.nq, 'number')}, got {q!r}") from None
         if q.shape != (self.nq,):
-            raise ModelError(f"{what}: expected a configuration of {self.nq} numbers, got shape {q.shape}")
+            raise ModelError(f"{what}: expected a configuration of {count(self.nq, 'number')}, got shape {q.shape}")
         if not np.all(np.isfinite(q)):
             raise ModelError(f"{what}: contains NaN or inf")
         for body, i, n in self._unit_blocks:
@@ -541,9 +545,9 @@ class System:
         try:
             v = np.asarray(v, dtype=float)
         except (TypeError, ValueError):
-            raise ModelError(f"{what}: expected {self.nv} numbers (one per coordinate), got {v!r}") from None
+            raise ModelError(f"{what}: expected {count(self.nv, 'number')} (one per coordinate), got {v!r}") from None
         if v.shape != (self.nv,):
-            raise ModelError(f"{what}: expected {self.nv} numbers (one per coordinate), got shape {v.shape}")
+            raise ModelError(f"{what}: expected {count(self.nv, 'number')} (one per coordinate), got shape {v.shape}")
         if not np.all(np.isfinite(v)):
             raise ModelError(f"{what}: contains NaN or inf")
         return v
@@ -622,7 +626,7 @@ def _topological(scene):
         path, on_path, p = [b.name], {b.name}, b.parent
         while p not in rooted:
             if p not in scene.bodies:
-                raise ModelError(f"body '{path[-1]}': unknown parent '{p}'")
+                raise scene.unknown_body(p, f"body '{path[-1]}'", noun="parent", extra=(WORLD,))
             if p in on_path:
                 raise ModelError(f"body '{b.name}': cycle in the parent links ({' -> '.join(path + [p])})")
             path.append(p)

@@ -44,6 +44,7 @@ import numpy as np
 import pinocchio as pin
 
 from .. import joints as _joints
+from .._check import count, unknown_name
 from ..elements import WORLD
 from ..errors import ModelError
 from ..scene import Scene
@@ -168,9 +169,9 @@ class RobotSource:
     path: str
     floating: bool
     package_dirs: tuple
-    robot: str = None  # name in the example-robot-data table
-    srdf: str = None  # SRDF file with reference postures
-    posture: str = None  # default posture of the SRDF
+    robot: str | None = None  # name in the example-robot-data table
+    srdf: str | None = None  # SRDF file with reference postures
+    posture: str | None = None  # default posture of the SRDF
     pin_neutral: tuple = ()
     coordinates: tuple = ()  # CoordinateLink per Pinocchio (sub-)joint, in Pinocchio's order
 
@@ -247,7 +248,7 @@ def load_robot(name, floating=None, **kwargs):
     postures :func:`reference_configuration` reads.
     """
     if name not in ROBOTS:
-        raise ModelError(f"unknown robot {name!r}; known robots: {', '.join(known_robots())}")
+        raise unknown_name(name, known_robots(), "robot", "known robots")
     rel, free, srdf, posture = ROBOTS[name]
     root = robots_dir()
     path = root / rel
@@ -285,11 +286,11 @@ def known_robots():
 def robot_path(name):
     """Path of the URDF file of a robot of the table."""
     if name not in ROBOTS:
-        raise ModelError(f"unknown robot {name!r}; known robots: {', '.join(known_robots())}")
+        raise unknown_name(name, known_robots(), "robot", "known robots")
     return robots_dir() / ROBOTS[name][0]
 
 
-_ROBOTS_DIR = []
+_ROBOTS_DIR: list[Path] = []
 
 
 def robots_dir():
@@ -792,7 +793,7 @@ def from_pin(system, q_pin, v_pin=None):
     src = _source(system)
     q_pin = np.asarray(q_pin, dtype=float)
     if q_pin.shape != (src.pin_nq,):
-        raise ModelError(f"q_pin: expected {src.pin_nq} numbers, got shape {q_pin.shape}")
+        raise ModelError(f"q_pin: expected {count(src.pin_nq, 'number')}, got shape {q_pin.shape}")
     q = system.neutral()
     v = np.zeros(system.nv) if v_pin is not None else None
     for c in src.coordinates:
@@ -831,7 +832,7 @@ def reference_configuration(system, posture=None):
             raise ModelError(f"SRDF {src.srdf}: name the posture, one of {', '.join(names)}")
         posture = names[0]
     if posture not in names:
-        raise ModelError(f"SRDF {src.srdf}: no posture {posture!r} (postures: {', '.join(names)})")
+        raise unknown_name(posture, names, "posture", what=f"SRDF {src.srdf}")
     return from_pin(system, pin.normalize(model, model.referenceConfigurations[posture]))
 
 

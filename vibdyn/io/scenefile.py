@@ -105,7 +105,7 @@ from ..scene import Scene
 try:  # Python ≥ 3.11
     import tomllib
 except ModuleNotFoundError:  # pragma: no cover
-    import tomli as tomllib
+    import tomli as tomllib  # type: ignore[no-redef]
 
 __all__ = ["load_scene", "save_scene", "scene_to_dict", "scene_from_dict", "dumps"]
 
@@ -576,7 +576,7 @@ class _Reader:
             if "lead" in j:
                 j["pitch"] = j.pop("lead") / (2.0 * math.pi)
         try:
-            return _joints.KINDS[kind](**j)
+            return _joints.KINDS[kind](**j).checked()
         except ModelError as e:
             raise self.error(key, f"{what}: {e}") from None
 
