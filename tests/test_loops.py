@@ -337,3 +337,13 @@ def test_loop_model_modal_damping_and_four_bar_shapes_in_tree_coordinates():
     # the shape moves all three tree coordinates and keeps the loop closed
     assert m.shapes.shape == (3, 1) and np.all(np.abs(m.shapes) > 1e-3)
     assert lin.tree.nv == 3 and lin.nv == 1 and lin.basis.shape == (3, 1)
+
+
+def test_loop_equilibria_from_several_starts_and_refused_operating_points():
+    system = load("trammel").build()
+    found = system.equilibria([system.configuration({"disk": 0.2}), system.configuration({"disk": 0.1})])
+    assert len(found) == 1 and abs(0.6 + found[0].coordinate("disk") - math.pi / 4) <= 1e-9
+    with pytest.raises(vd.ModelError, match="closed loops.*groove_B"):
+        system.held()
+    with pytest.raises(vd.ModelError, match="closed loops"):
+        system.steady_motion({"disk": 1.0})

@@ -335,6 +335,7 @@ class System:
         for found) (see :func:`vibdyn.equilibrium.steady_motion`)."""
         from .equilibrium import steady_motion
 
+        self._no_loops("steady_motion")
         return steady_motion(self, v_cyclic, q0, t, tol, max_iter, guess)
 
     def held(self, q=None, v=None, t=0.0):
@@ -344,7 +345,13 @@ class System:
         there (see :func:`vibdyn.equilibrium.held`). Linearise it with ``.linearize()``."""
         from .equilibrium import held
 
+        self._no_loops("held")
         return held(self, q, v, t)
+
+    def _no_loops(self, what):
+        if self.constraints is not None:
+            raise ModelError(f"{what}: not available for a mechanism with closed loops (loops: "
+                             f"{', '.join(lp.name for lp in self.constraints.loops)}); use equilibrium()")
 
     def operating_point(self, tol=1e-10, max_iter=100):
         """The scene's declared operating point (:meth:`Scene.set_operating_point`): the configuration held
