@@ -32,3 +32,21 @@ def table(header, rows, align=None):
     align = align or ["<"] + [">"] * (len(header) - 1)
     return ["  ".join(f"{str(c):{a}{w}}" for c, a, w in zip(row, align, width)).rstrip()
             for row in [header] + rows]
+
+
+def json_ready(obj):
+    """``obj`` with every non-finite float replaced by None (JSON has no inf or NaN): nested dicts, lists,
+    tuples and numpy scalars/arrays are walked."""
+    if isinstance(obj, dict):
+        return {k: json_ready(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_ready(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return json_ready(obj.tolist())
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if np.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj

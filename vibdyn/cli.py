@@ -359,7 +359,7 @@ def main(argv=None):
 
                 print(json.dumps(data, indent=1))
             else:
-                print_frf(frf, peaks, hp)
+                print_frf(frf, peaks, hp, notes=data["notes"])
                 for path in (args.png, args.nyquist):
                     if path:
                         print(f"saved {path}")

@@ -7,7 +7,7 @@ Every function works on sampled data (arrays, as measured); the half-power and p
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -59,6 +59,7 @@ class HalfPower:
     unresolved: np.ndarray
     quantity: str
     elapsed: float  # s
+    undamped: np.ndarray = field(default_factory=lambda: np.zeros(0))  # undamped resonances (rad/s): no band
 
     @property
     def frequency_hz(self):
@@ -73,7 +74,8 @@ class HalfPower:
         return {"omega_peak_rad_s": self.omega_peak.tolist(), "frequency_hz": self.frequency_hz.tolist(),
                 "amplitude": self.amplitude.tolist(), "lower_rad_s": self.lower.tolist(),
                 "upper_rad_s": self.upper.tolist(), "zeta": self.zeta.tolist(), "zeta_error": self.error.tolist(),
-                "unresolved_rad_s": self.unresolved.tolist(), "quantity": self.quantity, "elapsed_s": self.elapsed}
+                "unresolved_rad_s": self.unresolved.tolist(), "undamped_rad_s": self.undamped.tolist(),
+                "quantity": self.quantity, "elapsed_s": self.elapsed}
 
 
 def extrema(omega, values, function=None, kind="max"):

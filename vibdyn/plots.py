@@ -47,7 +47,12 @@ def bode(frf, output=0, input=0, *, quantity="receptance", hz=False, db=False, p
         p = frf.peaks(j, k, quantity)
         scale = (lambda w: w / (2 * np.pi)) if hz else (lambda w: w)
         to_y = (lambda a: 20 * np.log10(np.maximum(a, 1e-300))) if db else (lambda a: np.maximum(a, 1e-300))
-        amp.plot(scale(p.resonances), to_y(p.amplitudes), "v", color="C3", label="resonance")
+        finite = np.isfinite(p.amplitudes)
+        amp.plot(scale(p.resonances[finite]), to_y(p.amplitudes[finite]), "v", color="C3", label="resonance")
+        for w in p.resonances[~finite]:  # undamped: unbounded amplitude, drawn as a line at ω_r
+            amp.axvline(scale(w), color="C3", lw=0.8, ls="--")
+        if (~finite).any():
+            amp.plot([], [], "--", color="C3", lw=0.8, label="undamped resonance (unbounded)")
         amp.plot(scale(p.antiresonances), to_y(p.antiresonance_amplitudes), "^", color="C2",
                  label="anti-resonance")
         if p.resonances.size or p.antiresonances.size:

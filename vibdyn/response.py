@@ -296,41 +296,74 @@ class FRF:
     def peaks(self, output=0, input=0, quantity="receptance"):
         """Resonances (maxima) and anti-resonances (minima) of |H_jk| inside the frequency range, refined by
         bounded Brent search (scipy.optimize.minimize_scalar) on the model between grid neighbours; the
-        model's natural frequencies are added to the grid so that sharp resonances are not missed."""
+        model's natural frequencies are added to the grid so that sharp resonances are not missed.
+
+        An undamped resonance (the dynamic stiffness singular at a natural frequency that H_jk sees) is a
+        resonance at exactly that natural frequency with unbounded amplitude (``inf``, ``unbounded`` True)."""
         from .identify import extrema
 
         start = time.perf_counter()
-        w, a, f = self._curve(output, input, quantity)
+        w, a, f, poles = self._curve(output, input, quantity)
         wr, ar, er = extrema(w, a, f, "max")
         wa, aa, ea = extrema(w, a, f, "min")
+        if poles.size:  # Brent closes in on a pole: that maximum is the pole itself, exactly
+            near = np.array([np.any(np.abs(x - poles) <= 1e-6 * x) for x in wr], dtype=bool)
+            wr, ar, er = (np.concatenate([wr[~near], poles]), np.concatenate([ar[~near], np.full(poles.size, np.inf)]),
+                          np.concatenate([er[~near], np.zeros(poles.size)]))
+            order = np.argsort(wr)
+            wr, ar, er = wr[order], ar[order], er[order]
         j, k = self.index(output, input)
         return Peaks(self.outputs[j], self.inputs[k], _quantity(quantity), wr, ar, wa, aa,
-                     float(max(er.max(initial=0.0), ea.max(initial=0.0))), time.perf_counter() - start)
+                     float(max(er.max(initial=0.0), ea.max(initial=0.0))), time.perf_counter() - start,
+                     ~np.isfinite(ar))
 
     def half_power(self, output=0, input=0, quantity="receptance"):
         """Half-power bandwidth and damping ratio of each resonance of |H_jk|
-        (:class:`vibdyn.identify.HalfPower`), refined on the model."""
+        (:class:`vibdyn.identify.HalfPower`), refined on the model. Undamped resonances have no band: they
+        are listed in ``undamped`` (rad/s; ζ = 0 there), the damped ones between them keep their bands."""
         from .identify import half_power
 
-        w, a, f = self._curve(output, input, quantity)
-        return half_power(w, a, _quantity(quantity), function=f)
+        start = time.perf_counter()
+        w, a, f, poles = self._curve(output, input, quantity)
+        q = _quantity(quantity)
+        if not poles.size:
+            return half_power(w, a, q, function=f)
+        edges = np.concatenate([[-np.inf], poles, [np.inf]])
+        parts = []
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            inside = (w > lo) & (w < hi)
+            if inside.sum() >= 3:
+                parts.append(half_power(w[inside], a[inside], q, function=f))
+        cat = lambda name: np.concatenate([getattr(p, name) for p in parts] or [np.zeros(0)])  # noqa: E731
+        return replace(parts[0] if parts else half_power(w[:0], a[:0], q), omega_peak=cat("omega_peak"),
+                       amplitude=cat("amplitude"), lower=cat("lower"), upper=cat("upper"),
+                       bandwidth=cat("bandwidth"), zeta=cat("zeta"), zeta_approx=cat("zeta_approx"),
+                       error=cat("error"), unresolved=cat("unresolved"), undamped=poles,
+                       elapsed=time.perf_counter() - start)
 
     def _curve(self, output, input, quantity):
-        """|H_jk| on the grid plus the natural frequencies in range, and the function ω ↦ |H_jk(ω)|."""
+        """|H_jk| on the grid plus the natural frequencies in range, the function ω ↦ |H_jk(ω)| (inf where the
+        dynamic stiffness is singular), and the undamped resonances of H_jk in the range (rad/s)."""
         j, k = self.index(output, input)
         factor = QUANTITY_FACTOR[_quantity(quantity)]
-        extra = self.natural[(self.natural > self.omega[0]) & (self.natural < self.omega[-1])]
-        extra = extra[~np.isin(extra, self.omega)]
-        w = np.concatenate([self.omega, extra])
-        h = np.concatenate([self.alpha[:, j, k], self.evaluate(extra)[:, j, k] if extra.size else []])
-        order = np.argsort(w)
-        w, h = w[order], np.abs(factor(w[order]) * h[order])
 
         def f(x):
             x = np.array([x])
-            return float(np.abs(factor(x)[0] * self.evaluate(x)[0, j, k]))
+            try:
+                return float(np.abs(factor(x)[0] * self.evaluate(x)[0, j, k]))
+            except SingularResponse:
+                return np.inf
 
-        return w, h, f
+        extra = self.natural[(self.natural > self.omega[0]) & (self.natural < self.omega[-1])]
+        extra = extra[~np.isin(extra, self.omega)]
+        h_extra = np.array([f(x) for x in extra])
+        # a singular Z is a pole of H_jk only if H_jk grows as 1/|ω − ω_r| towards it (not a cancelled mode)
+        poles = np.array([x for x in extra[~np.isfinite(h_extra)] if f(x * (1 - 1e-7)) > 3 * f(x * (1 - 1e-6))])
+        keep = np.isfinite(h_extra)
+        w = np.concatenate([self.omega, extra[keep]])
+        h = np.concatenate([np.abs(factor(self.omega) * self.alpha[:, j, k]), h_extra[keep]])
+        order = np.argsort(w)
+        return w[order], h[order], f, poles
 
     def to_dict(self):
         """Plain data (JSON-ready): complex numbers as [re, im], SI units."""
@@ -359,6 +392,7 @@ class Peaks:
     antiresonance_amplitudes: np.ndarray
     tolerance: float
     elapsed: float
+    unbounded: np.ndarray = None  # per resonance: an undamped resonance (amplitude inf)
 
     @property
     def resonances_hz(self):
@@ -371,7 +405,10 @@ class Peaks:
     def to_dict(self):
         return {"output": self.output, "input": self.input, "quantity": self.quantity,
                 "resonances_rad_s": self.resonances.tolist(), "resonances_hz": self.resonances_hz.tolist(),
-                "amplitudes": self.amplitudes.tolist(), "antiresonances_rad_s": self.antiresonances.tolist(),
+                "amplitudes": [float(a) if np.isfinite(a) else None for a in self.amplitudes],
+                "unbounded": [bool(u) for u in (self.unbounded if self.unbounded is not None
+                                                else np.zeros(self.resonances.size, bool))],
+                "antiresonances_rad_s": self.antiresonances.tolist(),
                 "antiresonances_hz": self.antiresonances_hz.tolist(),
                 "antiresonance_amplitudes": self.antiresonance_amplitudes.tolist(),
                 "tolerance_rad_s": self.tolerance, "elapsed_s": self.elapsed}
@@ -440,9 +477,14 @@ def _transfer(model, omega, Bfun, out, method, n_modes=None, offset=None):
     return H, residual, condition
 
 
+class SingularResponse(ModelError):
+    """The dynamic stiffness is singular at the requested frequency: an undamped resonance, or ω = 0 with a
+    rigid-body mode (the steady response is unbounded)."""
+
+
 def _singular(w, model):
     why = "a rigid-body mode (K is singular)" if w == 0 else "an undamped resonance"
-    raise ModelError(f"the dynamic stiffness K − ω²M + i(ωC + D) is singular at ω = {w:g} rad/s "
+    raise SingularResponse(f"the dynamic stiffness K − ω²M + i(ωC + D) is singular at ω = {w:g} rad/s "
                      f"({w / (2 * np.pi):g} Hz): {why}; the steady response is unbounded there")
 
 
@@ -1202,14 +1244,24 @@ def parse_channel(spec):
 def frf_report(system, input_spec, output_spec, w0=None, w1=None, points=400, method="direct"):
     """The receptance (or, for ``support:NAME:DX,DY,DZ`` inputs, the transmissibility) between two channels
     at the scene's operating point: (FRF, peaks, half power, plain-data dict)."""
+    from ._format import json_ready
+
     lin = system.operating_point().linearize()
+    m = lin.modes()
+    notes = []
+    if m.stability == "unstable":
+        notes.append("the operating point is unstable: no steady harmonic response exists; this is the transfer "
+                     "function H(iω) of the linear model (as used in control design)")
     if w0 is None or w1 is None:
-        m = lin.modes()
-        w = m.omega[(~m.rigid) & (~m.unstable) & (m.omega > 0)]
-        if not w.size:
-            raise ModelError("frf: the model has no positive natural frequency; give --from and --to (rad/s)")
-        w0 = 0.1 * w.min() if w0 is None else w0
-        w1 = 2.0 * w.max() if w1 is None else w1
+        w = m.omega[(~m.rigid) & (m.omega > 0)]  # unstable directions give their growth rate as the scale
+        if w.size:
+            lo, hi = 0.1 * w.min(), 2.0 * w.max()
+        else:
+            lo, hi = 0.1, 100.0
+            notes.append("no natural frequency (every mode is rigid): default range 0.1 … 100 rad/s; "
+                         "give --from and --to")
+        w0 = lo if w0 is None else w0
+        w1 = hi if w1 is None else w1
     if not (0 <= w0 < w1) or points < 3:
         raise ModelError(f"frf: need 0 ≤ --from < --to and --points ≥ 3, got {w0}, {w1}, {points}")
     omega = np.geomspace(w0, w1, points) if w0 > 0 else np.linspace(w0, w1, points)
@@ -1223,13 +1275,14 @@ def frf_report(system, input_spec, output_spec, w0=None, w1=None, points=400, me
     else:
         frf = lin.receptance(omega, [parse_channel(input_spec)], [out], method=method)
     peaks, hp = frf.peaks(), frf.half_power()
-    data = {"scene": system.name, **frf.to_dict(), "peaks": peaks.to_dict(), "half_power": hp.to_dict(),
-            "units": frf.units()}
+    data = json_ready({"scene": system.name, **frf.to_dict(), "peaks": peaks.to_dict(), "half_power": hp.to_dict(),
+                       "units": frf.units(), "notes": notes})
     return frf, peaks, hp, data
 
 
-def print_frf(frf, peaks, hp, out=None):
-    """Print a frequency response's summary: resonances with half-power ζ, anti-resonances."""
+def print_frf(frf, peaks, hp, out=None, notes=()):
+    """Print a frequency response's summary: resonances with half-power ζ (undamped ones: unbounded, no
+    band), anti-resonances, and ``notes``."""
     import sys
 
     p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
@@ -1237,8 +1290,13 @@ def print_frf(frf, peaks, hp, out=None):
       f"{frf.omega[0]:.6g} … {frf.omega[-1]:.6g} rad/s")
     p(f"method {frf.method}, damping {frf.damping}; residual {frf.residual:.1e}, error ≈ {frf.error:.1e}, "
       f"{frf.elapsed * 1e3:.1f} ms")
+    for n in notes:
+        p(f"note: {n}")
     p(f"{'':<16} {'omega rad/s':>14} {'f Hz':>12} {'|H|':>12} {'zeta (half power)':>18}")
     for w, a in zip(peaks.resonances, peaks.amplitudes):
+        if not np.isfinite(a):
+            p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {'unbounded':>12} {'0 (undamped)':>18}")
+            continue
         i = np.flatnonzero(np.isclose(hp.omega_peak, w, rtol=1e-9))
         z = f"{hp.zeta[i[0]]:.6g}" if i.size else "-"
         p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {a:>12.6g} {z:>18}")
