@@ -301,8 +301,11 @@ def test_trammel_receptance_and_free_response_in_the_independent_motion():
     alpha = dy**2 / (INERTIA * (wn**2 - omega**2))
     assert frf.alpha[:, 0, 0].real == pytest.approx(alpha, rel=1e-7)
     assert frf.alpha[:, 1, 0].real == pytest.approx(-dx * dy / (INERTIA * (wn**2 - omega**2)), rel=1e-7)
+    # tree coordinates, independent or not: A's travel is x_A = 2ℓ sin γ (dx/dγ = dx), same receptance
+    assert lin.receptance(omega, inputs=["A"], outputs=["A"]).alpha[:, 0, 0].real == pytest.approx(
+        dx**2 / (INERTIA * (wn**2 - omega**2)), rel=1e-7)
     with pytest.raises(vd.ModelError, match="not an independent motion"):
-        lin.receptance(omega, inputs=["disk" if lin.coordinates != ("disk",) else "A"])
+        lin.free_response([0.0, 1.0], {"disk" if lin.coordinates != ("disk",) else "A": 1e-3})
     # free response from an offset of the independent coordinate: a cosine at ω_n
     t = np.linspace(0, 1, 5)
     r = lin.free_response(t, [1e-3])

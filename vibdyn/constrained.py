@@ -152,7 +152,7 @@ class ReducedLinearModel(LinearModel):
     whose rows at the ``independent`` tree coordinates are the identity: the model's coordinates are those
     tree coordinates (``system`` is the system seen in them, :class:`IndependentView`). ``tree`` is the
     nv × nv model (K with the constraint-force curvature). ``rank``: rank of Φ_q at q0. Inputs and outputs of
-    responses are the independent coordinates and body points (any point: J N)."""
+    responses are any tree coordinate (its row of N) and body points (any point: J N)."""
 
     basis: np.ndarray = field(repr=False, default=None)
     tree: LinearModel = field(repr=False, default=None)
@@ -166,6 +166,12 @@ class ReducedLinearModel(LinearModel):
     def point_jacobian(self, points):
         """Displacements (m, world axes) of body points per independent coordinate (3·npoints × dof)."""
         return self.tree.point_jacobian(points) @ self.basis
+
+    def coordinate_row(self, name):
+        """(row of N, unit): the tree coordinate ``name`` (independent or not) per independent coordinate."""
+        system = self.tree.system
+        i = system.coordinate_index(name)
+        return self.basis[i].copy(), system.units[i]
 
     def joint_input(self, coordinates=None):
         """Reduced input Nᵀ B of generalized forces on the named tree coordinates (dof × m; None: the
