@@ -9,8 +9,10 @@ import pytest
 
 import vibdyn as vd
 
-HEAVY = ("scipy.integrate", "scipy.signal", "matplotlib", "meshcat", "tqdm", "mujoco")
-LAZY_MODULES = ("vibdyn.simulate", "vibdyn.integrators", "vibdyn.response", "vibdyn.identify", "vibdyn.plots")
+HEAVY = ("scipy.integrate", "scipy.signal", "matplotlib", "meshcat", "tqdm", "mujoco", "dask", "distributed",
+         "pandas")
+LAZY_MODULES = ("vibdyn.simulate", "vibdyn.integrators", "vibdyn.response", "vibdyn.identify", "vibdyn.plots",
+                "vibdyn.sweeps", "vibdyn.campbell_diagram")
 
 
 def loaded_after(code):

@@ -433,6 +433,7 @@ def test_bad_inputs_are_model_errors():
         with pytest.raises(vd.ModelError, match=message):
             call()
     with pytest.raises(vd.ModelError, match="hysteretic damping has no time-domain form"):
-        from vibdyn.response import _method, _model
+        from vibdyn.response.damping import _model
+        from vibdyn.response.transient import _method
 
         _method(_model(lin, Hysteretic(eta=0.02)), "auto", "forced response")

@@ -29,8 +29,12 @@ _LAZY = {
     "LogDecrement": "identify", "RayleighFit": "identify",
     "Trajectory": "simulate", "SimulationError": "simulate",
     "StateSpace": "statespace",
+    "campbell": "campbell_diagram", "Campbell": "campbell_diagram", "CriticalSpeed": "campbell_diagram",
+    "sweep": "sweeps", "sample": "sweeps", "Sweep": "sweeps", "Samples": "sweeps", "Statistic": "sweeps",
+    "Tracked": "sweeps", "examples": "examples", "sweeps": "sweeps", "campbell_diagram": "campbell_diagram",
 }
-_MODULES = {"response", "identify", "plots", "modal", "linearize", "equilibrium", "simulate", "statespace"}
+_MODULES = {"response", "identify", "plots", "modal", "linearize", "equilibrium", "simulate", "statespace",
+            "examples", "sweeps", "campbell_diagram"}
 
 
 def __getattr__(name):
@@ -97,4 +101,6 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "load_mjcf", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
            "transmissibility", "fit_rayleigh", "log_decrement", "Trajectory", "SimulationError",
            "LinearModel", "Modes", "Equilibrium", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",
-           "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html"]
+           "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html",
+           "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
+           "examples"]

@@ -50,3 +50,31 @@ def json_ready(obj):
     if isinstance(obj, np.bool_):
         return bool(obj)
     return obj
+
+
+def values(x, unit="", most=4, digits=4):
+    """A few numbers of an array for a one-line summary: "2.397, 5.787, … (7 values) rad/s"."""
+    a = np.ravel(np.asarray(x, dtype=float))
+    shown = ", ".join(number(v, digits=digits) for v in a[:most])
+    more = f", … ({a.size} values)" if a.size > most else ""
+    return f"{shown}{more}{' ' + unit if unit else ''}" if a.size else "none"
+
+
+def summary(name, *parts):
+    """A short ``repr``: ``Name(part, part, …)`` with empty parts left out."""
+    return f"{name}({', '.join(p for p in parts if p)})"
+
+
+def duration(seconds):
+    """A run time for a summary: "0.42 ms", "1.3 s"."""
+    return f"{seconds * 1e3:.2g} ms" if seconds < 1 else f"{seconds:.3g} s"
+
+
+def html_table(caption, header, rows):
+    """A small self-contained HTML table (for Jupyter's ``_repr_html_``); cells are escaped text."""
+    from html import escape
+
+    head = "".join(f"<th>{escape(str(h))}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
+    return (f"<table><caption style='text-align:left'>{escape(caption)}</caption><thead><tr>{head}</tr></thead>"
+            f"<tbody>{body}</tbody></table>")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._format import number, table, vector
+from ._format import json_ready, number, table, vector
 from .errors import ModelError, VibdynError
 
 
@@ -168,8 +168,10 @@ def modes_text(lin, m, per_block=8):
         lines.append("damped modes (state form: eigenvalues λ = −ζω_n ± iω_d, 1/s)")
         rows = []
         for i, lam in enumerate(m.damped_eigenvalues):
+            err = m.eigenvalue_error[i] * abs(lam)  # absolute: a real part below it is round-off, shown as 0
             im = "" if lam.imag == 0 else f" ± {number(abs(lam.imag), digits=8)}i"
-            rows.append([str(i + 1), number(lam.real, digits=8) + im, number(m.zeta[i], digits=6),
+            rows.append([str(i + 1), number(lam.real, error=err, digits=8) + im,
+                         number(m.zeta[i], error=m.eigenvalue_error[i], digits=6),
                          number(m.omega_n[i], digits=8), number(m.eigenvalue_error[i], digits=1)])
         lines += ["  " + x for x in table(["mode", "λ 1/s", "ζ", "ω_n rad/s", "error"], rows)]
         lines.append("  " + _damped_note(m))
@@ -318,6 +320,14 @@ def main(argv=None):
     view.add_argument("--html", help="write a self-contained HTML page (every mode) to this file and exit")
     view.add_argument("--no-browser", action="store_true", help="live: print the URL, do not open a browser")
     view.add_argument("--duration", type=float, help="live: stop after this many seconds (default: until Ctrl-C)")
+    cam = sub.add_parser("campbell", help="Campbell diagram: modes against spin speed, whirl, critical speeds")
+    cam.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    cam.add_argument("--spin", required=True, help="the spinning coordinate (held at each speed by its drive)")
+    cam.add_argument("--speeds", required=True, help="FROM:TO:N (N equally spaced speeds, rad/s) or a comma list")
+    cam.add_argument("--orders", default="1", help="engine orders, comma separated (default 1)")
+    cam.add_argument("--method", choices=("fd", "analytic"), default="analytic", help="linearisation method")
+    cam.add_argument("--png", help="save the diagram to this PNG file")
+    cam.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     args = parser.parse_args(argv)
     try:
         if args.command == "info":
@@ -342,8 +352,6 @@ def main(argv=None):
 
             view_command(load(args.scene), args)
         elif args.command == "frf":
-            from .response import frf_report, print_frf
-
             system = with_start(load(args.scene), start_offsets(args.start)).build()
             frf, peaks, hp, data = frf_report(system, args.input, args.output, args.w0, args.w1, args.points,
                                               args.method)
@@ -367,10 +375,63 @@ def main(argv=None):
             from .simulate import command
 
             command(load(args.scene).build(), args)
+        elif args.command == "campbell":
+            campbell_command(load(args.scene).build(), args)
     except VibdynError as e:
         print(f"vibdyn: error: {e}", file=sys.stderr)
         return 2
     return 0
+
+
+def speed_list(text):
+    """Speeds (rad/s) from ``FROM:TO:N`` (N equally spaced, ends included) or ``a,b,c``."""
+    try:
+        if ":" in text:
+            a, b, n = text.split(":")
+            if int(n) < 2:
+                raise ValueError
+            return np.linspace(float(a), float(b), int(n))
+        return np.array([float(x) for x in text.split(",")])
+    except ValueError:
+        raise ModelError(f"--speeds: expected FROM:TO:N (N ≥ 2) or a comma list of speeds in rad/s, got "
+                         f"'{text}'") from None
+
+
+def campbell_command(system, args, out=None):
+    """``vibdyn campbell``: the diagram as a table (Hz, whirl) and its critical speeds, or JSON."""
+    from .campbell_diagram import campbell
+
+    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
+    try:
+        orders = tuple(float(x) for x in args.orders.split(","))
+    except ValueError:
+        raise ModelError(f"--orders: expected numbers separated by commas, got '{args.orders}'") from None
+    c = campbell(system, args.spin, speed_list(args.speeds), orders, method=args.method)
+    if args.png:
+        c.plot(args.png)
+    if args.json:
+        import json
+
+        p(json.dumps(c.to_dict(), indent=1))
+        return c
+    m = c.frequencies.shape[1]
+    p(f"Campbell diagram of {system.name}: {len(c.speeds)} speeds of '{c.spin}', {m} modes tracked by MAC "
+      f"({c.method} linearisation, {c.elapsed:.2f} s)")
+    rows = [[number(s)] + [f"{number(f / (2 * np.pi), digits=6)} {w[:1]}".rstrip() for f, w in zip(fr, wh)]
+            for s, fr, wh in zip(c.speeds, c.frequencies, c.whirl)]
+    for line in table(["speed rad/s"] + [f"mode {j} Hz" for j in range(m)], rows):
+        p(line)
+    p("whirl: f forward, b backward (relative to the spin); 0 Hz: rigid, cyclic or overdamped")
+    for o in orders:
+        crit = c.critical_speeds(o)
+        if not crit:
+            p(f"order {o:g}: no critical speed in {number(c.speeds[0])}…{number(c.speeds[-1])} rad/s")
+        for k in crit:
+            p(f"order {o:g}: critical speed {k.speed:.10g} rad/s ({k.speed_rpm:.6g} rpm), mode {k.mode}, "
+              f"{k.whirl or 'no'} whirl, ± {k.error:.1e} rad/s")
+    if args.png:
+        p(f"saved {args.png}")
+    return c
 
 
 def _rotation(R):
@@ -427,6 +488,89 @@ def _details(e):
 
 def _end(a):
     return f"{a[0]}{vector(a[1])}"
+
+
+# ------------------------------------------------------------- vibdyn frf
+def parse_channel(spec):
+    """A CLI channel: a coordinate name, or BODY:X,Y,Z:DX,DY,DZ (a body point, in the body frame, m, and a
+    direction in world axes)."""
+    parts = spec.split(":")
+    if len(parts) == 1:
+        return spec
+    if len(parts) != 3:
+        raise ModelError(f"channel '{spec}': expected a coordinate name or BODY:X,Y,Z:DX,DY,DZ")
+    return parts[0], _numbers(parts[1], spec), _numbers(parts[2], spec)
+
+
+def frf_report(system, input_spec, output_spec, w0=None, w1=None, points=400, method="direct"):
+    """The receptance (or, for ``support:NAME:DX,DY,DZ`` inputs, the transmissibility) between two channels
+    at the scene's operating point: (FRF, peaks, half power, plain-data dict)."""
+    lin = system.operating_point().linearize()
+    m = lin.modes()
+    notes = []
+    if m.stability == "unstable":
+        notes.append("the operating point is unstable: no steady harmonic response exists; this is the transfer "
+                     "function H(iω) of the linear model (as used in control design)")
+    if w0 is None or w1 is None:
+        w = m.omega[(~m.rigid) & (m.omega > 0)]  # unstable directions give their growth rate as the scale
+        if w.size:
+            lo, hi = 0.1 * w.min(), 2.0 * w.max()
+        else:
+            lo, hi = 0.1, 100.0
+            notes.append("no natural frequency (every mode is rigid): default range 0.1 … 100 rad/s; "
+                         "give --from and --to")
+        w0 = lo if w0 is None else w0
+        w1 = hi if w1 is None else w1
+    if not (0 <= w0 < w1) or points < 3:
+        raise ModelError(f"frf: need 0 ≤ --from < --to and --points ≥ 3, got {w0}, {w1}, {points}")
+    omega = np.geomspace(w0, w1, points) if w0 > 0 else np.linspace(w0, w1, points)
+    out = parse_channel(output_spec)
+    if input_spec.startswith("support:"):
+        parts = input_spec.split(":")
+        if len(parts) not in (2, 3):
+            raise ModelError(f"input '{input_spec}': expected support:NAME or support:NAME:DX,DY,DZ")
+        d = _numbers(parts[2], input_spec) if len(parts) == 3 else (0.0, 0.0, 1.0)
+        frf = lin.base_response(omega, parts[1], direction=d, outputs=[out], method=method)
+    else:
+        frf = lin.receptance(omega, [parse_channel(input_spec)], [out], method=method)
+    peaks, hp = frf.peaks(), frf.half_power()
+    data = json_ready({"scene": system.name, **frf.to_dict(), "peaks": peaks.to_dict(), "half_power": hp.to_dict(),
+                       "units": frf.units(), "notes": notes})
+    return frf, peaks, hp, data
+
+
+def print_frf(frf, peaks, hp, out=None, notes=()):
+    """Print a frequency response's summary: resonances with half-power ζ (undamped ones: unbounded, no
+    band), anti-resonances, and ``notes``."""
+    import sys
+
+    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
+    p(f"{frf.kind} {frf.outputs[0]} / {frf.inputs[0]} ({frf.units()}), {frf.omega.size} frequencies "
+      f"{frf.omega[0]:.6g} … {frf.omega[-1]:.6g} rad/s")
+    p(f"method {frf.method}, damping {frf.damping}; residual {frf.residual:.1e}, error ≈ {frf.error:.1e}, "
+      f"{frf.elapsed * 1e3:.1f} ms")
+    for n in notes:
+        p(f"note: {n}")
+    p(f"{'':<16} {'omega rad/s':>14} {'f Hz':>12} {'|H|':>12} {'zeta (half power)':>18}")
+    for w, a in zip(peaks.resonances, peaks.amplitudes):
+        if not np.isfinite(a):
+            p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {'unbounded':>12} {'0 (undamped)':>18}")
+            continue
+        i = np.flatnonzero(np.isclose(hp.omega_peak, w, rtol=1e-9))
+        z = f"{hp.zeta[i[0]]:.6g}" if i.size else "-"
+        p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {a:>12.6g} {z:>18}")
+    for w, a in zip(peaks.antiresonances, peaks.antiresonance_amplitudes):
+        p(f"{'anti-resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {a:>12.6g}")
+
+
+def _numbers(text, spec):
+    try:
+        x = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        x = ()
+    if len(x) != 3:
+        raise ModelError(f"channel '{spec}': '{text}' is not three comma-separated numbers")
+    return x
 
 
 if __name__ == "__main__":

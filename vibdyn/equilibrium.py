@@ -49,6 +49,23 @@ class Equilibrium:
         """Value of a tangent coordinate, as the offset from the neutral configuration (m or rad)."""
         return float(self.system.difference(self.system.neutral(), self.q)[self.system.coordinate_index(name)])
 
+    def __repr__(self):
+        from ._format import duration, number, summary
+
+        return summary("Equilibrium", self.kind, self.stability, f"residual {number(self.residual, digits=2)}",
+                       f"{self.iterations} iterations" if self.kind != "held" else "",
+                       f"speeds {self.speeds}" if self.speeds else "", duration(self.elapsed))
+
+    def _repr_html_(self):
+        from ._format import html_table, number
+
+        sysm = self.system
+        dq = sysm.difference(sysm.neutral(), self.q)
+        rows = [[n, u, number(x), number(self.v[i]), number(self.drive[n]) if n in self.drive else ""]
+                for i, (n, u, x) in enumerate(zip(sysm.coordinates, sysm.units, dq))]
+        return html_table(f"{self.kind} ({self.stability}), residual {number(self.residual, digits=2)}",
+                          ["coordinate", "unit", "offset", "speed", "drive"], rows)
+
     def __str__(self):
         sysm = self.system
         dq = sysm.difference(sysm.neutral(), self.q)

@@ -41,6 +41,14 @@ class LinearModel:
     elapsed: float  # s
     evaluations: int  # residual evaluations (finite differences) or derivative calls
 
+    def __repr__(self):
+        from ._format import duration, number, summary
+
+        kind = "damped" if self.has_damping else "undamped"
+        return summary("LinearModel", f"nv = {self.nv}", f"method {self.method}", kind,
+                       f"error {number(self.error, digits=2)}", f"{self.evaluations} evaluations",
+                       duration(self.elapsed))
+
     @property
     def coordinates(self):
         return self.system.coordinates

@@ -103,6 +103,24 @@ class Modes:
                       "classical_damping": self.classical})
         return d
 
+    def __repr__(self):
+        from ._format import duration, number, summary, values
+
+        return summary("Modes", f"{self.n} modes", f"ω = {values(self.omega, 'rad/s')}",
+                       f"f = {values(self.frequency_hz, 'Hz')}",
+                       f"{int(self.rigid.sum())} rigid" if self.rigid.any() else "",
+                       f"{int(self.unstable.sum())} unstable" if self.unstable.any() else "",
+                       f"ζ = {values(self.zeta)}" if self.zeta.size else "", self.stability,
+                       f"error {number(self.error, digits=2)}", duration(self.elapsed))
+
+    def _repr_html_(self):
+        from ._format import html_table, number
+
+        rows = [[i + 1, number(w), number(f), "rigid" if r else "unstable" if u else "", number(e, digits=2)]
+                for i, (w, f, r, u, e) in enumerate(zip(self.omega, self.frequency_hz, self.rigid, self.unstable,
+                                                        self.residual))]
+        return html_table(f"{self.n} modes, {self.stability}", ["mode", "ω rad/s", "f Hz", "", "rel. error"], rows)
+
     def __str__(self):
         lines = [f"{'mode':>4} {'omega rad/s':>14} {'f Hz':>12}  note"]
         for i in range(self.n):

@@ -171,6 +171,16 @@ class Trajectory:
     def __repr__(self):
         return f"Trajectory({self.summary()})"
 
+    def _repr_html_(self):
+        from ._format import html_table, number
+
+        sysm = self.system
+        rows = []
+        if len(self):
+            dq = sysm.difference(sysm.neutral(), self.q[-1])
+            rows = [[n, u, number(x), number(v)] for n, u, x, v in zip(sysm.coordinates, sysm.units, dq, self.v[-1])]
+        return html_table(self.summary(), ["coordinate", "unit", "final offset", "final speed"], rows)
+
     # ------------------------------------------------------------------ export
     def columns(self):
         """(names, table): one column per time, q and v component, energy, work, balance and error."""
@@ -537,6 +547,7 @@ class _Progress:
         self.t_end, self.label = t_end, label
         self.enabled = sys.stderr.isatty() if enabled is None else enabled
         self.start = time.perf_counter()
+        self.start_wall = time.time()  # tqdm's clock: the bar appears late but counts from the run's start
         self.bar = None
         self.shown = 0.0
 
@@ -551,6 +562,7 @@ class _Progress:
             self.bar = tqdm(total=self.t_end, desc=self.label, leave=False, dynamic_ncols=True,
                             bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g} of {total:.4g} s "
                                        "[{elapsed}<{remaining}]")
+            self.bar.start_t = self.start_wall
         self.bar.update(float(t) - self.shown)
         self.shown = float(t)
 

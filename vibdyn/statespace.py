@@ -34,6 +34,13 @@ class StateSpace:
     output: str  # "displacement" or "velocity"
     error: float
 
+    def __repr__(self):
+        from ._format import number, summary
+
+        return summary("StateSpace", f"{self.A.shape[0]} states", f"inputs {', '.join(map(str, self.inputs))}",
+                       f"outputs {', '.join(map(str, self.outputs))} ({self.output})",
+                       f"error {number(self.error, digits=2)}")
+
     @property
     def poles(self):
         """Eigenvalues of A (1/s)."""

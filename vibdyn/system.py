@@ -69,6 +69,13 @@ class Reactions:
     moment_local: np.ndarray
     joint_force: dict
 
+    def __repr__(self):
+        from ._format import summary
+
+        big = np.linalg.norm(self.force, axis=1) if len(self.bodies) else np.zeros(0)
+        top = f"largest {np.max(big, initial=0.0):.4g} N at '{self.bodies[int(np.argmax(big))]}'" if big.size else ""
+        return summary("Reactions", f"{len(self.bodies)} links", top)
+
     def __getitem__(self, body):
         i = self.bodies.index(body)
         return self.force[i], self.moment[i]
