@@ -570,7 +570,7 @@ def test_documented_format_is_valid_toml():
 
     block = m.__doc__.split(".. code-block:: toml")[1].split("Writing:")[0]
     doc = tomllib.loads(textwrap.dedent(block))
-    assert set(doc) == {"scene", "body", "support", "spring", "damper", "joint_spring", "joint_damper", "joint_force", "force",
+    assert set(doc) == {"scene", "body", "support", "spring", "damper", "joint_spring", "joint_damper", "joint_force", "force", "loop",
                         "robot", "limits", "operating_point", "reference"}
     assert doc["operating_point"]["cyclic"] == {"rotor": "free"}
     body = dict(doc["body"][0], parent="world")

@@ -122,7 +122,7 @@ def equilibria(system, starts, t=0.0, tol=1e-10, max_iter=100):
     found = []
     for q0 in starts:
         try:
-            eq = static_equilibrium(system, q0, t, tol, max_iter)
+            eq = system.equilibrium(q0, t, tol, max_iter)  # with loops: the constrained search
         except ConvergenceError:
             continue
         if all(np.abs(system.difference(e.q, eq.q)).max() > 1e-6 * max(1.0, system.length_scale) for e in found):

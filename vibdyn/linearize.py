@@ -100,6 +100,14 @@ class LinearModel:
         B = np.asarray(B, dtype=float).reshape(self.nv, -1)
         return np.vstack([np.zeros_like(B), self._solve_M(B)])
 
+    def coordinate_row(self, name):
+        """(row, unit): the displacement of the coordinate ``name`` per coordinate of this model (nv), and its
+        unit ("m" or "rad"); the same row is the generalized force of a unit force on it."""
+        i = self.system.coordinate_index(name)
+        row = np.zeros(self.nv)
+        row[i] = 1.0
+        return row, self.system.units[i]
+
     def joint_input(self, coordinates=None):
         """Input matrix of generalized forces on the named coordinates (nv × m; all if None)."""
         names = self.coordinates if coordinates is None else coordinates

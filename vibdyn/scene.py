@@ -65,6 +65,7 @@ class Scene:
         self.limits = {}  # coordinate -> (lower, upper) (m or rad); see set_limits
         self.robot_source = None  # where a loaded robot came from (vibdyn.io.robots)
         self.shape_folder = None  # where relative mesh paths of shapes start (a scene file's folder)
+        self.loops = {}  # name -> vibdyn.loops.Loop: joints closing cycles (see add_loop)
 
     # ---------------------------------------------------------------- bodies
     def add_body(self, name, parent=WORLD, joint=None, mass=0.0, com=(0.0, 0.0, 0.0), inertia=None,
@@ -196,6 +197,20 @@ class Scene:
         tq = vector_or_callable(torque, f"{what} torque")
         p = tuple(map(float, vector3(at, f"{what} at")))
         return self._add(BodyForce(name, b.name, p, f, tq, frame))
+
+    def add_loop(self, name, a, b, joint=None):
+        """Close a loop: the frame at point a = ``(body_a, point_a)`` and the frame at b = ``(body_b,
+        point_b)`` (points in m, body frames; frames with the bodies' axes; ``body_b`` may be "world") are
+        joined by ``joint`` (``Ball()`` if None; ``Pivot(axis)``, ``Slider(axis)``, ``Cylindrical(axis)``,
+        ``Universal(axis1, axis2)``, ``Fixed()``; axes in body_a's frame). See :mod:`vibdyn.loops`."""
+        from .loops import make_loop
+
+        self._check_new_name(name, "loop")
+        if name in getattr(self, "loops", {}):
+            raise ModelError(f"duplicate name '{name}' (loop): names must be unique in a scene")
+        loop = make_loop(self, name, a, b, joint)
+        self.loops[name] = loop
+        return loop
 
     def set_operating_point(self, cyclic=None, start=None, held=False):
         """Declare the operating point analyses use by default (``System.operating_point()``).

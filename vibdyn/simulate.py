@@ -121,6 +121,14 @@ class Trajectory:
         return float(self.v_error.max()) if len(self) else 0.0
 
     @property
+    def constraint_residual(self):
+        """Largest |Φ| of the loops at each output (m for positions, rad for orientations; zeros for a
+        tree): how well the motion keeps the loops closed (see :mod:`vibdyn.constrained`)."""
+        if getattr(self.system, "constraints", None) is None:
+            return np.zeros(len(self.t))
+        return np.array([np.abs(self.system.constraint_residual(q)).max(initial=0.0) for q in self.q])
+
+    @property
     def energy(self):
         """Total mechanical energy T + V_gravity + V_elastic (J) at each output."""
         return self.kinetic + self.gravity + self.elastic

@@ -127,6 +127,11 @@ class System:
             self._fext.append(pin.Force.Zero())
         if self.nv:
             self._check_mass_matrix(self.neutral(), "the neutral configuration")
+        self.constraints = None  # the loops' equations (vibdyn.loops.Constraints), None for a tree
+        if getattr(self.scene, "loops", None):
+            from .loops import compile_loops
+
+            self.constraints = compile_loops(self)
 
     # ------------------------------------------------------------- configuration space
     def neutral(self):
@@ -190,6 +195,37 @@ class System:
         rng = np.random.default_rng(rng)
         return pin.integrate(self.model, self.neutral(), scale * rng.standard_normal(self.nv))
 
+    # ------------------------------------------------------------- closed loops (vibdyn.loops)
+    @property
+    def has_loops(self):
+        return self.constraints is not None
+
+    @property
+    def dof(self):
+        """Mobility of the mechanism: nv − rank of the loops' Jacobian at the configuration assembled from
+        neutral (nv for a tree). See :meth:`mobility` for another configuration."""
+        return self.nv if self.constraints is None else self.constraints.dof
+
+    def mobility(self, q):
+        """nv − rank of the loops' constraint Jacobian at q (rank by SVD, vibdyn.loops.RANK_RTOL)."""
+        return self.nv if self.constraints is None else self.nv - self.constraints.rank(self._q(q))
+
+    def constraint_residual(self, q):
+        """Φ(q): the loops' equations at q (m for positions, rad for orientations; empty for a tree)."""
+        return np.zeros(0) if self.constraints is None else self.constraints.residual(self._q(q))
+
+    def constraint_jacobian(self, q):
+        """Φ_q(q) (equations × nv): the loops' Jacobian in the tangent space (m/m, m/rad, rad/rad, ...)."""
+        if self.constraints is None:
+            return np.zeros((0, self.nv))
+        return self.constraints.jacobian(self._q(q))
+
+    def assemble(self, q0=None):
+        """The consistent configuration (loops closed) nearest q0 (neutral if None): Gauss–Newton with
+        minimum-norm steps in the tangent space. ConvergenceError if the loops cannot be closed there."""
+        q0 = self.neutral() if q0 is None else self._q(q0, "q0")
+        return q0.copy() if self.constraints is None else self.constraints.assemble(q0)
+
     # ------------------------------------------------------------- dynamics
     def mass_matrix(self, q):
         """Mass matrix M(q) (nv × nv, kg, kg·m or kg·m²) by CRBA, symmetric."""
@@ -210,6 +246,10 @@ class System:
         """accelerations without input or output checks (the hot path of time integration). The result may
         share memory with Pinocchio's data: copy it to keep it across dynamics calls."""
         Q, fext = self._forces(q, v, t)
+        if self.constraints is not None:  # the loops' constrained accelerations (vibdyn.loops)
+            a = pin.aba(self.model, self.data, q, v, Q) if fext is None else pin.aba(self.model, self.data, q, v,
+                                                                                       Q, fext)
+            return self.constraints.accelerations(q, v, a.copy(), self.mass_matrix(q))
         if fext is None:
             return pin.aba(self.model, self.data, q, v, Q)
         return pin.aba(self.model, self.data, q, v, Q, fext)
@@ -250,10 +290,14 @@ class System:
         elastic = sum(g.potential(q, kin) for g in self.groups)
         return Energy(float(kinetic), float(gravity), float(elastic))
 
-    def reactions(self, q, v, a, t=0.0):
-        """Link wrenches (:class:`Reactions`) at the state (q, v) moving with accelerations a, by RNEA."""
+    def reactions(self, q, v, a, t=0.0, loop_forces=None):
+        """Link wrenches (:class:`Reactions`) at the state (q, v) moving with accelerations a, by RNEA.
+        ``loop_forces``: the loops' multipliers λ (an equilibrium's ``multipliers``), applied to the bodies
+        they join (see :mod:`vibdyn.loops`)."""
         q, v, a = self._q(q), self._v(v), self._v(a, "a")
         _, fext = self._forces(q, v, t)
+        if loop_forces is not None and self.constraints is not None:
+            fext = self.constraints.add_to(q, np.asarray(loop_forces, dtype=float), fext)
         if fext is None:
             pin.rnea(self.model, self.data, q, v, a)
         else:
@@ -277,7 +321,12 @@ class System:
 
     # ------------------------------------------------------------- analyses
     def equilibrium(self, q0=None, t=0.0, tol=1e-10, max_iter=100):
-        """Static equilibrium near q0 (see :func:`vibdyn.equilibrium.static_equilibrium`)."""
+        """Static equilibrium near q0 (see :func:`vibdyn.equilibrium.static_equilibrium`; with loops
+        :func:`vibdyn.constrained.equilibrium`, q0 need not be consistent)."""
+        if self.constraints is not None:
+            from .constrained import equilibrium
+
+            return equilibrium(self, q0, t, tol, max_iter)
         from .equilibrium import static_equilibrium
 
         return static_equilibrium(self, q0, t, tol, max_iter)
@@ -293,6 +342,7 @@ class System:
         for found) (see :func:`vibdyn.equilibrium.steady_motion`)."""
         from .equilibrium import steady_motion
 
+        self._no_loops("steady_motion")
         return steady_motion(self, v_cyclic, q0, t, tol, max_iter, guess)
 
     def held(self, q=None, v=None, t=0.0):
@@ -302,7 +352,13 @@ class System:
         there (see :func:`vibdyn.equilibrium.held`). Linearise it with ``.linearize()``."""
         from .equilibrium import held
 
+        self._no_loops("held")
         return held(self, q, v, t)
+
+    def _no_loops(self, what):
+        if self.constraints is not None:
+            raise ModelError(f"{what}: not available for a mechanism with closed loops (loops: "
+                             f"{', '.join(lp.name for lp in self.constraints.loops)}); use equilibrium()")
 
     def operating_point(self, tol=1e-10, max_iter=100):
         """The scene's declared operating point (:meth:`Scene.set_operating_point`): the configuration held
@@ -322,7 +378,12 @@ class System:
         return self.equilibrium(q0, tol=tol, max_iter=max_iter)
 
     def linearize(self, at=None, *, v=None, t=0.0, a=None, method="fd", step=1e-5):
-        """Linear model (M, C, K, error estimate) about ``at`` (see :func:`vibdyn.linearize.linearize`)."""
+        """Linear model (M, C, K, error estimate) about ``at`` (see :func:`vibdyn.linearize.linearize`; with
+        loops :func:`vibdyn.constrained.linearize`, in the mechanism's independent motions)."""
+        if self.constraints is not None:
+            from .constrained import linearize as constrained_linearize
+
+            return constrained_linearize(self, at, v=v, t=t, a=a, method=method, step=step)
         from .linearize import linearize
 
         return linearize(self, at, v=v, t=t, a=a, method=method, step=step)
@@ -333,6 +394,9 @@ class System:
         estimate and elapsed time (see :func:`vibdyn.simulate.simulate`)."""
         from .simulate import simulate
 
+        if self.constraints is not None and str(method).lower() in ("symplectic", "variational"):
+            raise ModelError(f"simulate: method '{method}' does not handle closed loops; use dop853, rk4 (projection "
+                             "onto the loops after each step), radau or bdf")
         return simulate(self, t_end, q0, v0, method, rtol, atol, dt, t_eval, **options)
 
     # ------------------------------------------------------------- geometry

@@ -29,7 +29,12 @@ _ROTATIONS = {"ball": (0, 1, 2), "free": (3, 4, 5), "planar": (2,)}
 
 def make_ode(system, q0, v0, work=False):
     """The ODE of a system (a chart if it has curved joints) and its initial state y0."""
-    ode = ChartODE(system, work) if system.nq != system.nv else VectorODE(system, work)
+    cls = ChartODE if system.nq != system.nv else VectorODE
+    if getattr(system, "constraints", None) is not None:  # closed loops: projected after each step
+        from ..constrained import projected_ode
+
+        cls = projected_ode(cls)
+    ode = cls(system, work)
     return ode, ode.initial(q0, v0)
 
 

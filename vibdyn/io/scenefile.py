@@ -54,6 +54,9 @@ Format
                       # or law = "harmonic", amplitude, omega, phase = 0, offset = 0
     [[force]]         # name, body, force = [fx, fy, fz] (N, default 0), at = [x, y, z] (m, body frame),
                       # torque = [...] (N·m, optional), frame = "world" (default) | "body"
+    [[loop]]          # a joint closing a cycle: name, a = [body, [x, y, z]], b = [body or "world", [...]],
+                      # joint = { type = "ball" } (default) | pivot | slider | cylindrical {axis}
+                      #         | universal {axis1, axis2} | fixed   (axes in body a's frame; no at/rotation)
 
     [robot]           # optional: start from a robot, then add the bodies and elements above to it
     name = "ur5"      # an example-robot-data robot (vibdyn.load_robot), or:
@@ -348,7 +351,8 @@ def _limits(x):
 
 OPERATING_POINT_KEYS = {"cyclic": _table, "start": _start, "held": _boolean}
 TOP_LEVEL = ("scene", "robot", "body", "support", "spring", "damper", "joint_spring", "joint_damper", "joint_force",
-             "force", "limits", "operating_point", "reference")
+             "force", "loop", "limits", "operating_point", "reference")
+LOOP_KEYS = {"name": _string, "a": _attachment, "b": _attachment, "joint": _table}
 
 
 class _Reader:
@@ -429,6 +433,8 @@ class _Reader:
         for table, entries in elements.items():
             for i, e in enumerate(entries):
                 self.element(scene, table, i, e)
+        for i, e in enumerate(self.entries(d, "loop")):
+            self.loop(scene, i, e)
         for name, value in d.get("limits", {}).items():
             try:
                 scene.set_limits(name, *_limits(value))
@@ -621,6 +627,18 @@ class _Reader:
                 raise
             raise self.error(key, str(err)) from None
 
+    def loop(self, scene, i, d):
+        key = f"loop[{i}]"
+        what = f"loop '{d['name']}'" if isinstance(d.get("name"), str) else "loop"
+        e = self.fields(d, key, LOOP_KEYS, ("name", "a", "b"), what)
+        joint = self.joint(e["joint"], f"{key}.joint", what) if "joint" in e else None
+        try:
+            scene.add_loop(e["name"], _att(e["a"]), _att(e["b"]), joint=joint)
+        except ModelError as err:
+            if isinstance(err, SceneFileError):
+                raise
+            raise self.error(key, str(err)) from None
+
     def joint_force_value(self, e, key, what):
         law_params = {k for k in e if k in ("coefficients", "amplitude", "omega", "phase", "offset")}
         if ("value" in e) == ("law" in e):
@@ -706,6 +724,8 @@ def scene_to_dict(scene):
             entries.append(d)
         if entries:
             out[table] = entries
+    if getattr(scene, "loops", None):
+        out["loop"] = [lp.to_dict() for lp in scene.loops.values()]
     if scene.limits:
         out["limits"] = {k: list(v) for k, v in scene.limits.items()}
     op = scene.operating_point

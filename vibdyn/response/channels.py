@@ -36,12 +36,10 @@ def channels(lin, spec=None, direction=None, what="outputs"):
     rows, labels, units = [], [], []
     for item in items:
         if isinstance(item, str):
-            i = system.coordinate_index(item)
-            row = np.zeros(lin.nv)
-            row[i] = 1.0
+            row, unit = lin.coordinate_row(item)
             rows.append(row)
             labels.append(item)
-            units.append(system.units[i])
+            units.append(unit)
         elif _is_point(item):
             body = item[0]
             point = vector3(item[1], f"{what}: point of body '{body}'")
