@@ -309,3 +309,26 @@ def test_cli_simulate_out_in_a_missing_directory(tmp_path, capsys):
     code = main(["simulate", str(f), "--t-end", "0.1", "--out", str(tmp_path / "nope" / "x.npz")])
     err = capsys.readouterr().err
     assert code == 2 and "no such directory" in err and "Traceback" not in err
+
+
+def test_mjcf_include_is_refused(tmp_path):
+    (tmp_path / "arm.xml").write_text('<mujoco><worldbody><body name="b"><joint name="j" type="hinge"/>'
+                                      '<geom type="sphere" size="0.1" mass="1"/></body></worldbody></mujoco>')
+    f = tmp_path / "main.xml"
+    f.write_text('<mujoco><include file="arm.xml"/><worldbody><body name="a"><joint name="i" type="hinge"/>'
+                 '<geom type="sphere" size="0.1" mass="1"/></body></worldbody></mujoco>')
+    with pytest.raises(vd.ModelError, match="include.*arm.xml"):
+        vd.load_mjcf(f)
+
+
+def test_deeply_nested_references_are_refused(tmp_path):
+    s = vd.Scene("x")
+    s.add_body("m", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    deep = 1.0
+    for _ in range(5000):
+        deep = [deep]
+    s.references = {"deep": deep}
+    with pytest.raises(vd.ModelError, match="nested"):
+        s.save(tmp_path / "x.toml")
+    with pytest.raises(vd.ModelError, match="nested"):
+        s.build()

@@ -19,6 +19,8 @@ def finite_array(value, shape, what):
                 x is None or isinstance(x, (str, bytes, bool, np.bool_, complex)) for x in raw.flat)):
             raise TypeError
         arr = raw.astype(float)
+    except OverflowError:
+        raise ModelError(f"{what}: a number is too large for double precision (beyond ±1.8e308)") from None
     except (TypeError, ValueError):
         expected = "numbers" if shape is None else f"numbers of shape {_fmt(shape)}"
         raise ModelError(f"{what}: expected {expected}, got {value!r}") from None
@@ -38,7 +40,10 @@ def scalar(value, what, *, positive=False, nonnegative=False):
     """A finite float; ``positive`` (> 0) or ``nonnegative`` (>= 0) if asked."""
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
         raise ModelError(f"{what}: expected a number, got {value!r}")
-    x = float(value)
+    try:
+        x = float(value)
+    except OverflowError:
+        raise ModelError(f"{what}: too large for double precision (beyond ±1.8e308)") from None
     if not np.isfinite(x):
         raise ModelError(f"{what}: must be finite, got {x}")
     if positive and not x > 0:

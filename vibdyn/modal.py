@@ -216,8 +216,10 @@ def mac(a, b=None):
 def rayleigh(zeta, omega):
     """(α, β) of Rayleigh damping C = αM + βK with ratios ζ = (ζ1, ζ2) at ω = (ω1, ω2) rad/s:
     ζ_i = α/(2ω_i) + βω_i/2."""
-    z = np.asarray(zeta, dtype=float).reshape(2)
-    w = np.asarray(omega, dtype=float).reshape(2)
+    from ._check import finite_array
+
+    z = finite_array(zeta, (2,), "rayleigh: damping ratios zeta")
+    w = finite_array(omega, (2,), "rayleigh: frequencies omega (rad/s)")
     if not np.all(np.isfinite(z)) or not np.all(np.isfinite(w)) or np.any(w <= 0) or w[0] == w[1] or np.any(z < 0):
         raise ModelError(f"rayleigh: need two distinct positive frequencies and finite ratios ≥ 0, got {omega}, "
                          f"{zeta}")

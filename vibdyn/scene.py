@@ -222,7 +222,10 @@ class Scene:
         return b
 
     def copy(self):
-        return copy.deepcopy(self)
+        try:
+            return copy.deepcopy(self)
+        except RecursionError:  # e.g. references nested a thousand deep
+            raise ModelError(f"scene '{self.name}': data nested too deeply to copy (references?)") from None
 
     def build(self):
         """Compile the scene into a :class:`vibdyn.System` (checks it as a whole first)."""

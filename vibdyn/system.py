@@ -148,7 +148,7 @@ class System:
         """Mass matrix M(q) (nv × nv, kg, kg·m or kg·m²) by CRBA, symmetric."""
         M = pin.crba(self.model, self.data, self._q(q))
         M = np.triu(M) + np.triu(M, 1).T
-        return M
+        return finite_result(M, "mass matrix")
 
     def accelerations(self, q, v, t=0.0):
         """dv/dt (m/s², rad/s²) by ABA with gravity and every force element of the scene."""

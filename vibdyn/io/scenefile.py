@@ -724,6 +724,7 @@ def scene_to_dict(scene):
         if op.get("start") is not None:
             out["operating_point"]["start"] = list(op["start"])
     if scene.references:
+        _check_values(scene.references, None)  # nesting limit: no RecursionError in the copy below
         out["reference"] = copy.deepcopy(dict(scene.references))
     return out
 
