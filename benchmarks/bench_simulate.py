@@ -241,14 +241,19 @@ def bench_stiff():
 
 
 # ------------------------------------------------------------------------------------------- 5. scaling
-def ball_chain(n):
+def ball_chain_scene(n):
+    """n rods (1 kg, 0.3 m) on ball joints, hanging."""
     s = vd.Scene(f"balls{n}", gravity=(0, 0, -G))
     parent = vd.WORLD
     for i in range(n):
         s.add_body(f"b{i}", parent, vd.Ball(at=(0, 0, -0.3 if i else 0.0)), mass=1.0, com=(0.02, 0.0, -0.15),
                    inertia=vd.inertia.box(1.0, (0.05, 0.06, 0.3)))
         parent = f"b{i}"
-    return s.build()
+    return s
+
+
+def ball_chain(n):
+    return ball_chain_scene(n).build()
 
 
 def bench_scaling(sizes):

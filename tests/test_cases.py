@@ -1,6 +1,11 @@
 """Reference cases R1, R2, R3, R5, R6 solved from their 3-D scenes in models/ through vibdyn's own
 pipeline (operating point → linearisation → modes), to ≤ 1e-6 relative (values: ../shared/reference-cases.md,
-recomputed exactly in each file's [reference])."""
+recomputed exactly in each file's [reference]).
+
+Tolerances: a result's own error estimate (modes.error/residual, lin.K_error, traj.error, ...) wherever the
+comparison is one the estimate covers; fixed 1e-15..1e-12 ones are identities that hold to round-off (a
+few ε × the size of the terms: ΦᵀMΦ = 1 from eigh, a unit quaternion, a closed form in a few flops).
+"""
 
 import json
 
@@ -43,7 +48,7 @@ def test_chains_R1_R2_frequencies_and_absolute_shapes(name, method):
 def test_R2_built_both_ways_agrees():
     a = solve("rao_three_mass_ground")[3]
     b = solve("rao_three_mass_series")[3]
-    np.testing.assert_allclose(a.omega, b.omega, rtol=1e-10)
+    np.testing.assert_allclose(a.omega, b.omega, rtol=a.error + b.error)
 
 
 def test_R1_prestressed_equilibrium_moves_and_matches():

@@ -4,6 +4,11 @@ Hand-derived Lagrange equations (double pendulum, trailer with a compound pendul
 Pinocchio-level identities computed outside vibdyn's force machinery (RNEA, frame Jacobians, log maps),
 finite differences of scalar energies, Newton–Euler balances of subtrees for the link reactions, and
 energy conservation of an RK4 integration written here.
+
+Tolerances: direct evaluations (CRBA, RNEA, ABA, kinematics, energies, parsed numbers) carry no error
+estimate; their error is round-off, a few ε × the size of the terms (× κ(M) where M is solved). Fixed
+1e-15..1e-12 relative (≈ 4.5–4500 ε) bound it on these small, well-conditioned models; 1e-10 where M is
+solved or another engine's arithmetic is compared. Results that carry an estimate are checked against it.
 """
 
 import math

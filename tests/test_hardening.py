@@ -110,9 +110,9 @@ def test_nan_arguments_are_refused():
 
 
 @pytest.mark.parametrize("call, match", [
-    (lambda s: s.accelerations(["0.3"], [0.0]), "expected numbers"),
-    (lambda s: s.accelerations([0.3 + 1j], [0.0]), "expected numbers"),
-    (lambda s: s.accelerations([0.3], [True]), "expected numbers"),
+    (lambda s: s.accelerations(["0.3"], [0.0]), "q: expected a configuration"),
+    (lambda s: s.accelerations([0.3 + 1j], [0.0]), "q: expected a configuration"),
+    (lambda s: s.accelerations([0.3], [True]), "v: expected 1 number"),
     (lambda s: s.accelerations([0.3], [0.0], t="abc"), "t \\(time"),
     (lambda s: s.linearize(step="a"), "step"),
     (lambda s: s.linearize(step=-1e-5), "step"),

@@ -1,4 +1,9 @@
-"""Modal analysis: normalisation, orthogonality, rigid and unstable modes, damping models, MAC."""
+"""Modal analysis: normalisation, orthogonality, rigid and unstable modes, damping models, MAC.
+
+Tolerances: a result's own error estimate (modes.error/residual, lin.K_error, traj.error, ...) wherever the
+comparison is one the estimate covers; fixed 1e-15..1e-12 ones are identities that hold to round-off (a
+few ε × the size of the terms: ΦᵀMΦ = 1 from eigh, a unit quaternion, a closed form in a few flops).
+"""
 
 import numpy as np
 import pytest

@@ -3,6 +3,11 @@
 Stiffness and damping come from central differences of ``System.inverse_dynamics`` (configurations
 perturbed with ``System.integrate``), the mass matrix from CRBA: no hand-typed M or K. Frequencies are
 compared to 1e-6 relative.
+
+Tolerances: direct evaluations (CRBA, RNEA, ABA, kinematics, energies, parsed numbers) carry no error
+estimate; their error is round-off, a few ε × the size of the terms (× κ(M) where M is solved). Fixed
+1e-15..1e-12 relative (≈ 4.5–4500 ε) bound it on these small, well-conditioned models; 1e-10 where M is
+solved or another engine's arithmetic is compared. Results that carry an estimate are checked against it.
 """
 
 import math

@@ -4,6 +4,11 @@ The same scene is written as MJCF (tests/oracles.py) and compared at random stat
 (CRBA vs ``mj_fullM``), the bias b(q, v) = C v + g (vibdyn's ``inverse_dynamics(q, v, 0)`` on a scene with
 no force elements vs ``qfrc_bias``) and the body placements. MuJoCo's free joint uses world linear
 velocity, Pinocchio's a body one: the oracle maps M and b through v_mj = T v_pin.
+
+Tolerances: direct evaluations (CRBA, RNEA, ABA, kinematics, energies, parsed numbers) carry no error
+estimate; their error is round-off, a few ε × the size of the terms (× κ(M) where M is solved). Fixed
+1e-15..1e-12 relative (≈ 4.5–4500 ε) bound it on these small, well-conditioned models; 1e-10 where M is
+solved or another engine's arithmetic is compared. Results that carry an estimate are checked against it.
 """
 
 import numpy as np

@@ -10,6 +10,11 @@ from vibdyn.response import Hysteretic, transmissibility
 from conftest import MODELS
 
 X = (1.0, 0.0, 0.0)
+EPS = np.finfo(float).eps
+# Tolerances: a result's own error estimate (modes.error, frf.error, response.error, ...) wherever it has one;
+# where a test checks an identity that holds to round-off (the same solve read two ways, a copied input), a
+# stated multiple of ε × the condition number of the solve, or a fixed 1e-12..1e-14 on O(1) values
+# (≥ 45 ε) with a comment.
 
 
 def solved(name):
@@ -51,12 +56,12 @@ def rel(a, b):
 def test_R4_modes_and_mass_normalised_shapes():
     ref, lin = solved("two_mass_modal")
     m = lin.modes()
-    np.testing.assert_allclose(m.omega, ref["omega"], rtol=1e-9)
+    np.testing.assert_allclose(m.omega, ref["omega"], rtol=m.error)
     shapes = np.array(ref["modes"])  # columns, sign free
     for r in range(2):
         s = np.sign(shapes[:, r] @ m.shapes[:, r])
         np.testing.assert_allclose(s * m.shapes[:, r], shapes[:, r], atol=1e-9)
-    np.testing.assert_allclose(m.shapes.T @ lin.M @ m.shapes, np.eye(2), atol=1e-12)
+    np.testing.assert_allclose(m.shapes.T @ lin.M @ m.shapes, np.eye(2), atol=1e-12)  # eigh: round-off (2 × 2)
 
 
 @pytest.mark.parametrize("method", ["modal", "state", "expm", "ivp"])
@@ -64,11 +69,12 @@ def test_R4_free_response_at_1_and_5_s(method):
     ref, lin = solved("two_mass_modal")
     r = lin.free_response(ref["times"], ref["x0"], ref["v0"], method=method)
     assert r.method == method
-    np.testing.assert_allclose(r.q, ref["response"], atol=1e-9)  # acceptance: ≤ 1e-6
-    assert 0 <= r.error < 1e-8 and r.elapsed > 0
+    tol = r.error * np.abs(r.q).max()  # r.error is relative to max|δq|
+    np.testing.assert_allclose(r.q, ref["response"], rtol=0, atol=tol)
+    assert 0 <= r.error < 1e-8 and r.elapsed > 0  # acceptance: ≤ 1e-6
     # the same in the textbook's absolute coordinates, through the point Jacobians of the masses
     pts = [("m1", (0, 0, 0), X), ("m2", (0, 0, 0), X)]
-    np.testing.assert_allclose(r.displacement(pts), ref["response"], atol=1e-9)
+    np.testing.assert_allclose(r.displacement(pts), ref["response"], rtol=0, atol=tol)
 
 
 def test_R4_free_response_is_the_modal_sum_and_conserves_energy():
@@ -78,10 +84,13 @@ def test_R4_free_response_is_the_modal_sum_and_conserves_energy():
     x0 = np.array(ref["x0"])
     r = lin.free_response(t, x0)
     expected = sum(np.outer(np.cos(m.omega[k] * t), m.shapes[:, k] * (m.shapes[:, k] @ lin.M @ x0)) for k in range(2))
-    np.testing.assert_allclose(r.q, expected, atol=1e-12)
+    np.testing.assert_allclose(r.q, expected, rtol=0, atol=r.error * np.abs(r.q).max())
     energy = 0.5 * np.einsum("ti,ij,tj->t", r.v, lin.M, r.v) + 0.5 * np.einsum("ti,ij,tj->t", r.q, lin.K, r.q)
-    np.testing.assert_allclose(energy, energy[0], rtol=1e-12)
-    np.testing.assert_allclose(r.a, -np.linalg.solve(lin.M, lin.K @ r.q.T).T, atol=1e-12)
+    np.testing.assert_allclose(energy, energy[0], rtol=2 * r.error + 100 * EPS)  # E ∝ amplitude²
+    # the accelerations are K q through M⁻¹: round-off of that solve (κ(M) × ε), not the response's error
+    a_scale = np.abs(r.a).max()
+    np.testing.assert_allclose(r.a, -np.linalg.solve(lin.M, lin.K @ r.q.T).T, rtol=0,
+                               atol=100 * EPS * np.linalg.cond(lin.M) * a_scale)
 
 
 # ---------------------------------------------------------------------- R5: receptance
@@ -91,10 +100,10 @@ def test_R5_receptances_at_1_rad_s(method):
     f = lin.receptance(ref["frequency"], method=method)
     a = f.alpha[0]
     for key, (j, k) in {"alpha11": (0, 0), "alpha12": (0, 1), "alpha22": (1, 1)}.items():
-        assert abs(a[j, k] - complex(*ref[key])) <= 1e-9 * abs(complex(*ref[key]))
-    assert a[0, 1] == pytest.approx(a[1, 0], rel=1e-13)  # reciprocity
+        assert abs(a[j, k] - complex(*ref[key])) <= f.error * np.abs(a).max()
+    assert abs(a[0, 1] - a[1, 0]) <= 10 * EPS * f.condition * np.abs(a).max()  # reciprocity, to round-off
     assert f.units(0, 0) == "m/N" and f.units(0, 0, "mobility") == "m/s/N"
-    assert f.residual < 1e-13 and f.error < 1e-9 and f.elapsed > 0
+    assert f.residual < 1e-13 and f.error < 1e-9 and f.elapsed > 0  # a backward-stable solve: residual ~ ε
 
 
 def test_R5_modal_sum_equals_direct_inverse_and_reciprocity():
@@ -103,8 +112,9 @@ def test_R5_modal_sum_equals_direct_inverse_and_reciprocity():
     d, m = lin.receptance(w), lin.receptance(w, method="modal")
     M, K, C = (np.array(ref[k]) for k in ("mass_matrix", "stiffness_matrix", "damping_matrix"))
     exact = np.array([np.linalg.inv(K - x * x * M + 1j * x * C) for x in w])
-    assert rel(d.alpha, exact) < 1e-10 and rel(m.alpha, exact) < 1e-10
-    np.testing.assert_allclose(d.alpha, d.alpha.transpose(0, 2, 1), rtol=0, atol=1e-15)
+    assert rel(d.alpha, exact) <= d.error and rel(m.alpha, exact) <= m.error
+    np.testing.assert_allclose(d.alpha, d.alpha.transpose(0, 2, 1), rtol=0,
+                               atol=10 * EPS * d.condition * np.abs(d.alpha).max())  # reciprocity, to round-off
     np.testing.assert_allclose(d.mobility, 1j * w[:, None, None] * d.alpha)
     np.testing.assert_allclose(d.accelerance, -(w ** 2)[:, None, None] * d.alpha)
 
@@ -127,6 +137,7 @@ def test_R5_point_channels_equal_coordinates():
     by_name = lin.receptance(w, ["m1", "m2"], ["m1", "m2"])
     by_point = lin.receptance(w, [("m1", (0, 0, 0), X), ("m2", (0, 0, 0))], [("m1", (0, 0, 0), X), "m2"],
                               direction=X)
+    # the same solve read through Jacobian rows equal to the unit rows up to round-off: 1e-12 ≈ 4500 ε
     np.testing.assert_allclose(by_point.alpha, by_name.alpha, rtol=1e-12)
     flipped = lin.receptance(w, [("m1", (0, 0, 0), (-2, 0, 0))], ["m1"])
     np.testing.assert_allclose(flipped.alpha[:, 0, 0], -by_name.alpha[:, 0, 0], rtol=1e-12)
@@ -140,17 +151,17 @@ def test_R5_hysteretic_variant(method):
     w = np.linspace(0.0, 6.0, 61)
     f = lin.receptance(w, method=method, damping=Hysteretic(eta=0.02))
     exact = np.array([np.linalg.inv(K + 0.02j * K - x * x * M) for x in w])
-    assert rel(f.alpha, exact) < 1e-10
+    assert rel(f.alpha, exact) <= f.error
     assert f.damping == "hysteretic: D = 0.02 K"
     # D = αM + βK, and per-mode loss factors: modal denominators ω_r²(1 + iη_r) − ω²
     g = lin.receptance(w, method=method, damping=Hysteretic(alpha=0.1, eta=0.03))
-    assert rel(g.alpha, np.array([np.linalg.inv(K + 1j * (0.1 * M + 0.03 * K) - x * x * M) for x in w])) < 1e-10
+    assert rel(g.alpha, np.array([np.linalg.inv(K + 1j * (0.1 * M + 0.03 * K) - x * x * M) for x in w])) <= g.error
     m = lin.modes()
     eta = np.array([0.01, 0.05])
     h = lin.receptance(w, method=method, damping=Hysteretic(modal=eta))
     modal = np.array([sum(np.outer(m.shapes[:, r], m.shapes[:, r]) / (m.omega2[r] * (1 + 1j * eta[r]) - x * x)
                           for r in range(2)) for x in w])
-    assert rel(h.alpha, modal) < 1e-10
+    assert rel(h.alpha, modal) <= h.error
 
 
 def test_mobility_and_half_power_of_a_single_degree_of_freedom():
@@ -161,7 +172,9 @@ def test_mobility_and_half_power_of_a_single_degree_of_freedom():
         assert f.peaks().resonances == pytest.approx([20 * np.sqrt(1 - 2 * zeta ** 2)], rel=1e-7)
         for q in ("receptance", "mobility", "accelerance"):
             hp = f.half_power(quantity=q)
-            assert hp.zeta == pytest.approx([zeta], rel=1e-9)
+            # hp.error covers the refinement only (~1e-14); a relative error f.error of the half-power
+            # frequencies moves ζ = (ω2 − ω1)/2ω_n by up to f.error (absolute)
+            assert hp.zeta == pytest.approx([zeta], abs=hp.error[0] + f.error)
             assert hp.error[0] < 1e-10 and hp.unresolved.size == 0
 
 
@@ -179,12 +192,13 @@ def test_transmissibility_of_a_base_excited_mass(zeta):
 
 
 def test_transmissibility_is_one_at_root_two_for_every_zeta():
+    # a closed form evaluated in a few flops: 1e-15 ≈ 4.5 ε
     np.testing.assert_allclose(transmissibility(np.sqrt(2), [0.0, 0.01, 0.1, 1.0, 10.0]), 1.0, rtol=1e-15)
     for zeta in (0.01, 0.05, 0.2, 0.5, 1.0, 2.0):
         lin = sdof(zeta, support=True)
         for method in ("direct", "modal"):
             f = lin.base_response(20.0 * np.sqrt(2), "ground", direction=(0, 0, 1), method=method)
-            assert abs(f.alpha[0, 0, 0]) == pytest.approx(1.0, rel=1e-9)
+            assert abs(f.alpha[0, 0, 0]) == pytest.approx(1.0, rel=f.error)
 
 
 def test_base_excitation_through_a_prescribed_joint():
@@ -203,7 +217,8 @@ def test_base_excitation_through_a_prescribed_joint():
         f = lin.base_response(20.0 * r, "base", outputs=[absolute, "base", "mass"], method=method)
         np.testing.assert_allclose(np.abs(f.alpha[:, 0, 0]), transmissibility(r, zeta), rtol=1e-9)
         np.testing.assert_allclose(f.alpha[:, 1, 0], 1.0)  # the prescribed coordinate follows Y
-        np.testing.assert_allclose(f.alpha[:, 2, 0], f.alpha[:, 0, 0] - 1.0, atol=1e-12)  # relative motion
+        np.testing.assert_allclose(f.alpha[:, 2, 0], f.alpha[:, 0, 0] - 1.0,  # relative motion
+                                   atol=f.error * np.abs(f.alpha).max())
     # in time: the prescribed base moving as Y sin(ωt) from rest, against solve_ivp
     Y, w = 0.01, 25.0
     motion = vd.laws.Motion(lambda t: Y * np.sin(w * t), lambda t: Y * w * np.cos(w * t))
@@ -211,7 +226,7 @@ def test_base_excitation_through_a_prescribed_joint():
     a = lin.forced_response(t, support="base", motion=motion)
     b = lin.forced_response(t, support="base", motion=motion, method="ivp")
     assert rel(a.q, b.q) < 1e-8
-    np.testing.assert_allclose(a.coordinate("base"), Y * np.sin(w * t), atol=1e-15)
+    np.testing.assert_allclose(a.coordinate("base"), Y * np.sin(w * t), atol=1e-15)  # the input, copied
 
 
 def test_road_profile_drives_the_steady_state_and_the_transient():
@@ -248,7 +263,10 @@ def test_forced_transient_equals_direct_integration(method):
     assert a.error < 1e-9 and b.error < 1e-7
     # the equation of motion holds at every time point
     F = np.array([force(s) for s in t])
-    np.testing.assert_allclose(a.a @ lin.M.T + a.v @ lin.C.T + a.q @ lin.K.T, F, atol=1e-12)
+    # a is solved from M a = F − C v − K q: that holds to round-off, ε × κ(M) × the size of the terms
+    terms = max(np.abs(F).max(), np.abs(a.q @ lin.K.T).max(), np.abs(a.v @ lin.C.T).max())
+    np.testing.assert_allclose(a.a @ lin.M.T + a.v @ lin.C.T + a.q @ lin.K.T, F, rtol=0,
+                               atol=100 * EPS * np.linalg.cond(lin.M) * terms)
 
 
 def test_sampled_force_is_piecewise_linear_and_point_forces_act_through_the_jacobian():
@@ -267,8 +285,8 @@ def test_harmonic_response_is_the_steady_state_of_the_transient():
     hr = lin.harmonic_response(w, 1.0, ["m1"], phase=0.3)
     t = np.linspace(0, 250, 12501)
     tr = lin.forced_response(t, lambda s: [np.cos(w * s + 0.3)], ["m1"])
-    np.testing.assert_allclose(tr.q[-200:], hr.at(t[-200:]), atol=1e-12)
-    assert hr.amplitude[0, 0] == pytest.approx(abs(lin.receptance(w).alpha[0, 0, 0]), rel=1e-14)
+    np.testing.assert_allclose(tr.q[-200:], hr.at(t[-200:]), rtol=0, atol=(tr.error + hr.frf.error) * np.abs(tr.q).max())
+    assert hr.amplitude[0, 0] == pytest.approx(abs(lin.receptance(w).alpha[0, 0, 0]), rel=1e-14)  # the same solve
 
 
 def test_general_damping_free_response_is_real_and_matches_integration():
@@ -276,8 +294,9 @@ def test_general_damping_free_response_is_real_and_matches_integration():
     lin = lin.with_damping(np.diag([1.6, 0.0]))  # a damper on m1 only: not classical
     t = np.linspace(0, 10, 41)
     r = lin.free_response(t, [0.01, 0.02], [0.0, 0.1])
-    assert r.method == "state" and r.imaginary < 1e-14
-    assert rel(r.q, lin.free_response(t, [0.01, 0.02], [0.0, 0.1], method="ivp").q) < 1e-9
+    ivp = lin.free_response(t, [0.01, 0.02], [0.0, 0.1], method="ivp")
+    assert r.method == "state" and r.imaginary <= r.error
+    assert rel(r.q, ivp.q) <= r.error + ivp.error
     with pytest.raises(vd.ModelError, match="non-classical damping"):
         lin.free_response(t, [0.01, 0.0], method="modal")
     f = lambda s: [np.sin(3 * s), 0.0]  # noqa: E731
@@ -288,13 +307,16 @@ def test_gyroscopic_R6_responses():
     lin = vd.load_scene(MODELS / "rotor_slider.toml").build().operating_point().linearize()
     t = np.linspace(0, 3, 31)
     r = lin.free_response(t, [0.0, 0.01], [0.1, 0.0])
-    assert r.method == "state" and r.imaginary < 1e-14
-    assert rel(r.q, lin.free_response(t, [0.0, 0.01], [0.1, 0.0], method="ivp").q) < 1e-9
+    ivp = lin.free_response(t, [0.0, 0.01], [0.1, 0.0], method="ivp")
+    assert r.method == "state" and r.imaginary <= r.error
+    assert rel(r.q, ivp.q) <= r.error + ivp.error
     # gyroscopic coupling breaks reciprocity: α(C)ᵀ = α(Cᵀ)
     w = np.linspace(0.5, 20, 40)
     a = lin.receptance(w).alpha
     assert np.abs(a[:, 0, 1] - a[:, 1, 0]).max() > 1e-3 * np.abs(a).max()
-    np.testing.assert_allclose(lin.with_damping(lin.C.T).receptance(w).alpha, a.transpose(0, 2, 1), rtol=1e-10)
+    f = lin.receptance(w)
+    np.testing.assert_allclose(lin.with_damping(lin.C.T).receptance(w).alpha, a.transpose(0, 2, 1), rtol=0,
+                               atol=2 * f.error * np.abs(a).max())
     assert lin.receptance(w, method="modal").residual > 1e-2  # the modal sum says it is wrong here
 
 
@@ -303,10 +325,10 @@ def test_gyroscopic_R6_responses():
 def test_rigid_body_modes(c):
     lin = free_free(c)
     m = lin.modes()
-    assert m.rigid[0] and m.omega[1] == pytest.approx(4.0, rel=1e-9)
+    assert m.rigid[0] and m.omega[1] == pytest.approx(4.0, rel=10 * m.residual[1])
     w = np.linspace(0.3, 6, 40)
     d, s = lin.receptance(w), lin.receptance(w, method="modal")
-    assert rel(s.alpha, d.alpha) < 1e-12
+    assert rel(s.alpha, d.alpha) <= d.error + s.error
     # far above the elastic mode both masses act as free masses: α_aa → −1/(m_a ω²)
     hi = lin.receptance(1e4, "a", "a").alpha[0, 0, 0]
     assert hi.real == pytest.approx(-1e-8, rel=1e-6)
@@ -318,8 +340,9 @@ def test_rigid_body_modes(c):
     ref = lin.free_response(t, x0, v0, method="expm")
     for method in ("modal", "state", "ivp"):
         r = lin.free_response(t, x0, v0, method=method)
-        assert rel(r.q, ref.q) < 1e-10
-        np.testing.assert_allclose(r.q @ [1, 3] / 4, 0.1 / 4 + (0.3 - 0.6) / 4 * t, atol=1e-12)
+        tol = r.error + ref.error  # both relative to max|δq|: "state" has an ill-conditioned basis here (~1e-6)
+        assert rel(r.q, ref.q) <= tol
+        np.testing.assert_allclose(r.q @ [1, 3] / 4, 0.1 / 4 + (0.3 - 0.6) / 4 * t, atol=tol * np.abs(ref.q).max())
     f = lambda s: [np.sin(3 * s), 0.0]  # noqa: E731
     tt = np.linspace(0, 5, 201)
     assert rel(lin.forced_response(tt, f).q, lin.forced_response(tt, f, method="ivp").q) < 1e-8
@@ -332,7 +355,7 @@ def test_unstable_mode_grows_as_cosh():
     s = np.sqrt(-m.omega2[0])
     t = np.linspace(0, 2, 9)
     r = lin.free_response(t, [0.01], [0.0], method="modal")
-    np.testing.assert_allclose(r.q[:, 0], 0.01 * np.cosh(s * t), rtol=1e-12)
+    np.testing.assert_allclose(r.q[:, 0], 0.01 * np.cosh(s * t), rtol=r.error)
 
 
 def test_modal_truncation_shows_in_the_residual():
@@ -340,8 +363,9 @@ def test_modal_truncation_shows_in_the_residual():
     w = np.linspace(1, 70, 50)
     full = lin.receptance(w, method="modal")
     cut = lin.receptance(w, method="modal", n_modes=2)
-    assert full.residual < 1e-12 and cut.residual > 1e-3
-    assert rel(full.alpha, lin.receptance(w).alpha) < 1e-10
+    direct = lin.receptance(w)
+    assert full.residual < 1e-12 and cut.residual > 1e-3  # every mode: the residual is round-off
+    assert rel(full.alpha, direct.alpha) <= full.error + direct.error
 
 
 # ---------------------------------------------------------------------- appropriation
@@ -353,9 +377,11 @@ def test_appropriation_excites_one_mode_in_quadrature():
         for r in range(2):
             ap = model.appropriation(r)
             assert ap.exact and ap.omega == m.omega[r]
-            np.testing.assert_allclose(ap.response, -1j * m.shapes[:, r], atol=1e-14)  # δq = −iφ_r
-            np.testing.assert_allclose(ap.generalized_force, m.omega[r] * model.C @ m.shapes[:, r], atol=1e-14)
-            assert ap.in_phase < 1e-13 and ap.mac == pytest.approx(1.0, abs=1e-13)
+            w = m.omega[r]  # δq = −iφ_r up to the solve's round-off, ε × κ(K − ω²M + iωC)
+            tol = 100 * EPS * np.linalg.cond(model.K - w * w * model.M + 1j * w * model.C)
+            np.testing.assert_allclose(ap.response, -1j * m.shapes[:, r], rtol=0, atol=tol)
+            np.testing.assert_allclose(ap.generalized_force, w * model.C @ m.shapes[:, r], rtol=0, atol=tol)
+            assert ap.in_phase < tol and ap.mac == pytest.approx(1.0, abs=tol)
     # a damper on m1 only: a single exciter on m1 reproduces Cφ exactly
     assert non_classical.appropriation(0, ["m1"]).exact
     # one exciter elsewhere: tuned by the mode indicator function, nearly pure
@@ -389,7 +415,7 @@ def test_bad_inputs_are_model_errors():
         (lambda: lin.forced_response([0.0, 1.0], lambda t: [1.0, 2.0, 3.0]), "2 finite value"),
         (lambda: lin.forced_response([0.0, 1.0], lambda t: [np.nan, 0.0]), "finite"),
         (lambda: lin.forced_response([0.0, 1.0], np.zeros((3, 2))), "shape"),
-        (lambda: lin.base_response(1.0, "nowhere"), "neither a support"),
+        (lambda: lin.base_response(1.0, "nowhere"), "unknown support or coordinate 'nowhere'"),
         (lambda: lin.base_response(1.0, "m1"), None),  # a prescribed joint: valid
         (lambda: lin.forced_response([0.0, 1.0], support="m1"), "give motion="),
         (lambda: lin.harmonic_response(1.0, [1.0, 2.0, 3.0]), "one per input"),
@@ -407,6 +433,7 @@ def test_bad_inputs_are_model_errors():
         with pytest.raises(vd.ModelError, match=message):
             call()
     with pytest.raises(vd.ModelError, match="hysteretic damping has no time-domain form"):
-        from vibdyn.response import _method, _model
+        from vibdyn.response.damping import _model
+        from vibdyn.response.transient import _method
 
         _method(_model(lin, Hysteretic(eta=0.02)), "auto", "forced response")

@@ -6,6 +6,10 @@ steady regime; a heavy top in steady precession (gyroscopic closed form) with un
 angular momentum; a free body under time-dependent forces; damping, a moving support and a harmonic force
 against their closed forms with the energy balance; the variational integrator's discrete Noether theorem;
 bad input, failures, Ctrl-C, export and the command line. Run with ``-s`` to see the measured numbers.
+
+Tolerances: a result's own error estimate (modes.error/residual, lin.K_error, traj.error, ...) wherever the
+comparison is one the estimate covers; fixed 1e-15..1e-12 ones are identities that hold to round-off (a
+few ε × the size of the terms: ΦᵀMΦ = 1 from eigh, a unit quaternion, a closed form in a few flops).
 """
 
 import math
@@ -368,7 +372,7 @@ def test_free_body_under_time_dependent_force_and_torque():
     R_end = pin.Quaternion(*traj.q[-1, [6, 3, 4, 5]]).toRotationMatrix()
     angle = math.atan2(R_end[0, 2], R_end[2, 2])
     assert np.abs(traj.q[:, 0] - F0 / m * ramp).max() <= 1e-9
-    assert np.abs(traj.q[:, 1:3]).max() <= 1e-10
+    assert np.abs(traj.q[:, 1:3]).max() <= max(traj.error, 1e-10)  # no force along y, z: zero within the estimate
     assert angle == pytest.approx(T0 / I[1, 1] * ramp[-1], abs=1e-9)
     assert traj.work[-1] == pytest.approx(traj.kinetic[-1], rel=1e-8)  # all the energy came from the push
 
@@ -383,13 +387,14 @@ def test_planar_body_moves_uniformly():
     traj = system.simulate(2.0, v0=v0, rtol=1e-11)
     t = traj.t
     p = np.array([system.point_position("puck", (0, 0, 0), q) for q in traj.q])
-    assert np.abs(p[:, :2] - np.outer(t, v0[:2])).max() <= 1e-10
+    tol = max(traj.error, 1e-10)  # the run's own estimate (m, rad), or 1e-10 where it says less
+    assert np.abs(p[:, :2] - np.outer(t, v0[:2])).max() <= tol
     angle = np.unwrap(np.arctan2(traj.q[:, 3], traj.q[:, 2]))
-    assert np.abs(angle - v0[2] * t).max() <= 1e-10
+    assert np.abs(angle - v0[2] * t).max() <= tol
     c, s_ = np.cos(v0[2] * t), np.sin(v0[2] * t)
     body_v = np.stack([c * v0[0] + s_ * v0[1], -s_ * v0[0] + c * v0[1]], axis=-1)
-    assert np.abs(traj.v[:, :2] - body_v).max() <= 1e-10
-    assert np.abs(np.linalg.norm(traj.q[:, 2:4], axis=1) - 1).max() <= 1e-14
+    assert np.abs(traj.v[:, :2] - body_v).max() <= max(traj.error_v, 1e-10)
+    assert np.abs(np.linalg.norm(traj.q[:, 2:4], axis=1) - 1).max() <= 1e-14  # re-normalised: round-off
 
 
 # ================================================================================================ energy balance

@@ -1,4 +1,10 @@
-"""Moving supports (base excitation): forces, energy and linear input against closed forms."""
+"""Moving supports (base excitation): forces, energy and linear input against closed forms.
+
+Tolerances: direct evaluations (CRBA, RNEA, ABA, kinematics, energies, parsed numbers) carry no error
+estimate; their error is round-off, a few ε × the size of the terms (× κ(M) where M is solved). Fixed
+1e-15..1e-12 relative (≈ 4.5–4500 ε) bound it on these small, well-conditioned models; 1e-10 where M is
+solved or another engine's arithmetic is compared. Results that carry an estimate are checked against it.
+"""
 
 import numpy as np
 import pytest

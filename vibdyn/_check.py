@@ -1,5 +1,6 @@
 """Input checks shared by the scene, the joints and the force elements (all raise ModelError)."""
 
+import difflib
 import inspect
 import numbers
 
@@ -109,10 +110,32 @@ def stiffness_like(value, n, what):
     if arr.size == 1:
         arr = np.full(n, float(arr[0]))
     if arr.shape != (n,):
-        raise ModelError(f"{what}: expected a number or {n} numbers, got shape {arr.shape}")
+        raise ModelError(f"{what}: expected {one_or_each(n)}, got shape {arr.shape}")
     if np.any(arr < 0):
         raise ModelError(f"{what}: must not be negative, got {arr.tolist()}")
     return arr
+
+
+def count(n, noun, plural=None):
+    """'1 number', '3 numbers' (``plural`` for irregular nouns: count(2, 'body', 'bodies'))."""
+    return f"{n} {noun if n == 1 else plural or noun + 's'}"
+
+
+def one_or_each(n):
+    """What a per-coordinate parameter of an ``n``-coordinate joint accepts, in words."""
+    return "a number" if n == 1 else f"a number or {n} numbers (one per coordinate)"
+
+
+def unknown_name(name, valid, noun, plural=None, what=None):
+    """The ModelError for a name that is not among ``valid``: names the element (``what``), lists the valid
+    names and the closest match ("did you mean 'shoulder_pan_joint'?"). Return it for the caller to raise."""
+    valid = list(dict.fromkeys(valid))  # unique, in order
+    plural = plural or noun + "s"
+    close = difflib.get_close_matches(name, valid, n=1, cutoff=0.6) if isinstance(name, str) else []
+    hint = f"; did you mean '{close[0]}'?" if close else ""
+    shown = ", ".join(valid[:100]) + (f", … ({len(valid)} in all)" if len(valid) > 100 else "")
+    prefix = f"{what}: " if what else ""
+    return ModelError(f"{prefix}unknown {noun} {name!r}{hint} ({plural}: {shown or 'none'})")
 
 
 def _fmt(shape):
@@ -128,7 +151,7 @@ def kind_of(d, field, registry, what, example, noun):
     d = dict(d)
     kind = d.pop(field, None)
     if not isinstance(kind, str) or kind not in registry:
-        raise ModelError(f"{what}: unknown {noun} {kind!r} (one of {', '.join(registry)})")
+        raise unknown_name(kind, registry, noun, f"{noun}s", what)
     return registry[kind], d
 
 

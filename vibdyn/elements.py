@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import laws
-from ._check import finite_array, scalar, user_callable, vector3
+from ._check import count, finite_array, scalar, user_callable, vector3
 from .errors import ModelError
 
 WORLD = "world"
@@ -39,7 +39,7 @@ class Spring:
     a: tuple
     b: tuple
     stiffness: float
-    free_length: float = None
+    free_length: float | None = None
 
     def to_dict(self):
         d = {"name": self.name, "a": _att(self.a), "b": _att(self.b), "stiffness": self.stiffness}
@@ -165,7 +165,7 @@ def joint_force_value(value, nv, what):
         return user_callable(value, 3, what + " (a callable of t, q, v)")
     arr = np.atleast_1d(finite_array(value, None, what))
     if arr.shape != (nv,):
-        raise ModelError(f"{what}: expected {nv} number(s), got shape {arr.shape}")
+        raise ModelError(f"{what}: expected {count(nv, 'number')} (one per coordinate), got shape {arr.shape}")
     return float(arr[0]) if nv == 1 else tuple(float(x) for x in arr)
 
 

@@ -8,7 +8,7 @@ frame) that the system hands to ABA/RNEA as external forces. Only the kinds a sc
 import numpy as np
 import pinocchio as pin
 
-from ._check import call_user, finite_array
+from ._check import call_user, count, finite_array
 from .elements import BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring
 from .errors import ModelError
 
@@ -290,8 +290,8 @@ class JointForces(Group):
             val = call_user(e.value, args, f"joint force '{e.name}'", t)
             arr = _numbers(val, None)
             if arr is None or np.atleast_1d(arr).shape != (b.nv,):
-                raise ModelError(f"joint force '{e.name}' returned {val!r} at t = {t}: expected {b.nv} finite "
-                                 "number(s)")
+                raise ModelError(f"joint force '{e.name}' returned {val!r} at t = {t}: expected "
+                                 f"{count(b.nv, 'finite number')}")
             Q[b.idx_v:b.idx_v + b.nv] += np.atleast_1d(arr)
 
 

@@ -7,7 +7,7 @@ Every function works on sampled data (arrays, as measured); the half-power and p
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -59,6 +59,15 @@ class HalfPower:
     unresolved: np.ndarray
     quantity: str
     elapsed: float  # s
+    undamped: np.ndarray = field(default_factory=lambda: np.zeros(0))  # undamped resonances (rad/s): no band
+
+    def __repr__(self):
+        from ._format import summary, values
+
+        return summary("HalfPower", f"{self.omega_peak.size} resonances at {values(self.omega_peak, 'rad/s', digits=6)}",
+                       f"ζ = {values(self.zeta)}" if self.zeta.size else "",
+                       f"{self.undamped.size} undamped" if self.undamped.size else "",
+                       f"{self.unresolved.size} unresolved" if self.unresolved.size else "")
 
     @property
     def frequency_hz(self):
@@ -73,7 +82,8 @@ class HalfPower:
         return {"omega_peak_rad_s": self.omega_peak.tolist(), "frequency_hz": self.frequency_hz.tolist(),
                 "amplitude": self.amplitude.tolist(), "lower_rad_s": self.lower.tolist(),
                 "upper_rad_s": self.upper.tolist(), "zeta": self.zeta.tolist(), "zeta_error": self.error.tolist(),
-                "unresolved_rad_s": self.unresolved.tolist(), "quantity": self.quantity, "elapsed_s": self.elapsed}
+                "unresolved_rad_s": self.unresolved.tolist(), "undamped_rad_s": self.undamped.tolist(),
+                "quantity": self.quantity, "elapsed_s": self.elapsed}
 
 
 def extrema(omega, values, function=None, kind="max"):
@@ -185,6 +195,13 @@ class LogDecrement:
     error: float
     elapsed: float
 
+    def __repr__(self):
+        from ._format import number, summary
+
+        return summary("LogDecrement", f"ζ = {number(self.zeta)} ± {number(self.error, digits=2)}",
+                       f"δ = {number(self.delta)}", f"ω_d = {number(self.omega_d)} rad/s",
+                       f"{self.peak_times.size} peaks")
+
     @property
     def frequency_hz(self):
         return self.omega_n / (2 * np.pi)
@@ -251,6 +268,12 @@ class RayleighFit:
     residual: float
     error: tuple
     elapsed: float
+
+    def __repr__(self):
+        from ._format import number, summary
+
+        return summary("RayleighFit", f"α = {number(self.alpha)} 1/s", f"β = {number(self.beta)} s",
+                       f"{self.omega.size} points", f"rms residual {number(self.residual, digits=2)}")
 
     def ratio(self, omega):
         """ζ of this damping at ω (rad/s)."""

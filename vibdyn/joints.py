@@ -23,6 +23,7 @@ Fixed           0   0  none (the body is welded to its parent)
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import pinocchio as pin
@@ -41,13 +42,28 @@ class Joint:
 
     at: tuple = (0.0, 0.0, 0.0)
     rotation: object = None
-    name: str = None  # optional joint name (URDF joint name); body name is used otherwise
+    name: str | None = None  # optional joint name (URDF joint name); body name is used otherwise
 
     kind = "joint"
-    suffixes = ()
-    units = ()  # "m" or "rad" per coordinate
+    suffixes: ClassVar[tuple[str, ...]] = ()
+    units: ClassVar[tuple[str, ...]] = ()  # "m" or "rad" per coordinate
+    problem = None  # what is wrong with the parameters (str), reported when the joint joins a scene
 
     def __post_init__(self):
+        try:
+            self._check()
+        except ModelError as e:  # raised by checked(), with the body's name, when the joint joins a scene
+            object.__setattr__(self, "problem", str(e))
+
+    def checked(self, what=None):
+        """The joint, or the ModelError saying what is wrong with its parameters (after ``what``, e.g.
+        "body 'rod'": a joint is made before the body it will carry, so only the scene can name it)."""
+        if self.problem:
+            raise ModelError(f"{what}: {self.problem}" if what else self.problem)
+        return self
+
+    def _check(self):
+        """Check and normalise the parameters (ModelError naming the parameter)."""
         if self.name is not None and (not isinstance(self.name, str) or not self.name
                                       or self.name.strip() != self.name):
             raise ModelError(f"{self.kind} joint name must be a non-empty string without surrounding spaces,"
@@ -97,8 +113,8 @@ class Joint:
 class _AxisJoint(Joint):
     axis: tuple = (0.0, 0.0, 1.0)
 
-    def __post_init__(self):
-        super().__post_init__()
+    def _check(self):
+        super()._check()
         object.__setattr__(self, "axis", _floats(unit_axis(self.axis, f"{self._what} axis")))
 
     def params(self):
@@ -169,8 +185,8 @@ class Helical(_AxisJoint):
     units = ("rad",)
     _positional = ("axis", "pitch")
 
-    def __post_init__(self):
-        super().__post_init__()
+    def _check(self):
+        super()._check()
         p = scalar(self.pitch, f"{self._what} pitch (m/rad)")
         if p == 0.0:
             raise ModelError(f"{self._what} pitch is zero: use a Pivot for a pure rotation")
@@ -217,8 +233,8 @@ class Universal(Joint):
     units = ("rad", "rad")
     _positional = ("axis1", "axis2")
 
-    def __post_init__(self):
-        super().__post_init__()
+    def _check(self):
+        super()._check()
         a1 = unit_axis(self.axis1, f"{self._what} axis1")
         a2 = unit_axis(self.axis2, f"{self._what} axis2")
         if abs(a1 @ a2) > 1e-9:
@@ -247,8 +263,8 @@ class Planar(Joint):
     units = ("m", "m", "rad")
     _positional = ("normal",)
 
-    def __post_init__(self):
-        super().__post_init__()
+    def _check(self):
+        super()._check()
         object.__setattr__(self, "normal", _floats(unit_axis(self.normal, f"{self._what} normal")))
 
     @property
@@ -313,4 +329,4 @@ KINDS = {cls.kind: cls for cls in (Pivot, Slider, Helical, Cylindrical, Universa
 def from_dict(d, what="joint"):
     """A joint from its plain-data form (``{"type": "pivot", "axis": [...], ...}``)."""
     cls, params = kind_of(d, "type", KINDS, what, "{'type': 'pivot', ...}", "joint type")
-    return cls(**params)
+    return cls(**params).checked()

@@ -13,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 import scipy.linalg as sla
 
+from ._check import unknown_name
 from .errors import ModelError
 
 EPS = np.finfo(float).eps
@@ -39,6 +40,14 @@ class LinearModel:
     method: str
     elapsed: float  # s
     evaluations: int  # residual evaluations (finite differences) or derivative calls
+
+    def __repr__(self):
+        from ._format import duration, number, summary
+
+        kind = "damped" if self.has_damping else "undamped"
+        return summary("LinearModel", f"nv = {self.nv}", f"method {self.method}", kind,
+                       f"error {number(self.error, digits=2)}", f"{self.evaluations} evaluations",
+                       duration(self.elapsed))
 
     @property
     def coordinates(self):
@@ -116,7 +125,7 @@ class LinearModel:
         model's base-excitation input, M δv̇ + C δv + K δq = B_y y + B_v ẏ."""
         system = self.system
         if name not in system._support_index:
-            raise ModelError(f"unknown support '{name}' (supports: {', '.join(system._support_index) or 'none'})")
+            raise unknown_name(name, [s.name for s in system.supports], "support", what="support input")
         i = system._support_index[name]
 
         def residual(x):
@@ -164,6 +173,13 @@ class LinearModel:
         from .response import appropriation
 
         return appropriation(self, mode, inputs, **kwargs)
+
+    def state_space(self, inputs=None, outputs=None, **kwargs):
+        """State-space form ẋ = A x + B u, y = C x + D u, x = (δq, δv), for control tools
+        (:func:`vibdyn.statespace.state_space`)."""
+        from .statespace import state_space
+
+        return state_space(self, inputs, outputs, **kwargs)
 
     def modes(self, **kwargs):
         """Modal analysis of this linear model (see :func:`vibdyn.modal.modes`)."""

@@ -80,6 +80,15 @@ class Modes:
         d = np.asarray(direction, dtype=float)
         return np.einsum("pin,i->pn", S, d / np.linalg.norm(d))
 
+    def plot(self, path=None, which=None, amplitude=None, dpi=100):
+        """Draw each mode (or those of ``which``, 0-based) as the deformed scene over the undeformed one, a
+        panel per mode with its frequency (Hz, rad/s) in the title; saved as PNG when ``path`` is given.
+        ``amplitude``: largest point displacement (m; default 10 % of the scene's size). Needs matplotlib;
+        returns the Figure (see :func:`vibdyn.viewer.pictures.plot_modes`)."""
+        from .viewer.pictures import plot_modes
+
+        return plot_modes(self, path=path, which=which, amplitude=amplitude, dpi=dpi)
+
     def to_dict(self):
         """Plain data (JSON-ready): SI units, complex numbers as [re, im]."""
         d = {"omega_rad_s": self.omega.tolist(), "frequency_hz": self.frequency_hz.tolist(),
@@ -96,6 +105,24 @@ class Modes:
                       "omega_d_rad_s": self.omega_d.tolist(), "eigenvalue_error": self.eigenvalue_error.tolist(),
                       "classical_damping": self.classical})
         return d
+
+    def __repr__(self):
+        from ._format import duration, number, summary, values
+
+        return summary("Modes", f"{self.n} modes", f"ω = {values(self.omega, 'rad/s')}",
+                       f"f = {values(self.frequency_hz, 'Hz')}",
+                       f"{int(self.rigid.sum())} rigid" if self.rigid.any() else "",
+                       f"{int(self.unstable.sum())} unstable" if self.unstable.any() else "",
+                       f"ζ = {values(self.zeta)}" if self.zeta.size else "", self.stability,
+                       f"error {number(self.error, digits=2)}", duration(self.elapsed))
+
+    def _repr_html_(self):
+        from ._format import html_table, number
+
+        rows = [[i + 1, number(w), number(f), "rigid" if r else "unstable" if u else "", number(e, digits=2)]
+                for i, (w, f, r, u, e) in enumerate(zip(self.omega, self.frequency_hz, self.rigid, self.unstable,
+                                                        self.residual))]
+        return html_table(f"{self.n} modes, {self.stability}", ["mode", "ω rad/s", "f Hz", "", "rel. error"], rows)
 
     def __str__(self):
         lines = [f"{'mode':>4} {'omega rad/s':>14} {'f Hz':>12}  note"]
@@ -170,8 +197,10 @@ def modes(lin, tolerance=None):
     unstable = w2 < 0
     Mm, Km = Phi.T @ MPhi, Phi.T @ KPhi
     ortho = max(np.abs(Mm - np.eye(n)).max(initial=0.0), np.abs(Km - np.diag(w2)).max(initial=0.0) / scale)
-    # relative error of ω per mode (half that of ω²); a rigid mode's, relative to the spectrum's scale
-    rel = np.where(rigid, uncertainty / scale, 0.5 * uncertainty / np.where(rigid, 1.0, np.abs(w2)))
+    # relative error of ω per mode (half that of ω²); a rigid mode's, relative to the spectrum's scale (or,
+    # when every mode is rigid, to the largest |ω²| that still counts as rigid)
+    rigid_scale = max(scale, 10 * uncertainty.max(initial=0.0))
+    rel = np.where(rigid, uncertainty / rigid_scale, 0.5 * uncertainty / np.where(rigid, 1.0, np.abs(w2)))
     omega = np.sqrt(np.abs(w2))
     # a rigid mode's zero may split by ±√δω² in the state form (a Jordan block): that is still zero
     zero_threshold = float(np.sqrt(10 * uncertainty[rigid].max(initial=0.0))) + 1e-12 * np.sqrt(scale)
@@ -181,6 +210,10 @@ def modes(lin, tolerance=None):
     if damped:
         lam, lam_modes, shapes_c, lam_error = _state_modes(lin)
         mag = np.abs(lam_modes)
+        # a rigid mode's zero is a Jordan block (x = a + b t; left and right eigenvectors orthogonal), where
+        # first-order perturbation does not apply: its error is the split that still counts as zero
+        lam_scale = max(mag.max(initial=0.0), 1e-300)
+        lam_error = np.where(mag <= zero_threshold, np.minimum(lam_error, zero_threshold / lam_scale), lam_error)
         zeta = np.where(mag > 0, -lam_modes.real / np.where(mag > 0, mag, 1.0), 0.0)
         classical = _is_classical(lin)
     else:

@@ -47,7 +47,12 @@ def bode(frf, output=0, input=0, *, quantity="receptance", hz=False, db=False, p
         p = frf.peaks(j, k, quantity)
         scale = (lambda w: w / (2 * np.pi)) if hz else (lambda w: w)
         to_y = (lambda a: 20 * np.log10(np.maximum(a, 1e-300))) if db else (lambda a: np.maximum(a, 1e-300))
-        amp.plot(scale(p.resonances), to_y(p.amplitudes), "v", color="C3", label="resonance")
+        finite = np.isfinite(p.amplitudes)
+        amp.plot(scale(p.resonances[finite]), to_y(p.amplitudes[finite]), "v", color="C3", label="resonance")
+        for w in p.resonances[~finite]:  # undamped: unbounded amplitude, drawn as a line at ω_r
+            amp.axvline(scale(w), color="C3", lw=0.8, ls="--")
+        if (~finite).any():
+            amp.plot([], [], "--", color="C3", lw=0.8, label="undamped resonance (unbounded)")
         amp.plot(scale(p.antiresonances), to_y(p.antiresonance_amplitudes), "^", color="C2",
                  label="anti-resonance")
         if p.resonances.size or p.antiresonances.size:
@@ -132,4 +137,40 @@ def time_history(response, outputs=None, *, direction=None, quantity="displaceme
     a.grid(True, alpha=0.3)
     a.legend(loc="best", fontsize="small")
     a.set_title(f"{quantity} ({response.method}, error ≈ {response.error:.1e})", fontsize="medium")
+    return _save(fig, path, dpi)
+
+
+def campbell(diagram, *, path=None, dpi=100):
+    """Campbell diagram: each tracked mode's frequency (Hz) against the spin speed (rad/s), forward whirl
+    solid, backward dashed, no whirl dotted grey; engine orders as thin lines; critical speeds circled."""
+    fig, ax = _figure(size=(7.0, 5.0))
+    ax = ax[0, 0]
+    w = diagram.speeds
+    f = diagram.frequency_hz
+    styles = {"forward": "-", "backward": "--", "": ":"}
+    labelled = set()
+    for j in range(f.shape[1]):
+        if not np.any(f[:, j] > 0):
+            continue
+        kinds = [k for k in ("forward", "backward", "") if np.any(diagram.whirl[:, j] == k)]
+        kind = max(kinds, key=lambda k: np.sum(diagram.whirl[:, j] == k))
+        label = f"mode {j} ({kind or 'no'} whirl)"
+        ax.plot(w, f[:, j], styles[kind], lw=1.6, label=label)
+        labelled.add(kind)
+    top = max(f.max(initial=0.0) * 1.1, 1e-12)
+    for order in diagram.orders:
+        ax.plot(w, order * np.abs(w) / (2 * np.pi), color="0.5", lw=0.8)
+        x = min(w[-1], top * 2 * np.pi / order)
+        ax.annotate(f"{order:g}×", (x, order * abs(x) / (2 * np.pi)), fontsize=8, color="0.4")
+        for c in diagram.critical_speeds(order):
+            ax.plot(c.speed, c.frequency / (2 * np.pi), "o", mfc="none", mec="k", ms=8)
+            ax.annotate(f"{c.speed:.4g} rad/s ({c.whirl or 'no'} whirl)", (c.speed, c.frequency / (2 * np.pi)),
+                        xytext=(6, -12), textcoords="offset points", fontsize=8)
+    ax.set_ylim(0, top)
+    ax.set_xlim(w[0], w[-1])
+    ax.set_xlabel(f"speed of {diagram.spin} (rad/s)")
+    ax.set_ylabel("frequency (Hz)")
+    ax.set_title(f"Campbell diagram: {diagram.system.name}")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
     return _save(fig, path, dpi)

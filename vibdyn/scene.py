@@ -11,7 +11,7 @@ import numpy as np
 
 from . import inertia as _inertia
 from . import joints as _joints
-from ._check import finite_array, scalar, stiffness_like, vector3
+from ._check import finite_array, one_or_each, scalar, stiffness_like, unknown_name, vector3
 from .elements import (WORLD, BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring, Support,
                        attachment,
                        joint_force_value, vector_or_callable)
@@ -28,6 +28,7 @@ class Body:
     mass: float
     com: tuple
     inertia: tuple
+    shape: tuple = ()  # visual shapes (vibdyn.shapes.Shape), for the viewer only
 
     @property
     def coordinates(self):
@@ -36,8 +37,11 @@ class Body:
         return tuple(label + s for s in self.joint.suffixes)
 
     def to_dict(self):
-        return {"name": self.name, "parent": self.parent, "mass": self.mass, "com": list(self.com),
-                "inertia": [list(r) for r in self.inertia], "joint": self.joint.to_dict()}
+        d = {"name": self.name, "parent": self.parent, "mass": self.mass, "com": list(self.com),
+             "inertia": [list(r) for r in self.inertia], "joint": self.joint.to_dict()}
+        if self.shape:
+            d["shape"] = [s.to_dict() for s in self.shape]
+        return d
 
 
 class Scene:
@@ -58,26 +62,31 @@ class Scene:
         self.bodies = {}
         self.elements = {}  # name -> element, in insertion order
         self.operating_point = None  # None: static equilibrium from neutral; see set_operating_point
+        self.limits = {}  # coordinate -> (lower, upper) (m or rad); see set_limits
         self.robot_source = None  # where a loaded robot came from (vibdyn.io.robots)
+        self.shape_folder = None  # where relative mesh paths of shapes start (a scene file's folder)
 
     # ---------------------------------------------------------------- bodies
     def add_body(self, name, parent=WORLD, joint=None, mass=0.0, com=(0.0, 0.0, 0.0), inertia=None,
-                 inertia_about=None):
+                 inertia_about=None, shape=None):
         """Add a body joined to ``parent`` by ``joint`` (a Fixed weld if None).
 
         ``mass`` in kg; ``com`` in m (body frame); ``inertia`` a 3×3 tensor (kg·m², body axes) about the
         centre of mass, or about the point ``inertia_about`` (converted by Huygens); None is a point mass.
+        ``shape``: what the viewer draws (a table or a list, see :mod:`vibdyn.shapes`); None draws the box
+        of equal inertia.
         """
         what = f"body '{name}'"
         self._check_new_name(name, "body")
         if parent == name:
             raise ModelError(f"{what}: cannot be its own parent (cycle)")
         if parent != WORLD and self._find_body(parent) is None:
-            raise ModelError(f"{what}: unknown parent '{parent}'")
+            raise self.unknown_body(parent, what, noun="parent", extra=(WORLD,))
         parent = self._find_body(parent).name if parent != WORLD else WORLD
         joint = _joints.Fixed() if joint is None else joint
         if not isinstance(joint, _joints.Joint):
             raise ModelError(f"{what}: joint must be a vibdyn joint (Pivot, Slider, ...), got {joint!r}")
+        joint.checked(what)
         if joint.name == WORLD:
             raise ModelError(f"{what}: joint name 'world' is reserved for the fixed frame")
         if joint.name and (joint.name in self.elements or self._find_body(joint.name) is not None):
@@ -90,7 +99,10 @@ class Scene:
         if inertia_about is not None:
             I = _inertia.to_com(I, m, c, vector3(inertia_about, f"{what} inertia_about"))
         I = _inertia.check(I, m, f"{what} inertia")
-        body = Body(name, parent, joint, m, tuple(map(float, c)), tuple(tuple(map(float, r)) for r in I))
+        from .shapes import shapes
+
+        body = Body(name, parent, joint, m, tuple(map(float, c)), tuple(tuple(map(float, r)) for r in I),
+                    shapes(shape, what, self.shape_folder))
         self.bodies[name] = body
         index = self.__dict__.get("_joint_index")
         if index is not None and index[0] == len(self.bodies) - 1:  # kept current: loading stays linear
@@ -131,7 +143,7 @@ class Scene:
         if r.size == 1:
             r = np.full(b.joint.nv, float(r[0]))
         if r.shape != (b.joint.nv,):
-            raise ModelError(f"{what}: rest needs {b.joint.nv} number(s), got {r.size}")
+            raise ModelError(f"{what}: rest needs {one_or_each(b.joint.nv)}, got {r.size}")
         return self._add(JointSpring(name, b.name, tuple(map(float, k)), tuple(map(float, r))))
 
     def add_joint_damper(self, body, damping, name=None):
@@ -182,7 +194,7 @@ class Scene:
         self._check_new_name(name, "element")
         b = self._find_body(body)
         if b is None:
-            raise ModelError(f"{what}: unknown body '{body}'")
+            raise self.unknown_body(body, what)
         if frame not in ("world", "body"):
             raise ModelError(f"{what}: frame must be 'world' or 'body', got {frame!r}")
         f = vector_or_callable(force, f"{what} force")
@@ -190,21 +202,49 @@ class Scene:
         p = tuple(map(float, vector3(at, f"{what} at")))
         return self._add(BodyForce(name, b.name, p, f, tq, frame))
 
-    def set_operating_point(self, cyclic=None, start=None):
+    def set_operating_point(self, cyclic=None, start=None, held=False):
         """Declare the operating point analyses use by default (``System.operating_point()``).
 
         ``cyclic``: {coordinate: speed (rad/s or m/s) or None (found from the forces)} for a steady motion;
-        None for a static equilibrium. ``start``: tangent offsets from neutral (one per coordinate) where
-        the search begins. Names are checked when the scene is built.
+        None for a static equilibrium. ``start``: where the search begins (or, with ``held``, the held
+        configuration): tangent offsets from neutral, one per coordinate, or {coordinate: offset} (m or
+        rad; the others at 0). ``held``: the configuration is held by drives (``System.held``) instead of
+        searched for (robots under gravity have no free equilibrium). Names are checked at build time.
         """
         if cyclic is not None:
             if not isinstance(cyclic, dict) or not cyclic:
                 raise ModelError("operating point: cyclic must be a non-empty dict {coordinate: speed or None}")
             cyclic = {str(k): (None if x is None else scalar(x, f"operating point speed of '{k}'"))
                       for k, x in cyclic.items()}
-        if start is not None:
+        if isinstance(start, dict):
+            start = {str(k): scalar(x, f"operating point start of '{k}'") for k, x in start.items()}
+        elif start is not None:
             start = tuple(float(x) for x in finite_array(start, (None,), "operating point start"))
-        self.operating_point = None if cyclic is None and start is None else {"cyclic": cyclic, "start": start}
+        if held and cyclic is not None:
+            raise ModelError("operating point: held and cyclic exclude each other (a held point does not move)")
+        if cyclic is None and start is None and not held:
+            self.operating_point = None
+        else:
+            self.operating_point = {"cyclic": cyclic, "start": start}
+            if held:
+                self.operating_point["held"] = True
+
+    def set_limits(self, coordinate, lower=-np.inf, upper=np.inf):
+        """Position limits of a one-coordinate joint (pivot, slider, helical; m or rad, from its neutral),
+        as a URDF gives them. Equilibrium searches refuse to leave them (``System.limits``)."""
+        b = self._joint_body(coordinate, "limits")
+        if b.joint.nv != 1:
+            raise ModelError(f"limits on '{coordinate}': only one-coordinate joints (pivot, slider, helical) take "
+                             f"limits, its joint is a {b.joint.kind}")
+        bounds = []
+        for x in (lower, upper):
+            if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)) or np.isnan(x):
+                raise ModelError(f"limits on '{coordinate}': expected two numbers (lower, upper), got {x!r}")
+            bounds.append(float(x))
+        lo, up = bounds
+        if not lo <= up:
+            raise ModelError(f"limits on '{coordinate}': need lower ≤ upper, got [{lo:g}, {up:g}]")
+        self.limits[b.coordinates[0]] = (float(lo), float(up))
 
     # ---------------------------------------------------------------- queries
     def elements_of(self, kind):
@@ -218,8 +258,16 @@ class Scene:
         """A body by its name or its joint's name."""
         b = self._find_body(name)
         if b is None:
-            raise ModelError(f"unknown body '{name}' in scene '{self.name}'")
+            raise self.unknown_body(name, f"scene '{self.name}'")
         return b
+
+    def unknown_body(self, name, what, *, noun="body", extra=(), moving=False):
+        """The ModelError for an unknown body name: the valid names (bodies and their joints' names, after
+        ``extra``; only bodies with a coordinate if ``moving``) and the closest match."""
+        bodies = [b for b in self.bodies.values() if not moving or b.joint.nv]
+        names = [*extra, *(n for b in bodies for n in (b.name, b.joint.name) if n)]
+        plural = "valid parents" if noun == "parent" else "bodies with a coordinate" if moving else "bodies"
+        return unknown_name(name, names, noun, plural, what)
 
     def copy(self):
         try:
@@ -264,7 +312,7 @@ class Scene:
     def _joint_body(self, name, kind):
         b = self._find_body(name)
         if b is None:
-            raise ModelError(f"{kind} on '{name}': unknown body")
+            raise self.unknown_body(name, kind, moving=True)
         if b.joint.nv == 0:
             raise ModelError(f"{kind} on '{name}': body is welded (Fixed joint), it has no coordinate")
         return b
@@ -274,7 +322,8 @@ class Scene:
         if body != WORLD and not isinstance(self.elements.get(body), Support):
             b = self._find_body(body)
             if b is None:
-                raise ModelError(f"{what}: unknown body '{body}'")
+                supports = [e.name for e in self.elements.values() if isinstance(e, Support)]
+                raise self.unknown_body(body, what, extra=(WORLD, *supports))
             body = b.name
         return body, point
 

@@ -39,6 +39,7 @@ import numpy as np
 
 from . import forces as _forces
 from ._check import finite_array, scalar
+from ._format import number, table
 from .errors import ConvergenceError, ModelError, VibdynError
 from .integrators.chart import make_ode
 from .integrators.explicit import DOP853, RK4, StepError
@@ -163,6 +164,16 @@ class Trajectory:
 
     def __repr__(self):
         return f"Trajectory({self.summary()})"
+
+    def _repr_html_(self):
+        from ._format import html_table, number
+
+        sysm = self.system
+        rows = []
+        if len(self):
+            dq = sysm.difference(sysm.neutral(), self.q[-1])
+            rows = [[n, u, number(x), number(v)] for n, u, x, v in zip(sysm.coordinates, sysm.units, dq, self.v[-1])]
+        return html_table(self.summary(), ["coordinate", "unit", "final offset", "final speed"], rows)
 
     # ------------------------------------------------------------------ export
     def columns(self):
@@ -351,7 +362,7 @@ class _Run:
     ode: object = None
     status: str = "finished"
     message: str = ""
-    failure: BaseException = None
+    failure: BaseException | None = None
 
     @property
     def local(self):
@@ -545,6 +556,7 @@ class _Progress:
         self.t_end, self.label = t_end, label
         self.enabled = sys.stderr.isatty() if enabled is None else enabled
         self.start = time.perf_counter()
+        self.start_wall = time.time()  # tqdm's clock: the bar appears late but counts from the run's start
         self.bar = None
         self.shown = 0.0
 
@@ -559,6 +571,7 @@ class _Progress:
             self.bar = tqdm(total=self.t_end, desc=self.label, leave=False, dynamic_ncols=True,
                             bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g} of {total:.4g} s "
                                        "[{elapsed}<{remaining}]")
+            self.bar.start_t = self.start_wall
         self.bar.update(float(t) - self.shown)
         self.shown = float(t)
 
@@ -589,9 +602,16 @@ def command(system, args, out=None):
     p(f"scene      {system.name} (nq = {system.nq}, nv = {system.nv})")
     p(f"run        {traj.summary()}")
     if len(traj):
-        p(f"final      t = {traj.t[-1]:.6g} s, q = {_vec(traj.q[-1])}, v = {_vec(traj.v[-1])}")
-        p(f"energy     {traj.energy[0]:.6g} J → {traj.energy[-1]:.6g} J, work of non-conservative forces "
-          f"{traj.work[-1]:.6g} J, balance {traj.drift:.2e} J")
+        dq = system.difference(system.neutral(), traj.q[-1])
+        qe, ve = traj.q_error[-1], traj.v_error[-1]  # values below the run's error estimate print as 0
+        rows = [[c, number(x, u, qe), number(y, f"{u}/s", ve)]
+                for c, u, x, y in zip(system.coordinates, system.units, dq, traj.v[-1])]
+        p(f"final      t = {number(traj.t[-1], 's')} (offsets from neutral; error ≈ {qe:.1e} in q, {ve:.1e} in v)")
+        for line in table(["coordinate", "offset", "velocity"], rows, ["<", ">", ">"]):
+            p("  " + line)
+        de = abs(traj.drift)  # the energy balance: the run's error estimate on energies
+        p(f"energy     {number(traj.energy[0], 'J', de)} → {number(traj.energy[-1], 'J', de)}, work of "
+          f"non-conservative forces {number(traj.work[-1], 'J', de)}, balance {traj.drift:.2e} J")
     if args.out is not None:
         try:
             path = traj.to_npz(args.out) if Path(args.out).suffix.lower() == ".npz" else traj.to_csv(args.out)
@@ -602,6 +622,3 @@ def command(system, args, out=None):
         raise failure
     return traj
 
-
-def _vec(x):
-    return "(" + ", ".join(f"{float(v):.6g}" for v in np.ravel(x)) + ")"

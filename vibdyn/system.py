@@ -12,7 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import forces as _forces
-from ._check import call_user, finite_array, finite_result, scalar, vector3
+from ._check import call_user, count, finite_array, finite_result, scalar, unknown_name, vector3
 from .elements import WORLD, Spring, Support
 from .errors import ModelError
 
@@ -69,13 +69,25 @@ class Reactions:
     moment_local: np.ndarray
     joint_force: dict
 
+    def __repr__(self):
+        from ._format import summary
+
+        big = np.linalg.norm(self.force, axis=1) if len(self.bodies) else np.zeros(0)
+        top = f"largest {np.max(big, initial=0.0):.4g} N at '{self.bodies[int(np.argmax(big))]}'" if big.size else ""
+        return summary("Reactions", f"{len(self.bodies)} links", top)
+
     def __getitem__(self, body):
         i = self.bodies.index(body)
         return self.force[i], self.moment[i]
 
 
 class System:
-    """A compiled scene. Build it with :meth:`vibdyn.Scene.build`."""
+    """A compiled scene. Build it with :meth:`vibdyn.Scene.build`.
+
+    ``coordinates`` and ``units`` ("m" or "rad") name the tangent coordinates; ``limits`` maps a
+    coordinate to its position limits (lower, upper) in m or rad (from a URDF or ``Scene.set_limits``),
+    which equilibrium searches refuse to leave.
+    """
 
     def __init__(self, scene):
         self.scene = scene.copy()
@@ -96,6 +108,11 @@ class System:
         self.coordinates = tuple(c for b in self._bodies.values() for c in b.coordinates)
         self.units = tuple(u for b in self._bodies.values() for u in b.joint.units)  # "m" or "rad"
         self.bodies = tuple(self._bodies)
+        # position limits (m or rad, offsets from neutral) of one-coordinate joints, from a URDF or set_limits
+        self.limits = dict(self.scene.limits)
+        self._lower, self._upper = np.full(self.nv, -np.inf), np.full(self.nv, np.inf)
+        for name, (lo, up) in self.limits.items():
+            self._lower[self.coordinate_index(name)], self._upper[self.coordinate_index(name)] = lo, up
         self.has_gravity = bool(np.any(self.scene.gravity))
         self.supports = tuple(self.scene.elements_of(Support))
         self._support_index = {s.name: i for i, s in enumerate(self.supports)}
@@ -137,6 +154,36 @@ class System:
             pts += [np.array(e.a[1]) for e in self.scene.elements_of(Spring)]
             self._length_scale = max(1e-3, float(np.max(np.linalg.norm(pts, axis=1))))
         return self._length_scale
+
+    def configuration(self, offsets):
+        """Configuration at tangent offsets from neutral (m or rad): one per coordinate, or a dict
+        {coordinate: offset} (the others at 0)."""
+        dv = np.zeros(self.nv)
+        if isinstance(offsets, dict):
+            for name, x in offsets.items():
+                dv[self.coordinate_index(name)] = x
+        else:
+            dv = np.asarray(offsets, dtype=float)
+            if dv.shape != (self.nv,):
+                raise ModelError(f"offsets: expected {count(self.nv, 'number')} (one per coordinate: "
+                                 f"{', '.join(self.coordinates)}), got {dv.size}")
+        return self.integrate(self.neutral(), dv)
+
+    def limit_bounds(self):
+        """(lower, upper): position limits per tangent coordinate (offsets from neutral, m or rad; ±inf
+        where a coordinate has none). See :attr:`limits` (coordinate -> (lower, upper))."""
+        return self._lower.copy(), self._upper.copy()
+
+    def check_limits(self, q, what="q"):
+        """Raise ModelError naming the first coordinate of ``q`` outside its position limits."""
+        if not self.limits:
+            return
+        x = self.difference(self.neutral(), q)
+        for i in np.flatnonzero((x < self._lower) | (x > self._upper)):
+            side, bound = ("lower", self._lower[i]) if x[i] < self._lower[i] else ("upper", self._upper[i])
+            u = self.units[i]
+            raise ModelError(f"{what}: coordinate '{self.coordinates[i]}' = {x[i]:.6g} {u} is beyond its {side} "
+                             f"limit {bound:.6g} {u}")
 
     def random_configuration(self, scale=1.0, rng=None):
         """A configuration at a random tangent offset (normal, std ``scale`` m or rad) from neutral."""
@@ -250,16 +297,28 @@ class System:
 
         return steady_motion(self, v_cyclic, q0, t, tol, max_iter, guess)
 
+    def held(self, q=None, v=None, t=0.0):
+        """The configuration ``q`` (neutral if None), moving at constant velocity ``v`` (0 if None), held by
+        drives on every coordinate: an operating point (like :meth:`steady_motion`'s) whose ``drive`` is the
+        generalized force (N or N·m per coordinate) that balances gravity, the elastic and the other forces
+        there (see :func:`vibdyn.equilibrium.held`). Linearise it with ``.linearize()``."""
+        from .equilibrium import held
+
+        return held(self, q, v, t)
+
     def operating_point(self, tol=1e-10, max_iter=100):
-        """The scene's declared operating point (:meth:`Scene.set_operating_point`): a steady motion if it
-        names cyclic coordinates, else the static equilibrium nearest its start (neutral by default)."""
+        """The scene's declared operating point (:meth:`Scene.set_operating_point`): the configuration held
+        by drives (:meth:`held`) if it says so (robots' default), a steady motion if it names cyclic
+        coordinates, else the static equilibrium nearest its start (neutral by default)."""
         op = self.scene.operating_point or {}
         q0 = None
         if op.get("start") is not None:
-            if len(op["start"]) != self.nv:
-                raise ModelError(f"operating point start: expected {self.nv} offsets (one per coordinate), "
-                                 f"got {len(op['start'])}")
-            q0 = pin.integrate(self.model, self.neutral(), np.array(op["start"]))
+            try:
+                q0 = self.configuration(op["start"])
+            except ModelError as e:
+                raise ModelError(f"operating point start: {e}") from None
+        if op.get("held"):
+            return self.held(q0)
         if op.get("cyclic"):
             return self.steady_motion(op["cyclic"], q0, tol=tol, max_iter=max_iter)
         return self.equilibrium(q0, tol=tol, max_iter=max_iter)
@@ -314,7 +373,7 @@ class System:
         try:
             return self.coordinates.index(name)
         except ValueError:
-            raise ModelError(f"unknown coordinate '{name}' (coordinates: {', '.join(self.coordinates)})") from None
+            raise unknown_name(name, self.coordinates, "coordinate") from None
 
     def attachments(self, atts):
         """(joint ids, points in joint frames) of ``[(body, point), ...]``; world points on joint 0."""
@@ -391,6 +450,10 @@ class System:
             if s.a[0] == s.b[0] and np.array_equal(np.asarray(s.a[1], float), np.asarray(s.b[1], float)):
                 raise ModelError(f"spring '{s.name}': both ends are the same point of '{s.a[0]}' (coincident "
                                  "ends: its direction is undefined)")
+            if s.free_length is None and L <= 1e-12:  # the threshold below with l0 = L
+                raise ModelError(f"spring '{s.name}': its two ends coincide at the neutral configuration (at "
+                                 f"{np.round(xa, 12).tolist()} m) and no free_length is given: attach the ends at "
+                                 "distinct points, or give free_length=0 for a zero-length spring (force −k·d)")
             if l0 > 0 and L <= 1e-9 * max(l0, 1e-3):  # the threshold Springs uses at each call
                 raise ModelError(f"spring '{s.name}': its two ends coincide at build time (neutral "
                                  "configuration), so its direction is undefined")
@@ -436,7 +499,7 @@ class System:
                          "inertia scale); give it mass or inertia")
 
     def _q(self, q, what="q"):
-        q = _state(q, self.nq, what, f"a configuration of {self.nq} numbers")
+        q = _state(q, self.nq, what, f"a configuration of {count(self.nq, 'number')}")
         for body, i, n in self._unit_blocks:
             norm = np.linalg.norm(q[i:i + n])
             if abs(norm - 1.0) > 1e-3:
@@ -445,7 +508,7 @@ class System:
         return q
 
     def _v(self, v, what="v"):
-        return _state(v, self.nv, what, f"{self.nv} numbers (one per coordinate)")
+        return _state(v, self.nv, what, f"{count(self.nv, 'number')} (one per coordinate)")
 
     def _t(self, t):
         """A finite time (s); None only for a scene that does not depend on time."""
@@ -453,14 +516,17 @@ class System:
             return 0.0
         return scalar(t, "t (time, s)")
 
+
 def _state(x, n, what, expected):
     """A finite float vector of n numbers (the one input layer, :func:`vibdyn._check.finite_array`)."""
     try:
         return finite_array(x, (n,), what)
     except ModelError as e:
         detail = str(e)[len(what) + 2:]
-        raise ModelError(f"{what}: {detail}" if detail.startswith("contains") else
-                         f"{what}: expected {expected}: {detail}") from None
+        if detail.startswith("contains"):
+            raise
+        got = f"shape {detail.split('got ', 1)[1]}" if detail.startswith("expected shape") else repr(x)
+        raise ModelError(f"{what}: expected {expected}, got {got}") from None
 
 
 def _create_data(model):
@@ -570,7 +636,7 @@ def _topological(scene):
         path, on_path, p = [b.name], {b.name}, b.parent
         while p not in rooted:
             if p not in scene.bodies:
-                raise ModelError(f"body '{path[-1]}': unknown parent '{p}'")
+                raise scene.unknown_body(p, f"body '{path[-1]}'", noun="parent", extra=(WORLD,))
             if p in on_path:
                 raise ModelError(f"body '{b.name}': cycle in the parent links ({' -> '.join(path + [p])})")
             path.append(p)

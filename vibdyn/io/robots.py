@@ -18,7 +18,11 @@ extend (``scene.add_joint_spring("shoulder_pan_joint", 10.0)``) and ``build()``.
 * massless moving bodies that carry no mass (a dummy end-effector joint) are kept, so the coordinates are
   those of the file, but ``build()`` refuses them (their motion is undefined): loading warns, and
   ``weld_massless=True`` welds them instead (their coordinates disappear);
-* URDF mimic joints are read as independent joints (Pinocchio's default); joint limits are not kept.
+* URDF mimic joints are read as independent joints (Pinocchio's default);
+* position limits of revolute and prismatic joints are kept (``scene.limits``, ``system.limits``):
+  equilibrium searches refuse to leave them; velocity and effort limits are not kept;
+* the scene's operating point is the neutral configuration held by the drives (``System.held``): under
+  gravity a robot has no free equilibrium (``scene.set_operating_point(...)`` changes it).
 
 Geometry (meshes) is not needed for the dynamics and is not loaded; ``scene.robot_source``
 (:class:`RobotSource`) records the file, its package folders and the correspondence of configurations,
@@ -40,6 +44,7 @@ import numpy as np
 import pinocchio as pin
 
 from .. import joints as _joints
+from .._check import count, unknown_name
 from ..elements import WORLD
 from ..errors import ModelError
 from ..scene import Scene
@@ -164,9 +169,9 @@ class RobotSource:
     path: str
     floating: bool
     package_dirs: tuple
-    robot: str = None  # name in the example-robot-data table
-    srdf: str = None  # SRDF file with reference postures
-    posture: str = None  # default posture of the SRDF
+    robot: str | None = None  # name in the example-robot-data table
+    srdf: str | None = None  # SRDF file with reference postures
+    posture: str | None = None  # default posture of the SRDF
     pin_neutral: tuple = ()
     coordinates: tuple = ()  # CoordinateLink per Pinocchio (sub-)joint, in Pinocchio's order
 
@@ -243,7 +248,7 @@ def load_robot(name, floating=None, **kwargs):
     postures :func:`reference_configuration` reads.
     """
     if name not in ROBOTS:
-        raise ModelError(f"unknown robot {name!r}; known robots: {', '.join(known_robots())}")
+        raise unknown_name(name, known_robots(), "robot", "known robots")
     rel, free, srdf, posture = ROBOTS[name]
     root = robots_dir()
     path = root / rel
@@ -256,7 +261,21 @@ def load_robot(name, floating=None, **kwargs):
     scene.robot_source = _replace(scene.robot_source, robot=name, srdf=srdf_path and str(srdf_path),
                                   posture=posture if srdf_path else None)
     scene.source = f"example-robot-data '{name}': URDF {path}"
+    if scene.robot_source.posture:  # held at the SRDF's posture rather than at neutral
+        scene.set_operating_point(start=_posture_offsets(scene), held=True)
     return scene
+
+
+def _posture_offsets(scene):
+    """{coordinate: offset from neutral} of the robot's default SRDF posture (None if it breaks a limit)."""
+    system = scene.build()
+    q = reference_configuration(system)
+    try:
+        system.check_limits(q)
+    except ModelError:
+        return scene.operating_point["start"]
+    dv = system.difference(system.neutral(), q)
+    return {c: float(x) for c, x in zip(system.coordinates, dv) if x != 0.0} or None
 
 
 def known_robots():
@@ -267,11 +286,11 @@ def known_robots():
 def robot_path(name):
     """Path of the URDF file of a robot of the table."""
     if name not in ROBOTS:
-        raise ModelError(f"unknown robot {name!r}; known robots: {', '.join(known_robots())}")
+        raise unknown_name(name, known_robots(), "robot", "known robots")
     return robots_dir() / ROBOTS[name][0]
 
 
-_ROBOTS_DIR = []
+_ROBOTS_DIR: list[Path] = []
 
 
 def robots_dir():
@@ -402,6 +421,18 @@ def scene_from_model(model, name=None, gravity=DEFAULT_GRAVITY, source=None, dam
             c = np.asarray(model.damping[sl], dtype=float)
             if np.any(c > 0.0):
                 scene.add_joint_damper(jname, c)
+
+    # -- position limits of the file (revolute and prismatic joints; equal bounds are a URDF's "no limit")
+    for jname, i, s, continuous, w in links:
+        jq = _sub_qslice(model, i, s)
+        if w or continuous or jq.stop - jq.start != 1:
+            continue
+        lo, up = float(model.lowerPositionLimit[jq.start]), float(model.upperPositionLimit[jq.start])
+        if lo < up and abs(lo) < 1e300 and abs(up) < 1e300:
+            scene.set_limits(jname, lo, up)
+    # under gravity a robot has no free equilibrium: its drives hold it, at neutral brought within the limits
+    inside = {k: min(max(0.0, lo), up) for k, (lo, up) in scene.limits.items() if not lo <= 0.0 <= up}
+    scene.set_operating_point(start=inside or None, held=True)
 
     # -- record where it came from
     if source is not None:
@@ -765,7 +796,7 @@ def from_pin(system, q_pin, v_pin=None):
     src = _source(system)
     q_pin = np.asarray(q_pin, dtype=float)
     if q_pin.shape != (src.pin_nq,):
-        raise ModelError(f"q_pin: expected {src.pin_nq} numbers, got shape {q_pin.shape}")
+        raise ModelError(f"q_pin: expected {count(src.pin_nq, 'number')}, got shape {q_pin.shape}")
     q = system.neutral()
     v = np.zeros(system.nv) if v_pin is not None else None
     for c in src.coordinates:
@@ -804,7 +835,7 @@ def reference_configuration(system, posture=None):
             raise ModelError(f"SRDF {src.srdf}: name the posture, one of {', '.join(names)}")
         posture = names[0]
     if posture not in names:
-        raise ModelError(f"SRDF {src.srdf}: no posture {posture!r} (postures: {', '.join(names)})")
+        raise unknown_name(posture, names, "posture", what=f"SRDF {src.srdf}")
     return from_pin(system, pin.normalize(model, model.referenceConfigurations[posture]))
 
 

@@ -63,10 +63,16 @@ Format
     # [scene] name, gravity, source and description, when given, replace the robot's; bodies may name
     # the robot's bodies (or joints) as parents
 
+    [limits]          # optional: position limits of one-coordinate joints (m or rad), as a URDF gives them
+    elbow = [-2.0, 2.0]           # coordinate = [lower, upper]; equilibrium searches refuse to leave them
+
     [operating_point] # optional: where analyses linearise by default (System.operating_point())
     cyclic = { rotor = "free" }   # a steady motion: coordinate = speed (rad/s or m/s) or "free" (found)
-    start = [0.0, 0.1]            # optional: tangent offsets from neutral where the search starts
-    # omitted: the static equilibrium nearest the neutral configuration
+    start = { slider = 0.1 }      # optional: where the search starts, tangent offsets from neutral by
+                                  # coordinate (others 0), or a list with one offset per coordinate
+    held = true                   # optional: the start configuration held by drives (System.held; the
+                                  # default of robots), instead of a search
+    # omitted: the static equilibrium nearest the neutral configuration (robots: held at neutral)
 
     [reference]       # free-form: the values this scene must reproduce and their source;
                       # kept as ``scene.references`` (a dict) and written back as is
@@ -98,7 +104,7 @@ from ..scene import Scene
 try:  # Python ≥ 3.11
     import tomllib
 except ModuleNotFoundError:  # pragma: no cover
-    import tomli as tomllib
+    import tomli as tomllib  # type: ignore[no-redef]
 
 __all__ = ["load_scene", "save_scene", "scene_to_dict", "scene_from_dict", "dumps"]
 
@@ -325,7 +331,8 @@ def _strings(x):
 SCENE_KEYS = {"name": _string, "gravity": _vec3, "source": _string, "description": _string}
 ROBOT_KEYS = {"name": _string, "urdf": _string, "floating": _boolean, "package_dirs": _strings}
 BODY_KEYS = {"name": _string, "parent": _string, "mass": _nonnegative, "com": _vec3,
-             "inertia": _matrix_or_table, "inertia_about": _vec3, "joint": _table}
+             "inertia": _matrix_or_table, "inertia_about": _vec3, "joint": _table,
+             "shape": lambda x: x}  # shape: checked by vibdyn.shapes
 JOINT_COMMON = {"type": _string, "at": _vec3, "rotation": _rotation, "name": _string}
 JOINT_PARAMS = {
     "pivot": ({"axis": _vec3}, ("axis",)),
@@ -365,9 +372,32 @@ ELEMENT_KEYS = {  # table: (keys, required); supports first, so that springs and
 }
 LAW_KEYS = {"polynomial": (("coefficients",), ("coefficients",)),
             "harmonic": (("amplitude", "omega", "phase", "offset"), ("amplitude", "omega"))}
-OPERATING_POINT_KEYS = {"cyclic": _table, "start": _numbers_list}
+def _start(x):
+    if isinstance(x, dict):
+        out = {}
+        for k, v in x.items():
+            try:
+                out[k] = _number(v)
+            except _Bad as e:
+                raise _Bad(f"start of '{k}': {e}") from None
+        return out
+    try:
+        return _numbers_list(x)
+    except _Bad:
+        raise _Bad(f"expected {{ coordinate = offset, ... }} or a list of offsets (one per coordinate), "
+                   f"got {_show(x)}") from None
+
+
+def _limits(x):
+    a = _as_list(x)
+    if a is None or len(a) != 2 or not all(_is_number(v) for v in a) or any(math.isnan(v) for v in a):
+        raise _Bad(f"expected [lower, upper] (m or rad), got {_show(x)}")
+    return [float(v) for v in a]
+
+
+OPERATING_POINT_KEYS = {"cyclic": _table, "start": _start, "held": _boolean}
 TOP_LEVEL = ("scene", "robot", "body", "support", "spring", "damper", "joint_spring", "joint_damper", "joint_force",
-             "force", "operating_point", "reference")
+             "force", "limits", "operating_point", "reference")
 
 
 class _Reader:
@@ -414,7 +444,7 @@ class _Reader:
                     raise self.error(k, f"unknown table '{k}' (allowed: {', '.join(TOP_LEVEL)})")
                 raise self.error(k, f"unknown top-level key '{k}': keys go in a table such as [scene] "
                                     f"(tables: {', '.join(TOP_LEVEL)})")
-        for k in ("scene", "robot", "operating_point", "reference"):
+        for k in ("scene", "robot", "limits", "operating_point", "reference"):
             if k in d and not isinstance(d[k], dict):
                 raise self.error(k, f"expected a table [{k}], got {_show(d[k])}")
         head = self.fields(d.get("scene", {}), "scene", SCENE_KEYS)
@@ -441,11 +471,18 @@ class _Reader:
             except ModelError as e:
                 raise self.error("scene", str(e)) from None
 
+        if self.path is not None:
+            scene.shape_folder = str(self.path.resolve().parent)
         for i, b in self.ordered_bodies(bodies, scene):
             self.body(scene, i, b)
         for table, entries in elements.items():
             for i, e in enumerate(entries):
                 self.element(scene, table, i, e)
+        for name, value in d.get("limits", {}).items():
+            try:
+                scene.set_limits(name, *_limits(value))
+            except (_Bad, ModelError) as e:
+                raise self.error(f"limits.{name}", str(e)) from None
         if "operating_point" in d:
             self.operating_point(scene, d["operating_point"])
         if "reference" in d:
@@ -466,7 +503,7 @@ class _Reader:
                     raise self.error(f"operating_point.cyclic.{name}",
                                      f"speed must be a number (rad/s or m/s) or \"free\", got {_show(speed)}")
         try:
-            scene.set_operating_point(cyclic, op.get("start"))
+            scene.set_operating_point(cyclic, op.get("start"), op.get("held", False))
         except ModelError as e:
             raise self.error("operating_point", str(e)) from None
 
@@ -555,7 +592,7 @@ class _Reader:
         try:
             scene.add_body(b["name"], parent=b.get("parent", WORLD), joint=joint, mass=b["mass"],
                            com=b.get("com", (0.0, 0.0, 0.0)), inertia=inertia,
-                           inertia_about=b.get("inertia_about"))
+                           inertia_about=b.get("inertia_about"), shape=b.get("shape"))
         except ModelError as e:
             raise self.error(key, str(e)) from None
 
@@ -582,7 +619,7 @@ class _Reader:
             if "lead" in j:
                 j["pitch"] = j.pop("lead") / (2.0 * math.pi)
         try:
-            return _joints.KINDS[kind](**j)
+            return _joints.KINDS[kind](**j).checked()
         except ModelError as e:
             raise self.error(key, f"{what}: {e}") from None
 
@@ -702,6 +739,8 @@ def scene_to_dict(scene):
         j = d["joint"]
         if j["type"] != "fixed" or any(j["at"]) or "rotation" in j or "name" in j:
             b["joint"] = j
+        if "shape" in d:
+            b["shape"] = d["shape"]
         bodies.append(b)
     if bodies:
         out["body"] = bodies
@@ -716,13 +755,18 @@ def scene_to_dict(scene):
             entries.append(d)
         if entries:
             out[table] = entries
+    if scene.limits:
+        out["limits"] = {k: list(v) for k, v in scene.limits.items()}
     op = scene.operating_point
     if op:
         out["operating_point"] = {}
         if op.get("cyclic"):
             out["operating_point"]["cyclic"] = {k: "free" if x is None else x for k, x in op["cyclic"].items()}
         if op.get("start") is not None:
-            out["operating_point"]["start"] = list(op["start"])
+            st = op["start"]
+            out["operating_point"]["start"] = dict(st) if isinstance(st, dict) else list(st)
+        if op.get("held"):
+            out["operating_point"]["held"] = True
     if scene.references:
         _check_values(scene.references, None)  # nesting limit: no RecursionError in the copy below
         out["reference"] = copy.deepcopy(dict(scene.references))

@@ -1,0 +1,1 @@
+"""vibdyn's regression benchmarks (not part of the installed package): ``python -m benchmarks --help``."""

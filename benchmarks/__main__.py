@@ -1,0 +1,8 @@
+import os
+import sys
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: threaded OpenBLAS is far slower here
+
+from benchmarks.suite import main  # noqa: E402
+
+sys.exit(main())

@@ -1,0 +1,221 @@
+"""Time integration: error against run time, vibdyn's methods beside MuJoCo's RK4 and implicitfast.
+
+Cases (error: largest tangent-space difference of the final configuration from the reference, rad or m):
+
+- IFToMM A01 over 10 s: exact elliptic solution (reference case R7); the error is the mass position (m).
+- double pendulum (models/double_pendulum.toml), 5 s from (1.0, 0.5) rad at rest;
+- 10-link pendulum chain (benchmarks/bench_linearize.py's chain with links of 0.3 m and 1 kg, torsion
+  springs 10 N·m/rad: gravity-dominated), 2 s from a random tilt (std 0.3 rad);
+- 10-link chain of rods on ball joints (benchmarks/bench_simulate.py's chain), 1 s from a random tilt;
+- the rotor with the sprung slider (models/rotor_slider.toml), 5 s of spin-up from rest. MuJoCo has no
+  actuator for the motor law 10 − ω² (quadratic in the speed), so this case has no MuJoCo runs.
+
+References: the exact solution (A01); scipy's DOP853 at rtol = atol = 1e-13 on vibdyn's accelerations for
+the chains of pivots (an independent integrator; the model itself is checked against MuJoCo by the test
+suite); MuJoCo's RK4 at dt = 1e-5 for the ball chain (quaternions: scipy cannot integrate it as a vector),
+checked against vibdyn's DOP853 at rtol 1e-11 (``reference_check``).
+"""
+
+import math
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+import vibdyn as vd
+
+from . import common as C
+from .bench_linearize import pendulum_chain
+from .bench_simulate import MJCF as A01_MJCF, a01_error, ball_chain_scene
+
+TARGET = 1e-8  # the equal-error comparison point with MuJoCo
+
+
+def scipy_reference(system, q0, v0, t_end, rtol=1e-13):
+    """Final (q, v) by scipy's DOP853 at rtol = atol = ``rtol`` on vibdyn's accelerations (nq = nv only)."""
+    n = system.nv
+
+    def f(t, x):
+        return np.concatenate([x[n:], system.accelerations(x[:n], x[n:], t)])
+
+    sol = solve_ivp(f, (0.0, t_end), np.concatenate([q0, v0]), method="DOP853", rtol=rtol, atol=rtol,
+                    t_eval=[t_end])
+    assert sol.success, sol.message
+    return sol.y[:n, -1], sol.y[n:, -1]
+
+
+def vibdyn_runs(system, q0, v0, t_end, error_of, settings, S):
+    """vibdyn's runs: (method, kwargs) in ``settings``; error_of(q_final) → actual error."""
+    runs = []
+    for method, kw in settings:
+        label = f"vibdyn {method} " + " ".join(f"{k}={v:g}" for k, v in kw.items())
+        fn = lambda: system.simulate(t_end, q0, v0, method=method, t_eval=[t_end], progress=False, **kw)  # noqa: E731
+        try:
+            slow = method in ("radau", "bdf", "symplectic")
+            tr, wall, peak = C.measure(fn, 1 if slow else S.repeat)
+        except vd.VibdynError as e:
+            runs.append(C.refused(label, "vibdyn", e, math.nan, method=method, **kw))
+            continue
+        runs.append(C.run_record(label, "vibdyn", error_of(tr.q[-1]), tr.error, wall, tr.nfev + tr.error_nfev,
+                                 peak, method=method, steps=tr.accepted, error_method=tr.error_method, **kw))
+    return runs
+
+
+def mujoco_runs(make, q0, v0, t_end, error_of, settings, S):
+    """MuJoCo's runs: (integrator, dt) in ``settings``; make(integrator, dt) → MuJoCoSim."""
+    runs = []
+    for integrator, dt in settings:
+        n = int(round(t_end / dt))
+        sim = make(integrator, t_end / n)
+        (q, v), wall, peak = C.measure(lambda: sim.run(q0, v0, n), S.repeat)
+        err = error_of(q) if np.all(np.isfinite(q)) else None
+        runs.append(C.run_record(f"mujoco {integrator} dt={t_end / n:.3g}", "mujoco", err, None, wall,
+                                 4 * n if integrator == "RK4" else n, peak, method=integrator,
+                                 dt=t_end / n, **({} if err is not None else {"note": "diverged"})))
+    return runs
+
+
+def equal_error_ratios(case):
+    """vibdyn DOP853 time / MuJoCo RK4 time at equal error (interpolated along each one's curve): per vibdyn
+    run, and at TARGET."""
+    mj = [r for r in case["runs"] if r["solver"] == "mujoco" and r.get("method") == "RK4" and r["error"]]
+    dop = [r for r in case["runs"] if r.get("method") == "dop853" and r["error"]]
+    for r in case["runs"]:
+        if r["solver"] == "vibdyn" and r["error"]:
+            t = C.time_at_error(mj, r["error"])
+            r["mujoco_rk4_time_at_equal_error"] = t
+            r["ratio_to_mujoco_rk4"] = None if t is None else r["time_s"] / t
+    t_vd, t_mj = C.time_at_error(dop, TARGET), C.time_at_error(mj, TARGET)
+    case["equal_error"] = {"error": TARGET, "vibdyn_dop853_s": t_vd, "mujoco_rk4_s": t_mj,
+                           "ratio": None if t_vd is None or t_mj is None else t_vd / t_mj}
+    return case
+
+
+def _settings(S, full, quick, smoke):
+    return smoke if S.smoke else quick if S.quick else full
+
+
+# ------------------------------------------------------------------------------------------- cases
+def case_a01(S):
+    system = vd.load_scene(C.ROOT / "models" / "iftomm_a01.toml").build()
+    q0, v0, T = system.neutral(), np.zeros(1), 10.0
+
+    def err(q):
+        return a01_error(float(q[0]), T)
+
+    vd_set = _settings(S, [("dop853", {"rtol": r}) for r in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-12)]
+                       + [("rk4", {"dt": d}) for d in (1e-2, 3e-3, 1e-3)] + [("radau", {"rtol": 1e-9}),
+                                                                            ("symplectic", {"dt": 1e-3})],
+                       [("dop853", {"rtol": r}) for r in (1e-6, 1e-8, 1e-10, 1e-12)] + [("rk4", {"dt": 3e-3})],
+                       [("dop853", {"rtol": 1e-8}), ("rk4", {"dt": 3e-3})])
+    runs = vibdyn_runs(system, q0, v0, T, err, vd_set, S)
+    mj = C.mujoco()
+    if mj is not None:
+        def make(integrator, dt):
+            sim = _A01Sim(mj, integrator, dt)
+            return sim
+
+        mj_set = _settings(S, [("RK4", d) for d in (1e-2, 5e-3, 3e-3, 2e-3, 1e-3, 5e-4)]
+                           + [("implicitfast", d) for d in (1e-3, 1e-4, 1e-5)],
+                           [("RK4", d) for d in (1e-2, 3e-3, 1e-3, 5e-4)] + [("implicitfast", d) for d in (1e-3, 1e-4)],
+                           [("RK4", d) for d in (3e-3, 1e-3)])
+        runs += mujoco_runs(make, q0, v0, T, err, mj_set, S)
+    return equal_error_ratios(C.case_record("A01 pendulum (10 s)", "simulation", "exact (elliptic functions, R7)",
+                                            runs, unit="m"))
+
+
+class _A01Sim:
+    """A01 in MuJoCo: bench_simulate's model (1 kg at 1 m, inertia 1e-12), hinge angle = vibdyn's θ."""
+
+    def __init__(self, mj, integrator, dt):
+        self.mj = mj
+        self.model = mj.MjModel.from_xml_string(A01_MJCF.format(dt=dt).replace('integrator="RK4"',
+                                                                               f'integrator="{integrator}"'))
+        self.data = mj.MjData(self.model)
+
+    def run(self, q0, v0, n):
+        self.mj.mj_resetData(self.model, self.data)
+        self.mj.mj_step(self.model, self.data, nstep=n)
+        return self.data.qpos.copy(), self.data.qvel.copy()
+
+
+def chain_case(name, scene, q0, T, reference, vd_set, mj_set, S, ref_kind):
+    system = scene.build()
+    v0 = np.zeros(system.nv)
+    q_ref = reference(system, q0, v0, T)
+
+    def err(q):
+        return float(np.abs(system.difference(q_ref, q)).max())
+
+    runs = vibdyn_runs(system, q0, v0, T, err, vd_set, S)
+    if C.mujoco() is not None and mj_set:
+        runs += mujoco_runs(lambda i, dt: C.MuJoCoSim(scene, system, i, dt), q0, v0, T, err, mj_set, S)
+    return equal_error_ratios(C.case_record(name, "simulation", ref_kind, runs, unit="rad"))
+
+
+def _chain_settings(S, slow=False):
+    vd_set = _settings(S, [("dop853", {"rtol": r}) for r in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-12)]
+                       + [("rk4", {"dt": d}) for d in (3e-3, 1e-3, 3e-4)] + [("radau", {"rtol": 1e-8})],
+                       [("dop853", {"rtol": r}) for r in (1e-6, 1e-8, 1e-10)] + [("rk4", {"dt": 1e-3})],
+                       [("dop853", {"rtol": 1e-8})])
+    mj_set = _settings(S, [("RK4", d) for d in (1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5)]
+                       + [("implicitfast", d) for d in (1e-3, 1e-4, 1e-5)],
+                       [("RK4", d) for d in (1e-2, 3e-3, 1e-3, 3e-4, 1e-4)] + [("implicitfast", d) for d in (1e-3, 1e-4)],
+                       [("RK4", 1e-3)])
+    return vd_set, mj_set
+
+
+def case_double_pendulum(S):
+    scene = C.with_min_inertia(vd.load_scene(C.ROOT / "models" / "double_pendulum.toml"))
+    vd_set, mj_set = _chain_settings(S)
+    return chain_case("double pendulum (5 s)", scene, np.array([1.0, 0.5]), 5.0, lambda s, q, v, T:
+                      scipy_reference(s, q, v, T)[0], vd_set, mj_set, S, "scipy DOP853 rtol 1e-13")
+
+
+def case_pivot_chain(S):
+    scene = pendulum_chain(10, k=10.0, L=0.3, m=1.0)  # gravity-dominated: its motion is not chaotic over 2 s
+    system = scene.build()
+    q0 = system.random_configuration(0.3, 1)
+    vd_set, mj_set = _chain_settings(S)
+    return chain_case("10-link pendulum chain (2 s)", scene, q0, 2.0, lambda s, q, v, T: scipy_reference(s, q, v, T)[0],
+                      vd_set, mj_set, S, "scipy DOP853 rtol 1e-13")
+
+
+def case_ball_chain(S):
+    scene = ball_chain_scene(10)
+    system = scene.build()
+    q0 = system.random_configuration(0.3, 1)
+    T, v0 = 1.0, np.zeros(system.nv)
+    # reference: MuJoCo's RK4 at dt = 1e-5 (another engine and integrator; its error ≈ 3e-13 by the RK4 runs'
+    # convergence), checked against vibdyn's DOP853 at rtol 1e-11. Not vibdyn at rtol 1e-13: measured here,
+    # that run is 7e-10 off both, with an estimate of 1e-12 (it is one of the runs below).
+    own = system.simulate(T, q0, v0, rtol=1e-11, t_eval=[T], progress=False).q[-1]
+    if C.mujoco() is not None:
+        q_ref = C.MuJoCoSim(scene, system, "RK4", 1e-5).run(q0, v0, 100_000)[0]
+        kind = "MuJoCo RK4 dt 1e-5 (checked against vibdyn DOP853 rtol 1e-11)"
+    else:
+        q_ref, kind = own, "vibdyn DOP853 rtol 1e-11 (MuJoCo not installed)"
+    check = float(np.abs(system.difference(q_ref, own)).max())
+    vd_set, mj_set = _chain_settings(S)
+    if S.full:
+        vd_set = vd_set + [("dop853", {"rtol": 1e-13})]
+    case = chain_case("10-link ball-joint chain (1 s)", scene, q0, T, lambda s, q, v, T_: q_ref, vd_set, mj_set, S,
+                      kind)
+    case["reference_check"] = check
+    case["note"] = f"Reference and its check differ by {check:.1e} rad."
+    return case
+
+
+def case_rotor(S):
+    scene = vd.load_scene(C.ROOT / "models" / "rotor_slider.toml")
+    vd_set, _ = _chain_settings(S)
+    return chain_case("rotor with sprung slider (5 s spin-up)", scene, scene.build().neutral(), 5.0,
+                      lambda s, q, v, T: scipy_reference(s, q, v, T)[0], vd_set, [], S,
+                      "scipy DOP853 rtol 1e-13 (no MuJoCo: motor law 10 − ω² has no MuJoCo actuator)")
+
+
+def run(S):
+    """Every time-integration case (the smoke mode: A01 only)."""
+    cases = [case_a01]
+    if not S.smoke:
+        cases += [case_double_pendulum, case_pivot_chain, case_ball_chain, case_rotor]
+    return [c(S) for c in cases]

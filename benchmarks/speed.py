@@ -1,0 +1,116 @@
+"""The next speed targets, measured as ratios to MuJoCo (or with a stated target) in the same run.
+
+- linearise + all modes of the 10-body chain (linearization.py's scene and exact reference), FD and
+  analytic, interleaved with MuJoCo's ``mjd_transitionFD`` (centred) + eig and ``mjd_inverseFD`` + eigh:
+  best of many calls each. Target: vibdyn ≤ 1× transitionFD for both paths;
+- point-element evaluation: ``system.generalized_forces(q, v)`` of a scene with 6 point-to-point springs on
+  3 bodies (one slider, two pivots) at a random state. Target ≤ 20 µs. Reference: Jᵀf summed spring by
+  spring from Pinocchio's joint Jacobians (tests/oracles.py); "estimate": 1e3 ε × the force scale (the
+  evaluation is exact to round-off).
+
+The third target (10-link chain simulated to 1e-8 against MuJoCo RK4 at equal error) is the
+``equal_error`` figure of simulation.py's chain cases.
+"""
+
+import time
+
+import numpy as np
+
+import vibdyn as vd
+
+from . import common as C
+from .linearization import MuJoCoLinear, exact_omega, lin_modes, omega_error
+from .bench_linearize import pendulum_chain
+
+POINT_TARGET_S = 20e-6
+LIN_TARGET_RATIO = 1.0
+
+
+def interleaved(fns, repeat):
+    """Best wall time of each function, calls interleaved round-robin (the machine's load hits all alike)."""
+    for f in fns.values():
+        f()
+    best = {k: np.inf for k in fns}
+    for _ in range(repeat):
+        for k, f in fns.items():
+            t = time.perf_counter()
+            f()
+            best[k] = min(best[k], time.perf_counter() - t)
+    return best
+
+
+def case_lin10(S):
+    n = 10
+    scene = pendulum_chain(n)
+    system = scene.build()
+    q0 = system.neutral()
+    ref = exact_omega(n)
+    fns = {"fd": lambda: lin_modes(system, q0, "fd"), "analytic": lambda: lin_modes(system, q0, "analytic")}
+    mjl = MuJoCoLinear(scene, system) if C.mujoco() is not None else None
+    if mjl:
+        fns.update(transitionFD=mjl.transition, inverseFD=mjl.inverse)
+    best = interleaved(fns, {"smoke": 5, "quick": 100, "full": 400}[S.mode])
+    runs = []
+    for method in ("fd", "analytic"):
+        lin, m = fns[method]()
+        r = C.run_record(f"vibdyn {method}", "vibdyn", omega_error(m.omega, ref), m.error, best[method],
+                         lin.evaluations, method=method)
+        if mjl:
+            r["ratio_to_transitionFD"] = best[method] / best["transitionFD"]
+        runs.append(r)
+    if mjl:
+        for k in ("transitionFD", "inverseFD"):
+            runs.append(C.run_record(f"mujoco {k}", "mujoco", omega_error(fns[k](), ref), None, best[k], method=k))
+    case = C.case_record("target: linearise + all modes, chain n=10", "speed", "exact M, K + eigh", runs,
+                         target=f"vibdyn ≤ {LIN_TARGET_RATIO:g}× mjd_transitionFD, both paths")
+    if mjl:
+        case["ratio_to_mujoco"] = max(r["ratio_to_transitionFD"] for r in runs[:2])
+        case["ratio_note"] = (f"worst of FD {runs[0]['ratio_to_transitionFD']:.2f}, analytic "
+                              f"{runs[1]['ratio_to_transitionFD']:.2f} / transitionFD; target ≤ {LIN_TARGET_RATIO:g}")
+        case["target_met"] = case["ratio_to_mujoco"] <= LIN_TARGET_RATIO
+    return case
+
+
+SPRINGS = [(("world", (-1, 0, 0)), ("cart", (0, 0, 0))), (("world", (1, 0.2, 0)), ("cart", (0.1, 0, 0))),
+           (("cart", (0, 0.1, 0)), ("arm", (0, 0, -0.5))), (("world", (0, 1, -0.5)), ("arm", (0, 0, -1))),
+           (("arm", (0, 0, -1)), ("tip", (0, 0, -0.4))), (("world", (0.5, -1, -1.5)), ("tip", (0.1, 0, -0.8)))]
+
+
+def springs_scene():
+    s = vd.Scene("six springs", gravity=(0, 0, -C.G))
+    s.add_body("cart", joint=vd.Slider((1, 0, 0)), mass=10.0, inertia=vd.inertia.box(10.0, (0.4, 0.3, 0.2)))
+    s.add_body("arm", "cart", vd.Pivot((0, 1, 0)), mass=2.0, com=(0, 0, -0.5),
+               inertia=vd.inertia.rod(2.0, 1.0, axis=(0, 0, 1)))
+    s.add_body("tip", "arm", vd.Pivot((1, 0, 0), at=(0, 0, -1)), mass=1.0, com=(0, 0, -0.4),
+               inertia=vd.inertia.rod(1.0, 0.8, axis=(0, 0, 1)))
+    for i, (a, b) in enumerate(SPRINGS):
+        s.add_spring(f"k{i}", a, b, stiffness=100.0 * (i + 1), free_length=0.3)
+    return s
+
+
+def case_point_elements(S):
+    system = springs_scene().build()
+    rng = np.random.default_rng(3)
+    q = system.random_configuration(0.3, rng)
+    v = rng.standard_normal(system.nv)
+    spring_force_q = C._oracles().spring_force_q
+    Q_ref = sum(spring_force_q(system, a, b, 100.0 * (i + 1), 0.3, q) for i, (a, b) in enumerate(SPRINGS))
+    fns = {"generalized_forces": lambda: system.generalized_forces(q, v),
+           "accelerations": lambda: system.accelerations(q, v)}
+    best = interleaved(fns, {"smoke": 20, "quick": 2000, "full": 10000}[S.mode])
+    Q = fns["generalized_forces"]()
+    scale = float(np.abs(Q_ref).max())
+    err = float(np.abs(Q - Q_ref).max()) / scale
+    runs = [C.run_record("vibdyn generalized_forces (6 springs)", "vibdyn", err, 1e3 * np.finfo(float).eps, best[
+        "generalized_forces"], 1, note=f"target ≤ {POINT_TARGET_S * 1e6:.0f} µs"),
+            C.run_record("vibdyn accelerations (ABA + 6 springs)", "vibdyn", None, None, best["accelerations"], 1,
+                         verdict_=C.UNCHECKED, note="context")]
+    case = C.case_record("target: point-element evaluation, 6 springs", "speed",
+                         "Jᵀf per spring from Pinocchio joint Jacobians (tests/oracles.py)", runs, unit="relative",
+                         target=f"≤ {POINT_TARGET_S * 1e6:.0f} µs")
+    case["target_met"] = best["generalized_forces"] <= POINT_TARGET_S
+    return case
+
+
+def run(S):
+    return [case_lin10(S), case_point_elements(S)]

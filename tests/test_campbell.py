@@ -1,0 +1,144 @@
+"""Campbell diagrams: a gimballed disk rotor against its closed form, the R6 rotor against its held-speed
+linearisation, tracking through a true crossing, critical speeds refined on the linearisation itself."""
+
+import contextlib
+import io
+import json
+
+import numpy as np
+import pytest
+from conftest import MODELS
+
+import vibdyn as vd
+from vibdyn.cli import main
+
+IT, IP, K = 0.08, 0.12, 300.0
+
+
+def gimbal(It=IT, Ip=IP, k=K):
+    s = vd.Scene("gimbal")
+    s.add_body("outer", joint=vd.Pivot(axis=(1, 0, 0)), mass=0.0)
+    s.add_body("inner", parent="outer", joint=vd.Pivot(axis=(0, 1, 0)), mass=0.0)
+    s.add_body("rotor", parent="inner", joint=vd.Pivot(axis=(0, 0, 1)), mass=1.0, inertia=np.diag([It, It, Ip]))
+    s.add_joint_spring("outer", k)
+    s.add_joint_spring("inner", k)
+    return s.build()
+
+
+def closed_form(W, It=IT, Ip=IP, k=K):
+    """(backward, forward) tilt frequencies of the gimballed rotor: It ω² ∓ Ip Ω ω − k = 0."""
+    root = np.sqrt((Ip * W) ** 2 + 4 * It * k)
+    return (-Ip * W + root) / (2 * It), (Ip * W + root) / (2 * It)
+
+
+def test_gimballed_disk_frequencies_whirl_and_critical_speed():
+    c = vd.campbell(gimbal(), "rotor", np.linspace(0, 150, 31))
+    assert c.frequencies.shape == (31, 3)
+    assert np.all(c.frequencies[:, 0] == 0.0)  # the spin itself: cyclic, exactly 0
+    back, fwd = closed_form(c.speeds)
+    lo, hi = c.frequencies[:, 1], c.frequencies[:, 2]
+    # the tracked columns are one physical mode each: from Ω > 0 on, the higher is the forward whirl
+    if hi[5] < lo[5]:
+        lo, hi = hi, lo
+    err = np.maximum(c.error[:, 1], c.error[:, 2])
+    assert np.all(np.abs(lo - back) <= 1e-7 * back) and np.all(np.abs(hi - fwd) <= 1e-7 * fwd)
+    assert np.all(np.abs(lo - back) <= 10 * err + 4 * np.finfo(float).eps * fwd)  # honest estimate
+    col_hi = 2 if c.frequencies[5, 2] > c.frequencies[5, 1] else 1
+    assert all(w == "forward" for w in c.whirl[1:, col_hi])
+    assert all(w == "backward" for w in c.whirl[1:, 3 - col_hi])
+    assert c.whirl[0, 1] == c.whirl[0, 2] == ""  # no spin, no whirl
+    crit = c.critical_speeds(1)
+    assert len(crit) == 1, crit  # a disk (Ip > It): backward only
+    (cs,) = crit
+    exact = np.sqrt(K / (IT + IP))
+    assert cs.whirl == "backward" and cs.mode == 3 - col_hi
+    assert abs(cs.speed - exact) <= 1e-8 * exact
+    assert abs(cs.speed - exact) <= 10 * cs.error
+
+
+def test_rod_like_rotor_has_forward_and_backward_critical_speeds():
+    It, Ip = 0.12, 0.05
+    c = vd.campbell(gimbal(It, Ip), "rotor", np.linspace(0, 200, 21))
+    crit = {k.whirl: k.speed for k in c.critical_speeds(1)}
+    assert crit["backward"] == pytest.approx(np.sqrt(K / (It + Ip)), rel=1e-8)
+    assert crit["forward"] == pytest.approx(np.sqrt(K / (It - Ip)), rel=1e-8)
+    # order 2: where a mode meets twice the spin speed: It(2Ω)² ∓ 2IpΩ² − k = 0
+    crit2 = {k.whirl: k.speed for k in c.critical_speeds(2)}
+    assert crit2["backward"] == pytest.approx(np.sqrt(K / (4 * It + 2 * Ip)), rel=1e-8)
+    assert crit2["forward"] == pytest.approx(np.sqrt(K / (4 * It - 2 * Ip)), rel=1e-8)
+
+
+def test_r6_rotor_at_its_regime_speed_equals_the_held_speed_model():
+    system = vd.load_scene(MODELS / "rotor_slider.toml").build()
+    w_star = np.sqrt(10.0)
+    c = vd.campbell(system, "rotor", [0.0, 1.0, 2.0, 3.0, w_star, 4.0])
+    row = c.frequencies[4]
+    lam = system.steady_motion({"rotor": w_star}).linearize(method="analytic").modes().damped_eigenvalues
+    assert sorted(row) == pytest.approx(sorted([0.0, np.abs(lam.imag).max()]), abs=10 * c.error[4].max())
+    assert np.abs(row).max() == pytest.approx(9.8697688, abs=1e-7)  # reference-cases R6
+    assert c.zeta[4].max() == pytest.approx(1.8225996 / np.hypot(1.8225996, 9.8697688), abs=1e-7)
+
+
+def crossing_rotor():
+    """A heavy rotor carrying a radial slider (ω² ≈ k/m − Ω²: its frequency falls with the speed) and an
+    axial slider (uncoupled from the spin: its frequency stays √(k/m) = 7 rad/s): their curves truly cross."""
+    s = vd.Scene("crossing")
+    s.add_body("rotor", joint=vd.Pivot(axis=(0, 0, 1)), mass=1.0, inertia=np.diag([1e3, 1e3, 1e3]))
+    s.add_body("radial", parent="rotor", joint=vd.Slider(axis=(1, 0, 0), at=(0.5, 0, 0)), mass=1.0,
+               inertia=vd.inertia.point())
+    s.add_spring("k_radial", ("rotor", (0, 0, 0)), ("radial", (0, 0, 0)), stiffness=100.0, free_length=0.5)
+    s.add_body("axial", parent="rotor", joint=vd.Slider(axis=(0, 0, 1)), mass=1.0, inertia=vd.inertia.point())
+    s.add_joint_spring("axial", 49.0)
+    return s.build()
+
+
+def test_tracking_follows_each_mode_through_a_true_crossing():
+    c = vd.campbell(crossing_rotor(), "rotor", np.linspace(0, 8, 33))
+    const = [j for j in range(3) if c.frequencies[0, j] > 0 and np.ptp(c.frequencies[:, j]) <= 1e-9 * 7.0]
+    assert len(const) == 1 and c.frequencies[0, const[0]] == pytest.approx(7.0, rel=1e-12)
+    moving = [j for j in range(3) if j not in const and c.frequencies[0, j] > 0]
+    assert len(moving) == 1
+    f = c.frequencies[:, moving[0]]
+    assert f[0] > 7.0 > f[-1] and np.all(np.diff(f) < 0)  # it crosses the constant one and stays itself
+
+
+def test_campbell_cli_table_json_and_png(tmp_path):
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = main(["campbell", str(MODELS / "gimbal_rotor.toml"), "--spin", "rotor", "--speeds", "0:150:7",
+                     "--png", str(tmp_path / "c.png")])
+    assert code == 0
+    text = out.getvalue()
+    assert "critical speed 38.7298334" in text and "backward whirl" in text
+    assert (tmp_path / "c.png").stat().st_size > 10_000
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["campbell", "gimbal_rotor", "--spin", "rotor", "--speeds", "0,40,80", "--json"]) == 0
+    data = json.loads(out.getvalue(), parse_constant=lambda s: pytest.fail(f"non-JSON constant {s}"))
+    assert data["critical_speeds"][0]["speed_rad_s"] == pytest.approx(np.sqrt(K / (IT + IP)), rel=1e-8)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--spin", "rotr", "--speeds", "0:10:3"], "did you mean 'rotor'"),
+    (["--spin", "rotor", "--speeds", "0:10"], "--speeds"),
+    (["--spin", "rotor", "--speeds", "5,1"], "increasing"),
+    (["--spin", "rotor", "--speeds", "0:10:3", "--orders", "x"], "--orders"),
+])
+def test_campbell_cli_refuses_bad_input(argv, words):
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(["campbell", "gimbal_rotor"] + argv)
+    assert code == 2 and words in err.getvalue()
+
+
+def test_campbell_refuses_a_translation_as_spin():
+    with pytest.raises(vd.ModelError, match="not a rotation"):
+        vd.campbell(crossing_rotor(), "axial", [0.0, 1.0])
+
+
+def test_modes_of_the_spinning_gimbal_print_no_round_off_noise():
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["modes", "gimbal_rotor"]) == 0
+    text = out.getvalue()
+    assert "0 ± 21.824584i" in text and "0 ± 171.82458i" in text and "e-10" not in text

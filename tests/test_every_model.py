@@ -1,0 +1,57 @@
+"""Every bundled model works with every CLI command (``info``, ``modes``, ``frf``, ``simulate``).
+
+Each command must exit 0, or give one of the explained refusals listed in ``REFUSALS`` (exit 2, a
+``vibdyn: error:`` line containing the listed words, no traceback). ``frf`` uses the model's first
+coordinate as input and output; ``simulate`` runs 1 s from the neutral configuration at rest.
+"""
+
+import contextlib
+import io
+
+import pytest
+from conftest import MODELS
+
+import vibdyn as vd
+from vibdyn.cli import main
+
+FILES = sorted(MODELS.glob("*.toml"))
+COMMANDS = ("info", "modes", "frf", "simulate")
+
+# (model, command) -> words the refusal must contain. Each one is a physical impossibility, not a bug.
+REFUSALS: dict[tuple[str, str], str] = {}
+
+
+def run(argv):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(argv)
+    return code, out.getvalue(), err.getvalue()
+
+
+def argv_for(command, path):
+    if command == "frf":
+        first = vd.load_scene(path).build().coordinates[0]
+        return ["frf", str(path), "--input", first, "--output", first, "--points", "60"]
+    if command == "simulate":
+        return ["simulate", str(path), "--t-end", "1", "--no-progress"]
+    return [command, str(path)]
+
+
+def test_every_model_is_listed():
+    assert len(FILES) >= 17
+    stale = {m for m, _ in REFUSALS} - {p.stem for p in FILES}
+    assert not stale, f"refusals listed for models that do not exist: {stale}"
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+@pytest.mark.parametrize("path", FILES, ids=[p.stem for p in FILES])
+def test_command_on_model(path, command):
+    code, out, err = run(argv_for(command, path))
+    expected = REFUSALS.get((path.stem, command))
+    if expected is None:
+        assert code == 0, f"vibdyn {command} {path.stem} failed: {err.strip()}"
+        assert out.strip(), "the command printed nothing"
+        assert "nan" not in out.lower().split(), out
+    else:
+        assert code == 2, f"expected the refusal '{expected}', got exit {code}: {out[-500:]}"
+        assert err.startswith("vibdyn: error:") and expected in err, err

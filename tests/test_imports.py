@@ -1,0 +1,53 @@
+"""`import vibdyn` loads only the description and the compiled model; analyses, scipy's heavy parts, plots,
+the viewer and MuJoCo load on first use, and every public name stays importable from `vibdyn`."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+import vibdyn as vd
+
+HEAVY = ("scipy.integrate", "scipy.signal", "matplotlib", "meshcat", "tqdm", "mujoco", "dask", "distributed",
+         "pandas")
+LAZY_MODULES = ("vibdyn.simulate", "vibdyn.integrators", "vibdyn.response", "vibdyn.identify", "vibdyn.plots",
+                "vibdyn.sweeps", "vibdyn.campbell_diagram")
+
+
+def loaded_after(code):
+    """Top-level module names in sys.modules after running ``code`` in a fresh interpreter."""
+    out = subprocess.run([sys.executable, "-c", code + "\nimport sys, json; print(json.dumps(sorted(sys.modules)))"],
+                         capture_output=True, text=True, check=True).stdout
+    return set(json.loads(out.splitlines()[-1]))
+
+
+def test_import_vibdyn_loads_no_heavy_module():
+    mods = loaded_after("import vibdyn")
+    assert not [m for m in mods if m.split(".")[0] in HEAVY or m.startswith(HEAVY)]
+    assert not [m for m in mods if m.startswith(LAZY_MODULES)]
+
+
+def test_first_use_loads_the_module():
+    mods = loaded_after("import vibdyn\nvibdyn.Trajectory")
+    assert "vibdyn.simulate" in mods and "scipy.integrate" in mods
+
+
+@pytest.mark.parametrize("name", vd.__all__)
+def test_every_public_name_is_importable(name):
+    assert getattr(vd, name) is not None
+    namespace = {}
+    exec(f"from vibdyn import {name}", namespace)
+    assert namespace[name] is getattr(vd, name)
+
+
+def test_lazy_names_are_the_defining_modules_objects():
+    from vibdyn.linearize import LinearModel
+    from vibdyn.response import FRF
+    from vibdyn.simulate import SimulationError
+
+    assert vd.FRF is FRF and vd.LinearModel is LinearModel and vd.SimulationError is SimulationError
+    assert issubclass(vd.SimulationError, vd.ConvergenceError)
+    assert set(vd.__all__) <= set(dir(vd))
+    with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
+        vd.nonsense  # noqa: B018
