@@ -1,11 +1,12 @@
 """Input checks shared by the scene, the joints and the force elements (all raise ModelError)."""
 
 import difflib
+import inspect
 import numbers
 
 import numpy as np
 
-from .errors import ModelError
+from .errors import ModelError, VibdynError
 
 
 def finite_array(value, shape, what):
@@ -19,6 +20,8 @@ def finite_array(value, shape, what):
                 x is None or isinstance(x, (str, bytes, bool, np.bool_, complex)) for x in raw.flat)):
             raise TypeError
         arr = raw.astype(float)
+    except OverflowError:
+        raise ModelError(f"{what}: a number is too large for double precision (beyond ±1.8e308)") from None
     except (TypeError, ValueError):
         expected = "numbers" if shape is None else f"numbers of shape {_fmt(shape)}"
         raise ModelError(f"{what}: expected {expected}, got {value!r}") from None
@@ -38,7 +41,10 @@ def scalar(value, what, *, positive=False, nonnegative=False):
     """A finite float; ``positive`` (> 0) or ``nonnegative`` (>= 0) if asked."""
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
         raise ModelError(f"{what}: expected a number, got {value!r}")
-    x = float(value)
+    try:
+        x = float(value)
+    except OverflowError:
+        raise ModelError(f"{what}: too large for double precision (beyond ±1.8e308)") from None
     if not np.isfinite(x):
         raise ModelError(f"{what}: must be finite, got {x}")
     if positive and not x > 0:
@@ -46,6 +52,23 @@ def scalar(value, what, *, positive=False, nonnegative=False):
     if nonnegative and x < 0:
         raise ModelError(f"{what}: must not be negative, got {x}")
     return x
+
+
+def integer(value, what, *, minimum=None, maximum=None):
+    """An int (not a bool, not a float with a fraction) within [minimum, maximum], else ModelError."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)):
+        raise ModelError(f"{what}: expected an integer, got {value!r}")
+    n = int(value)
+    if (minimum is not None and n < minimum) or (maximum is not None and n > maximum):
+        raise ModelError(f"{what}: must be in [{minimum}, {maximum}], got {n}")
+    return n
+
+
+def finite_result(value, what):
+    """``value`` unchanged if every number in it is finite, else ModelError: a result that overflowed."""
+    if not np.all(np.isfinite(value)):
+        raise ModelError(f"{what} is not finite (overflow: state or parameters too large)")
+    return value
 
 
 def unit_axis(value, what):
@@ -131,3 +154,28 @@ def kind_of(d, field, registry, what, example, noun):
         raise unknown_name(kind, registry, noun, f"{noun}s", what)
     return registry[kind], d
 
+
+
+def user_callable(fn, nargs, what):
+    """``fn`` if it accepts ``nargs`` positional arguments, else ModelError now (not at t = 0.5 s)."""
+    try:
+        sig = inspect.signature(fn)
+    except (TypeError, ValueError):
+        return fn  # a builtin without a signature: it is checked when called
+    try:
+        sig.bind(*range(nargs))
+    except TypeError:
+        raise ModelError(f"{what}: the callable must accept {nargs} positional argument(s), its signature is "
+                         f"{getattr(fn, '__name__', 'callable')}{sig}") from None
+    return fn
+
+
+def call_user(fn, args, what, t):
+    """fn(*args), the one guard around every user callable (force laws, body forces, support motions): any
+    exception inside it becomes a ModelError naming the element, the time (s) and the original error."""
+    try:
+        return fn(*args)
+    except VibdynError:
+        raise
+    except Exception as e:
+        raise ModelError(f"{what} failed at t = {t:.6g} s: {type(e).__name__}: {e}") from e

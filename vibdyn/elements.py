@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import laws
-from ._check import count, finite_array, scalar, vector3
+from ._check import count, finite_array, scalar, user_callable, vector3
 from .errors import ModelError
 
 WORLD = "world"
@@ -162,7 +162,7 @@ def joint_force_value(value, nv, what):
     if isinstance(value, dict):
         return laws.from_dict(value, what)
     if callable(value):
-        return value
+        return user_callable(value, 3, what + " (a callable of t, q, v)")
     arr = np.atleast_1d(finite_array(value, None, what))
     if arr.shape != (nv,):
         raise ModelError(f"{what}: expected {count(nv, 'number')} (one per coordinate), got shape {arr.shape}")
@@ -170,8 +170,10 @@ def joint_force_value(value, nv, what):
 
 
 def vector_or_callable(value, what):
-    if value is None or callable(value):
+    if value is None:
         return value
+    if callable(value):
+        return user_callable(value, 3, what + " (a callable of t, q, v)")
     return tuple(float(x) for x in vector3(value, what))
 
 

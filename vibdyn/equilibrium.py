@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from ._check import integer, scalar
 from ._format import number, table
 from .errors import ConvergenceError, ModelError
 from .linearize import jacobian_q, jacobian_v, linearize, steps
@@ -111,9 +112,7 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=1e-10, max_iter=100, gue
     cyclic = {}
     for name, speed in v_cyclic.items():
         i = system.coordinate_index(name)
-        if speed is not None and not np.isfinite(speed):
-            raise ModelError(f"steady_motion: speed of '{name}' must be finite or None, got {speed}")
-        cyclic[i] = speed
+        cyclic[i] = None if speed is None else scalar(speed, f"steady_motion: speed of '{name}'")
     return _solve(system, q0, t, cyclic, tol, max_iter, guess)
 
 
@@ -153,6 +152,8 @@ def held(system, q=None, v=None, t=0.0):
 
 def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
     start = time.perf_counter()
+    t, tol = system._t(t), scalar(tol, "equilibrium tol", positive=True)
+    max_iter, guess = integer(max_iter, "equilibrium max_iter", minimum=0), scalar(guess, "steady_motion guess")
     nv, model = system.nv, system.model
     q = system.neutral() if q0 is None else system._q(np.array(q0, dtype=float), "q0").copy()
     system.check_limits(q, "equilibrium search start")

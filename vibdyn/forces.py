@@ -8,7 +8,7 @@ frame) that the system hands to ABA/RNEA as external forces. Only the kinds a sc
 import numpy as np
 import pinocchio as pin
 
-from ._check import count, finite_array
+from ._check import call_user, count, finite_array
 from .elements import BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring
 from .errors import ModelError
 
@@ -185,7 +185,7 @@ class BodyForces(Group):
             x = getattr(e, attr)
             if x is None:
                 continue
-            val = x(t, q, v) if callable(x) else x
+            val = call_user(x, (t, q, v), f"force '{e.name}' ({attr})", t) if callable(x) else x
             arr = _numbers(val, (3,))
             if arr is None:
                 raise ModelError(f"force '{e.name}': {attr} must be 3 finite numbers, got {val!r} at t = {t}")
@@ -283,9 +283,11 @@ class JointForces(Group):
             Q += self.constant
         for e, b in self.laws:
             if b.nv == 1:
-                val = e.value(t, float(q[b.idx_q]), float(v[b.idx_v]))
+                # numpy scalars, not Python floats: an overflow gives inf (caught as a blow-up), not OverflowError
+                args = (t, q[b.idx_q], v[b.idx_v])
             else:
-                val = e.value(t, q[b.idx_q:b.idx_q + b.nq].copy(), v[b.idx_v:b.idx_v + b.nv].copy())
+                args = (t, q[b.idx_q:b.idx_q + b.nq].copy(), v[b.idx_v:b.idx_v + b.nv].copy())
+            val = call_user(e.value, args, f"joint force '{e.name}'", t)
             arr = _numbers(val, None)
             if arr is None or np.atleast_1d(arr).shape != (b.nv,):
                 raise ModelError(f"joint force '{e.name}' returned {val!r} at t = {t}: expected "

@@ -26,6 +26,8 @@ def box(mass, size):
     """Uniform box of edge lengths ``size`` = (a, b, c) along the body axes: m(b²+c²)/12, ..."""
     m = scalar(mass, "box mass", nonnegative=True)
     a, b, c = vector3(size, "box size")
+    if min(a, b, c) < 0:
+        raise ModelError(f"box size: edge lengths must not be negative, got {[float(a), float(b), float(c)]}")
     return m / 12.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
 
 

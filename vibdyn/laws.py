@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._check import finite_array, kind_of, scalar
+from ._check import finite_array, kind_of, scalar, user_callable
 from .errors import ModelError
 
 
@@ -106,6 +106,8 @@ class Motion:
     def __post_init__(self):
         if not (callable(self.position) and callable(self.velocity)):
             raise ModelError("support motion: position and velocity must both be callables of t")
+        user_callable(self.position, 1, "support motion: position (a callable of t)")
+        user_callable(self.velocity, 1, "support motion: velocity (a callable of t)")
 
     def to_dict(self):
         raise ModelError("support motion given as Python callables cannot be written to a scene file "

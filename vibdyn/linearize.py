@@ -242,7 +242,7 @@ def operating_point(system, at=None, v=None, t=0.0):
         q0 = at
     q0 = system._q(q0, "operating point q")
     v0 = system._v(np.zeros(system.nv) if v is None else v, "operating point v")
-    return q0, v0, float(t)
+    return q0, v0, system._t(t)
 
 
 def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=1e-5):
@@ -255,11 +255,13 @@ def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=1e-5)
     scale; error estimated from a second step 2h) or "analytic" (Pinocchio's RNEA derivatives plus the
     force elements' derivatives).
     """
+    from ._check import scalar
+
     start = time.perf_counter()
+    step = scalar(step, "linearize step", positive=True)
     q0, v0, t0 = operating_point(system, at, v, t)
     M = system.mass_matrix(q0)
-    if not _is_pd(M):
-        system._check_mass_matrix(q0, "the operating point")
+    system._check_mass_matrix(q0, "the operating point", M)
     if a is not None:
         a0 = system._v(a, "a")
     elif hasattr(at, "drive"):  # an equilibrium or steady motion: the reference motion does not accelerate
@@ -383,10 +385,3 @@ def world_point_jacobian(R, J, r):
     LOCAL Jacobian J (6 × nv): R (J_lin − [r]× J_ang)."""
     return R @ (J[:3] - pin.skew(r) @ J[3:])
 
-
-def _is_pd(M):
-    try:
-        np.linalg.cholesky(M)
-        return True
-    except np.linalg.LinAlgError:
-        return False

@@ -5,7 +5,7 @@ the first-order state form gives complex eigenvalues λ = −ζω ± iω√(1−
 """
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -46,6 +46,7 @@ class Modes:
     classical: bool  # C M⁻¹ K = K M⁻¹ C (proportional damping: real shapes diagonalise C)
     stability: str  # "stable", "unstable" or "neutral"
     elapsed: float  # s
+    note: str = ""  # e.g. that an unresolved finite-difference model was replaced by the analytic one
 
     @property
     def frequency_hz(self):
@@ -96,6 +97,8 @@ class Modes:
              "stability": self.stability, "orthogonality_residual": self.orthogonality,
              "error_per_mode": self.residual.tolist(), "error_estimate": self.error,
              "elapsed_s": self.elapsed}
+        if self.note:
+            d["note"] = self.note
         if self.eigenvalues.size:
             d.update({"eigenvalues": [[z.real, z.imag] for z in self.eigenvalues],
                       "zeta": self.zeta.tolist(), "omega_n_rad_s": self.omega_n.tolist(),
@@ -132,6 +135,8 @@ class Modes:
                 lines.append(f"{i + 1:>4} {lam.real:>14.8g}{lam.imag:>+14.8g}i {self.zeta[i]:>10.6g} "
                              f"{self.omega_n[i]:>12.8g}")
         lines.append(f"stability {self.stability}; error ≈ {self.error:.1e}; {self.elapsed * 1e3:.2f} ms")
+        if self.note:
+            lines.append(self.note)
         return "\n".join(lines)
 
 
@@ -141,8 +146,17 @@ def modes(lin, tolerance=None):
     A mode is rigid (ω² cleaned to exactly 0) when |ω²| ≤ 10 × its own uncertainty δω² — the eigen
     residual ‖Kφ − ω²Mφ‖_M⁻¹ plus φᵀ(K's error estimate + n·ε·|K|)φ — so stiff spectra keep their genuine
     low modes. ``tolerance`` (relative to max|ω²|) overrides this with a fixed threshold.
+
+    A finite-difference model cannot tell a rigid mode from a soft one whose ω² is below its round-off
+    (stiffness ratios ~1e12): when the "fd" model flags a rigid mode, the analytic model at the same point
+    checks it; if that one resolves the mode, its modes are returned (``linear`` is then the analytic model)
+    and ``note`` says so.
     """
+    from ._check import scalar
+
     start = time.perf_counter()
+    if tolerance is not None:
+        tolerance = scalar(tolerance, "modes tolerance", nonnegative=True)
     M, Ks = lin.M, lin.K_s
     try:
         w2, Phi = sla.eigh(Ks, M, check_finite=False)  # K and M were checked finite by linearize
@@ -160,10 +174,23 @@ def modes(lin, tolerance=None):
     KPhi = Ks @ Phi
     R = KPhi - MPhi * w2
     A = np.abs(Phi)
-    uncertainty = (np.sqrt(np.abs(np.einsum("ij,ij->j", R, sla.cho_solve(chol, R, check_finite=False))))
+    r = np.abs(R).max(axis=0, initial=0.0)
+    R = R / np.where(r > 0, r, 1.0)  # scaled: ‖R‖²_M⁻¹ must not overflow when ω² is huge
+    uncertainty = (r * np.sqrt(np.abs(np.einsum("ij,ij->j", R, sla.cho_solve(chol, R, check_finite=False))))
                    + np.einsum("ij,ij->j", A, (n * EPS * np.abs(Ks) + 0.5 * (lin.K_error + lin.K_error.T)) @ A))
+    if not np.all(np.isfinite(uncertainty)) or not np.all(np.isfinite(w2)):
+        raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
+                         f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
     if tolerance is None:
         rigid = np.abs(w2) <= 10 * uncertainty
+        if rigid.any() and lin.method == "fd":
+            from .linearize import linearize
+
+            exact = modes(linearize(lin.system, lin.q0, v=lin.v0, t=lin.t0, a=lin.a0, method="analytic"))
+            if exact.rigid.sum() != rigid.sum():  # the analytic model resolves what FD could not
+                return replace(exact, note=f"{int(rigid.sum() - exact.rigid.sum())} mode(s) unresolved by finite "
+                                           "differences (ω² within their round-off): modes from the analytic "
+                                           "linear model")
     else:
         rigid = np.abs(w2) <= float(tolerance) * scale
     w2 = np.where(rigid, 0.0, w2)
@@ -203,8 +230,12 @@ def modes(lin, tolerance=None):
 
 def mac(a, b=None):
     """Modal assurance criterion MAC_ij = |a_iᴴ b_j|² / (a_iᴴ a_i · b_jᴴ b_j) between columns of a and b."""
-    a = np.asarray(a)
-    b = a if b is None else np.asarray(b)
+    from ._check import finite_array
+
+    a = finite_array(a, None, "mac: first shapes") if not np.iscomplexobj(a) else np.asarray(a)
+    b = a if b is None else (finite_array(b, None, "mac: second shapes") if not np.iscomplexobj(b) else np.asarray(b))
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ModelError("mac: shapes contain NaN or inf")
     a = a.reshape(a.shape[0], -1)
     b = b.reshape(b.shape[0], -1)
     if a.shape[0] != b.shape[0]:
@@ -218,10 +249,13 @@ def mac(a, b=None):
 def rayleigh(zeta, omega):
     """(α, β) of Rayleigh damping C = αM + βK with ratios ζ = (ζ1, ζ2) at ω = (ω1, ω2) rad/s:
     ζ_i = α/(2ω_i) + βω_i/2."""
-    z = np.asarray(zeta, dtype=float).reshape(2)
-    w = np.asarray(omega, dtype=float).reshape(2)
-    if not np.all(np.isfinite(z)) or not np.all(np.isfinite(w)) or np.any(w <= 0) or w[0] == w[1]:
-        raise ModelError(f"rayleigh: need two distinct positive frequencies and finite ratios, got {omega}, {zeta}")
+    from ._check import finite_array
+
+    z = finite_array(zeta, (2,), "rayleigh: damping ratios zeta")
+    w = finite_array(omega, (2,), "rayleigh: frequencies omega (rad/s)")
+    if not np.all(np.isfinite(z)) or not np.all(np.isfinite(w)) or np.any(w <= 0) or w[0] == w[1] or np.any(z < 0):
+        raise ModelError(f"rayleigh: need two distinct positive frequencies and finite ratios ≥ 0, got {omega}, "
+                         f"{zeta}")
     A = np.array([[1 / (2 * w[0]), w[0] / 2], [1 / (2 * w[1]), w[1] / 2]])
     alpha, beta = np.linalg.solve(A, z)
     return float(alpha), float(beta)

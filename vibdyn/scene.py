@@ -105,6 +105,11 @@ class Scene:
         body = Body(name, parent, joint, m, tuple(map(float, c)), tuple(tuple(map(float, r)) for r in I),
                     shapes(shape, what, self.shape_folder))
         self.bodies[name] = body
+        index = self.__dict__.get("_joint_index")
+        if index is not None and index[0] == len(self.bodies) - 1:  # kept current: loading stays linear
+            if joint.name:
+                index[1][joint.name] = body
+            self._joint_index = (len(self.bodies), index[1])
         return body
 
     # ---------------------------------------------------------------- elements
@@ -280,7 +285,10 @@ class Scene:
         return unknown_name(name, names, noun, plural, what)
 
     def copy(self):
-        return copy.deepcopy(self)
+        try:
+            return copy.deepcopy(self)
+        except RecursionError:  # e.g. references nested a thousand deep
+            raise ModelError(f"scene '{self.name}': data nested too deeply to copy (references?)") from None
 
     def build(self):
         """Compile the scene into a :class:`vibdyn.System` (checks it as a whole first)."""
@@ -309,10 +317,12 @@ class Scene:
             return None
         if name in self.bodies:
             return self.bodies[name]
-        for b in self.bodies.values():
-            if b.joint.name == name:
-                return b
-        return None
+        index = self.__dict__.get("_joint_index")
+        if index is None or index[0] != len(self.bodies):  # bodies by joint name, rebuilt if stale
+            index = (len(self.bodies), {b.joint.name: b for b in self.bodies.values() if b.joint.name})
+            self._joint_index = index
+        b = index[1].get(name)
+        return b if b is not None and self.bodies.get(b.name) is b else None
 
     def _joint_body(self, name, kind):
         b = self._find_body(name)

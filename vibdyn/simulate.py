@@ -45,6 +45,7 @@ from .integrators.chart import make_ode
 from .integrators.explicit import DOP853, RK4, StepError
 from .integrators.implicit import Implicit
 from .integrators.variational import Variational
+from .system import Energy
 
 METHODS = ("dop853", "rk4", "radau", "bdf", "symplectic")
 ALIASES = {"variational": "symplectic"}
@@ -54,6 +55,7 @@ ERROR_METHODS = {"dop853": ("local", "rerun"), "radau": ("rerun",), "bdf": ("rer
 ORDER = {"rk4": 4, "symplectic": 2}
 RERUN_FACTOR = 100.0  # the "rerun" error estimate tightens rtol and atol by this factor
 MIN_RTOL = 100 * np.finfo(float).eps
+MAX_FIXED_STEPS = 1e9  # a fixed-step run longer than this is a mistake (days of computing), refused
 PROGRESS_DELAY = 2.0  # s of wall time before a progress bar appears
 
 
@@ -269,6 +271,9 @@ def simulate(system, t_end, q0=None, v0=None, method="dop853", rtol=1e-8, atol=N
     if q_err is None:  # the run stopped before its error could be estimated
         q_err = v_err = np.full(len(main.t), np.inf)
     traj = _trajectory(system, cfg, main, runs, q_err, v_err, time.perf_counter() - start)
+    if main.status == "finished" and not np.all(np.isfinite(traj.energy)):
+        raise SimulationError("the energies of the motion overflow (state too large for double precision)",
+                              traj, cfg.t_end)
     if main.status == "failed":
         t = _t_reached(main)
         raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}", traj,
@@ -306,6 +311,7 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
         q0, v0 = q0.q, q0.v if v0 is None else v0
     q0 = system.neutral() if q0 is None else system._q(q0, f"{what}: q0")
     v0 = np.zeros(system.nv) if v0 is None else system._v(v0, f"{what}: v0")
+    system._check_mass_matrix(q0, "the initial configuration q0")
     rtol = scalar(rtol, f"{what}: rtol")
     if not MIN_RTOL <= rtol < 1.0:
         raise ModelError(f"{what}: rtol must be in [{MIN_RTOL:.2g}, 1) (relative error per step), got {rtol:g}")
@@ -326,6 +332,9 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
         dt = scalar(dt, f"{what}: dt (s)", positive=True)
         if dt > t_end:
             raise ModelError(f"{what}: dt = {dt:g} s is longer than t_end = {t_end:g} s")
+        if method in FIXED_STEP and t_end / dt > MAX_FIXED_STEPS:
+            raise ModelError(f"{what}: t_end / dt = {t_end / dt:.3g} steps is more than {MAX_FIXED_STEPS:.0e}: "
+                             "take a larger dt or a shorter t_end")
     elif method in FIXED_STEP:
         raise ModelError(f"{what}: method '{method}' takes fixed steps: give dt (s)")
     if t_eval is not None:
@@ -414,6 +423,8 @@ def _record(run, t, q, v, w, local=None):
 def _adaptive(system, cfg, run, outputs, rtol, atol_q, atol_v, progress):
     ode, y0 = make_ode(system, cfg.q0, cfg.v0, cfg.work)
     run.ode = ode
+    if not np.all(np.isfinite(ode(0.0, y0))):  # no step size can be chosen from it
+        raise StepError("the initial accelerations are not finite (initial state too large?)")
     if cfg.method == "dop853":
         stepper = DOP853(ode, 0.0, y0, cfg.t_end, rtol, atol_q, atol_v, cfg.dt, cfg.max_step)
     else:
@@ -452,14 +463,12 @@ def _grid(cfg, coarse):
     stops = [] if cfg.t_eval is None else [float(t) for t in cfg.t_eval if t > 0.0]
     if not stops or stops[-1] < cfg.t_end:
         stops.append(cfg.t_end)
-    grid, a = [], 0.0
-    for b in stops:
+    a = 0.0
+    for b in stops:  # lazily: a long run must not allocate its whole grid
         n = max(2, 2 * math.ceil((b - a) / (2 * cfg.dt) * (1 - 1e-12)))
-        steps = a + (b - a) * np.arange(1, n + 1) / n
-        steps[-1] = b
-        grid.append(steps[1::2] if coarse else steps)
+        for i in range(2 if coarse else 1, n + 1, 2 if coarse else 1):
+            yield b if i == n else a + (b - a) * i / n
         a = b
-    return np.concatenate(grid)
 
 
 def _fixed(system, cfg, run, outputs, coarse, progress):
@@ -511,9 +520,8 @@ def _trajectory(system, cfg, main, runs, q_err, v_err, elapsed):
     q = np.array(main.q).reshape(n, system.nq)
     v = np.array(main.v).reshape(n, system.nv)
     t = np.array(main.t, dtype=float)
-    energies = np.array([[e.kinetic, e.gravity, e.elastic]
-                         for e in (system.energy(qi, vi, ti) for qi, vi, ti in zip(q, v, t))]).reshape(n, 3)
-    e0 = system.energy(cfg.q0, cfg.v0, 0.0)
+    energies = np.array([_energy(system, qi, vi, ti) for qi, vi, ti in zip(q, v, t)]).reshape(n, 3)
+    e0 = Energy(*_energy(system, cfg.q0, cfg.v0, 0.0))
     w = np.array(main.w, dtype=float)
     work = (w + energies[:, 2] - e0.elastic) if cfg.work and n else np.zeros(n)
     nfev, njev, nlu, accepted, rejected = _counters(main) if main.stepper is not None else (0, 0, 0, 0, 0)
@@ -525,6 +533,15 @@ def _trajectory(system, cfg, main, runs, q_err, v_err, elapsed):
         nfev, njev, nlu, accepted, rejected, error_nfev, elapsed,
         main.status, main.message or f"reached t_end = {cfg.t_end:g} s", cfg.rtol,
         np.concatenate([cfg.atol_q, cfg.atol_v]), cfg.dt, e0)
+
+
+def _energy(system, q, v, t):
+    """(kinetic, gravity, elastic) J, NaN where they overflow (the caller reports it)."""
+    try:
+        e = system.energy(q, v, t)
+    except ModelError:
+        return (np.nan, np.nan, np.nan)
+    return (e.kinetic, e.gravity, e.elastic)
 
 
 def _counters(run):
@@ -578,6 +595,8 @@ def command(system, args, out=None):
     p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
     if args.out is not None and Path(args.out).suffix.lower() not in (".npz", ".csv"):
         raise ModelError(f"--out {args.out}: the file must end in .npz or .csv")
+    if args.out is not None and not Path(args.out).parent.is_dir():  # found before the run, not after it
+        raise ModelError(f"--out {args.out}: no such directory '{Path(args.out).parent}'")
     if args.samples is not None and args.samples < 2:
         raise ModelError(f"--samples must be at least 2 (the start and the end), got {args.samples}")
     q0 = None if args.offset is None else system.integrate(system.neutral(), system._v(args.offset, "--offset"))
@@ -602,7 +621,10 @@ def command(system, args, out=None):
         p(f"energy     {number(traj.energy[0], 'J', de)} → {number(traj.energy[-1], 'J', de)}, work of "
           f"non-conservative forces {number(traj.work[-1], 'J', de)}, balance {traj.drift:.2e} J")
     if args.out is not None:
-        path = traj.to_npz(args.out) if Path(args.out).suffix.lower() == ".npz" else traj.to_csv(args.out)
+        try:
+            path = traj.to_npz(args.out) if Path(args.out).suffix.lower() == ".npz" else traj.to_csv(args.out)
+        except OSError as e:
+            raise ModelError(f"--out {args.out}: cannot write: {e.strerror or e}") from None
         p(f"written    {path} ({len(traj)} rows)")
     if failure is not None:
         raise failure

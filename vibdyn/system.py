@@ -12,7 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import forces as _forces
-from ._check import count, unknown_name, vector3
+from ._check import call_user, count, finite_array, finite_result, scalar, unknown_name, vector3
 from .elements import WORLD, Spring, Support
 from .errors import ModelError
 
@@ -231,11 +231,11 @@ class System:
         """Mass matrix M(q) (nv × nv, kg, kg·m or kg·m²) by CRBA, symmetric."""
         M = pin.crba(self.model, self.data, self._q(q))
         M = np.triu(M) + np.triu(M, 1).T
-        return M
+        return finite_result(M, "mass matrix")
 
     def accelerations(self, q, v, t=0.0):
         """dv/dt (m/s², rad/s²) by ABA with gravity and every force element of the scene."""
-        q, v = self._q(q), self._v(v)
+        q, v, t = self._q(q), self._v(v), self._t(t)
         a = self._accelerations(q, v, t)
         if not np.all(np.isfinite(a)):
             self._check_mass_matrix(q, "this configuration")
@@ -256,12 +256,12 @@ class System:
 
     def generalized_forces(self, q, v, t=0.0):
         """Q(q, v, t) (N or N·m per coordinate): the generalized force of every force element (not gravity)."""
-        q, v = self._q(q), self._v(v)
+        q, v, t = self._q(q), self._v(v), self._t(t)
         Q, fext = self._forces(q, v, t)
         if fext is not None:
             zero = np.zeros(self.nv)
             Q -= pin.rnea(self.model, self.data, q, zero, zero, fext) - self._gravity_forces(q)
-        return Q
+        return finite_result(Q, f"generalized forces at t = {t}")
 
     def gravity_forces(self, q):
         """Generalized gravity force g(q) (N or N·m): the force gravity exerts, −∂V_gravity/∂q."""
@@ -270,7 +270,8 @@ class System:
     def inverse_dynamics(self, q, v, a, t=0.0):
         """Generalized force (N or N·m) to add to the scene's own forces to move with acceleration a:
         M a + b(q, v) − Q(q, v, t), by RNEA; zero when a = accelerations(q, v, t)."""
-        return self._residual(self._q(q), self._v(v), self._v(a, "a"), t)
+        tau = self._residual(self._q(q), self._v(v), self._v(a, "a"), self._t(t))
+        return finite_result(tau, f"inverse dynamics at t = {t}")
 
     def _residual(self, q, v, a, t, shift=None):
         """inverse_dynamics without input checks (the hot path of linearisation and Newton); ``shift``
@@ -283,11 +284,12 @@ class System:
     def energy(self, q, v, t=0.0):
         """Kinetic, gravity and elastic energies (J) at time t (springs on moving supports depend on it).
         Work of dampers and applied forces is not included."""
-        q, v = self._q(q), self._v(v)
+        q, v, t = self._q(q), self._v(v), self._t(t)
         kinetic = pin.computeKineticEnergy(self.model, self.data, q, v)
         gravity = pin.computePotentialEnergy(self.model, self.data, q) if self.has_gravity else 0.0
         kin = self._kinematics(q, None, t) if self._point_groups else None
         elastic = sum(g.potential(q, kin) for g in self.groups)
+        finite_result([kinetic, gravity, elastic], f"energy at t = {t}")
         return Energy(float(kinetic), float(gravity), float(elastic))
 
     def reactions(self, q, v, a, t=0.0, loop_forces=None):
@@ -479,7 +481,10 @@ class System:
             n = len(self.supports)
             sp, sv = np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
             for i, s in enumerate(self.supports):
-                sp[i], sv[i] = s.motion.position(t), s.motion.velocity(t)
+                for out, part in ((sp, "position"), (sv, "velocity")):
+                    x = call_user(getattr(s.motion, part), (t,), f"support '{s.name}' {part}", t)
+                    out[i] = finite_array(x, (3,), f"support '{s.name}': motion is not finite or not 3 numbers "
+                                                   f"({part} at t = {t})")
             if shift is not None:
                 sp[:n] += shift[:, :3]
                 sv[:n] += shift[:, 3:]
@@ -506,6 +511,9 @@ class System:
             xa, xb = self._anchor(s.a, q0), self._anchor(s.b, q0)
             L = float(np.linalg.norm(xb - xa))
             l0 = L if s.free_length is None else s.free_length
+            if s.a[0] == s.b[0] and np.array_equal(np.asarray(s.a[1], float), np.asarray(s.b[1], float)):
+                raise ModelError(f"spring '{s.name}': both ends are the same point of '{s.a[0]}' (coincident "
+                                 "ends: its direction is undefined)")
             if s.free_length is None and L <= 1e-12:  # the threshold below with l0 = L
                 raise ModelError(f"spring '{s.name}': its two ends coincide at the neutral configuration (at "
                                  f"{np.round(xa, 12).tolist()} m) and no free_length is given: attach the ends at "
@@ -525,29 +533,37 @@ class System:
             return np.array(point, dtype=float) + self.supports[self._support_index[body]].motion.position(t)
         return self.point_position(body, point, q)
 
-    def _check_mass_matrix(self, q, where):
-        M = self.mass_matrix(q)
-        try:
-            np.linalg.cholesky(M)
+    def inertia_scales(self):
+        """Per coordinate, the scene's scale of M's diagonal: its total mass (kg, for m) or total mass ×
+        length scale² plus the bodies' rotational inertias (kg·m², for rad)."""
+        if not hasattr(self, "_inertia_scales"):
+            bodies = self.scene.bodies.values()
+            mass = sum(b.mass for b in bodies)
+            rot = mass * self.length_scale**2 + sum(float(np.trace(np.array(b.inertia))) for b in bodies)
+            self._inertia_scales = np.array([mass if u == "m" else rot for u in self.units])
+        return self._inertia_scales
+
+    def _check_mass_matrix(self, q, where, M=None):
+        """ModelError naming the body and coordinate if M(q) is singular against the scene's scales: an
+        eigenvalue of S^-½ M S^-½ (S: :meth:`inertia_scales`) below 1000·nv·ε is round-off, not inertia."""
+        M = self.mass_matrix(q) if M is None else M
+        s = np.sqrt(self.inertia_scales())
+        Ms = M / np.outer(s, s)
+        tol = 1e3 * self.nv * np.finfo(float).eps
+        if not np.all(np.isfinite(Ms)):
+            raise ModelError(f"mass matrix at {where} is not finite")
+        w, V = np.linalg.eigh(Ms)
+        if w[0] > tol:
             return
-        except np.linalg.LinAlgError:
-            pass
-        w, V = np.linalg.eigh(M)
         i = int(np.argmax(np.abs(V[:, 0])))
         coord = self.coordinates[i]
         body = next(b.name for b in self._bodies.values() if i in b.v_indices)
         raise ModelError(f"singular mass matrix at {where}: body '{body}' has no inertia along its coordinate "
-                         f"'{coord}' (smallest eigenvalue of M {w[0]:.3g}); give it mass or inertia")
+                         f"'{coord}' (smallest eigenvalue of M {w[0] * s[i] ** 2:.3g}, {w[0]:.2g} of the scene's "
+                         "inertia scale); give it mass or inertia")
 
     def _q(self, q, what="q"):
-        try:
-            q = np.asarray(q, dtype=float)
-        except (TypeError, ValueError):
-            raise ModelError(f"{what}: expected a configuration of {count(self.nq, 'number')}, got {q!r}") from None
-        if q.shape != (self.nq,):
-            raise ModelError(f"{what}: expected a configuration of {count(self.nq, 'number')}, got shape {q.shape}")
-        if not np.all(np.isfinite(q)):
-            raise ModelError(f"{what}: contains NaN or inf")
+        q = _state(q, self.nq, what, f"a configuration of {count(self.nq, 'number')}")
         for body, i, n in self._unit_blocks:
             norm = np.linalg.norm(q[i:i + n])
             if abs(norm - 1.0) > 1e-3:
@@ -556,34 +572,65 @@ class System:
         return q
 
     def _v(self, v, what="v"):
-        try:
-            v = np.asarray(v, dtype=float)
-        except (TypeError, ValueError):
-            raise ModelError(f"{what}: expected {count(self.nv, 'number')} (one per coordinate), got {v!r}") from None
-        if v.shape != (self.nv,):
-            raise ModelError(f"{what}: expected {count(self.nv, 'number')} (one per coordinate), got shape {v.shape}")
-        if not np.all(np.isfinite(v)):
-            raise ModelError(f"{what}: contains NaN or inf")
-        return v
+        return _state(v, self.nv, what, f"{count(self.nv, 'number')} (one per coordinate)")
+
+    def _t(self, t):
+        """A finite time (s); None only for a scene that does not depend on time."""
+        if t is None and not self.depends_on_time:
+            return 0.0
+        return scalar(t, "t (time, s)")
+
+
+def _state(x, n, what, expected):
+    """A finite float vector of n numbers (the one input layer, :func:`vibdyn._check.finite_array`)."""
+    try:
+        return finite_array(x, (n,), what)
+    except ModelError as e:
+        detail = str(e)[len(what) + 2:]
+        if detail.startswith("contains"):
+            raise
+        got = f"shape {detail.split('got ', 1)[1]}" if detail.startswith("expected shape") else repr(x)
+        raise ModelError(f"{what}: expected {expected}, got {got}") from None
 
 
 def _create_data(model):
     """Pinocchio's Data, refused with a clear error where it cannot fit: Pinocchio 4.1 allocates and fills
     four nv×nv×nv tensors in every Data (32·nv³ bytes; upstream issue stack-of-tasks/pinocchio#2949)."""
-    need = 32.0 * model.nv**3
-    try:
-        free = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        free = float("inf")
+    need = 2 * 32.0 * model.nv**3  # createData's peak: the tensors are built, then copied into Data
+    free = available_memory()
     message = (f"scene '{model.name}' has nv = {model.nv} coordinates: Pinocchio {pin.__version__} allocates "
-               f"{need / 1e9:.3g} GB of second-order-derivative tensors in every Data (32·nv³ bytes, "
-               f"stack-of-tasks/pinocchio#2949), more than this machine has free ({free / 1e9:.3g} GB)")
-    if need > 0.5 * free:
+               f"{need / 2e9:.3g} GB of second-order-derivative tensors in every Data (32·nv³ bytes, "
+               f"stack-of-tasks/pinocchio#2949) and peaks at twice that while building it, more than this "
+               f"machine or container has free ({free / 1e9:.3g} GB)")
+    if need > 0.8 * free:
         raise ModelError(message)
     try:
         return model.createData()
     except MemoryError:
         raise ModelError(message) from None
+
+
+def available_memory():
+    """Bytes this process can still allocate: the host's available pages, and the cgroup's limit minus its
+    usage where there is one (a container sees the host's free memory, not its own limit)."""
+    try:
+        free = float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        free = float("inf")
+    for limit_file, usage_file in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+                                   ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
+                                    "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+        try:
+            with open(limit_file) as f:
+                limit = f.read().strip()
+            with open(usage_file) as f:
+                usage = float(f.read().strip())
+        except (OSError, ValueError):
+            continue
+        if limit.isdigit() and float(limit) < 2**60:
+            free = min(free, float(limit) - usage)
+        break
+    return max(free, 0.0)
 
 
 def massless_leaves(scene):
@@ -625,11 +672,24 @@ def _compile(scene, order):
             idx_q, idx_v = model.idx_qs[jid], model.idx_vs[jid]
         I_body = np.array(body.inertia)
         inertia = pin.Inertia(body.mass, B.act(np.array(body.com)), B.rotation @ I_body @ B.rotation.T)
-        model.appendBodyToJoint(jid, inertia, pin.SE3.Identity())
-        model.addFrame(pin.Frame(body.name, jid, B, pin.FrameType.BODY))
+        _append_body(model, jid, inertia)
+        model.addFrame(pin.Frame(body.name, jid, B, pin.FrameType.BODY), False)  # inertia added above
         infos[body.name] = BodyInfo(body.name, J, jid, B, idx_q, idx_v, J.nv and model.nqs[jid], J.nv,
                                     body.coordinates)
     return model, infos
+
+
+def _append_body(model, jid, inertia):
+    """Add a body's inertia to joint ``jid``'s. Summed as dynamic parameters (m, m·c, I about the joint:
+    linear, no division): Pinocchio's Inertia addition divides by max(m, ε) and so moves the centre of mass
+    of a body lighter than ε ≈ 2e-16 kg to the joint."""
+    p = model.inertias[jid].toDynamicParameters() + inertia.toDynamicParameters()
+    model.appendBodyToJoint(jid, pin.Inertia.Zero(), pin.SE3.Identity())
+    if p[0] > 0:
+        model.inertias[jid] = pin.Inertia.FromDynamicParameters(p)
+    else:  # massless: the rotational inertia about the joint only
+        I = np.array([[p[4], p[5], p[7]], [p[5], p[6], p[8]], [p[7], p[8], p[9]]])
+        model.inertias[jid] = pin.Inertia(0.0, np.zeros(3), I)
 
 
 def _topological(scene):

@@ -139,7 +139,7 @@ class DOP853(RungeKutta):
         size_n = np.abs(y[:m])
         size_n[:nv] = 0.0
         while True:
-            if h_abs < min_step:
+            if not h_abs >= min_step:  # also a NaN step
                 raise StepError(f"step size underflow ({h_abs:.3g} s): the solver cannot meet its tolerance "
                                 "(a singularity, a blow-up, or a stiff scene: try method='radau')")
             t_new = min(t + h_abs, self.t_end)

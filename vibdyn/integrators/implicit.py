@@ -57,7 +57,10 @@ class Implicit:
 
     def step(self, next_output=None):
         s = self.solver
-        message = s.step()
+        try:
+            message = s.step()
+        except ValueError as e:  # scipy's LU of a non-finite Jacobian: a blow-up
+            raise StepError(f"{self.cls.__name__}: the state or its Jacobian is not finite ({e})") from None
         if s.status == "failed":
             raise StepError(f"{self.cls.__name__}: {message}")
         if not np.all(np.isfinite(s.y)):

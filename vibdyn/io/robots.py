@@ -739,6 +739,9 @@ def _mjcf_info(path):
         raise ModelError(f"MJCF {path}: not a valid XML file: {e}") from None
     if root.tag != "mujoco":
         raise ModelError(f"MJCF {path}: root element is <{root.tag}>, expected <mujoco>")
+    for inc in root.iter("include"):  # Pinocchio's parser skips it: its bodies would be missing
+        raise ModelError(f"MJCF {path}: <include file=\"{inc.attrib.get('file', '?')}\"> is not supported "
+                         "(Pinocchio drops the included elements): paste the included file in place")
     gravity = None
     for opt in root.iter("option"):
         if "gravity" in opt.attrib:

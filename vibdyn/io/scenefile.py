@@ -90,7 +90,9 @@ import copy
 import datetime as _dt
 import math
 import numbers
+import os
 import re
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -114,9 +116,23 @@ __all__ = ["load_scene", "save_scene", "scene_to_dict", "scene_from_dict", "dump
 
 def load_scene(path):
     """Read a TOML scene file into a :class:`vibdyn.Scene` (see the module docstring for the format)."""
+    if not isinstance(path, (str, os.PathLike)) or not str(path):
+        raise SceneFileError(f"expected a file path (str or Path), got {path!r}")
     p = Path(path)
     try:
-        text = p.read_bytes().decode("utf-8")
+        st = p.stat()
+        if stat.S_ISDIR(st.st_mode):
+            raise IsADirectoryError
+        if not stat.S_ISREG(st.st_mode):  # a FIFO, a device (/dev/zero): could block or never end
+            raise SceneFileError("not a regular file", path=str(p))
+        if st.st_size > MAX_FILE_BYTES:
+            raise SceneFileError(f"too large ({st.st_size} bytes; a scene file is at most {MAX_FILE_BYTES})",
+                                 path=str(p))
+        with open(p, "rb") as f:
+            raw = f.read(MAX_FILE_BYTES + 1)
+        if len(raw) > MAX_FILE_BYTES:
+            raise SceneFileError(f"too large (more than {MAX_FILE_BYTES} bytes)", path=str(p))
+        text = raw.decode("utf-8")
     except FileNotFoundError:
         raise SceneFileError("no such scene file", path=str(p)) from None
     except IsADirectoryError:
@@ -129,13 +145,46 @@ def load_scene(path):
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise SceneFileError(f"TOML syntax error: {e}", path=str(p)) from None
+    except RecursionError:
+        raise SceneFileError("nested too deeply", path=str(p)) from None
+    _check_values(doc, str(p))
     return scene_from_dict(doc, path=p)
 
 
 def scene_from_dict(d, path=None):
     """A :class:`vibdyn.Scene` from the plain data of a scene file (as read by ``tomllib`` or written by
     :func:`scene_to_dict`). ``path`` names the file in errors and anchors relative robot paths."""
+    _check_values(d, path)
     return _Reader(path).scene(d)
+
+
+MAX_FILE_BYTES = 256 * 2**20  # a scene file larger than this is not a scene file
+MAX_DEPTH = 64  # tables and arrays nested deeper than this are not a scene
+
+
+def _check_values(doc, path):
+    """Walk the plain data once, without recursion: nesting deeper than MAX_DEPTH and integers beyond the
+    float range are SceneFileErrors naming the key (later checks convert numbers to float)."""
+    stack = [(doc, "", 0)]
+    while stack:
+        x, key, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise SceneFileError(f"nested more than {MAX_DEPTH} levels deep", path=path and str(path), key=key)
+        if isinstance(x, dict):
+            stack.extend((v, f"{key}.{k}" if key else str(k), depth + 1) for k, v in x.items())
+        elif isinstance(x, (list, tuple)):
+            stack.extend((v, f"{key}[{i}]", depth + 1) for i, v in enumerate(x))
+        elif isinstance(x, int) and not isinstance(x, bool) and not _fits_float(x):
+            raise SceneFileError("integer too large for a number (beyond ±1.8e308)", path=path and str(path),
+                                 key=key)
+
+
+def _fits_float(n):
+    try:
+        float(n)
+        return True
+    except OverflowError:
+        return False
 
 
 # value kinds: each checker returns the value (lists for arrays) or raises _Bad with what was expected
@@ -739,6 +788,7 @@ def scene_to_dict(scene):
         if op.get("held"):
             out["operating_point"]["held"] = True
     if scene.references:
+        _check_values(scene.references, None)  # nesting limit: no RecursionError in the copy below
         out["reference"] = copy.deepcopy(dict(scene.references))
     return out
 
