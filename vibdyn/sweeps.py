@@ -378,17 +378,17 @@ def _load_store(store) -> dict:
     if not path.exists():
         return {}
     done = {}
-    with open(path) as f:
-        for n, line in enumerate(f, 1):
-            if not line.strip():
+    lines = path.read_text().splitlines()
+    for n, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            rec = json.loads(line)
+            done[rec["key"]] = rec["result"]
+        except (json.JSONDecodeError, KeyError, TypeError):
+            if n == len(lines):  # a last line cut by an interruption: recompute it
                 continue
-            try:
-                rec = json.loads(line)
-                done[rec["key"]] = rec["result"]
-            except (json.JSONDecodeError, KeyError, TypeError):
-                if n == sum(1 for _ in open(path)):  # a last line cut by an interruption: recompute it
-                    continue
-                raise ModelError(f"sweep store {path}: line {n} is not a sweep record") from None
+            raise ModelError(f"sweep store {path}: line {n} is not a sweep record") from None
     return done
 
 
