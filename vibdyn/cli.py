@@ -122,11 +122,11 @@ def modal_report(system, method="fd"):
     }
 
 
-def print_modes(system, method="fd", out=None):
+def print_modes(system, method="fd", out=None, report=None):
     """Print the operating point, the modes (ascending in ω²) with their shapes, the damped modes, stability
-    and error estimates."""
+    and error estimates (``report``: a :func:`modal_report` already computed)."""
     out = out or sys.stdout
-    op, lin, m, _ = modal_report(system, method)
+    op, lin, m, _ = report or modal_report(system, method)
     print(op, file=out)
     print(f"linearisation ({lin.method}): error ≈ {lin.error:.1e}, {lin.elapsed * 1e3:.2f} ms, "
           f"{lin.evaluations} evaluations", file=out)
@@ -335,14 +335,15 @@ def main(argv=None):
             describe(scene, scene.build())
         elif args.command == "modes":
             system = with_start(load(args.scene), start_offsets(args.start)).build()
+            report = modal_report(system, args.method)
             if args.json:
                 import json
 
-                print(json.dumps(modal_report(system, args.method)[3], indent=1))
+                print(json.dumps(report[3], indent=1))
             else:
-                print_modes(system, args.method)
+                print_modes(system, args.method, report=report)
             if args.png:
-                modal_report(system, args.method)[2].plot(args.png)
+                report[2].plot(args.png)
                 if not args.json:
                     print(f"saved {args.png}")
         elif args.command == "demo":
