@@ -224,7 +224,7 @@ def child_chain(n, repeat):
         scene = pendulum_chain(n)
         out["scene_s"] = time.perf_counter() - t
         try:  # one phase of build() timed on its own (private: informative only)
-            from vibdyn.system import _topological
+            from vibdyn.model.system import _topological
 
             t = time.perf_counter()
             _topological(scene)

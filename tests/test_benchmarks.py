@@ -85,7 +85,7 @@ def test_check_fails_on_a_degraded_run(smoke):
 
 
 def test_vibdyn_bench_without_the_suite_is_a_clear_error(monkeypatch, tmp_path, capsys):
-    from vibdyn.cli import main
+    from vibdyn.faces.cli import main
 
     monkeypatch.setenv("VIBDYN_BENCHMARKS", str(tmp_path / "nowhere"))
     assert main(["bench", "--smoke"]) == 2

@@ -10,7 +10,7 @@ import pytest
 from conftest import MODELS
 
 import vibdyn as vd
-from vibdyn.cli import main
+from vibdyn.faces.cli import main
 
 IT, IP, K = 0.08, 0.12, 300.0
 

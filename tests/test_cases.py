@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import vibdyn as vd
-from vibdyn.cli import main
+from vibdyn.faces.cli import main
 
 from conftest import MODELS
 

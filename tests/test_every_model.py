@@ -13,7 +13,7 @@ import pytest
 from conftest import MODELS
 
 import vibdyn as vd
-from vibdyn.cli import main
+from vibdyn.faces.cli import main
 
 FILES = sorted(MODELS.glob("*.toml"))
 COMMANDS = ("info", "modes", "frf", "simulate")

@@ -13,7 +13,7 @@ import scipy.linalg as sl
 from conftest import MODELS
 
 import vibdyn as vd
-from vibdyn.cli import main
+from vibdyn.faces.cli import main
 
 
 def run(argv):

@@ -230,7 +230,7 @@ def test_trajectory_energies_that_overflow_are_an_error():
 def test_memory_refusal_counts_the_peak_of_create_data(monkeypatch):
     """createData peaks at about 2 × 32·nv³ bytes: with 2.4 × 32·nv³ free the peak would take 83 % of what
     is left, so it is refused (the old check, half of free memory against 32·nv³, let it through)."""
-    import vibdyn.system as vs
+    import vibdyn.model.workspace as vs
 
     s = vd.Scene("chain")
     parent = "world"
@@ -247,7 +247,7 @@ def test_memory_refusal_counts_the_peak_of_create_data(monkeypatch):
 def test_cgroup_limit_is_read(monkeypatch, tmp_path):
     import builtins
 
-    import vibdyn.system as vs
+    import vibdyn.model.workspace as vs
 
     files = {"/sys/fs/cgroup/memory.max": "1000000\n", "/sys/fs/cgroup/memory.current": "400000\n"}
     real = builtins.open
@@ -299,7 +299,7 @@ def test_load_scene_refuses_devices_and_fifos(tmp_path):
 
 
 def test_cli_simulate_out_in_a_missing_directory(tmp_path, capsys):
-    from vibdyn.cli import main
+    from vibdyn.faces.cli import main
 
     f = tmp_path / "m.toml"
     s = vd.Scene("m")

@@ -12,7 +12,7 @@ import pytest
 
 import vibdyn as vd
 from vibdyn._format import number
-from vibdyn.cli import main
+from vibdyn.faces.cli import main
 from vibdyn.io import robots
 
 MODELS = Path(__file__).resolve().parents[1] / "models"

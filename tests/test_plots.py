@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import vibdyn as vd
-from vibdyn.cli import main
+from vibdyn.analysis.timeresult import TimeResult
+from vibdyn.faces.cli import main
 
 from conftest import MODELS
 
@@ -26,7 +27,7 @@ def assert_png(path, min_bytes=5000):
 
 
 def test_import_vibdyn_does_not_import_matplotlib():
-    code = "import sys, vibdyn, vibdyn.plots, vibdyn.response, vibdyn.identify; print('matplotlib' in sys.modules)"
+    code = "import sys, vibdyn, vibdyn.faces.plots, vibdyn.analysis.response, vibdyn.analysis.identify; print('matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 
@@ -83,3 +84,41 @@ def test_mode_shape_and_time_history_plots(tmp_path):
     assert_png(tmp_path / "b.png")
     with pytest.raises(vd.ModelError, match="need a direction"):
         vd.plots.mode_shapes(modes, points=["m1"])
+
+
+def test_time_history_takes_a_time_response_and_a_trajectory(tmp_path):
+    """One time-result protocol: the linear free response and the nonlinear simulation of the same linear
+    scene (sliders and springs along x) draw the same curves, each within its own error estimate."""
+    system = vd.load_scene(MODELS / "two_mass_modal.toml").build()
+    t = np.linspace(0.0, 5.0, 101)
+    x0 = np.array([0.0, 0.1])
+    r = system.linearize().free_response(t, x0)
+    traj = system.simulate(5.0, q0=system.integrate(system.neutral(), x0), t_eval=t, rtol=1e-10, error="rerun")
+    curves = {}
+    for name, result in (("response", r), ("trajectory", traj)):
+        assert isinstance(result, TimeResult) and result.coordinates == ("m1", "m2") and result.units == ("m", "m")
+        for quantity, unit in (("displacement", "m"), ("velocity", "m/s"), ("acceleration", "m/s²")):
+            fig = vd.plots.time_history(result, ["m2", "m1"], quantity=quantity, path=tmp_path / f"{name}.png")
+            lines = fig.axes[0].lines
+            assert [line.get_label() for line in lines] == [f"m2 ({unit})", f"m1 ({unit})"]
+            np.testing.assert_array_equal(lines[0].get_xdata(), t)
+            curves[name, quantity] = np.column_stack([line.get_ydata() for line in lines])
+        assert_png(tmp_path / f"{name}.png")
+        assert set(result.to_dict()) >= {"t_s", "coordinates", "units", "q", "v", "a", "method", "error_estimate",
+                                         "elapsed_s"}
+    np.testing.assert_array_equal(curves["response", "velocity"], r.v[:, ::-1])
+    np.testing.assert_array_equal(curves["trajectory", "velocity"], traj.v[:, ::-1])
+    # the same motion: the linear model's error is relative to max|δq|, the simulation's absolute
+    tol_q = r.error * np.abs(r.q).max() + traj.error
+    assert np.abs(curves["trajectory", "displacement"] - curves["response", "displacement"]).max() <= tol_q
+    assert np.abs(curves["trajectory", "velocity"] - curves["response", "velocity"]).max() <= (
+        r.error * np.abs(r.v).max() + traj.error_v)
+    # accelerations from the equations of motion: a = −M⁻¹K δq for this linear scene, at the simulated states
+    lin = system.linearize()
+    np.testing.assert_allclose(traj.a, -np.linalg.solve(lin.M, lin.K @ (traj.q - system.neutral()).T).T,
+                               atol=10 * np.finfo(float).eps * np.abs(traj.a).max() * np.linalg.cond(lin.M)
+                               + np.abs(lin.K_error).max() * np.abs(traj.q - system.neutral()).max())
+    with pytest.raises(vd.ModelError, match="coordinate names"):
+        vd.plots.time_history(traj, [("m1", (0, 0, 0), (1, 0, 0))])
+    with pytest.raises(vd.ModelError, match="quantity must be"):
+        traj.plot(quantity="jerk")

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import vibdyn as vd
-from vibdyn.response import Hysteretic, transmissibility
+from vibdyn.analysis.response import Hysteretic, transmissibility
 
 from conftest import MODELS
 
@@ -433,7 +433,7 @@ def test_bad_inputs_are_model_errors():
         with pytest.raises(vd.ModelError, match=message):
             call()
     with pytest.raises(vd.ModelError, match="hysteretic damping has no time-domain form"):
-        from vibdyn.response.damping import _model
-        from vibdyn.response.transient import _method
+        from vibdyn.analysis.response.damping import damped_model as _model
+        from vibdyn.analysis.response.transient import _method
 
         _method(_model(lin, Hysteretic(eta=0.02)), "auto", "forced response")

@@ -16,7 +16,7 @@ import pinocchio as pin
 import pytest
 
 import vibdyn as vd
-from vibdyn.elements import JointDamper
+from vibdyn.description.elements import JointDamper
 from vibdyn.io import robots
 
 RTOL = 1e-10

@@ -24,8 +24,8 @@ import scipy.linalg as sla
 from scipy.special import ellipj, ellipk
 
 import vibdyn as vd
-from vibdyn.simulate import SimulationError, Trajectory, q_names
-from vibdyn.integrators.variational import kinetic_gradient
+from vibdyn.simulation.simulate import SimulationError, Trajectory, q_names
+from vibdyn.simulation.integrators.variational import kinetic_gradient
 
 from conftest import MODELS, ROOT
 
@@ -545,7 +545,7 @@ def test_export_csv_and_npz(tmp_path):
 
 def test_cli_simulate(tmp_path):
     out = tmp_path / "a01.npz"
-    r = subprocess.run([sys.executable, "-m", "vibdyn.cli", "simulate", str(MODELS / "iftomm_a01.toml"),
+    r = subprocess.run([sys.executable, "-m", "vibdyn.faces.cli", "simulate", str(MODELS / "iftomm_a01.toml"),
                         "--t-end", "10", "--rtol", "1e-12", "--samples", "11", "--out", str(out)],
                        capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 0, r.stderr
@@ -553,7 +553,7 @@ def test_cli_simulate(tmp_path):
     data = np.load(out)
     assert data["t"].shape == (11,)
     assert np.abs(a01_position(data["q"]) - a01_exact(data["t"])).max() <= 1e-9
-    bad = subprocess.run([sys.executable, "-m", "vibdyn.cli", "simulate", str(MODELS / "iftomm_a01.toml"),
+    bad = subprocess.run([sys.executable, "-m", "vibdyn.faces.cli", "simulate", str(MODELS / "iftomm_a01.toml"),
                           "--t-end", "-1"], capture_output=True, text=True, cwd=ROOT)
     assert bad.returncode == 2 and "t_end" in bad.stderr
 
@@ -569,7 +569,7 @@ def test_import_vibdyn_pays_nothing_for_simulation():
 
 def test_progress_bar_on_long_runs(monkeypatch, capsys):
     """A run longer than PROGRESS_DELAY shows a tqdm bar on stderr when asked (or on a terminal)."""
-    import vibdyn.simulate as sim
+    import vibdyn.simulation.simulate as sim
 
     monkeypatch.setattr(sim, "PROGRESS_DELAY", 0.0)
     A01.build().simulate(2.0, progress=True)

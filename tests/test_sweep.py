@@ -112,7 +112,7 @@ def test_ctrl_c_of_a_process_sweep_leaves_no_worker_and_resumes(tmp_path):
     assert 6 <= len(done) < 400
     sw = vd.sweep(examples.chain, {"k1": list(np.linspace(500, 1500, 400)), "n": [12.0]}, store=store,
                   progress=False)
-    from vibdyn.sweeps import _key
+    from vibdyn.studies.sweeps import _key
 
     assert all(r == done[_key(p)] for p, r in zip(sw.parameters, sw.results) if _key(p) in done)
     assert sw.ok.all() and sw.n == 400

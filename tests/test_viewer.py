@@ -15,17 +15,19 @@ import numpy as np
 import pytest
 
 import vibdyn as vd
-from vibdyn import cli
-from vibdyn.viewer import content, motion
-from vibdyn.viewer.drawing import ROOT
+from vibdyn.faces import cli
+from vibdyn.faces.viewer import content, motion
+from vibdyn.faces.viewer.drawing import ROOT
 
 ROOT_DIR = Path(__file__).resolve().parents[1]
 MODELS = ROOT_DIR / "models"
+TAG = str(os.getpid())
+os.environ["VIBDYN_TEST_TAG"] = TAG  # inherited by every server this test process starts
 ENV = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
 
 
 def test_import_vibdyn_imports_neither_meshcat_nor_matplotlib():
-    code = ("import sys, vibdyn, vibdyn.viewer; "
+    code = ("import sys, vibdyn, vibdyn.faces.viewer; "
             "assert 'meshcat' not in sys.modules and 'matplotlib' not in sys.modules, "
             "[m for m in sys.modules if m.startswith(('meshcat', 'matplotlib'))]")
     subprocess.run([sys.executable, "-c", code], check=True, env=ENV, timeout=120)
@@ -137,7 +139,7 @@ def test_springs_stretch_with_the_motion():
     """rao_three_mass_series: each spring node's z scale is the distance between its anchors, frame by
     frame, and its z axis points from end a to end b."""
     c = content(vd.load_scene(MODELS / "rao_three_mass_series.toml"))
-    from vibdyn.elements import Spring
+    from vibdyn.description.elements import Spring
 
     springs = c.system.scene.elements_of(Spring)
     assert springs
@@ -248,9 +250,18 @@ def _servers():
                 state = (d / "stat").read_text().rsplit(")", 1)[1].split()[0]
             except OSError:
                 continue
-            if b"vibdyn/viewer/_server.py" in cmd and state != "Z":
+            if b"vibdyn/faces/viewer/_server.py" in cmd and state != "Z" and _ours(d):
                 out.add(int(d.name))
     return out
+
+
+def _ours(proc_dir):
+    """Started by this test process (the CLI children carry its tag in their environment): tests running in
+    parallel (pytest -n) must not count each other's servers."""
+    try:
+        return f"VIBDYN_TEST_TAG={TAG}".encode() in (proc_dir / "environ").read_bytes()
+    except OSError:
+        return False
 
 
 def _gone(before, timeout=10.0):
@@ -270,7 +281,7 @@ def _interruptible():
 
 
 def _start_cli(*args):
-    p = subprocess.Popen([sys.executable, "-m", "vibdyn.cli", "view", str(MODELS / "triple_pendulum.toml"),
+    p = subprocess.Popen([sys.executable, "-m", "vibdyn.faces.cli", "view", str(MODELS / "triple_pendulum.toml"),
                           "--no-browser", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=ENV,
                          text=True, preexec_fn=_interruptible)
     line = p.stdout.readline()

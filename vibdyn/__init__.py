@@ -6,35 +6,50 @@ Pinocchio); the analyses (linearisation, modes, responses, identification, simul
 on first use, as do the viewer, matplotlib and MuJoCo.
 """
 
+import os
 from importlib import import_module
+from typing import Any
 
-from . import inertia, laws
-from .elements import WORLD
+from .description import inertia, laws
+from .description.elements import WORLD
+from .description.joints import (
+    Ball,
+    Cylindrical,
+    Fixed,
+    Free,
+    Helical,
+    Pivot,
+    Planar,
+    Slider,
+    Universal,
+)
+from .description.scene import Body, Scene
 from .errors import ConvergenceError, ModelError, SceneFileError, VibdynError
-from .joints import Ball, Cylindrical, Fixed, Free, Helical, Pivot, Planar, Slider, Universal
-from .scene import Body, Scene
-from .system import BodyInfo, Energy, Reactions, System
+from .model.system import BodyInfo, Energy, Reactions, System
 
 __version__ = "0.1.0"
 
-# public names loaded on first use: name -> module (relative to vibdyn) that defines it
-_LAZY = {
-    "response": "response", "identify": "identify", "plots": "plots", "modal": "modal",
-    "linearize": "linearize", "equilibrium": "equilibrium", "simulate": "simulate", "statespace": "statespace",
-    "mac": "modal", "rayleigh": "modal", "Modes": "modal",
-    "LinearModel": "linearize", "Equilibrium": "equilibrium",
-    "FRF": "response", "Peaks": "response", "HarmonicResponse": "response", "TimeResponse": "response",
-    "Appropriation": "response", "Hysteretic": "response", "transmissibility": "response",
-    "fit_rayleigh": "identify", "log_decrement": "identify", "HalfPower": "identify",
-    "LogDecrement": "identify", "RayleighFit": "identify",
-    "Trajectory": "simulate", "SimulationError": "simulate",
-    "StateSpace": "statespace",
-    "campbell": "campbell_diagram", "Campbell": "campbell_diagram", "CriticalSpeed": "campbell_diagram",
-    "sweep": "sweeps", "sample": "sweeps", "Sweep": "sweeps", "Samples": "sweeps", "Statistic": "sweeps",
-    "Tracked": "sweeps", "examples": "examples", "sweeps": "sweeps", "campbell_diagram": "campbell_diagram",
+# public names loaded on first use (the user's third rule: a scene pays only for what it uses)
+_WHERE = {  # module (relative to vibdyn) -> the public names it defines
+    "analysis.equilibrium": ("Equilibrium",),
+    "analysis.linearize": ("LinearModel",),
+    "analysis.modal": ("Modes", "mac", "rayleigh"),
+    "analysis.response": ("FRF", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation", "Hysteretic",
+                          "transmissibility"),
+    "analysis.identify": ("fit_rayleigh", "log_decrement", "HalfPower", "LogDecrement", "RayleighFit"),
+    "analysis.statespace": ("StateSpace",),
+    "analysis.timeresult": ("TimeResult",),
+    "analysis.campbell_diagram": ("campbell", "Campbell", "CriticalSpeed"),
+    "simulation.simulate": ("Trajectory", "SimulationError"),
+    "studies.sweeps": ("sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked"),
 }
-_MODULES = {"response", "identify", "plots", "modal", "linearize", "equilibrium", "simulate", "statespace",
-            "examples", "sweeps", "campbell_diagram"}
+# the modules themselves, under their short public names (vd.response, vd.simulate, ...)
+_MODULES = {"equilibrium": "analysis.equilibrium", "linearize": "analysis.linearize", "modal": "analysis.modal",
+            "response": "analysis.response", "identify": "analysis.identify", "statespace": "analysis.statespace",
+            "campbell_diagram": "analysis.campbell_diagram", "simulate": "simulation.simulate",
+            "sweeps": "studies.sweeps", "examples": "studies.examples", "plots": "faces.plots",
+            "loops": "description.loops", "viewer": "faces.viewer"}
+_LAZY = {**{name: mod for mod, names in _WHERE.items() for name in names}, **_MODULES}
 
 
 def __getattr__(name):
@@ -51,46 +66,46 @@ def __dir__():
     return sorted(set(globals()) | set(_LAZY))
 
 
-def load_scene(path):
+def load_scene(path: str | os.PathLike) -> Scene:
     """Read a TOML scene file (see the README for its format) into a :class:`Scene`."""
     from .io.scenefile import load_scene as _load
 
     return _load(path)
 
 
-def load_robot(name, **kwargs):
+def load_robot(name: str, **kwargs: Any) -> Scene:
     """A :class:`Scene` of a robot of example-robot-data ("ur5", "panda", "talos", ...)."""
     from .io.robots import load_robot as _load
 
     return _load(name, **kwargs)
 
 
-def load_urdf(path, **kwargs):
+def load_urdf(path: str | os.PathLike, **kwargs: Any) -> Scene:
     """A :class:`Scene` from a URDF file (fixed base unless ``floating=True``)."""
     from .io.robots import load_urdf as _load
 
     return _load(path, **kwargs)
 
 
-def load_mjcf(path, **kwargs):
+def load_mjcf(path: str | os.PathLike, **kwargs: Any) -> Scene:
     """A :class:`Scene` from a MuJoCo MJCF file (parsed by Pinocchio)."""
     from .io.robots import load_mjcf as _load
 
     return _load(path, **kwargs)
 
 
-def view(obj, **kwargs):
+def view(obj: Any, **kwargs: Any) -> Any:
     """Show a Modes, Trajectory, System or Scene in the browser (live meshcat server on 127.0.0.1); returns
-    a handle with ``.url`` and ``.close()`` (see :func:`vibdyn.viewer.view`)."""
-    from .viewer import view as _view
+    a handle with ``.url`` and ``.close()`` (see :func:`vibdyn.faces.viewer.view`)."""
+    from .faces.viewer import view as _view
 
     return _view(obj, **kwargs)
 
 
-def export_html(obj, path, **kwargs):
+def export_html(obj: Any, path: str | os.PathLike, **kwargs: Any) -> Any:
     """Write a self-contained HTML page of every mode (or a trajectory) of ``obj`` (see
-    :func:`vibdyn.viewer.export_html`); returns its path."""
-    from .viewer import export_html as _export
+    :func:`vibdyn.faces.viewer.export_html`); returns its path."""
+    from .faces.viewer import export_html as _export
 
     return _export(obj, path, **kwargs)
 
@@ -100,7 +115,7 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "ConvergenceError", "SceneFileError", "VibdynError", "load_scene", "load_robot", "load_urdf",
            "load_mjcf", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
            "transmissibility", "fit_rayleigh", "log_decrement", "Trajectory", "SimulationError",
-           "LinearModel", "Modes", "Equilibrium", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",
+           "LinearModel", "Modes", "Equilibrium", "TimeResult", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",
            "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html",
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples"]

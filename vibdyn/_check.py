@@ -2,6 +2,7 @@
 
 import difflib
 import inspect
+import math
 import numbers
 
 import numpy as np
@@ -179,3 +180,149 @@ def call_user(fn, args, what, t):
         raise
     except Exception as e:
         raise ModelError(f"{what} failed at t = {t:.6g} s: {type(e).__name__}: {e}") from e
+
+
+# ---------------------------------------------------------------------------------------------- file values
+# Checks of plain-data values (TOML): strict types (no strings for numbers, no booleans), finite numbers.
+# Each returns the value in the form the Scene API takes, or raises BadValue (the scene-file reader names the
+# file and key); the element kinds declare their scene-file keys with them.
+
+class BadValue(Exception):
+    """A scene-file value of the wrong kind (the reader adds the file and key)."""
+
+
+def is_number(x):
+    return isinstance(x, (numbers.Real, np.floating, np.integer)) and not isinstance(x, (bool, np.bool_))
+
+
+def as_list(x):
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, (list, tuple)):
+        return list(x)
+    return None
+
+
+def shown(x):
+    s = repr(x)
+    return s if len(s) <= 60 else s[:57] + "..."
+
+
+def value_string(x):
+    if not isinstance(x, str):
+        raise BadValue(f"expected a string, got {shown(x)}")
+    return x
+
+
+def value_number(x):
+    if not is_number(x):
+        raise BadValue(f"expected a number, got {shown(x)}")
+    if not math.isfinite(x):
+        raise BadValue(f"must be finite, got {x}")
+    return float(x)
+
+
+def value_nonnegative(x):
+    v = value_number(x)
+    if v < 0:
+        raise BadValue(f"must not be negative, got {v}")
+    return v
+
+
+def value_boolean(x):
+    if not isinstance(x, (bool, np.bool_)):
+        raise BadValue(f"expected true or false, got {shown(x)}")
+    return bool(x)
+
+
+def value_vec3(x):
+    a = as_list(x)
+    if a is None or len(a) != 3 or not all(is_number(v) for v in a):
+        raise BadValue(f"expected 3 numbers [x, y, z], got {shown(x)}")
+    return value_finite([float(v) for v in a], x)
+
+
+def value_finite(values, x):
+    if not all(math.isfinite(v) for v in values):
+        raise BadValue(f"must be finite, got {shown(x)}")
+    return values
+
+
+def value_mat3(x):
+    rows = as_list(x)
+    if rows is None or len(rows) != 3:
+        raise BadValue(f"expected a 3×3 matrix [[...], [...], [...]], got {shown(x)}")
+    try:
+        return [value_vec3(r) for r in rows]
+    except BadValue:
+        raise BadValue(f"expected a 3×3 matrix [[...], [...], [...]], got {shown(x)}") from None
+
+
+def value_rotation(x):
+    a = as_list(x)
+    if a is not None and len(a) == 3 and all(is_number(v) for v in a):
+        return value_finite([float(v) for v in a], x)
+    try:
+        return value_mat3(x)
+    except BadValue:
+        raise BadValue(f"expected a 3×3 rotation matrix or a rotation vector of 3 numbers (rad), got {shown(x)}") \
+            from None
+
+
+def value_numbers(x):
+    a = as_list(x)
+    if a is None or not a or not all(is_number(v) for v in a):
+        raise BadValue(f"expected a non-empty list of numbers, got {shown(x)}")
+    return value_finite([float(v) for v in a], x)
+
+
+def value_number_or_list(x, nonnegative=False):
+    if is_number(x):
+        vals, out = value_finite([float(x)], x), float(x)
+    else:
+        try:
+            vals = out = value_numbers(x)
+        except BadValue:
+            raise BadValue(f"expected a number or a list of numbers, got {shown(x)}") from None
+    if nonnegative and any(v < 0 for v in vals):
+        raise BadValue(f"must not be negative, got {shown(x)}")
+    return out
+
+
+def value_nonnegative_number_or_list(x):
+    return value_number_or_list(x, nonnegative=True)
+
+
+def value_attachment(x):
+    if isinstance(x, str):
+        return x
+    a = as_list(x)
+    if a is None or len(a) != 2 or not isinstance(a[0], str):
+        raise BadValue(f'expected "body" or ["body", [x, y, z]], got {shown(x)}')
+    try:
+        return [a[0], value_vec3(a[1])]
+    except BadValue:
+        raise BadValue(f'expected "body" or ["body", [x, y, z]], got {shown(x)}') from None
+
+
+def value_table(x):
+    if not isinstance(x, dict):
+        raise BadValue(f"expected a table, got {shown(x)}")
+    return x
+
+
+def value_matrix_or_table(x):
+    if isinstance(x, dict):
+        return x
+    try:
+        return value_mat3(x)
+    except BadValue:
+        raise BadValue(f"expected a 3×3 matrix (kg·m², about the com) or a helper table such as "
+                   f'{{ shape = "rod", length = 1.0 }}, got {shown(x)}') from None
+
+
+def value_strings(x):
+    a = as_list(x)
+    if a is None or not all(isinstance(v, str) for v in a):
+        raise BadValue(f"expected a list of strings, got {shown(x)}")
+    return a

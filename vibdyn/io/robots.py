@@ -43,12 +43,12 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .. import joints as _joints
 from .._check import count, unknown_name
-from ..elements import WORLD
+from ..description import joints as _joints
+from ..description.elements import WORLD
+from ..description.scene import Scene
 from ..errors import ModelError
-from ..scene import Scene
-from ..system import massless_leaves
+from ..model.system import massless_leaves
 
 DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 

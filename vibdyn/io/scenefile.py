@@ -54,6 +54,8 @@ Format
                       # or law = "harmonic", amplitude, omega, phase = 0, offset = 0
     [[force]]         # name, body, force = [fx, fy, fz] (N, default 0), at = [x, y, z] (m, body frame),
                       # torque = [...] (N·m, optional), frame = "world" (default) | "body"
+    [[cubic_joint_spring]]  # body, k3 (N/m³ or N·m/rad³), rest (optional), name (optional): Q = −k3 (q − rest)³
+                      # (every element kind of vibdyn.description.elements has its table, named after it)
     [[loop]]          # a joint closing a cycle: name, a = [body, [x, y, z]], b = [body or "world", [...]],
                       # joint = { type = "ball" } (default) | pivot | slider | cylindrical {axis}
                       #         | universal {axis1, axis2} | fixed   (axes in body a's frame; no at/rotation)
@@ -83,7 +85,7 @@ Format
 Writing: :func:`save_scene` writes every body explicitly (a scene started from a ``[robot]`` is saved
 with the robot's bodies spelled out), the elements grouped by kind, and the references. Floats are written
 with ``repr`` so that a saved scene reads back bit for bit. Python callables cannot be written (their
-``to_dict`` raises ``ModelError``); use a law of :mod:`vibdyn.laws`. Comments are not kept.
+``to_dict`` raises ``ModelError``); use a law of :mod:`vibdyn.description.laws`. Comments are not kept.
 """
 
 import copy
@@ -97,12 +99,28 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import inertia as _inertia
-from .. import joints as _joints
-from .. import laws as _laws
-from ..elements import WORLD, BodyForce, Damper, JointDamper, JointForce, JointSpring, Spring, Support
+from ..description import inertia as _inertia
+from ..description import joints as _joints
+from ..description.elements import KINDS, WORLD
+from ..description.elements.base import file_attachment
+from ..description.scene import Scene
+from .._check import (
+    BadValue,
+    as_list,
+    is_number,
+    shown,
+    value_attachment,
+    value_boolean,
+    value_matrix_or_table,
+    value_nonnegative,
+    value_number,
+    value_numbers,
+    value_string,
+    value_strings,
+    value_table,
+    value_vec3,
+)
 from ..errors import ModelError, SceneFileError
-from ..scene import Scene
 
 try:  # Python ≥ 3.11
     import tomllib
@@ -187,221 +205,52 @@ def _fits_float(n):
         return False
 
 
-# value kinds: each checker returns the value (lists for arrays) or raises _Bad with what was expected
+# value kinds: each checker returns the value (lists for arrays) or raises BadValue with what was expected
 
 
-class _Bad(Exception):
-    pass
-
-
-def _is_number(x):
-    return isinstance(x, (numbers.Real, np.floating, np.integer)) and not isinstance(x, (bool, np.bool_))
-
-
-def _as_list(x):
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, (list, tuple)):
-        return list(x)
-    return None
-
-
-def _show(x):
-    s = repr(x)
-    return s if len(s) <= 60 else s[:57] + "..."
-
-
-def _string(x):
-    if not isinstance(x, str):
-        raise _Bad(f"expected a string, got {_show(x)}")
-    return x
-
-
-def _number(x):
-    if not _is_number(x):
-        raise _Bad(f"expected a number, got {_show(x)}")
-    if not math.isfinite(x):
-        raise _Bad(f"must be finite, got {x}")
-    return float(x)
-
-
-def _nonnegative(x):
-    v = _number(x)
-    if v < 0:
-        raise _Bad(f"must not be negative, got {v}")
-    return v
-
-
-def _boolean(x):
-    if not isinstance(x, (bool, np.bool_)):
-        raise _Bad(f"expected true or false, got {_show(x)}")
-    return bool(x)
-
-
-def _vec3(x):
-    a = _as_list(x)
-    if a is None or len(a) != 3 or not all(_is_number(v) for v in a):
-        raise _Bad(f"expected 3 numbers [x, y, z], got {_show(x)}")
-    return _finite([float(v) for v in a], x)
-
-
-def _finite(values, x):
-    if not all(math.isfinite(v) for v in values):
-        raise _Bad(f"must be finite, got {_show(x)}")
-    return values
-
-
-def _mat3(x):
-    rows = _as_list(x)
-    if rows is None or len(rows) != 3:
-        raise _Bad(f"expected a 3×3 matrix [[...], [...], [...]], got {_show(x)}")
-    try:
-        return [_vec3(r) for r in rows]
-    except _Bad:
-        raise _Bad(f"expected a 3×3 matrix [[...], [...], [...]], got {_show(x)}") from None
-
-
-def _rotation(x):
-    a = _as_list(x)
-    if a is not None and len(a) == 3 and all(_is_number(v) for v in a):
-        return _finite([float(v) for v in a], x)
-    try:
-        return _mat3(x)
-    except _Bad:
-        raise _Bad(f"expected a 3×3 rotation matrix or a rotation vector of 3 numbers (rad), got {_show(x)}") \
-            from None
-
-
-def _numbers_list(x):
-    a = _as_list(x)
-    if a is None or not a or not all(_is_number(v) for v in a):
-        raise _Bad(f"expected a non-empty list of numbers, got {_show(x)}")
-    return _finite([float(v) for v in a], x)
-
-
-def _number_or_list(x, nonnegative=False):
-    if _is_number(x):
-        vals, out = _finite([float(x)], x), float(x)
-    else:
-        try:
-            vals = out = _numbers_list(x)
-        except _Bad:
-            raise _Bad(f"expected a number or a list of numbers, got {_show(x)}") from None
-    if nonnegative and any(v < 0 for v in vals):
-        raise _Bad(f"must not be negative, got {_show(x)}")
-    return out
-
-
-def _nonnegative_number_or_list(x):
-    return _number_or_list(x, nonnegative=True)
-
-
-def _attachment(x):
-    if isinstance(x, str):
-        return x
-    a = _as_list(x)
-    if a is None or len(a) != 2 or not isinstance(a[0], str):
-        raise _Bad(f'expected "body" or ["body", [x, y, z]], got {_show(x)}')
-    try:
-        return [a[0], _vec3(a[1])]
-    except _Bad:
-        raise _Bad(f'expected "body" or ["body", [x, y, z]], got {_show(x)}') from None
-
-
-def _table(x):
-    if not isinstance(x, dict):
-        raise _Bad(f"expected a table, got {_show(x)}")
-    return x
-
-
-def _matrix_or_table(x):
-    if isinstance(x, dict):
-        return x
-    try:
-        return _mat3(x)
-    except _Bad:
-        raise _Bad(f"expected a 3×3 matrix (kg·m², about the com) or a helper table such as "
-                   f'{{ shape = "rod", length = 1.0 }}, got {_show(x)}') from None
-
-
-def _strings(x):
-    a = _as_list(x)
-    if a is None or not all(isinstance(v, str) for v in a):
-        raise _Bad(f"expected a list of strings, got {_show(x)}")
-    return a
-
-
-SCENE_KEYS = {"name": _string, "gravity": _vec3, "source": _string, "description": _string}
-ROBOT_KEYS = {"name": _string, "urdf": _string, "floating": _boolean, "package_dirs": _strings}
-BODY_KEYS = {"name": _string, "parent": _string, "mass": _nonnegative, "com": _vec3,
-             "inertia": _matrix_or_table, "inertia_about": _vec3, "joint": _table,
-             "shape": lambda x: x}  # shape: checked by vibdyn.shapes
-JOINT_COMMON = {"type": _string, "at": _vec3, "rotation": _rotation, "name": _string}
-JOINT_PARAMS = {
-    "pivot": ({"axis": _vec3}, ("axis",)),
-    "slider": ({"axis": _vec3}, ("axis",)),
-    "cylindrical": ({"axis": _vec3}, ("axis",)),
-    "helical": ({"axis": _vec3, "pitch": _number, "lead": _number}, ("axis",)),
-    "universal": ({"axis1": _vec3, "axis2": _vec3}, ("axis1", "axis2")),
-    "planar": ({"normal": _vec3}, ("normal",)),
-    "ball": ({}, ()),
-    "free": ({}, ()),
-    "fixed": ({}, ()),
-}
+SCENE_KEYS = {"name": value_string, "gravity": value_vec3, "source": value_string, "description": value_string}
+ROBOT_KEYS = {"name": value_string, "urdf": value_string, "floating": value_boolean, "package_dirs": value_strings}
+BODY_KEYS = {"name": value_string, "parent": value_string, "mass": value_nonnegative, "com": value_vec3,
+             "inertia": value_matrix_or_table, "inertia_about": value_vec3, "joint": value_table,
+             "shape": lambda x: x}  # shape: checked by vibdyn.description.shapes
 INERTIA_SHAPES = {  # shape: (keys, required, helper(mass, **params))
     "point": ({}, (), lambda m: _inertia.point(m)),
-    "rod": ({"length": _nonnegative, "axis": _vec3}, ("length",), _inertia.rod),
-    "box": ({"size": _vec3}, ("size",), _inertia.box),
-    "cylinder": ({"radius": _nonnegative, "length": _nonnegative, "axis": _vec3}, ("radius", "length"),
+    "rod": ({"length": value_nonnegative, "axis": value_vec3}, ("length",), _inertia.rod),
+    "box": ({"size": value_vec3}, ("size",), _inertia.box),
+    "cylinder": ({"radius": value_nonnegative, "length": value_nonnegative, "axis": value_vec3}, ("radius", "length"),
                  _inertia.cylinder),
-    "disc": ({"radius": _nonnegative, "axis": _vec3}, ("radius",), _inertia.disc),
-    "sphere": ({"radius": _nonnegative, "hollow": _boolean}, ("radius",), _inertia.sphere),
+    "disc": ({"radius": value_nonnegative, "axis": value_vec3}, ("radius",), _inertia.disc),
+    "sphere": ({"radius": value_nonnegative, "hollow": value_boolean}, ("radius",), _inertia.sphere),
 }
-ELEMENT_KEYS = {  # table: (keys, required); supports first, so that springs and dampers can attach to them
-    "support": ({"name": _string, "motion": _table}, ("name", "motion")),
-    "spring": ({"name": _string, "a": _attachment, "b": _attachment, "stiffness": _nonnegative,
-                "free_length": _nonnegative}, ("name", "a", "b", "stiffness")),
-    "damper": ({"name": _string, "a": _attachment, "b": _attachment, "damping": _nonnegative},
-               ("name", "a", "b", "damping")),
-    "joint_spring": ({"body": _string, "stiffness": _nonnegative_number_or_list, "rest": _number_or_list,
-                      "name": _string}, ("body", "stiffness")),
-    "joint_damper": ({"body": _string, "damping": _nonnegative_number_or_list, "name": _string},
-                     ("body", "damping")),
-    "joint_force": ({"body": _string, "name": _string, "value": _number_or_list, "law": _string,
-                     "coefficients": _numbers_list, "amplitude": _number, "omega": _number, "phase": _number,
-                     "offset": _number}, ("body",)),
-    "force": ({"name": _string, "body": _string, "force": _vec3, "at": _vec3, "torque": _vec3,
-               "frame": _string}, ("name", "body")),
-}
-LAW_KEYS = {"polynomial": (("coefficients",), ("coefficients",)),
-            "harmonic": (("amplitude", "omega", "phase", "offset"), ("amplitude", "omega"))}
+# [[table]] -> (keys, required) of each element kind, from its declaration (vibdyn.description.elements);
+# supports first, so that springs and dampers can attach to them
+ELEMENT_KEYS = {table: (kind.keys, kind.required) for table, kind in KINDS.items()}
 def _start(x):
     if isinstance(x, dict):
         out = {}
         for k, v in x.items():
             try:
-                out[k] = _number(v)
-            except _Bad as e:
-                raise _Bad(f"start of '{k}': {e}") from None
+                out[k] = value_number(v)
+            except BadValue as e:
+                raise BadValue(f"start of '{k}': {e}") from None
         return out
     try:
-        return _numbers_list(x)
-    except _Bad:
-        raise _Bad(f"expected {{ coordinate = offset, ... }} or a list of offsets (one per coordinate), "
-                   f"got {_show(x)}") from None
+        return value_numbers(x)
+    except BadValue:
+        raise BadValue(f"expected {{ coordinate = offset, ... }} or a list of offsets (one per coordinate), "
+                   f"got {shown(x)}") from None
 
 
 def _limits(x):
-    a = _as_list(x)
-    if a is None or len(a) != 2 or not all(_is_number(v) for v in a) or any(math.isnan(v) for v in a):
-        raise _Bad(f"expected [lower, upper] (m or rad), got {_show(x)}")
+    a = as_list(x)
+    if a is None or len(a) != 2 or not all(is_number(v) for v in a) or any(math.isnan(v) for v in a):
+        raise BadValue(f"expected [lower, upper] (m or rad), got {shown(x)}")
     return [float(v) for v in a]
 
 
-OPERATING_POINT_KEYS = {"cyclic": _table, "start": _start, "held": _boolean}
-TOP_LEVEL = ("scene", "robot", "body", "support", "spring", "damper", "joint_spring", "joint_damper", "joint_force",
-             "force", "loop", "limits", "operating_point", "reference")
-LOOP_KEYS = {"name": _string, "a": _attachment, "b": _attachment, "joint": _table}
+OPERATING_POINT_KEYS = {"cyclic": value_table, "start": _start, "held": value_boolean}
+TOP_LEVEL = ("scene", "robot", "body", *KINDS, "loop", "limits", "operating_point", "reference")
+LOOP_KEYS = {"name": value_string, "a": value_attachment, "b": value_attachment, "joint": value_table}
 
 
 class _Reader:
@@ -415,7 +264,7 @@ class _Reader:
     def fields(self, d, key, spec, required=(), what=None):
         """Check a table: known keys only, required ones present, each of the right kind."""
         if not isinstance(d, dict):
-            raise self.error(key, f"expected a table, got {_show(d)}")
+            raise self.error(key, f"expected a table, got {shown(d)}")
         prefix = f"{what}: " if what else ""
         for k in d:
             if k not in spec:
@@ -427,7 +276,7 @@ class _Reader:
         for k, v in d.items():
             try:
                 out[k] = spec[k](v)
-            except _Bad as e:
+            except BadValue as e:
                 raise self.error(f"{key}.{k}", f"{prefix}{e}") from None
         return out
 
@@ -435,13 +284,13 @@ class _Reader:
         """The entries of an array of tables ``[[table]]`` (a list of dicts), checked for shape."""
         value = d.get(table, [])
         if not isinstance(value, (list, tuple)) or not all(isinstance(x, dict) for x in value):
-            raise self.error(table, f"expected an array of tables [[{table}]], got {_show(value)}")
+            raise self.error(table, f"expected an array of tables [[{table}]], got {shown(value)}")
         return list(value)
 
     # ---------------------------------------------------------------- whole scene
     def scene(self, d):
         if not isinstance(d, dict):
-            raise self.error(None, f"a scene file holds a table, got {_show(d)}")
+            raise self.error(None, f"a scene file holds a table, got {shown(d)}")
         for k, v in d.items():
             if k not in TOP_LEVEL:
                 if isinstance(v, (dict, list)):
@@ -450,7 +299,7 @@ class _Reader:
                                     f"(tables: {', '.join(TOP_LEVEL)})")
         for k in ("scene", "robot", "limits", "operating_point", "reference"):
             if k in d and not isinstance(d[k], dict):
-                raise self.error(k, f"expected a table [{k}], got {_show(d[k])}")
+                raise self.error(k, f"expected a table [{k}], got {shown(d[k])}")
         head = self.fields(d.get("scene", {}), "scene", SCENE_KEYS)
         bodies = self.entries(d, "body")
         elements = {t: self.entries(d, t) for t in ELEMENT_KEYS}
@@ -487,7 +336,7 @@ class _Reader:
         for name, value in d.get("limits", {}).items():
             try:
                 scene.set_limits(name, *_limits(value))
-            except (_Bad, ModelError) as e:
+            except (BadValue, ModelError) as e:
                 raise self.error(f"limits.{name}", str(e)) from None
         if "operating_point" in d:
             self.operating_point(scene, d["operating_point"])
@@ -503,11 +352,11 @@ class _Reader:
             for name, speed in op["cyclic"].items():
                 if speed == "free":
                     cyclic[name] = None
-                elif _is_number(speed):
+                elif is_number(speed):
                     cyclic[name] = speed
                 else:
                     raise self.error(f"operating_point.cyclic.{name}",
-                                     f"speed must be a number (rad/s or m/s) or \"free\", got {_show(speed)}")
+                                     f"speed must be a number (rad/s or m/s) or \"free\", got {shown(speed)}")
         try:
             scene.set_operating_point(cyclic, op.get("start"), op.get("held", False))
         except ModelError as e:
@@ -548,7 +397,7 @@ class _Reader:
                 raise self.error(f"{key}.name", "missing required key 'name'")
             name = b["name"]
             if not isinstance(name, str):
-                raise self.error(f"{key}.name", f"expected a string, got {_show(name)}")
+                raise self.error(f"{key}.name", f"expected a string, got {shown(name)}")
             if name in names:
                 raise self.error(f"{key}.name", f"duplicate body name '{name}' (also body[{names[name]}])")
             names[name] = i
@@ -561,7 +410,7 @@ class _Reader:
         for i, b in enumerate(bodies):
             p = b.get("parent", WORLD)
             if not isinstance(p, str):
-                raise self.error(f"body[{i}].parent", f"body '{b['name']}': expected a string, got {_show(p)}")
+                raise self.error(f"body[{i}].parent", f"body '{b['name']}': expected a string, got {shown(p)}")
             if p == WORLD or (p not in names and _has_body(scene, p)):
                 parent[i] = None
             elif p in names:
@@ -609,30 +458,26 @@ class _Reader:
             raise self.error(f"{key}.{field}", f"{what}: missing required key '{field}' (one of "
                                                f"{', '.join(registry)})")
         if not isinstance(kind, str) or kind not in registry:
-            raise self.error(f"{key}.{field}", f"{what}: unknown {noun} {_show(kind)} (one of "
+            raise self.error(f"{key}.{field}", f"{what}: unknown {noun} {shown(kind)} (one of "
                                                f"{', '.join(registry)})")
         return kind
 
     def joint(self, d, key, what):
-        kind = self.kind(d, "type", JOINT_PARAMS, key, what, "joint type")
-        params, required = JOINT_PARAMS[kind]
-        j = self.fields(d, key, {**JOINT_COMMON, **params}, required, f"{what} {kind} joint")
+        kind = self.kind(d, "type", _joints.KINDS, key, what, "joint type")
+        cls = _joints.KINDS[kind]
+        j = self.fields(d, key, {**cls.common_file_keys, **cls.file_keys}, cls.file_required, f"{what} {kind} joint")
         j.pop("type")
-        if kind == "helical":
-            if ("pitch" in j) == ("lead" in j):
-                raise self.error(f"{key}.pitch", f"{what}: a helical joint needs either pitch (m/rad) or "
-                                                 "lead (m/turn)")
-            if "lead" in j:
-                j["pitch"] = j.pop("lead") / (2.0 * math.pi)
         try:
-            return _joints.KINDS[kind](**j).checked()
+            return cls.from_file(j, lambda k, message: self.error(f"{key}.{k}", f"{what}: {message}")).checked()
+        except SceneFileError:
+            raise
         except ModelError as e:
             raise self.error(key, f"{what}: {e}") from None
 
     def inertia_table(self, d, mass, key, what):
         shape = self.kind(d, "shape", INERTIA_SHAPES, key, what, "inertia shape")
         params, required, helper = INERTIA_SHAPES[shape]
-        p = self.fields(d, key, {"shape": _string, **params}, required, f"{what} {shape} inertia")
+        p = self.fields(d, key, {"shape": value_string, **params}, required, f"{what} {shape} inertia")
         p.pop("shape")
         try:
             return helper(mass, **p)
@@ -652,25 +497,7 @@ class _Reader:
 
         e = self.fields(d, key, spec, required, what)
         try:
-            if table == "support":
-                scene.add_support(e["name"], e["motion"])
-            elif table == "spring":
-                scene.add_spring(e["name"], _att(e["a"]), _att(e["b"]), e["stiffness"], e.get("free_length"))
-            elif table == "damper":
-                scene.add_damper(e["name"], _att(e["a"]), _att(e["b"]), e["damping"])
-            elif table == "joint_spring":
-                scene.add_joint_spring(e["body"], e["stiffness"], e.get("rest", 0.0), name=e.get("name"))
-            elif table == "joint_damper":
-                scene.add_joint_damper(e["body"], e["damping"], name=e.get("name"))
-            elif table == "joint_force":
-                scene.add_joint_force(e["body"], self.joint_force_value(e, key, what), name=e.get("name"))
-            elif table == "force":
-                frame = e.get("frame", "world")
-                if frame not in ("world", "body"):
-                    raise self.error(f"{key}.frame", f"{what}: frame must be \"world\" or \"body\", got "
-                                                     f"{_show(frame)}")
-                scene.add_force(e["name"], e["body"], e.get("force", (0.0, 0.0, 0.0)), e.get("at", (0.0, 0.0, 0.0)),
-                                e.get("torque"), frame)
+            KINDS[table].from_file(scene, e, lambda k, message: self.error(f"{key}.{k}", message))
         except ModelError as err:
             if isinstance(err, SceneFileError):
                 raise
@@ -682,35 +509,10 @@ class _Reader:
         e = self.fields(d, key, LOOP_KEYS, ("name", "a", "b"), what)
         joint = self.joint(e["joint"], f"{key}.joint", what) if "joint" in e else None
         try:
-            scene.add_loop(e["name"], _att(e["a"]), _att(e["b"]), joint=joint)
+            scene.add_loop(e["name"], file_attachment(e["a"]), file_attachment(e["b"]), joint=joint)
         except ModelError as err:
             if isinstance(err, SceneFileError):
                 raise
-            raise self.error(key, str(err)) from None
-
-    def joint_force_value(self, e, key, what):
-        law_params = {k for k in e if k in ("coefficients", "amplitude", "omega", "phase", "offset")}
-        if ("value" in e) == ("law" in e):
-            raise self.error(f"{key}.value", f"{what}: give either value (a constant) or law "
-                                             f"({' or '.join(_laws.LAWS)})")
-        if "value" in e:
-            if law_params:
-                k = sorted(law_params)[0]
-                raise self.error(f"{key}.{k}", f"{what}: '{k}' goes with a law, not with value")
-            return e["value"]
-        law = e["law"]
-        if law not in LAW_KEYS:
-            raise self.error(f"{key}.law", f"{what}: unknown law {_show(law)} (one of {', '.join(LAW_KEYS)})")
-        allowed, required = LAW_KEYS[law]
-        for k in sorted(law_params - set(allowed)):
-            raise self.error(f"{key}.{k}", f"{what}: unknown key '{k}' for law \"{law}\" (allowed: "
-                                           f"{', '.join(allowed)})")
-        for k in required:
-            if k not in e:
-                raise self.error(f"{key}.{k}", f"{what}: missing required key '{k}' for law \"{law}\"")
-        try:
-            return _laws.from_dict({"law": law, **{k: e[k] for k in law_params}}, what)
-        except ModelError as err:
             raise self.error(key, str(err)) from None
 
 
@@ -722,15 +524,7 @@ def _has_body(scene, name):
         return False
 
 
-def _att(a):
-    return a if isinstance(a, str) else (a[0], tuple(a[1]))
-
-
 # ------------------------------------------------------------------ writing
-
-_ELEMENT_TABLES = ((Support, "support"), (Spring, "spring"), (Damper, "damper"), (JointSpring, "joint_spring"),
-                   (JointDamper, "joint_damper"), (JointForce, "joint_force"), (BodyForce, "force"))
-
 
 def scene_to_dict(scene):
     """The plain data of a scene file (the structure :func:`scene_from_dict` reads).
@@ -762,15 +556,8 @@ def scene_to_dict(scene):
         bodies.append(b)
     if bodies:
         out["body"] = bodies
-    for cls, table in _ELEMENT_TABLES:
-        entries = []
-        for e in scene.elements_of(cls):
-            d = e.to_dict()
-            if table == "joint_spring" and not np.any(d.get("rest", 0.0)):
-                d.pop("rest", None)
-            if table == "force" and d.get("frame") == "world":
-                d.pop("frame")
-            entries.append(d)
+    for table, kind in KINDS.items():
+        entries = [e.to_dict() for e in scene.elements_of(kind)]
         if entries:
             out[table] = entries
     if getattr(scene, "loops", None):
@@ -810,7 +597,7 @@ def dumps(doc, path=None):
     null); anything else that TOML cannot hold raises ``SceneFileError`` naming the key.
     """
     if not isinstance(doc, dict):
-        raise SceneFileError(f"expected a dict at the top level, got {_show(doc)}", path=path)
+        raise SceneFileError(f"expected a dict at the top level, got {shown(doc)}", path=path)
     lines = []
     _emit_table(lines, [], "", doc, inline=False, path=path)
     return "\n".join(lines).strip("\n") + "\n"
@@ -822,7 +609,7 @@ def _emit_table(lines, header, where, table, inline, path):
     simple, nested = [], []
     for k, v in table.items():
         if not isinstance(k, str):
-            raise SceneFileError(f"table keys must be strings, got {_show(k)}", path=path, key=where or None)
+            raise SceneFileError(f"table keys must be strings, got {shown(k)}", path=path, key=where or None)
         if v is None:
             continue
         if not inline and (isinstance(v, dict) or (isinstance(v, (list, tuple)) and v
@@ -897,8 +684,8 @@ def _value(v, where, path):
         items = []
         for k, x in v.items():
             if not isinstance(k, str):
-                raise SceneFileError(f"table keys must be strings, got {_show(k)}", path=path, key=where or None)
+                raise SceneFileError(f"table keys must be strings, got {shown(k)}", path=path, key=where or None)
             if x is not None:
                 items.append(f"{_key(k)} = {_value(x, _join(where, k), path)}")
         return "{ " + ", ".join(items) + " }" if items else "{}"
-    raise SceneFileError(f"cannot write {_show(v)} ({type(v).__name__}) to TOML", path=path, key=where or None)
+    raise SceneFileError(f"cannot write {shown(v)} ({type(v).__name__}) to TOML", path=path, key=where or None)

@@ -1,0 +1,170 @@
+"""The integrators' protocol (vibdyn.simulation.integrators): every METHODS entry integrates a harmonic
+oscillator to within its own error estimate (closed form x = X0 cos ωt), reports its counters (with the
+evaluation counts the Runge–Kutta tableaus imply), and its dense output agrees with a second run's output
+times; Hairer's starting step; the registry is what simulate() and its error message read.
+
+Tolerances: each run's own error estimate plus round-off (a few ε × X0 per step). The "rerun" and
+"richardson" estimates are per output and first-order accurate: the true error differs from them by the
+check run's own error (rerun at tolerances / 100: ≥ 20 times smaller for these methods of order ≥ 2) or by
+the next term of the expansion (Richardson: relative O(ω·dt) = 2 %), hence the stated factor ESTIMATE_SLACK;
+an error that oscillates through zero is compared with the largest estimate so far (the estimate bounds
+the error up to that time). The "local" estimate (DOP853's summed local errors) ignores how earlier errors
+propagate, as documented: the run's largest error is compared with its largest estimate. Dense outputs are
+compared with the run's largest estimate (BDF's interpolant in its first order-1 steps is less accurate
+than its steps, and the rerun at tighter tolerances interpolates on other steps).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import vibdyn as vd
+from vibdyn.simulation.integrators import ALIASES, METHODS, Stepper, method_class
+from vibdyn.simulation.integrators.base import StepError, initial_step
+from vibdyn.studies.examples import chain
+
+OMEGA, X0, T_END = 2.0, 0.1, 10.0  # rad/s, m, s (three periods)
+ESTIMATE_SLACK = 1.25
+SYSTEM = chain(1, k=OMEGA ** 2, m=1.0).build()  # 1 kg on a slider, spring 4 N/m: x = X0 cos 2t
+Q0 = SYSTEM.integrate(SYSTEM.neutral(), [X0])
+
+
+def exact(t):
+    return X0 * np.cos(OMEGA * np.asarray(t))
+
+
+def settings(cls):
+    return {"rtol": 1e-8} if cls.adaptive else {"dt": 0.01}
+
+
+def run(name, **kwargs):
+    return SYSTEM.simulate(T_END, q0=Q0, method=name, **{**settings(METHODS[name]), **kwargs})
+
+
+def roundoff(traj):
+    return 16 * np.finfo(float).eps * X0 * (1 + traj.accepted)
+
+
+def test_registry_declares_every_method():
+    assert set(METHODS) == {"dop853", "rk4", "radau", "bdf", "symplectic"}
+    for name, cls in METHODS.items():
+        assert issubclass(cls, Stepper) and cls.name == name and cls.order >= 2 and cls.error_methods
+        assert cls.dense_output == cls.adaptive  # fixed-step methods land on their output times
+    assert method_class("Variational") is METHODS[ALIASES["variational"]] and method_class("euler") is None
+    with pytest.raises(vd.ModelError, match="unknown method 'euler'") as e:
+        SYSTEM.simulate(1.0, method="euler")
+    assert all(name in str(e.value) for name in METHODS)
+
+
+def within_estimate(traj, q_err, v_err):
+    """The errors (at every output) within the run's own estimate (see the module docstring)."""
+    if traj.error_method == "local":
+        return q_err.max() <= traj.error + roundoff(traj) and v_err.max() <= traj.error_v + OMEGA * roundoff(traj)
+    so_far = np.maximum.accumulate
+    return (np.all(q_err <= ESTIMATE_SLACK * so_far(traj.q_error) + roundoff(traj))
+            and np.all(v_err <= ESTIMATE_SLACK * so_far(traj.v_error) + OMEGA * roundoff(traj)))
+
+
+@pytest.mark.parametrize("name,error", [(n, e) for n in sorted(METHODS) for e in METHODS[n].error_methods])
+def test_harmonic_oscillator_within_its_own_error_estimate(name, error):
+    t = np.linspace(0.0, T_END, 41)  # inside steps for the adaptive methods: their dense output
+    traj = run(name, t_eval=t, error=error)
+    np.testing.assert_array_equal(traj.t, t)
+    assert traj.error_method == error
+    q_err = np.abs(traj.q[:, 0] - exact(t))
+    v_err = np.abs(traj.v[:, 0] + OMEGA * X0 * np.sin(OMEGA * t))
+    print(f"[integrators] {name}: largest error {q_err.max():.2e}, estimate {traj.error:.2e} ({error}), "
+          f"{traj.accepted} steps, {traj.nfev} evaluations")
+    assert within_estimate(traj, q_err, v_err)
+    assert traj.error < 1e-3 * X0  # and the estimate is not vacuous
+
+
+@pytest.mark.parametrize("name", sorted(METHODS))
+def test_counters(name):
+    traj = run(name)
+    cls = METHODS[name]
+    assert traj.accepted > 0 and traj.nfev > traj.accepted and traj.error_nfev > 0 or traj.error_method == "local"
+    if name == "rk4":  # f(t0) once, then 4 evaluations a step (the last one is the next step's first stage)
+        assert traj.nfev == 1 + 4 * traj.accepted
+    if name == "dop853":  # f(t0), one Euler probe of the starting step, then 12 per attempted step (FSAL)
+        assert traj.nfev == 2 + 12 * (traj.accepted + traj.rejected)
+    if name in ("radau", "bdf", "symplectic"):  # Newton iterations: Jacobians and factorisations
+        assert traj.njev >= 1 and traj.nlu >= 1
+    else:
+        assert traj.njev == traj.nlu == 0
+    assert (traj.rejected is None) == (name in ("radau", "bdf"))
+    if not cls.adaptive:
+        assert traj.accepted == math.ceil(T_END / 0.01 / 2) * 2  # an even number of equal steps ≤ dt
+
+
+@pytest.mark.parametrize("name", sorted(n for n, c in METHODS.items() if c.dense_output))
+def test_dense_output_agrees_with_a_second_run(name):
+    """Output times do not change the steps: a run asked for its own step times plus the midpoints gives
+    the first run's states exactly at the steps, and the dense output at the midpoints within its estimate."""
+    first = run(name, error="rerun")
+    mid = 0.5 * (first.t[1:] + first.t[:-1])
+    t = np.sort(np.concatenate([first.t, mid]))
+    second = run(name, t_eval=t, error="rerun")
+    at_steps = np.isin(second.t, first.t)
+    np.testing.assert_array_equal(second.q[at_steps], first.q)
+    np.testing.assert_array_equal(second.v[at_steps], first.v)
+    assert second.accepted == first.accepted and second.nfev >= first.nfev
+    t_mid = second.t[~at_steps]
+    q_err = np.abs(second.q[~at_steps, 0] - exact(t_mid))
+    v_err = np.abs(second.v[~at_steps, 0] + OMEGA * X0 * np.sin(OMEGA * t_mid))
+    assert q_err.max() <= ESTIMATE_SLACK * second.error + roundoff(second)
+    assert v_err.max() <= ESTIMATE_SLACK * second.error_v + OMEGA * roundoff(second)
+
+
+@pytest.mark.parametrize("name", sorted(METHODS))
+def test_a_stepper_used_directly(name):
+    """The constructor every method shares, and the stepping protocol (step or step_to) to t_end."""
+    cls = METHODS[name]
+    atol = np.array([1e-10])
+    stepper = cls(SYSTEM, Q0, np.zeros(1), 1.0, rtol=1e-8, atol_q=atol, atol_v=atol)
+    if cls.adaptive:
+        while stepper.t < 1.0:
+            stepper.step()
+    else:
+        for t in np.linspace(0.01, 1.0, 100):
+            stepper.step_to(t)
+    q, v, w = stepper.state
+    assert stepper.t == 1.0 and w == 0.0
+    # adaptive: 1e-8 per step; fixed: the leading phase error ~ X0·ωt·(ω·dt)^order (far above it)
+    bound = 1e-5 * X0 if cls.adaptive else X0 * OMEGA * (OMEGA * 0.01) ** cls.order
+    assert abs(SYSTEM.difference(SYSTEM.neutral(), q)[0] - exact(1.0)) < bound
+    nfev, njev, nlu, accepted, rejected = stepper.counters
+    assert nfev == stepper.nfev > 0 and accepted == stepper.accepted > 0
+    with pytest.raises(NotImplementedError):
+        (stepper.step_to(2.0) if cls.adaptive else stepper.step())
+
+
+def test_initial_step_is_hairers():
+    """y' = λy: h0 = 0.01·‖y‖/‖f‖ = 0.01/|λ|, h1 = (0.01/max(‖f‖, ‖f′‖))^(1/(p+1)); the step is min(100 h0, h1)."""
+    lam, rtol = -3.0, 1e-6
+    y0 = np.array([1.0])
+    f = lambda t, y: lam * y  # noqa: E731
+    atol = np.array([1e-9])
+    scale = atol + rtol
+    d1 = abs(lam) / scale[0]
+    h0 = 0.01 / abs(lam)
+    d2 = abs(lam * (lam * h0)) / scale[0] / h0
+    expected = min(100 * h0, (0.01 / max(d1, d2)) ** (1 / 8))
+    h = initial_step(f, 0.0, y0, f(0.0, y0), 10.0, np.inf, 7, rtol, atol)
+    assert h == pytest.approx(expected, rel=1e-12)
+    assert initial_step(f, 0.0, y0, f(0.0, y0), 1e-9, np.inf, 7, rtol, atol) == 1e-9  # never past t_end
+    assert initial_step(f, 0.0, y0, f(0.0, y0), 10.0, 1e-7, 7, rtol, atol) == 1e-7  # nor above max_step
+
+
+def test_initial_step_of_a_state_too_large_for_the_arithmetic_is_a_step_error():
+    """‖f0‖ in tolerance units overflows: no first step can be chosen; the RMS
+    norm must not overflow to a zero step (a raw ZeroDivisionError before), and simulate says why."""
+    y0 = np.array([0.0, 1e305])  # f0 / atol = 1e313: inf in double precision
+    with pytest.raises(StepError, match="too large"):
+        initial_step(lambda t, y: np.array([y[1], 0.0]), 0.0, y0, np.array([1e305, 0.0]), 1.0, np.inf, 7, 1e-8,
+                     1e-8)
+    s = vd.Scene("spin")
+    s.add_body("r", joint=vd.Pivot((0, 0, 1)), mass=1.0, inertia=np.eye(3))
+    with pytest.raises(vd.VibdynError):
+        s.build().simulate(1e-3, v0=[1e160])

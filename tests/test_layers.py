@@ -1,0 +1,217 @@
+"""The package's house rules, read from its source: layers, no import cycles, no other module's privates.
+
+Layers, lowest first (a module imports only from its own layer or below):
+
+0 base        vibdyn.errors, vibdyn._check, vibdyn._format, vibdyn.defaults
+1 description vibdyn.description.*   what a user writes (scene, joints, elements, laws, loops, ...)
+2 model       vibdyn.model.*         the compiled System, its workspaces, dynamics, forces, derivatives
+3 analysis    vibdyn.analysis.*      equilibrium, linearize, modal, response, statespace, identify, ...
+4 time        vibdyn.simulation.*    simulate and its integrators
+5 studies     vibdyn.studies.*       sweeps, example builders
+6 io          vibdyn.io.*            scene files, robots
+7 faces       vibdyn.faces.*         cli, plots, viewer
+8 façade      vibdyn (its __init__)  the public names, loaded lazily
+
+The one sanctioned way up is an *entry point*: a method of a lower-layer class that forwards to a higher
+layer on call (``Scene.build`` compiles, ``System.linearize`` runs the analysis, ``Modes.plot`` draws), the
+import inside that method. Each is listed below by name; any other upward import, and any cycle among the
+remaining imports, fails.
+"""
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "vibdyn"
+LAYERS = {"errors": 0, "_check": 0, "_format": 0, "defaults": 0, "description": 1, "model": 2, "analysis": 3,
+          "simulation": 4, "studies": 5, "io": 6, "faces": 7}
+
+# (importing module, function or method) -> the higher-layer modules it may import on call
+ENTRY_POINTS = {
+    ("vibdyn.description.scene", "Scene.build"): {"vibdyn.model.system"},
+    ("vibdyn.description.scene", "Scene.to_dict"): {"vibdyn.io.scenefile"},
+    ("vibdyn.description.scene", "Scene.save"): {"vibdyn.io.scenefile"},
+    ("vibdyn.model.system", "System.equilibrium"): {"vibdyn.analysis.equilibrium", "vibdyn.analysis.constrained"},
+    ("vibdyn.model.system", "System.equilibria"): {"vibdyn.analysis.equilibrium"},
+    ("vibdyn.model.system", "System.steady_motion"): {"vibdyn.analysis.equilibrium"},
+    ("vibdyn.model.system", "System.held"): {"vibdyn.analysis.equilibrium"},
+    ("vibdyn.model.system", "System.linearize"): {"vibdyn.analysis.linearize", "vibdyn.analysis.constrained"},
+    ("vibdyn.model.system", "System.simulate"): {"vibdyn.simulation.simulate"},
+    ("vibdyn.analysis.modal", "Modes.plot"): {"vibdyn.faces.viewer.pictures"},
+    # the linear model's methods are entry points to the analyses built on it (same layer, above it)
+    **{("vibdyn.analysis.linearize", f"LinearModel.{m}"): {"vibdyn.analysis.response"}
+       for m in ("free_response", "receptance", "harmonic_response", "base_response", "forced_response")},
+    ("vibdyn.analysis.linearize", "LinearModel.appropriation"): {"vibdyn.analysis.response.appropriation"},
+    ("vibdyn.analysis.linearize", "LinearModel.state_space"): {"vibdyn.analysis.statespace"},
+    ("vibdyn.analysis.linearize", "LinearModel.modes"): {"vibdyn.analysis.modal"},
+    ("vibdyn.analysis.linearize", "LinearModel.with_rayleigh"): {"vibdyn.analysis.modal"},
+    ("vibdyn.analysis.campbell_diagram", "Campbell.plot"): {"vibdyn.faces.plots"},
+    ("vibdyn.analysis.timeresult", "TimeResult.plot"): {"vibdyn.faces.plots"},
+}
+
+
+def module_name(path):
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def layer(module):
+    parts = module.split(".")
+    return 8 if len(parts) == 1 else LAYERS[parts[1]]
+
+
+MODULES = {module_name(p): p for p in PACKAGE.rglob("*.py")}
+
+
+def imports():
+    """(importer, imported module, enclosing function qualname or None) for every vibdyn import."""
+    out = []
+    for name, path in MODULES.items():
+        package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+
+        def visit(node, scope):
+            for child in ast.iter_child_nodes(node):
+                if isinstance(child, ast.If) and getattr(child.test, "id", None) == "TYPE_CHECKING":
+                    continue  # for the type checker only: never imported at run time
+                if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                    visit(child, f"{scope}.{child.name}" if scope else child.name)
+                    continue
+                targets = []
+                if isinstance(child, ast.Import):
+                    targets = [a.name for a in child.names if a.name.split(".")[0] == "vibdyn"]
+                elif isinstance(child, ast.ImportFrom):
+                    if child.level:
+                        base = package.split(".")
+                        base = ".".join(base[:len(base) - child.level + 1] + ([child.module] if child.module else []))
+                    elif (child.module or "").split(".")[0] == "vibdyn":
+                        base = child.module
+                    else:
+                        base = None
+                    if base is not None:
+                        targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in MODULES else base for a in child.names]
+                for target in targets:
+                    out.append((name, target, scope if _in_function(scope) else None))
+                visit(child, scope)
+
+        visit(ast.parse(path.read_text()), "")
+    return out
+
+
+def _in_function(scope):
+    return bool(scope) and not scope[0].isupper() or "." in scope
+
+
+def test_every_module_is_in_a_layer():
+    for name in MODULES:
+        assert layer(name) is not None, name
+
+
+def test_imports_go_down_except_named_entry_points():
+    up = []
+    for importer, target, scope in imports():
+        if layer(target) > layer(importer) and target not in ENTRY_POINTS.get((importer, scope), ()):
+            up.append(f"{importer} ({scope or 'module level'}) imports {target}")
+    assert not up, "imports from a lower layer to a higher one:\n  " + "\n  ".join(sorted(set(up)))
+
+
+def test_no_import_cycles():
+    graph = {}
+    for importer, target, scope in imports():
+        if target in ENTRY_POINTS.get((importer, scope), ()) or target == importer:
+            continue
+        if target.startswith(importer + ".") and MODULES[importer].name == "__init__.py":
+            continue  # a package's __init__ re-exporting its own modules
+        graph.setdefault(importer, set()).add(target)
+    cycles = _cycles(graph)
+    assert not cycles, "import cycles:\n  " + "\n  ".join(" -> ".join(c) for c in cycles)
+
+
+def _cycles(graph):
+    """Strongly connected components with more than one module (Tarjan)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def strong(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                strong(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in list(graph):
+        if v not in index:
+            strong(v)
+    return out
+
+
+def test_the_checker_sees_a_violation():
+    """The rules above can fail: a made-up upward import and a made-up cycle are caught."""
+    assert layer("vibdyn.model.system") < layer("vibdyn.analysis.linearize")
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == [["a", "b", "c"]]
+    assert _cycles({"a": {"b"}, "b": set()}) == []
+
+
+PRIVATE = re.compile(r"\b(?!self\b|cls\b|super\(\))([a-z_][a-z0-9_]*)\._([a-z][a-z0-9_]*)\b")
+# names of objects from outside the package whose underscore members are their own documented API
+FOREIGN_OK = {"sys._getframe", "os._exit"}
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_no_use_of_another_modules_private_members(name):
+    """``obj._member`` only on ``self``/``cls`` (a class's own privates) or on an object of the same module."""
+    source = MODULES[name].read_text()
+    own = {m for pair in re.findall(r"^\s*def\s+_(\w+)|self\._(\w+)\s*=", source, re.M) for m in pair if m}
+    bad = []
+    for lineno, line in enumerate(source.splitlines(), 1):
+        code = line.split("#", 1)[0]
+        for m in PRIVATE.finditer(code):
+            if (m.group(2) in own or f"{m.group(1)}._{m.group(2)}" in FOREIGN_OK
+                    or code.strip().startswith(("from", "import"))):
+                continue
+            bad.append(f"{name}:{lineno}: {m.group(0)}")
+    assert not bad, "uses of another object's private members:\n  " + "\n  ".join(bad)
+
+
+def private_imports(source):
+    """Modules of other packages imported through a private part (``scipy.integrate._ivp``, ``from x import
+    _y``)."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        else:
+            continue
+        out += [n for n in names if n.split(".")[0] != "vibdyn"
+                and any(p.startswith("_") and not p.endswith("__") for p in n.split("."))]
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_no_import_of_another_packages_private_modules(name):
+    """scipy's ``_ivp`` and the like are not API: vibdyn imports only public modules of other packages."""
+    assert not private_imports(MODULES[name].read_text()), name
+
+
+def test_the_private_import_checker_sees_one():
+    assert private_imports("from scipy.integrate._ivp.rk import Dop853DenseOutput") == [
+        "scipy.integrate._ivp.rk", "scipy.integrate._ivp.rk.Dop853DenseOutput"]
+    assert private_imports("import scipy._lib") == ["scipy._lib"]
+    assert private_imports("from scipy.integrate import Radau\nfrom . import _private\nfrom __future__ import "
+                           "annotations") == []

@@ -1,0 +1,282 @@
+"""Campbell diagrams: the modes of a spinning system against its spin speed, tracked by MAC, with their
+whirl direction and the critical speeds where a mode meets an engine order.
+
+At each speed Ω (rad/s) of the coordinate ``spin`` — held at that speed by its drive — vibdyn finds the
+steady motion, linearises about it (gyroscopic terms included) and takes the state eigenvalues λ. A mode's
+frequency is |Im λ| (a complex-conjugate pair counted once); a pair of real eigenvalues (rigid, cyclic or
+overdamped motion) is one mode of frequency exactly 0. There are as many modes as coordinates.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike
+
+from .._check import finite_array
+from .._format import number
+from ..errors import ConvergenceError, ModelError
+from .modal import mac
+
+
+@dataclass(frozen=True)
+class SpeedModes:
+    """The modes of one steady motion: frequencies (rad/s), ζ, whirl, shapes (nv × m, complex, position part
+    of the state eigenvectors), each frequency's estimated absolute error (rad/s)."""
+
+    speed: float
+    frequencies: np.ndarray
+    zeta: np.ndarray
+    whirl: np.ndarray
+    shapes: np.ndarray
+    error: np.ndarray
+    q: np.ndarray
+
+
+@dataclass(frozen=True)
+class CriticalSpeed:
+    """A speed (rad/s) where mode ``mode`` (a column of the diagram) has the frequency ``order`` × speed."""
+
+    speed: float
+    mode: int
+    whirl: str
+    order: float
+    frequency: float  # rad/s, = order × speed
+    error: float  # estimated absolute error of the speed (rad/s)
+
+    @property
+    def speed_rpm(self) -> float:
+        return self.speed * 30.0 / np.pi
+
+    def __repr__(self) -> str:
+        return (f"CriticalSpeed({self.speed:.8g} rad/s = {self.speed_rpm:.6g} rpm, mode {self.mode}, "
+                f"{self.whirl or 'no'} whirl, order {self.order:g})")
+
+
+@dataclass(frozen=True, eq=False)
+class Campbell:
+    """A Campbell diagram (see :func:`campbell`).
+
+    ``speeds`` (n,) rad/s; ``frequencies`` (n × m) rad/s, one column per mode tracked by MAC from one speed
+    to the next (0 for rigid, cyclic and overdamped modes); ``zeta`` (n × m) damping ratios;
+    ``whirl`` (n × m) "forward", "backward" or "" (no whirl: a planar or non-oscillating mode);
+    ``error`` (n × m) estimated absolute error of each frequency (rad/s); ``elapsed`` s.
+    """
+
+    system: object = field(repr=False)
+    spin: str
+    speeds: np.ndarray
+    frequencies: np.ndarray
+    zeta: np.ndarray
+    whirl: np.ndarray
+    error: np.ndarray
+    orders: tuple
+    method: str
+    elapsed: float
+    _shapes: list = field(repr=False)
+    _q: list = field(repr=False)
+
+    @property
+    def frequency_hz(self) -> np.ndarray:
+        return self.frequencies / (2 * np.pi)
+
+    def critical_speeds(self, order: float = 1) -> list[CriticalSpeed]:
+        """Speeds in the diagram's range where a mode's frequency equals ``order`` × |Ω|, refined by root
+        finding on the linearisation itself (Brent, to 1e-10 relative); zero-frequency modes never count."""
+        order = finite_array(order, None, "critical_speeds order").item()
+        if order <= 0:
+            raise ModelError(f"critical_speeds: order must be positive, got {order}")
+        from scipy.optimize import brentq
+
+        found = []
+        for j in range(self.frequencies.shape[1]):
+            f = self.frequencies[:, j]
+            g = f - order * np.abs(self.speeds)
+            for i in range(len(self.speeds) - 1):
+                if f[i] <= 0 or f[i + 1] <= 0 or g[i] * g[i + 1] > 0 or (g[i] == 0 and i > 0):
+                    continue
+                a, b = self.speeds[i], self.speeds[i + 1]
+                refs = (self._shapes[i][:, j], self._shapes[i + 1][:, j])
+                q0 = self._q[i]
+
+                def h(s, refs=refs, q0=q0):
+                    sm = _speed_modes(self.system, self.spin, s, q0, self.method)
+                    return sm.frequencies[_pick(refs, sm)] - order * abs(s)
+
+                if g[i] == 0:
+                    s = a
+                elif g[i + 1] == 0:
+                    s = b
+                else:
+                    s = brentq(h, a, b, xtol=1e-12 * max(abs(a), abs(b)), rtol=1e-12)
+                sm = _speed_modes(self.system, self.spin, s, q0, self.method)
+                k = _pick(refs, sm)
+                slope = abs(order - (f[i + 1] - f[i]) / (b - a) * np.sign(s)) or 1.0
+                found.append(CriticalSpeed(float(s), j, str(sm.whirl[k]), order, float(order * abs(s)),
+                                           float(sm.error[k] / slope + 1e-12 * abs(s))))
+        return sorted(found, key=lambda c: c.speed)
+
+    def plot(self, path: str | None = None, dpi: int = 100) -> Any:
+        """The Campbell diagram (matplotlib): frequencies in Hz against speed in rad/s, forward whirl solid,
+        backward dashed, engine orders dotted, critical speeds marked. Saves to ``path`` if given."""
+        from ..faces import plots
+
+        return plots.campbell(self, path=path, dpi=dpi)
+
+    def to_dict(self) -> dict:
+        return {"spin": self.spin, "speeds_rad_s": self.speeds.tolist(),
+                "frequencies_rad_s": self.frequencies.tolist(), "zeta": self.zeta.tolist(),
+                "whirl": self.whirl.tolist(), "error_rad_s": self.error.tolist(), "method": self.method,
+                "critical_speeds": [
+                    {"order": c.order, "speed_rad_s": c.speed, "mode": c.mode, "whirl": c.whirl,
+                     "error_rad_s": c.error}
+                    for o in self.orders for c in self.critical_speeds(o)],
+                "elapsed_s": self.elapsed}
+
+    def __repr__(self) -> str:
+        n, m = self.frequencies.shape
+        return (f"Campbell('{self.spin}', {n} speeds {number(self.speeds[0])}…{number(self.speeds[-1])} rad/s, "
+                f"{m} modes, {self.elapsed:.2f} s)")
+
+
+def campbell(system: Any, spin: str, speeds: ArrayLike, orders: ArrayLike = (1,), *, q0: ArrayLike | None = None,
+             method: str = "analytic") -> Campbell:
+    """Campbell diagram of ``system`` against the speed of coordinate ``spin`` (rad/s), held by its drive.
+
+    ``speeds``: increasing speeds (rad/s); ``orders``: engine orders for :meth:`Campbell.critical_speeds`
+    and the plot; ``q0``: where the first steady-motion search starts (each next one starts from the
+    previous); ``method``: the linearisation method ("analytic" or "fd").
+    """
+    start = time.perf_counter()
+    i_spin = system.coordinate_index(spin)
+    speeds = finite_array(speeds, None, "campbell speeds").astype(float).ravel()
+    if speeds.size < 2 or np.any(np.diff(speeds) <= 0):
+        raise ModelError("campbell: speeds must be at least two increasing values (rad/s)")
+    orders = tuple(float(finite_array(o, None, "campbell order").item()) for o in np.atleast_1d(orders))
+    if system.units[i_spin] != "rad":
+        raise ModelError(f"campbell: '{spin}' is not a rotation (its unit is {system.units[i_spin]})")
+    rows, q = [], q0
+    for s in speeds:
+        row = _speed_modes(system, spin, s, q, method)
+        rows.append(row)
+        q = row.q
+    cols = [np.arange(rows[0].frequencies.size)]
+    for a, b in zip(rows[:-1], rows[1:]):
+        cols.append(_match(a, b, cols[-1]))
+    freq = np.array([r.frequencies[c] for r, c in zip(rows, cols)])
+    zeta = np.array([r.zeta[c] for r, c in zip(rows, cols)])
+    whirl = np.array([r.whirl[c] for r, c in zip(rows, cols)])
+    err = np.array([r.error[c] for r, c in zip(rows, cols)])
+    shapes = [r.shapes[:, c] for r, c in zip(rows, cols)]
+    return Campbell(system, spin, speeds, freq, zeta, whirl, err, orders, method, time.perf_counter() - start,
+                    shapes, [r.q for r in rows])
+
+
+def _match(a: SpeedModes, b: SpeedModes, cols_a: np.ndarray) -> np.ndarray:
+    """Columns of b in the order of a's tracked columns: the assignment of largest total MAC (frequencies
+    break ties between degenerate shapes)."""
+    from scipy.optimize import linear_sum_assignment
+
+    A = a.shapes[:, cols_a]
+    score = np.reshape(mac(A, b.shapes), (A.shape[1], b.shapes.shape[1]))
+    fa, fb = a.frequencies[cols_a], b.frequencies
+    scale = max(np.abs(fa).max(initial=0.0), np.abs(fb).max(initial=0.0), 1e-300)
+    score = score - 1e-3 * np.abs(fa[:, None] - fb[None, :]) / scale
+    _, cols = linear_sum_assignment(-score)
+    return cols
+
+
+def _pick(refs, sm: SpeedModes) -> int:
+    """The oscillating mode of ``sm`` most like the shapes ``refs`` (both ends of a bracket: at a degenerate
+    end, such as two whirls at rest, one end's shape alone is ambiguous)."""
+    score = sum(np.atleast_1d(mac(r.reshape(-1, 1), sm.shapes)).ravel() for r in refs)
+    return int(np.argmax(np.where(sm.frequencies > 0, score, -1.0)))
+
+
+def _speed_modes(system, spin: str, speed: float, q0, method: str) -> SpeedModes:
+    try:
+        st = system.steady_motion({spin: float(speed)}, q0=q0)
+    except ConvergenceError as e:
+        raise ConvergenceError(f"campbell: no steady motion at {spin} = {speed:g} rad/s: {e}",
+                               residual=getattr(e, "residual", None), best=getattr(e, "best", None)) from None
+    lin = st.linearize(method=method)
+    m = lin.modes()
+    n = lin.nv
+    if m.eigenvalues.size:
+        lam, shapes, lam_err = m.damped_eigenvalues, m.complex_shapes, m.eigenvalue_error
+    else:  # undamped and not gyroscopic: real modes, λ = ±iω (or ±ω when unstable)
+        lam = np.where(m.unstable, m.omega + 0j, 1j * m.omega)
+        shapes, lam_err = m.shapes.astype(complex), m.residual
+    # a cyclic coordinate's double zero is a Jordan block: round-off δ in M⁻¹K splits it by ±√δ, with
+    # δ ≈ ε·max|λ|², so frequencies below 10·√ε·max|λ| are that split, not an oscillation
+    zero = max(m.zero_threshold, 10 * np.sqrt(np.finfo(float).eps) * np.abs(lam).max(initial=0.0))
+    osc = (np.abs(lam.imag) > zero) & (lam.imag > 0)
+    real = ~osc
+    # 2nv state eigenvalues = 2·(oscillating modes) + (real ones): the real ones pair into modes of
+    # frequency 0, taken smallest |λ| first (their shapes pair the same way)
+    idx_real = np.flatnonzero(real)
+    idx_real = idx_real[np.argsort(np.abs(lam[idx_real]), kind="stable")]
+    pairs = [idx_real[k:k + 2] for k in range(0, len(idx_real), 2)] if m.eigenvalues.size else \
+        [np.array([k]) for k in idx_real]
+    idx_osc = np.flatnonzero(osc)
+    freq = np.concatenate([np.abs(lam[idx_osc].imag), np.zeros(len(pairs))])
+    mag = np.abs(lam[idx_osc])
+    zeta = np.concatenate([-lam[idx_osc].real / np.where(mag > 0, mag, 1.0),
+                           [_real_pair_zeta(lam[p]) for p in pairs]])
+    err = np.concatenate([lam_err[idx_osc] * mag, [m.zero_threshold] * len(pairs)])
+    vecs = np.concatenate([shapes[:, idx_osc], np.stack([shapes[:, p[0]] for p in pairs], axis=1)
+                           if pairs else np.zeros((n, 0), complex)], axis=1)
+    if freq.size != n:
+        raise ModelError(f"campbell: {freq.size} modes at {spin} = {speed:g} rad/s for {n} coordinates "
+                         "(a defective state matrix)")
+    order = np.argsort(freq, kind="stable")
+    whirl = _whirl(system, spin, st.q, vecs[:, order], freq[order], speed)
+    return SpeedModes(float(speed), freq[order], zeta[order], whirl, vecs[:, order], err[order], st.q.copy())
+
+
+def _real_pair_zeta(lam) -> float:
+    """ζ of a mode with real eigenvalues: (λ1 + λ2)/(2√(λ1λ2)) for an overdamped pair, 0 with a zero one."""
+    if len(lam) < 2 or np.any(np.abs(lam) == 0):
+        return 0.0
+    prod = float((lam[0] * lam[1]).real)
+    return float(-(lam[0] + lam[1]).real / (2 * np.sqrt(prod))) if prod > 0 else 0.0
+
+
+def _whirl(system, spin: str, q, shapes, freq, speed) -> np.ndarray:
+    """Whirl of each mode: the sense in which the spinning body's axis (and its origin, on the axis) orbits,
+    relative to the spin. Displacements d(t) = Re(d e^{iωt}) turn about the spin axis e counterclockwise
+    when e · Im(d̄ × d) < 0."""
+    body = next(b.name for b in system.scene.bodies.values() if spin in b.coordinates)
+    i = system.coordinate_index(spin)
+    h = 1e-6
+    R0, p0 = system.body_pose(body, q)
+    Jw, Jp = np.empty((3, system.nv)), np.empty((3, system.nv))
+    for k in range(system.nv):
+        e = np.zeros(system.nv)
+        e[k] = h
+        Rp, pp = system.body_pose(body, system.integrate(q, e))
+        Rm, pm = system.body_pose(body, system.integrate(q, -e))
+        Jw[:, k] = (pin.log3(Rp @ R0.T) - pin.log3(Rm @ R0.T)) / (2 * h)
+        Jp[:, k] = (pp - pm) / (2 * h)
+    axis = Jw[:, i]
+    if np.linalg.norm(axis) == 0:
+        return np.full(len(freq), "", dtype=object)
+    axis = axis / np.linalg.norm(axis)
+    L = system.length_scale
+    out = np.full(len(freq), "", dtype=object)
+    sense_of_spin = np.sign(speed)
+    for k in range(len(freq)):
+        if freq[k] <= 0 or sense_of_spin == 0:
+            continue
+        d_tip = L * np.cross(Jw @ shapes[:, k], axis)  # the axis' tip, one length scale out
+        d_org = Jp @ shapes[:, k]
+        total = sum(float(axis @ np.imag(np.cross(d.conj(), d))) for d in (d_tip, d_org))
+        size = sum(float(np.vdot(d, d).real) for d in (d_tip, d_org))
+        if abs(total) <= 1e-6 * size:
+            continue
+        out[k] = "forward" if -total * sense_of_spin > 0 else "backward"
+    return out

@@ -1,0 +1,318 @@
+"""Analyses of mechanisms with closed loops (:mod:`vibdyn.description.loops`): equilibrium, linearisation, motion.
+
+The loops' equations Φ(q) = 0 add the generalized forces Φ_qᵀ λ to the tree: M v̇ + b − Q = Φ_qᵀ λ, λ the
+loop forces (per equation: N for a position equation, N·m for an orientation one; for a point coincidence
+λ is the force that body_a exerts on body_b through the loop, world axes). Everything is reduced to the
+mechanism's independent motions: a basis N (nv × dof) of Φ_q N = 0.
+"""
+
+import time
+from dataclasses import dataclass, field, fields, replace
+
+import numpy as np
+import pinocchio as pin
+
+from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER
+from ..errors import ConvergenceError, ModelError
+from ..model import dynamics
+from ..model.fd import steps, tangent_derivative, vector_derivative
+from .equilibrium import Equilibrium
+from .linearize import LinearModel, reference_state, two_step_derivative
+from .modal import classify
+from .modal import modes as _modes
+
+
+def _constraints(system):
+    if system.constraints is None:
+        raise ModelError(f"system '{system.name}' has no loops")
+    return system.constraints
+
+
+@dataclass(frozen=True, eq=False)
+class LoopEquilibrium(Equilibrium):
+    """An equilibrium of a mechanism with loops: also its loop forces.
+
+    ``multipliers``: λ per loop equation (N or N·m, see :mod:`vibdyn.analysis.constrained`); ``loop_forces``: the same
+    split per loop {name: array}; ``constraint_residual``: largest |Φ| there (dimensionless: m / length
+    scale, rad).
+    """
+
+    multipliers: np.ndarray | None = field(repr=False, default=None)
+    loop_forces: dict | None = field(default=None)
+    constraint_residual: float = 0.0
+
+    def linearize(self, **kwargs):
+        return self.system.linearize(self, **kwargs)
+
+    def reactions(self):
+        """Link wrenches of the tree at this equilibrium, loop forces included (:meth:`System.reactions`)."""
+        nv = self.system.nv
+        return self.system.reactions(self.q, self.v, np.zeros(nv), self.t, loop_forces=self.multipliers)
+
+
+def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
+    """Static equilibrium of a mechanism with loops near q0 (need not be consistent): Newton on the reduced
+    force Nᵀ r(q) = 0 (r = inverse dynamics at rest, N the null-space basis at the current point), each
+    iterate re-assembled onto Φ = 0; the reduced Jacobian by central differences (steps 1e-6 rad or
+    1e-6 × length scale along N's columns). The loop forces are the minimum-norm λ with Φ_qᵀλ = r."""
+    start = time.perf_counter()
+    c = _constraints(system)
+    nv, zero = system.nv, np.zeros(system.nv)
+    q = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
+    q = c.assemble(q)
+
+    def residual(qq):
+        return dynamics.inverse_dynamics(system, system.workspace(), qq, zero, zero, t)
+
+    def reduced(qq, N, xi):
+        """N₁ᵀ r(q₁) at q₁ = assemble(qq ⊕ N ξ), N₁ the basis there with the same independent coordinates."""
+        if not np.any(xi):
+            return N.T @ residual(qq), qq
+        q1 = c.assemble(pin.integrate(system.model, qq, N @ xi))
+        return c.partition(c.jacobian(q1), ind)[1].T @ residual(q1), q1
+
+    r = residual(q)
+    J = c.jacobian(q)
+    ind, N = c.partition(J)
+    unit = np.where(np.array(system.units) == "m", system.length_scale, 1.0)[ind]
+    Kr = vector_derivative(lambda x: reduced(q, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
+    force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(Kr)) * unit).max(initial=0.0), 1e-300)
+    target = tol * force_scale
+    rho = N.T @ r
+    it = 0
+    while np.abs(rho).max(initial=0.0) > target:
+        if it >= max_iter:
+            raise ConvergenceError(f"static equilibrium of the mechanism with loops did not converge in {max_iter} "
+                                   f"iterations: reduced residual {np.abs(rho).max():.3e} (target {target:.3e}); "
+                                   "start nearer an equilibrium (q0=)", residual=float(np.abs(rho).max()), best=q)
+        it += 1
+        step = np.linalg.lstsq(Kr, -rho, rcond=1e-12)[0]
+        over = (np.abs(step) / (0.5 * unit)).max(initial=0.0)
+        if over > 1:
+            step /= over
+        alpha, norm0 = 1.0, np.linalg.norm(rho)
+        while True:
+            rho_new, q_new = reduced(q, N, alpha * step)
+            if np.linalg.norm(rho_new) <= (1 - 1e-4 * alpha) * norm0 or alpha < 1e-3:
+                break
+            alpha *= 0.5
+        q = q_new
+        J = c.jacobian(q)
+        ind, N = c.partition(J)
+        r = residual(q)
+        rho = N.T @ r
+        if not np.all(np.isfinite(rho)):
+            raise ConvergenceError("static equilibrium search diverged (non-finite forces)", residual=None, best=q)
+        if np.abs(rho).max() <= target:
+            break
+        if np.abs(alpha * step).max() <= 1e-15 and np.abs(rho).max() <= 1e3 * target:
+            break
+        unit = np.where(np.array(system.units) == "m", system.length_scale, 1.0)[ind]
+        Kr = vector_derivative(lambda x: reduced(q, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
+    lam = c.multipliers(J, r)
+    res = float(np.abs(r - J.T @ lam).max(initial=0.0))
+    lin = linearize(system, q, t=t, multipliers=lam)
+    m = lin.modes()
+    stability = classify(m.rigid, m.unstable, m.eigenvalues, m.zero_threshold)
+    phi = float(np.abs(c.scaled_phi(c.phi(q))).max(initial=0.0))
+    q_error = np.abs(N @ np.linalg.pinv(lin.K, rcond=1e-10) @ np.full(ind.size, float(np.abs(rho).max()))) \
+        + 4 * EPS * (np.abs(system.difference(system.neutral(), q)) + 1.0)
+    return LoopEquilibrium(system, q, np.zeros(nv), float(t), "static", res, float(target), it, stability, {},
+                           {}, time.perf_counter() - start, m, q_error, lam, c.split(lam), phi)
+
+
+class IndependentView:
+    """A system seen in the independent coordinates of its mechanism (what the responses of a
+    :class:`ConstrainedLinearModel` name): ``coordinates``, ``units`` and ``coordinate_index`` are the
+    independent ones'; everything else is the system's."""
+
+    def __init__(self, system, independent):
+        self.system = system
+        self.independent = tuple(int(i) for i in independent)
+        self.coordinates = tuple(system.coordinates[i] for i in self.independent)
+        self.units = tuple(system.units[i] for i in self.independent)
+        self.nv = len(self.independent)
+
+    def coordinate_index(self, name):
+        if name in self.coordinates:
+            return self.coordinates.index(name)
+        if name in self.system.coordinates:
+            raise ModelError(f"coordinate '{name}' is not an independent motion of the mechanism (its loops fix "
+                             f"it; independent: {', '.join(self.coordinates)}): give a body point "
+                             "(body, (x, y, z), (dx, dy, dz)) instead")
+        raise ModelError(f"unknown coordinate '{name}' (independent coordinates: {', '.join(self.coordinates)})")
+
+    def __getattr__(self, name):
+        return getattr(self.system, name)
+
+
+@dataclass(frozen=True, eq=False)
+class ReducedLinearModel(LinearModel):
+    """Linear model of a mechanism with loops in its independent motions: M, C, K (dof × dof) are
+    NᵀM N, NᵀC N and Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N, N (``basis``, nv × dof) the motions that keep the loops closed,
+    whose rows at the ``independent`` tree coordinates are the identity: the model's coordinates are those
+    tree coordinates (``system`` is the system seen in them, :class:`IndependentView`). ``tree`` is the
+    nv × nv model (K with the constraint-force curvature). ``rank``: rank of Φ_q at q0. Inputs and outputs of
+    responses are any tree coordinate (its row of N) and body points (any point: J N)."""
+
+    basis: np.ndarray | None = field(repr=False, default=None)
+    tree: LinearModel | None = field(repr=False, default=None)
+    multipliers: np.ndarray | None = field(repr=False, default=None)
+    rank: int = 0
+
+    @property
+    def independent(self):
+        return self.system.independent
+
+    def point_jacobian(self, points):
+        """Displacements (m, world axes) of body points per independent coordinate (3·npoints × dof)."""
+        return self.tree.point_jacobian(points) @ self.basis
+
+    def coordinate_row(self, name):
+        """(row of N, unit): the tree coordinate ``name`` (independent or not) per independent coordinate."""
+        system = self.tree.system
+        i = system.coordinate_index(name)
+        return self.basis[i].copy(), system.units[i]
+
+    def joint_input(self, coordinates=None):
+        """Reduced input Nᵀ B of generalized forces on the named tree coordinates (dof × m; None: the
+        independent ones)."""
+        names = self.coordinates if coordinates is None else coordinates
+        return self.basis.T @ self.tree.joint_input(names)
+
+    def support_input(self, name, step=FD_STEP):
+        """(Nᵀ B_y, Nᵀ B_v): the tree's base-excitation inputs reduced (see :meth:`LinearModel.support_input`)."""
+        By, Bv = self.tree.support_input(name, step)
+        return self.basis.T @ By, self.basis.T @ Bv
+
+    def summary(self):
+        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, dof={self.nv}, rank {self.rank}, "
+                f"error ≈ {self.error:.1e}, {self.elapsed * 1e3:.2f} ms)")
+
+
+@dataclass(frozen=True, eq=False)
+class ConstrainedLinearModel(ReducedLinearModel):
+    """:class:`ReducedLinearModel` whose :meth:`modes` give their shapes in the tree's coordinates (nv each,
+    φ = N ψ, Φ_q φ = 0, φᵀ M φ = 1 with the tree's M; ``modes.linear`` is the tree model). Responses run on
+    :attr:`reduced` (modes in the independent coordinates): receptances between tree coordinates are
+    N (K_r − ω²M_r + iωC_r)⁻¹ Nᵀ."""
+
+    @property
+    def reduced(self):
+        return ReducedLinearModel(**{f.name: getattr(self, f.name) for f in fields(ReducedLinearModel)})
+
+    def modes(self, **kwargs):
+        """Exactly dof modes, shapes in the tree's coordinates (see the class)."""
+        m = _modes(self, **kwargs)
+        N = self.basis
+        cs = m.complex_shapes
+        return replace(m, linear=self.tree, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
+
+    def with_modal_damping(self, zeta):
+        return self.with_damping(self.reduced.with_modal_damping(zeta).C)
+
+
+def _on_reduced(name):
+    """A response method of ConstrainedLinearModel that runs on its reduced model."""
+    def method(self, *args, **kwargs):
+        return getattr(self.reduced, name)(*args, **kwargs)
+
+    method.__name__ = name
+    method.__doc__ = getattr(LinearModel, name).__doc__
+    return method
+
+
+for _name in ("free_response", "receptance", "harmonic_response", "base_response", "forced_response",
+              "appropriation"):
+    setattr(ConstrainedLinearModel, _name, _on_reduced(_name))
+
+
+def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_STEP, multipliers=None):
+    """Linear model of a mechanism with loops about ``at`` (a LoopEquilibrium or a configuration, assembled
+    first), at rest: the tree's M, C, K (:func:`vibdyn.analysis.linearize.linearize`) with the constraint-force
+    curvature ∂(Φ_qᵀλ)/∂q by central differences in the tangent space (two steps for its error), projected
+    on the null space of Φ_q. λ: ``multipliers``, the equilibrium's, or the minimum-norm λ with Φ_qᵀλ = r."""
+    from .linearize import linearize as tree_linearize
+
+    start = time.perf_counter()
+    c = _constraints(system)
+    q0, v0, t0 = reference_state(system, at, v, t)
+    if np.any(v0) or (a is not None and np.any(a)):
+        raise ModelError("linearize: a mechanism with loops is linearised at rest (v = 0, a = 0): moving "
+                         "operating points of loops are not supported")
+    phi = np.abs(c.scaled_phi(c.phi(q0))).max(initial=0.0)
+    if phi > 1e-9:
+        q0 = c.assemble(q0)
+    zero = np.zeros(system.nv)
+    tree = tree_linearize(system, q0, v=zero, t=t0, a=zero, method=method, step=step)
+    J = c.jacobian(q0)
+    r = dynamics.inverse_dynamics(system, system.workspace(), q0, zero, zero, t0)
+    if multipliers is None:
+        multipliers = getattr(at, "multipliers", None)
+    lam = c.multipliers(J, r) if multipliers is None else np.asarray(multipliers, dtype=float)
+    h = steps(system, step)
+    terms = dynamics.cancelling_terms(system, system.workspace(), q0, zero, zero, t0)
+    G, G_err = two_step_derivative(lambda hh: tangent_derivative(system, lambda q: c.jacobian(q).T @ lam, q0, hh), terms, h)
+    K_tree = tree.K - G
+    tree = replace(tree, K=K_tree, K_error=tree.K_error + G_err)
+    ind, N = c.partition(J)
+    aN = np.abs(N)
+    M_r, C_r, K_r = N.T @ tree.M @ N, N.T @ tree.C @ N, N.T @ K_tree @ N
+    M_r = 0.5 * (M_r + M_r.T)
+    rank = system.nv - ind.size
+    return ConstrainedLinearModel(IndependentView(system, ind), q0, zero, zero, t0, M_r, C_r, K_r,
+                                  aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN, tree.method,
+                                  time.perf_counter() - start, tree.evaluations + 4 * system.nv, N, tree, lam, rank)
+
+
+def projected_ode(base):
+    """The ODE class ``base`` (:mod:`vibdyn.simulation.integrators.chart`) for a mechanism with loops: accelerations
+    from the index-1 equations (Φ_q v̇ = −γ, see :meth:`vibdyn.description.loops.Constraints.accelerations`) and drift
+    control by projection: after each accepted step of the explicit methods (dop853, rk4: at ``recentre``)
+    the state goes back onto Φ = 0 and Φ_q v = 0 (q assembled, v projected in the kinetic-energy metric) and
+    the step's last derivative is re-evaluated. The ODE is left as it is (no Baumgarte parameters to tune,
+    nothing added to the dynamics); the projection moves the state by the drift of one step, of the order of
+    its local error. The implicit methods (radau, bdf) integrate the index-1 equations without projection
+    (their Jacobian is differenced here): their constraint residual grows with the local errors and is
+    reported with the trajectory."""
+
+    class Projected(base):
+        _t = 0.0
+
+        def into(self, t, y, out):
+            self._t = t
+            super().into(t, y, out)
+
+        def initial(self, q0, v0, w0=0.0):
+            q, v = self.system.constraints.project(np.asarray(q0, float), np.asarray(v0, float),
+                                                   self.system.mass_matrix(self.system.constraints.assemble(q0)))
+            return super().initial(q, v, w0)
+
+        def recentre(self, y, f=None):
+            nv, system = self.nv, self.system
+            q = self.configuration(y)
+            q, v = system.constraints.project(q, y[nv:2 * nv], system.mass_matrix(q))
+            if self.curved:
+                self.centre = q
+                y[:nv] = 0.0
+            else:
+                y[:nv] = q
+            y[nv:2 * nv] = v
+            if f is not None:
+                self.into(self._t, y, f)
+
+        def jacobian(self, t, y):
+            """∂f/∂y by central differences (steps 1e-6 × (1 rad or the length scale), per unit speed)."""
+            unit = np.where(np.array(self.system.units) == "m", self.system.length_scale, 1.0)
+            h = 1e-6 * np.concatenate([unit, unit, [1.0] * (self.n - 2 * self.nv)])
+            J = np.zeros((self.n, self.n))
+            for k in range(self.n):
+                yp, ym = y.copy(), y.copy()
+                yp[k] += h[k]
+                ym[k] -= h[k]
+                J[:, k] = (self(t, yp) - self(t, ym)) / (2 * h[k])
+            J[:, -1] = 0.0 if self.work else J[:, -1]
+            return J
+
+    Projected.__name__ = f"Projected{base.__name__}"
+    return Projected

@@ -1,0 +1,342 @@
+"""Equilibria: static (Q − g = 0 at v = 0) and steady motions (some coordinates turning at constant speed,
+the others at rest relative to them), found by Newton in the tangent space, and their stability; and
+configurations held by drives (robots under gravity, which have no free equilibrium).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from .._check import integer, scalar
+from .._format import number, table
+from ..defaults import EQUILIBRIUM_TOL, MAX_ITER
+from ..errors import ConvergenceError, ModelError
+from ..model import dynamics
+from ..model.fd import steps
+from .linearize import LinearModel, jacobian_q, jacobian_v, linearize
+from .modal import classify
+
+if TYPE_CHECKING:
+    from ..model.system import System
+    from .modal import Modes
+
+
+@dataclass(frozen=True, eq=False)
+class Equilibrium:
+    """An equilibrium (``kind`` "static"), steady motion ("steady") or configuration held by drives
+    ("held", :func:`held`) of a system.
+
+    ``residual``: largest remaining generalized force (N or N·m); ``speeds``: the cyclic coordinates'
+    speeds (rad/s or m/s); ``drive``: generalized force needed to hold each given speed, or for a held
+    point each coordinate (N or N·m); ``stability``: "stable", "unstable" or "neutral" (rigid-body/cyclic
+    directions, undamped); ``q_error``: estimated error of each coordinate's offset (m or rad).
+    """
+
+    system: System = field(repr=False)
+    q: np.ndarray
+    v: np.ndarray
+    t: float
+    kind: str
+    residual: float
+    tolerance: float
+    iterations: int
+    stability: str
+    speeds: dict
+    drive: dict
+    elapsed: float  # s
+    modes: Modes | None = field(repr=False, default=None)
+    q_error: np.ndarray | None = field(repr=False, default=None)
+
+    def linearize(self, **kwargs: Any) -> LinearModel:
+        """The linear model about this point (see :meth:`vibdyn.System.linearize`)."""
+        return linearize(self.system, self, **kwargs)
+
+    def coordinate(self, name: str) -> float:
+        """Value of a tangent coordinate, as the offset from the neutral configuration (m or rad)."""
+        return float(self.system.difference(self.system.neutral(), self.q)[self.system.coordinate_index(name)])
+
+    def __repr__(self):
+        from .._format import duration, number, summary
+
+        return summary("Equilibrium", self.kind, self.stability, f"residual {number(self.residual, digits=2)}",
+                       f"{self.iterations} iterations" if self.kind != "held" else "",
+                       f"speeds {self.speeds}" if self.speeds else "", duration(self.elapsed))
+
+    def _repr_html_(self):
+        from .._format import html_table, number
+
+        sysm = self.system
+        dq = sysm.difference(sysm.neutral(), self.q)
+        rows = [[n, u, number(x), number(self.v[i]), number(self.drive[n]) if n in self.drive else ""]
+                for i, (n, u, x) in enumerate(zip(sysm.coordinates, sysm.units, dq))]
+        return html_table(f"{self.kind} ({self.stability}), residual {number(self.residual, digits=2)}",
+                          ["coordinate", "unit", "offset", "speed", "drive"], rows)
+
+    def __str__(self):
+        sysm = self.system
+        dq = sysm.difference(sysm.neutral(), self.q)
+        err = np.zeros(sysm.nv) if self.q_error is None else self.q_error
+        ms = f"{self.elapsed * 1e3:.1f} ms"
+        if self.kind == "held":
+            head = (f"held configuration ({self.stability} without its drives' stiffness): the drives hold every "
+                    f"coordinate, {ms}")
+        else:
+            head = (f"{self.kind} equilibrium: {self.stability}, residual {self.residual:.1e} after "
+                    f"{self.iterations} iterations, {ms}")
+        cols = ["coordinate", "offset"]
+        if self.speeds:
+            cols.append("speed")
+        if self.drive:
+            cols.append("drive")
+        rows = []
+        for i, (name, u) in enumerate(zip(sysm.coordinates, sysm.units)):
+            row = [name, number(dq[i], u, err[i], 10)]
+            if self.speeds:
+                row.append(number(self.speeds[name], f"{u}/s", digits=10) if name in self.speeds else "")
+            if self.drive:
+                row.append(number(self.drive[name], "N" if u == "m" else "N·m", self.tolerance)
+                           if name in self.drive else "")
+            rows.append(row)
+        return "\n".join([head] + ["  " + line for line in table(cols, rows)])
+
+
+def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
+    """Static equilibrium near ``q0`` (neutral if None): Newton with line search; least-squares steps where
+    K is singular (free or cyclic coordinates). Raises ConvergenceError with the best point."""
+    return _solve(system, q0, t, {}, tol, max_iter)
+
+
+def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, guess=1.0):
+    """Steady motion: the coordinates named in ``v_cyclic`` turn at constant speed — a number (given) or
+    None (found from the forces, starting from ``guess`` rad/s or m/s) — while the others rest.
+
+    Example (a rotor driven by τ = 10 − ω² carrying a sprung slider): ``steady_motion({"rotor": None})``.
+    """
+    if not isinstance(v_cyclic, dict) or not v_cyclic:
+        raise ModelError("steady_motion: v_cyclic must be a dict {coordinate: speed or None}")
+    cyclic = {}
+    for name, speed in v_cyclic.items():
+        i = system.coordinate_index(name)
+        cyclic[i] = None if speed is None else scalar(speed, f"steady_motion: speed of '{name}'")
+    return _solve(system, q0, t, cyclic, tol, max_iter, guess)
+
+
+def equilibria(system, starts, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
+    """Distinct static equilibria reached from several starting configurations, lowest potential first."""
+    found = []
+    for q0 in starts:
+        try:
+            eq = system.equilibrium(q0, t, tol, max_iter)  # with loops: the constrained search
+        except ConvergenceError:
+            continue
+        if all(np.abs(system.difference(e.q, eq.q)).max() > 1e-6 * max(1.0, system.length_scale) for e in found):
+            found.append(eq)
+    if not found:
+        raise ConvergenceError("equilibria: no start converged", residual=None, best=None)
+    return sorted(found, key=lambda e: system.energy(e.q, e.v).potential)
+
+
+def held(system, q=None, v=None, t=0.0):
+    """The configuration ``q`` (neutral if None) moving at the constant velocity ``v`` (0 if None), held by
+    drives on every coordinate: ``drive`` is the generalized force (N or N·m) they add to balance gravity,
+    the elastic and the other forces, M·0 + b(q, v) − Q(q, v, t). Linearised with a = 0, its K is
+    ∂(g − Q)/∂q at q: the drives are taken as constant forces (no stiffness of their own)."""
+    start = time.perf_counter()
+    q = system.neutral() if q is None else system.check_configuration(np.array(q, dtype=float), "held q").copy()
+    v = np.zeros(system.nv) if v is None else system.check_velocity(np.array(v, dtype=float), "held v").copy()
+    system.check_limits(q, "held configuration")
+    r = dynamics.inverse_dynamics(system, system.workspace(), q, v, np.zeros(system.nv), t)
+    names = system.coordinates
+    speeds = {names[i]: float(v[i]) for i in np.flatnonzero(v)}
+    drive = {n: float(x) for n, x in zip(names, r)}
+    # round-off of RNEA: a multiple of eps × nv × the forces' scale (largest drive, or weight × length scale)
+    weight = sum(I.mass for I in system.model.inertias) * np.linalg.norm(system.scene.gravity) * system.length_scale
+    tolerance = 100 * system.nv * np.finfo(float).eps * max(np.abs(r).max(initial=0.0), weight, 1e-300)
+    return _finish(system, q, v, t, "held", 0.0, tolerance, 0, 0, speeds, drive, start)
+
+
+def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
+    start = time.perf_counter()
+    t, tol = system.check_time(t), scalar(tol, "equilibrium tol", positive=True)
+    max_iter, guess = integer(max_iter, "equilibrium max_iter", minimum=0), scalar(guess, "steady_motion guess")
+    nv, model = system.nv, system.model
+    q = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
+    system.check_limits(q, "equilibrium search start")
+    q_start = q.copy()
+    v = np.zeros(nv)
+    given = {i: s for i, s in cyclic.items() if s is not None}
+    unknown = [i for i, s in cyclic.items() if s is None]
+    for i, s in given.items():
+        v[i] = s
+    for i in unknown:
+        v[i] = guess
+    rest = [i for i in range(nv) if i not in cyclic]  # coordinates at (relative) rest: unknown positions
+    rows = rest + unknown  # equations: no acceleration of these
+    a0 = np.zeros(nv)
+    h = steps(system, 1e-6)
+    unit = np.where(np.array(system.units) == "m", system.length_scale, 1.0)
+    what = "steady motion" if cyclic else "static equilibrium"
+
+    def residual(q, v):
+        return dynamics.inverse_dynamics(system, system.workspace(), q, v, a0, t)
+
+    def jacobian(q, v):
+        Jq = jacobian_q(system, q, v, a0, t, h)
+        cols = [Jq[np.ix_(rows, rest)]]
+        if unknown:
+            Jv = jacobian_v(system, q, v, a0, t, h * np.maximum(1.0, np.abs(v)))
+            cols.append(Jv[np.ix_(rows, unknown)])
+        return np.hstack(cols)
+
+    r = residual(q, v)
+    J = jacobian(q, v)
+    force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(J)[: len(rest)]) * unit[rest]).max(initial=0.0),
+                      1e-300)
+    target = tol * force_scale
+    best = (np.abs(r[rows]).max(initial=0.0), q.copy(), v.copy())
+    it = 0
+    max_step = np.concatenate([0.5 * unit[rest], [max(1.0, abs(v[i])) for i in unknown]])
+    while best[0] > target:
+        if it >= max_iter:
+            raise ConvergenceError(_not_converged(system, what, max_iter, best, target, rest, residual),
+                                   residual=best[0], best=best[1])
+        it += 1
+        rr = r[rows]
+        step = np.linalg.lstsq(J, -rr, rcond=1e-12)[0]
+        left = rr + J @ step  # what the linear model cannot remove (K = 0 along it here)
+        if np.linalg.norm(left) > 0.5 * np.linalg.norm(rr):
+            _refuse_constant(system, what, q, v, r, residual, rest, np.abs(left[: len(rest)]) > 0.5 * target,
+                             force_scale, unit)
+            # a gradient step: move along the unbalanced force, as far as a step may go
+            step = step - left / (np.abs(left) / max_step).max()
+        over = np.abs(step) / max_step
+        if over.max() > 1:
+            step /= over.max()
+        step = _within_limits(system, what, q, step.copy(), rest, r, unit, target)
+        alpha, norm0 = 1.0, np.linalg.norm(rr)
+        while True:
+            dq = np.zeros(nv)
+            dq[rest] = alpha * step[: len(rest)]
+            q_new = pin.integrate(model, q, dq)
+            v_new = v.copy()
+            v_new[unknown] += alpha * step[len(rest):]
+            r_new = residual(q_new, v_new)
+            if np.linalg.norm(r_new[rows]) <= (1 - 1e-4 * alpha) * norm0 or alpha < 1e-3:
+                break
+            alpha *= 0.5
+        q, v, r = q_new, v_new, r_new
+        res = np.abs(r[rows]).max(initial=0.0)
+        if res < best[0]:
+            best = (res, q.copy(), v.copy())
+        if not np.all(np.isfinite(r)):
+            raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=best[0], best=best[1])
+        if res <= target:
+            break
+        if np.abs(step * alpha).max() <= 1e-15 * max(1.0, np.abs(max_step).max()) and res <= 1e3 * target:
+            break  # stagnated at round-off
+        J = jacobian(q, v)
+    travel = float(np.abs(system.difference(q_start, best[1])).max(initial=0.0))
+    q, v = best[1], best[2]
+    r = residual(q, v)
+    names = system.coordinates
+    drive = {names[i]: float(r[i]) for i in given}
+    return _finish(system, q, v, t, "steady" if cyclic else "static", float(best[0]), float(target), it,
+                   len(cyclic), {names[i]: float(v[i]) for i in cyclic}, drive, start, travel)
+
+
+def _finish(system, q, v, t, kind, residual, tolerance, iterations, ignore_zeros, speeds, drive, start,
+            travel=0.0):
+    """The Equilibrium at (q, v): its stability from the modes of the linear model (a = 0), and the error
+    of its offsets: |K⁺| × the remaining forces, and along rigid (neutral) directions, where any offset is an
+    equilibrium, the drift of a search that travelled ``travel`` (m or rad) with a Jacobian differenced to a
+    relative √eps."""
+    nv = system.nv
+    lin = linearize(system, q, v=v, t=t, a=np.zeros(nv))
+    m = lin.modes()
+    stability = classify(m.rigid, m.unstable, m.eigenvalues, m.zero_threshold, ignore_zeros=ignore_zeros)
+    q_error = np.abs(np.linalg.pinv(lin.K, rcond=1e-10)) @ np.full(nv, residual) if nv else np.zeros(0)
+    if iterations:  # the offsets carry the round-off of the steps that reached them
+        q_error = q_error + 4 * np.finfo(float).eps * (np.abs(system.difference(system.neutral(), q)) + 1.0)
+        if m.rigid.any():
+            P = np.abs(m.shapes[:, m.rigid] @ (m.shapes[:, m.rigid].T @ lin.M))  # M-projector on rigid modes
+            q_error = q_error + np.sqrt(np.finfo(float).eps) * travel * P.sum(axis=1)
+    return Equilibrium(system, q, v, float(t), kind, residual, tolerance, iterations, stability, speeds, drive,
+                       time.perf_counter() - start, m, q_error)
+
+
+def _refuse_constant(system, what, q, v, r, residual, rest, candidates, force_scale, unit):
+    """Raise ConvergenceError if the unbalanced force along some coordinate is the same at every
+    configuration tried (it does not depend on q): then there is no stationary point at all."""
+    idx = [rest[k] for k in np.flatnonzero(candidates)]
+    if not idx:
+        return
+    rng = np.random.default_rng(0)
+    same = np.ones(len(idx), bool)
+    for _ in range(3):
+        dq = np.zeros(system.nv)
+        dq[rest] = rng.uniform(-1.0, 1.0, len(rest)) * unit[rest]
+        r2 = residual(pin.integrate(system.model, q, dq), v)
+        same &= np.abs(r2[idx] - r[idx]) <= 1e-9 * force_scale
+    if not same.any():
+        return
+    names = [system.coordinates[i] for i, s in zip(idx, same) if s]
+    forces = ", ".join(f"'{system.coordinates[i]}': {number(-r[i], 'N' if system.units[i] == 'm' else 'N·m')}"
+                       for i, s in zip(idx, same) if s)
+    raise ConvergenceError(
+        f"no {what}: the generalized force along {', '.join(repr(n) for n in names)} is constant "
+        f"({forces}, the same at every configuration tried: it does not depend on q), so there is no "
+        "stationary point. Hold it instead (system.held(q), or `held = true` under [operating_point] in a "
+        "scene file), or add a spring or a force that balances it", residual=float(np.abs(r[idx]).max()),
+        best=q.copy())
+
+
+def _within_limits(system, what, q, step, rest, r, unit, target):
+    """The step scaled down to stay within the coordinates' position limits; a coordinate already on its
+    limit and pushed beyond it by a force above ``target`` is a ConvergenceError naming it and the limit."""
+    lower, upper = system.limit_bounds()
+    if not (np.isfinite(lower[rest]).any() or np.isfinite(upper[rest]).any()):
+        return step
+    x = system.difference(system.neutral(), q)
+    scale = 1.0
+    for k, i in enumerate(rest):
+        d = step[k]
+        bound = upper[i] if d > 0 else lower[i]
+        if d == 0 or not np.isfinite(bound):
+            continue
+        room = bound - x[i]
+        if room * np.sign(d) <= 1e-9 * unit[i] and (-r[i] * d <= 0 or abs(r[i]) <= target):
+            step[k] = 0.0  # on its limit, and no force worth the name pushes it beyond: it stays there
+        elif room * np.sign(d) <= 1e-9 * unit[i]:
+            u = system.units[i]
+            raise ConvergenceError(
+                f"{what} search left the joint limits: coordinate '{system.coordinates[i]}' is at its "
+                f"{'upper' if d > 0 else 'lower'} limit {bound:.6g} {u} and the forces push it beyond "
+                f"({number(-r[i], 'N' if u == 'm' else 'N·m')}): no {what} within the limits from this start; "
+                "hold the configuration instead (system.held(q)) or start elsewhere",
+                residual=float(np.abs(r).max()), best=q.copy())
+        elif abs(d) > abs(room):
+            scale = min(scale, room / d)
+    return step * scale
+
+
+def _not_converged(system, what, max_iter, best, target, rest, residual):
+    """The message of a search that did not converge: the coordinates that did not settle, and a start."""
+    res, q, v = best
+    r = residual(q, v)
+    x = system.difference(system.neutral(), q)
+    bad = [i for i in rest if abs(r[i]) > target]
+    units = system.units
+    parts = [f"'{system.coordinates[i]}' (unbalanced {number(-r[i], 'N' if units[i] == 'm' else 'N·m')} at "
+             f"{number(x[i], units[i])})" for i in bad]
+    unit = np.where(np.array(units) == "m", system.length_scale, 1.0)
+    hint = " ".join(f"{system.coordinates[i]}={number(x[i] - 0.5 * unit[i] * np.sign(r[i]), digits=3)}"
+                    for i in bad)
+    return (f"{what} search did not converge in {max_iter} iterations: residual {res:.3e} (target "
+            f"{target:.3e}); not settled: {', '.join(parts) or 'none'}. Start nearer an equilibrium: "
+            f"`--start {hint}` (vibdyn modes/frf), `start = {{ {hint.replace(' ', ', ').replace('=', ' = ')} }}` "
+            "under [operating_point] in the scene file, or q0= in Python")

@@ -1,0 +1,334 @@
+"""Linearisation about an operating point: M δv̇ + C δv + K δq = B δu, in the tangent space.
+
+M comes from CRBA; K = ∂r/∂q and C = ∂r/∂v with r(q, v) = inverse_dynamics(q, v, a0, t0) = M a0 + b − Q,
+by central finite differences (configurations perturbed with ``integrate``) or analytically
+(``pin.computeRNEADerivatives`` plus the force elements' own derivatives). Units: K in N/m, N or N·m/rad
+per coordinate pair, C in N·s/m or N·m·s/rad, M in kg, kg·m or kg·m².
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import scipy.linalg as sla
+from numpy.typing import ArrayLike
+
+from .._check import unknown_name
+from ..defaults import EPS, FD_STEP
+from ..errors import ModelError
+
+if TYPE_CHECKING:  # result types of the entry points below (imported on call, not at import)
+    from ..model.system import System
+    from .modal import Modes
+    from .response import FRF, Appropriation, HarmonicResponse, TimeResponse
+    from .statespace import StateSpace
+from ..model import dynamics
+from ..model.fd import point_jacobian, steps, tangent_derivative, vector_derivative
+
+
+@dataclass(frozen=True, eq=False)
+class LinearModel:
+    """Linear model about (q0, v0, t0) with its error estimate and the time it took.
+
+    ``K_error`` and ``C_error`` are elementwise estimates of the absolute error of K and C (zero for an
+    exact part); ``error`` is the largest of them relative to the norm of K (or C).
+    """
+
+    system: System = field(repr=False)
+    q0: np.ndarray
+    v0: np.ndarray
+    a0: np.ndarray
+    t0: float
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    K_error: np.ndarray
+    C_error: np.ndarray
+    method: str
+    elapsed: float  # s
+    evaluations: int  # residual evaluations (finite differences) or derivative calls
+
+    def __repr__(self):
+        from .._format import duration, number, summary
+
+        kind = "damped" if self.has_damping else "undamped"
+        return summary("LinearModel", f"nv = {self.nv}", f"method {self.method}", kind,
+                       f"error {number(self.error, digits=2)}", f"{self.evaluations} evaluations",
+                       duration(self.elapsed))
+
+    @property
+    def coordinates(self):
+        return self.system.coordinates
+
+    @property
+    def nv(self):
+        return self.M.shape[0]
+
+    @property
+    def D(self):
+        """Damping: symmetric part of C."""
+        return 0.5 * (self.C + self.C.T)
+
+    @property
+    def G(self):
+        """Gyroscopic: skew part of C."""
+        return 0.5 * (self.C - self.C.T)
+
+    @property
+    def K_s(self):
+        """Symmetric part of K (elastic + geometric stiffness)."""
+        return 0.5 * (self.K + self.K.T)
+
+    @property
+    def N(self):
+        """Circulatory: skew part of K (zero at a conservative equilibrium)."""
+        return 0.5 * (self.K - self.K.T)
+
+    @property
+    def error(self):
+        """Largest estimated error of K and C, relative to their norms."""
+        k = float(self.K_error.max(initial=0.0) / max(np.abs(self.K).max(initial=0.0), 1e-300))
+        c = float(self.C_error.max(initial=0.0) / max(np.abs(self.C).max(initial=0.0), 1e-300))
+        return max(k if np.any(self.K) else 0.0, c if np.any(self.C) else 0.0)
+
+    @property
+    def has_damping(self):
+        return bool(np.any(self.C))
+
+    @property
+    def A(self):
+        """State matrix of x = (δq, δv): ẋ = A x + B_state u (2nv × 2nv)."""
+        n = self.nv
+        Minv_K, Minv_C = self.solve_mass(self.K), self.solve_mass(self.C)
+        return np.block([[np.zeros((n, n)), np.eye(n)], [-Minv_K, -Minv_C]])
+
+    def state_input(self, B: ArrayLike) -> np.ndarray:
+        """State input matrix [[0], [M⁻¹ B]] for a generalized input matrix B (nv × m)."""
+        B = np.asarray(B, dtype=float).reshape(self.nv, -1)
+        return np.vstack([np.zeros_like(B), self.solve_mass(B)])
+
+    def coordinate_row(self, name: str) -> tuple[np.ndarray, str]:
+        """(row, unit): the displacement of the coordinate ``name`` per coordinate of this model (nv), and its
+        unit ("m" or "rad"); the same row is the generalized force of a unit force on it."""
+        i = self.system.coordinate_index(name)
+        row = np.zeros(self.nv)
+        row[i] = 1.0
+        return row, self.system.units[i]
+
+    def joint_input(self, coordinates: str | list[str] | None = None) -> np.ndarray:
+        """Input matrix of generalized forces on the named coordinates (nv × m; all if None)."""
+        names = self.coordinates if coordinates is None else coordinates
+        B = np.zeros((self.nv, len(names)))
+        for j, name in enumerate(names):
+            B[self.system.coordinate_index(name), j] = 1.0
+        return B
+
+    def point_jacobian(self, points: list) -> np.ndarray:
+        """Displacements (m, world axes) of body points per tangent coordinate: (3·npoints × nv).
+
+        ``points``: body names (their origin) or ``(body, (x, y, z))`` with the point in the body frame.
+        """
+        return point_jacobian(self.system, self.q0, points)
+
+    def point_input(self, points: list) -> np.ndarray:
+        """Input matrix of forces (N, world axes) at body points: Jᵀ (nv × 3·npoints)."""
+        return self.point_jacobian(points).T
+
+    def support_input(self, name: str, step: float = FD_STEP) -> tuple[np.ndarray, np.ndarray]:
+        """(B_y, B_v): generalized force (N or N·m) per unit displacement (m) and per unit velocity (m/s)
+        of the support ``name`` along the world axes (nv × 3 each), by central differences: the linear
+        model's base-excitation input, M δv̇ + C δv + K δq = B_y y + B_v ẏ."""
+        system = self.system
+        if name not in system.support_index:
+            raise unknown_name(name, [s.name for s in system.supports], "support", what="support input")
+        i = system.support_index[name]
+
+        def residual(x):
+            shift = np.zeros((len(system.supports), 6))
+            shift[i] = x
+            return dynamics.inverse_dynamics(system, system.workspace(), self.q0, self.v0, self.a0, self.t0, shift)
+
+        out = -vector_derivative(residual, np.zeros(6), np.full(6, step * system.length_scale))  # Q = −r
+        return out[:, :3], out[:, 3:]
+
+    # responses (vibdyn.analysis.response): thin entry points
+    def free_response(self, t: ArrayLike, x0: ArrayLike, v0: ArrayLike | None = None, **kwargs: Any) -> TimeResponse:
+        """Free response from δq(0) = x0, δv(0) = v0 at times t (s) (:func:`vibdyn.analysis.response.free_response`)."""
+        from .response import free_response
+
+        return free_response(self, t, x0, v0, **kwargs)
+
+    def receptance(self, omega: ArrayLike | None, inputs: Any = None, outputs: Any = None, **kwargs: Any) -> FRF:
+        """Receptance α(ω) (m/N, ...) between inputs and outputs (:func:`vibdyn.analysis.response.receptance`)."""
+        from .response import receptance
+
+        return receptance(self, omega, inputs, outputs, **kwargs)
+
+    def harmonic_response(self, omega: float, force: ArrayLike, inputs: Any = None, outputs: Any = None,
+                          **kwargs: Any) -> HarmonicResponse:
+        """Steady response to harmonic forces (:func:`vibdyn.analysis.response.harmonic_response`)."""
+        from .response import harmonic_response
+
+        return harmonic_response(self, omega, force, inputs, outputs, **kwargs)
+
+    def base_response(self, omega: ArrayLike | None, support: str, direction: ArrayLike | None = None,
+                      outputs: Any = None, **kwargs: Any) -> FRF:
+        """Steady response to a harmonic motion of a support or prescribed joint: transmissibility
+        (:func:`vibdyn.analysis.response.base_response`)."""
+        from .response import base_response
+
+        return base_response(self, omega, support, direction, outputs, **kwargs)
+
+    def forced_response(self, t: ArrayLike, force: Any = None, inputs: Any = None, **kwargs: Any) -> TimeResponse:
+        """Transient response to force histories and/or base motion (:func:`vibdyn.analysis.response.forced_response`)."""
+        from .response import forced_response
+
+        return forced_response(self, t, force, inputs, **kwargs)
+
+    def appropriation(self, mode: int, inputs: Any = None, **kwargs: Any) -> Appropriation:
+        """Force pattern exciting one undamped mode alone (:func:`vibdyn.analysis.response.appropriation`)."""
+        from .response import appropriation
+
+        return appropriation(self, mode, inputs, **kwargs)
+
+    def state_space(self, inputs: Any = None, outputs: Any = None, **kwargs: Any) -> StateSpace:
+        """State-space form ẋ = A x + B u, y = C x + D u, x = (δq, δv), for control tools
+        (:func:`vibdyn.analysis.statespace.state_space`)."""
+        from .statespace import state_space
+
+        return state_space(self, inputs, outputs, **kwargs)
+
+    def modes(self, **kwargs: Any) -> Modes:
+        """Modal analysis of this linear model (see :func:`vibdyn.analysis.modal.modes`)."""
+        from .modal import modes
+
+        return modes(self, **kwargs)
+
+    def with_damping(self, C: ArrayLike) -> LinearModel:
+        """The same model with the damping matrix C (nv × nv) instead of its own."""
+        C = np.asarray(C, dtype=float)
+        if C.shape != self.M.shape or not np.all(np.isfinite(C)):
+            raise ModelError(f"damping matrix: expected a finite {self.M.shape} array")
+        return replace(self, C=C, C_error=np.zeros_like(C))
+
+    def with_rayleigh(self, zeta: ArrayLike, omega: ArrayLike) -> LinearModel:
+        """Rayleigh damping C = αM + βK_s giving ratios ``zeta`` = (ζ1, ζ2) at ``omega`` = (ω1, ω2) rad/s."""
+        from .modal import rayleigh
+
+        alpha, beta = rayleigh(zeta, omega)
+        return self.with_damping(alpha * self.M + beta * self.K_s)
+
+    def with_modal_damping(self, zeta: float | ArrayLike) -> LinearModel:
+        """Damping giving the ratio ``zeta`` (one number or one per mode) to each undamped mode:
+        C = M Φ diag(2 ζ_r ω_r) Φᵀ M."""
+        m = replace(self, C=np.zeros_like(self.C), C_error=np.zeros_like(self.C)).modes()
+        z = np.broadcast_to(np.asarray(zeta, dtype=float), m.omega.shape)
+        if np.any(z < 0) or not np.all(np.isfinite(z)):
+            raise ModelError(f"modal damping ratios must be finite and ≥ 0, got {zeta!r}")
+        MPhi = self.M @ m.shapes
+        return self.with_damping(MPhi @ np.diag(2 * z * m.omega) @ MPhi.T)
+
+    def summary(self) -> str:
+        return (f"LinearModel({self.method}, nv={self.nv}, error ≈ {self.error:.1e}, "
+                f"{self.elapsed * 1e3:.2f} ms, {self.evaluations} evaluations)")
+
+    def solve_mass(self, B: ArrayLike) -> np.ndarray:
+        """M⁻¹ B by Cholesky (B: nv × k); a singular M is a ModelError naming the body."""
+        try:
+            return sla.cho_solve(sla.cho_factor(self.M), B)
+        except (np.linalg.LinAlgError, ValueError):
+            self.system.check_mass_matrix(self.q0, "the operating point")
+            raise
+
+
+def reference_state(system, at=None, v=None, t=0.0):
+    """(q0, v0, t0) from an equilibrium/steady-motion result, a configuration, or None (neutral)."""
+    if at is None:
+        q0 = system.neutral()
+    elif hasattr(at, "q") and hasattr(at, "v"):
+        q0, v = at.q, at.v if v is None else v
+        t = getattr(at, "t", t)
+    else:
+        q0 = at
+    q0 = system.check_configuration(q0, "operating point q")
+    v0 = system.check_velocity(np.zeros(system.nv) if v is None else v, "operating point v")
+    return q0, v0, system.check_time(t)
+
+
+def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: float = 0.0,
+              a: ArrayLike | None = None, method: str = "fd", step: float = FD_STEP) -> LinearModel:
+    """Linear model of ``system`` about ``at`` (an Equilibrium/SteadyMotion, a configuration q, or None
+    for the neutral configuration) with velocity ``v`` (zero if None) at time ``t``.
+
+    ``a``: the acceleration of the reference motion; default zero about an equilibrium or steady motion
+    (a given speed is held by its drive), else the free acceleration at (q, v, t).
+    ``method``: "fd" (central differences with steps ``step`` × scale, scale 1 rad or the scene's length
+    scale; error estimated from a second step 2h) or "analytic" (Pinocchio's RNEA derivatives plus the
+    force elements' derivatives).
+    """
+    from .._check import scalar
+
+    start = time.perf_counter()
+    step = scalar(step, "linearize step", positive=True)
+    q0, v0, t0 = reference_state(system, at, v, t)
+    M = system.mass_matrix(q0)
+    system.check_mass_matrix(q0, "the operating point", M)
+    if a is not None:
+        a0 = system.check_velocity(a, "a")
+    elif hasattr(at, "drive"):  # an equilibrium or steady motion: the reference motion does not accelerate
+        a0 = np.zeros(system.nv)
+    else:
+        a0 = system.accelerations(q0, v0, t0)
+    terms = dynamics.cancelling_terms(system, system.workspace(), q0, v0, a0, t0)
+    if method == "fd":
+        K, C, K_err, C_err, n = _finite_differences(system, q0, v0, a0, t0, step, terms)
+    elif method == "analytic":
+        from ..model.derivatives import analytic_derivatives
+
+        K, C = analytic_derivatives(system, q0, v0, a0, t0)
+        # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad)
+        unit = steps(system, 1.0)
+        K_err = 16 * EPS * (np.abs(K) + terms[:, None] / unit[None, :])
+        C_err = 16 * EPS * (np.abs(C) + terms[:, None] / unit[None, :]) if np.any(C) else np.zeros_like(C)
+        n = 1
+    else:
+        raise ModelError(f"linearize: unknown method {method!r} (use 'fd' or 'analytic')")
+    for name, X in (("K", K), ("C", C)):
+        if not np.all(np.isfinite(X)):
+            raise ModelError(f"linearize: {name} is not finite at the operating point")
+    return LinearModel(system, q0, v0, a0, t0, M, C, K, K_err, C_err, method, time.perf_counter() - start, n)
+
+
+def jacobian_q(system, q0, v0, a0, t0, h):
+    """∂r/∂q by central differences in the tangent space (steps h per coordinate)."""
+    return tangent_derivative(system, lambda q: dynamics.inverse_dynamics(system, system.workspace(), q, v0, a0, t0), q0, h)
+
+
+def jacobian_v(system, q0, v0, a0, t0, h):
+    """∂r/∂v by central differences (steps h per coordinate)."""
+    return vector_derivative(lambda v: dynamics.inverse_dynamics(system, system.workspace(), q0, v, a0, t0), v0, h)
+
+
+def two_step_derivative(jac, terms, h):
+    """Central difference with step h and its error estimate: the change from step 2h (truncation, and
+    round-off noise) plus the round-off of the terms that cancel in r (|RNEA| + |Q| + |g| per row)."""
+    J1, J2 = jac(h), jac(2 * h)
+    return J1, np.abs(J1 - J2) + 16 * EPS * terms[:, None] / h[None, :] + 4 * EPS * np.abs(J1)
+
+
+def _finite_differences(system, q0, v0, a0, t0, step, terms):
+    h = steps(system, step)
+    K, K_err = two_step_derivative(lambda hh: jacobian_q(system, q0, v0, a0, t0, hh), terms, h)
+    evaluations = 4 * system.nv
+    if system.depends_on_velocity or np.any(v0):
+        hv = h * np.maximum(1.0, np.abs(v0))
+        C, C_err = two_step_derivative(lambda hh: jacobian_v(system, q0, v0, a0, t0, hh), terms, hv)
+        evaluations *= 2
+    else:  # nothing depends on velocity and v0 = 0: C is exactly zero
+        C, C_err = np.zeros_like(K), np.zeros_like(K)
+    return K, C, K_err, C_err, evaluations
+
+

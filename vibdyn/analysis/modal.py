@@ -1,0 +1,329 @@
+"""Modal analysis: natural frequencies (rad/s, Hz), mass-normalised shapes, damped complex modes, MAC.
+
+Undamped modes solve K_s φ = ω² M φ (``scipy.linalg.eigh``). With damping, gyroscopic or circulatory terms
+the first-order state form gives complex eigenvalues λ = −ζω ± iω√(1−ζ²) and complex shapes.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import scipy.linalg as sla
+from numpy.typing import ArrayLike
+
+from ..defaults import EPS
+from ..errors import ModelError
+
+if TYPE_CHECKING:
+    from .linearize import LinearModel
+
+
+
+@dataclass(frozen=True, eq=False)
+class Modes:
+    """Modes of a linear model. Arrays are per mode, ascending in ω² (undamped) or |λ| (damped).
+
+    ``omega2`` is signed: a negative ω² is an unstable direction (``unstable`` flag), with
+    ``omega`` = √|ω²| then its growth rate (1/s). Rigid-body / cyclic modes have ω² cleaned to exactly 0
+    (``rigid`` flag) when |ω²| is within 10 times its own uncertainty (see :func:`modes`).
+    """
+
+    linear: LinearModel = field(repr=False)
+    omega2: np.ndarray  # rad²/s²
+    omega: np.ndarray  # rad/s
+    shapes: np.ndarray  # nv × n, φᵀ M φ = 1
+    rigid: np.ndarray
+    unstable: np.ndarray
+    modal_mass: np.ndarray  # diag(Φᵀ M Φ) (1 after normalisation)
+    modal_stiffness: np.ndarray  # diag(Φᵀ K_s Φ) = ω² (N·m/rad or N/m per unit modal mass)
+    orthogonality: float  # max |Φᵀ M Φ − 1| and |Φᵀ K Φ − Λ| / max|ω²|
+    residual: np.ndarray  # estimated relative error of ω per mode (eigen residual + K's error)
+    zero_threshold: float  # 1/s: state eigenvalues this small count as rigid/cyclic
+    # damped / non-symmetric part (state form); empty when the model is undamped and symmetric
+    eigenvalues: np.ndarray  # all 2nv state eigenvalues (1/s), sorted by |Im|, then Re
+    damped_eigenvalues: np.ndarray  # one per mode: Im ≥ 0 of each pair, and the real ones
+    zeta: np.ndarray  # damping ratio −Re λ / |λ| per damped mode
+    omega_n: np.ndarray  # |λ| rad/s
+    omega_d: np.ndarray  # |Im λ| rad/s
+    eigenvalue_error: np.ndarray  # estimated relative error of each damped eigenvalue
+    complex_shapes: np.ndarray  # nv × m, largest component 1
+    classical: bool  # C M⁻¹ K = K M⁻¹ C (proportional damping: real shapes diagonalise C)
+    stability: str  # "stable", "unstable" or "neutral"
+    elapsed: float  # s
+    note: str = ""  # e.g. that an unresolved finite-difference model was replaced by the analytic one
+
+    @property
+    def frequency_hz(self):
+        return self.omega / (2 * np.pi)
+
+    @property
+    def damped_frequency_hz(self):
+        return self.omega_d / (2 * np.pi)
+
+    @property
+    def n(self):
+        return self.omega.size
+
+    @property
+    def error(self):
+        """Largest estimated relative error of the frequencies and damped eigenvalues (per mode:
+        ``residual`` and ``eigenvalue_error``)."""
+        return float(max(self.residual.max(initial=0.0), self.eigenvalue_error.max(initial=0.0)))
+
+    def point_shapes(self, points: list, direction: ArrayLike | None = None, complex: bool = False) -> np.ndarray:
+        """Mode shapes as displacements (m per unit modal coordinate, world axes) of body points.
+
+        ``points``: body names (origins) or (body, point) pairs. Returns (npoints, 3, n), or
+        (npoints, n) along ``direction`` (3-vector). ``complex=True`` maps the damped complex shapes.
+        """
+        J = self.linear.point_jacobian(points)
+        shapes = self.complex_shapes if complex else self.shapes
+        S = (J @ shapes).reshape(len(points), 3, shapes.shape[1])
+        if direction is None:
+            return S
+        d = np.asarray(direction, dtype=float)
+        return np.einsum("pin,i->pn", S, d / np.linalg.norm(d))
+
+    def plot(self, path: str | None = None, which: Any = None, amplitude: float | None = None, dpi: int = 100) -> Any:
+        """Draw each mode (or those of ``which``, 0-based) as the deformed scene over the undeformed one, a
+        panel per mode with its frequency (Hz, rad/s) in the title; saved as PNG when ``path`` is given.
+        ``amplitude``: largest point displacement (m; default 10 % of the scene's size). Needs matplotlib;
+        returns the Figure (see :func:`vibdyn.faces.viewer.pictures.plot_modes`)."""
+        from ..faces.viewer.pictures import plot_modes
+
+        return plot_modes(self, path=path, which=which, amplitude=amplitude, dpi=dpi)
+
+    def to_dict(self) -> dict:
+        """Plain data (JSON-ready): SI units, complex numbers as [re, im]."""
+        d = {"omega_rad_s": self.omega.tolist(), "frequency_hz": self.frequency_hz.tolist(),
+             "omega2": self.omega2.tolist(), "rigid": self.rigid.tolist(), "unstable": self.unstable.tolist(),
+             "shapes": self.shapes.tolist(), "coordinates": list(self.linear.coordinates),
+             "stability": self.stability, "orthogonality_residual": self.orthogonality,
+             "error_per_mode": self.residual.tolist(), "error_estimate": self.error,
+             "elapsed_s": self.elapsed}
+        if self.note:
+            d["note"] = self.note
+        if self.eigenvalues.size:
+            d.update({"eigenvalues": [[z.real, z.imag] for z in self.eigenvalues],
+                      "zeta": self.zeta.tolist(), "omega_n_rad_s": self.omega_n.tolist(),
+                      "omega_d_rad_s": self.omega_d.tolist(), "eigenvalue_error": self.eigenvalue_error.tolist(),
+                      "classical_damping": self.classical})
+        return d
+
+    def __repr__(self):
+        from .._format import duration, number, summary, values
+
+        return summary("Modes", f"{self.n} modes", f"ω = {values(self.omega, 'rad/s')}",
+                       f"f = {values(self.frequency_hz, 'Hz')}",
+                       f"{int(self.rigid.sum())} rigid" if self.rigid.any() else "",
+                       f"{int(self.unstable.sum())} unstable" if self.unstable.any() else "",
+                       f"ζ = {values(self.zeta)}" if self.zeta.size else "", self.stability,
+                       f"error {number(self.error, digits=2)}", duration(self.elapsed))
+
+    def _repr_html_(self):
+        from .._format import html_table, number
+
+        rows = [[i + 1, number(w), number(f), "rigid" if r else "unstable" if u else "", number(e, digits=2)]
+                for i, (w, f, r, u, e) in enumerate(zip(self.omega, self.frequency_hz, self.rigid, self.unstable,
+                                                        self.residual))]
+        return html_table(f"{self.n} modes, {self.stability}", ["mode", "ω rad/s", "f Hz", "", "rel. error"], rows)
+
+    def __str__(self):
+        lines = [f"{'mode':>4} {'omega rad/s':>14} {'f Hz':>12}  note"]
+        for i in range(self.n):
+            note = "rigid" if self.rigid[i] else ("UNSTABLE (growth rate)" if self.unstable[i] else "")
+            lines.append(f"{i + 1:>4} {self.omega[i]:>14.8g} {self.frequency_hz[i]:>12.6g}  {note}")
+        if self.eigenvalues.size:
+            lines.append(f"{'':>4} {'lambda':>30} {'zeta':>10} {'omega_n':>12}")
+            for i, lam in enumerate(self.damped_eigenvalues):
+                lines.append(f"{i + 1:>4} {lam.real:>14.8g}{lam.imag:>+14.8g}i {self.zeta[i]:>10.6g} "
+                             f"{self.omega_n[i]:>12.8g}")
+        lines.append(f"stability {self.stability}; error ≈ {self.error:.1e}; {self.elapsed * 1e3:.2f} ms")
+        if self.note:
+            lines.append(self.note)
+        return "\n".join(lines)
+
+
+def modes(lin: Any, tolerance: float | None = None) -> Modes:
+    """Modes of a :class:`vibdyn.analysis.linearize.LinearModel`.
+
+    A mode is rigid (ω² cleaned to exactly 0) when |ω²| ≤ 10 × its own uncertainty δω² — the eigen
+    residual ‖Kφ − ω²Mφ‖_M⁻¹ plus φᵀ(K's error estimate + n·ε·|K|)φ — so stiff spectra keep their genuine
+    low modes. ``tolerance`` (relative to max|ω²|) overrides this with a fixed threshold.
+
+    A finite-difference model cannot tell a rigid mode from a soft one whose ω² is below its round-off
+    (stiffness ratios ~1e12): when the "fd" model flags a rigid mode, the analytic model at the same point
+    checks it; if that one resolves the mode, its modes are returned (``linear`` is then the analytic model)
+    and ``note`` says so.
+    """
+    from .._check import scalar
+
+    start = time.perf_counter()
+    if tolerance is not None:
+        tolerance = scalar(tolerance, "modes tolerance", nonnegative=True)
+    M, Ks = lin.M, lin.K_s
+    try:
+        w2, Phi = sla.eigh(Ks, M, check_finite=False)  # K and M were checked finite by linearize
+        chol = sla.cho_factor(M, check_finite=False)
+    except np.linalg.LinAlgError:
+        lin.system.check_mass_matrix(lin.q0, "the operating point")
+        raise ModelError("modal analysis: the generalized eigenproblem (K, M) failed") from None
+    n = len(w2)
+    scale = max(np.abs(w2).max(initial=0.0), 1e-300)
+    Phi = _sign_fix(Phi)
+    MPhi = M @ Phi
+    mm = np.einsum("ij,ij->j", Phi, MPhi)
+    Phi = Phi / np.sqrt(mm)
+    MPhi = MPhi / np.sqrt(mm)
+    KPhi = Ks @ Phi
+    R = KPhi - MPhi * w2
+    A = np.abs(Phi)
+    r = np.abs(R).max(axis=0, initial=0.0)
+    R = R / np.where(r > 0, r, 1.0)  # scaled: ‖R‖²_M⁻¹ must not overflow when ω² is huge
+    uncertainty = (r * np.sqrt(np.abs(np.einsum("ij,ij->j", R, sla.cho_solve(chol, R, check_finite=False))))
+                   + np.einsum("ij,ij->j", A, (n * EPS * np.abs(Ks) + 0.5 * (lin.K_error + lin.K_error.T)) @ A))
+    if not np.all(np.isfinite(uncertainty)) or not np.all(np.isfinite(w2)):
+        raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
+                         f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
+    if tolerance is None:
+        rigid = np.abs(w2) <= 10 * uncertainty
+        if rigid.any() and lin.method == "fd":
+            from .linearize import linearize
+
+            exact = modes(linearize(lin.system, lin.q0, v=lin.v0, t=lin.t0, a=lin.a0, method="analytic"))
+            if exact.rigid.sum() != rigid.sum():  # the analytic model resolves what FD could not
+                return replace(exact, note=f"{int(rigid.sum() - exact.rigid.sum())} mode(s) unresolved by finite "
+                                           "differences (ω² within their round-off): modes from the analytic "
+                                           "linear model")
+    else:
+        rigid = np.abs(w2) <= float(tolerance) * scale
+    w2 = np.where(rigid, 0.0, w2)
+    unstable = w2 < 0
+    Mm, Km = Phi.T @ MPhi, Phi.T @ KPhi
+    ortho = max(np.abs(Mm - np.eye(n)).max(initial=0.0), np.abs(Km - np.diag(w2)).max(initial=0.0) / scale)
+    # relative error of ω per mode (half that of ω²); a rigid mode's, relative to the spectrum's scale (or,
+    # when every mode is rigid, to the largest |ω²| that still counts as rigid)
+    rigid_scale = max(scale, 10 * uncertainty.max(initial=0.0))
+    rel = np.where(rigid, uncertainty / rigid_scale, 0.5 * uncertainty / np.where(rigid, 1.0, np.abs(w2)))
+    omega = np.sqrt(np.abs(w2))
+    # a rigid mode's zero may split by ±√δω² in the state form (a Jordan block): that is still zero
+    zero_threshold = float(np.sqrt(10 * uncertainty[rigid].max(initial=0.0))) + 1e-12 * np.sqrt(scale)
+
+    N_error = 0.5 * (lin.K_error + lin.K_error.T)
+    damped = lin.has_damping or np.any(np.abs(lin.N) > 10 * N_error + 1e-12 * np.abs(Ks).max(initial=0.0))
+    if damped:
+        lam, lam_modes, shapes_c, lam_error = _state_modes(lin)
+        mag = np.abs(lam_modes)
+        # a rigid mode's zero is a Jordan block (x = a + b t; left and right eigenvectors orthogonal), where
+        # first-order perturbation does not apply: its error is the split that still counts as zero
+        lam_scale = max(mag.max(initial=0.0), 1e-300)
+        lam_error = np.where(mag <= zero_threshold, np.minimum(lam_error, zero_threshold / lam_scale), lam_error)
+        zeta = np.where(mag > 0, -lam_modes.real / np.where(mag > 0, mag, 1.0), 0.0)
+        classical = _is_classical(lin)
+    else:
+        lam = lam_modes = np.zeros(0, complex)
+        lam_error = np.zeros(0)
+        shapes_c = np.zeros((lin.nv, 0), complex)
+        mag = zeta = np.zeros(0)
+        classical = True
+    stability = classify(rigid, unstable, lam, zero_threshold)
+    return Modes(lin, w2, omega, Phi, rigid, unstable, np.diag(Mm).copy(), np.diag(Km).copy(), float(ortho), rel,
+                 zero_threshold, lam, lam_modes, zeta, mag, np.abs(lam_modes.imag), lam_error, shapes_c, bool(classical),
+                 stability, time.perf_counter() - start)
+
+
+def mac(a: ArrayLike, b: ArrayLike | None = None) -> np.ndarray | float:
+    """Modal assurance criterion MAC_ij = |a_iᴴ b_j|² / (a_iᴴ a_i · b_jᴴ b_j) between columns of a and b."""
+    from .._check import finite_array
+
+    a = finite_array(a, None, "mac: first shapes") if not np.iscomplexobj(a) else np.asarray(a)
+    b = a if b is None else (finite_array(b, None, "mac: second shapes") if not np.iscomplexobj(b) else np.asarray(b))
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ModelError("mac: shapes contain NaN or inf")
+    a = a.reshape(a.shape[0], -1)
+    b = b.reshape(b.shape[0], -1)
+    if a.shape[0] != b.shape[0]:
+        raise ModelError(f"mac: shapes have {a.shape[0]} and {b.shape[0]} components")
+    num = np.abs(a.conj().T @ b) ** 2
+    den = np.outer(np.einsum("ij,ij->j", a.conj(), a).real, np.einsum("ij,ij->j", b.conj(), b).real)
+    out = num / np.where(den > 0, den, 1.0)
+    return out if out.size > 1 else float(out[0, 0])
+
+
+def rayleigh(zeta: ArrayLike, omega: ArrayLike) -> tuple[float, float]:
+    """(α, β) of Rayleigh damping C = αM + βK with ratios ζ = (ζ1, ζ2) at ω = (ω1, ω2) rad/s:
+    ζ_i = α/(2ω_i) + βω_i/2."""
+    from .._check import finite_array
+
+    z = finite_array(zeta, (2,), "rayleigh: damping ratios zeta")
+    w = finite_array(omega, (2,), "rayleigh: frequencies omega (rad/s)")
+    if not np.all(np.isfinite(z)) or not np.all(np.isfinite(w)) or np.any(w <= 0) or w[0] == w[1] or np.any(z < 0):
+        raise ModelError(f"rayleigh: need two distinct positive frequencies and finite ratios ≥ 0, got {omega!r}, "
+                         f"{zeta!r}")
+    A = np.array([[1 / (2 * w[0]), w[0] / 2], [1 / (2 * w[1]), w[1] / 2]])
+    alpha, beta = np.linalg.solve(A, z)
+    return float(alpha), float(beta)
+
+
+def _state_modes(lin):
+    """State eigenvalues (all, and one per mode), complex shapes, and each mode's estimated relative error:
+    first-order perturbation |wᴴ δA v| / |wᴴ v| with δA from the error estimates of K and C (and the
+    round-off of the eigensolver), w and v the left and right eigenvectors."""
+    A = lin.A
+    lam, W, V = sla.eig(A, left=True, right=True)
+    n = lin.nv
+    Minv = np.abs(np.linalg.inv(lin.M))
+    E = np.zeros_like(A)
+    E[n:, :n], E[n:, n:] = Minv @ lin.K_error, Minv @ lin.C_error
+    E += 2 * n * EPS * np.abs(A)
+    dlam = (np.einsum("ij,ij->j", np.abs(W), E @ np.abs(V))
+            / np.maximum(np.abs(np.einsum("ij,ij->j", W.conj(), V)), 1e-300))
+    scale = max(np.abs(lam).max(initial=0.0), 1e-300)
+    lam = np.where(np.abs(lam.imag) <= 1e-12 * scale, lam.real + 0j, lam)
+    lam = np.where(np.abs(lam) <= 1e-12 * scale, 0j, lam)
+    order = np.lexsort((lam.real, np.abs(lam.imag)))
+    lam, V, dlam = lam[order], V[:, order], dlam[order]
+    keep = lam.imag >= 0  # one of each conjugate pair, and the real eigenvalues
+    lm, Vm, dm = lam[keep], V[:n, keep], dlam[keep]
+    order = np.argsort(np.abs(lm), kind="stable")
+    lm, Vm, dm = lm[order], Vm[:, order], dm[order]
+    big = np.argmax(np.abs(Vm), axis=0)
+    piv = Vm[big, np.arange(Vm.shape[1])]
+    Vm = Vm / np.where(np.abs(piv) > 0, piv, 1.0)
+    rel = dm / np.where(np.abs(lm) > 0, np.abs(lm), scale)
+    return lam, lm, Vm, rel
+
+
+def classify(rigid, unstable, eigenvalues, zero_threshold, ignore_zeros=0):
+    """"stable", "unstable" or "neutral" from the undamped flags, or from the state eigenvalues if any.
+
+    State eigenvalues with |λ| ≤ ``zero_threshold`` (1/s) are rigid/cyclic; up to ``ignore_zeros`` of them
+    (zero modes of cyclic positions in a steady motion) do not make the point neutral. Other eigenvalues on
+    the imaginary axis are undamped oscillations: bounded, so stable (in the linear sense).
+    """
+    if eigenvalues.size == 0:
+        if unstable.any():
+            return "unstable"
+        return "neutral" if rigid.sum() > ignore_zeros else "stable"
+    scale = max(np.abs(eigenvalues).max(initial=0.0), 1e-300)
+    zero = np.abs(eigenvalues) <= zero_threshold
+    if np.any(eigenvalues[~zero].real > 1e-10 * scale):
+        return "unstable"
+    return "neutral" if zero.sum() > ignore_zeros else "stable"  # an undamped oscillation is bounded
+
+
+def _is_classical(lin):
+    M, C, K = lin.M, lin.C, lin.K
+    MiK, MiC = np.linalg.solve(M, K), np.linalg.solve(M, C)
+    X = C @ MiK - K @ MiC
+    return bool(np.abs(X).max() <= 1e-8 * max(np.abs(C @ MiK).max(), 1e-300))
+
+
+def _sign_fix(Phi):
+    """Make the largest component of each shape positive (a reproducible sign)."""
+    idx = np.argmax(np.abs(Phi), axis=0)
+    s = np.sign(Phi[idx, np.arange(Phi.shape[1])])
+    return Phi * np.where(s == 0, 1.0, s)

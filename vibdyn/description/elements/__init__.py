@@ -1,0 +1,20 @@
+"""Force elements, one kind per module (see :mod:`.base` for the protocol every kind follows).
+
+Importing this package registers every kind in :data:`KINDS` (table name -> class), in the order groups
+are compiled and scene files are read and written: supports first (springs and dampers attach to them).
+A new kind is one new module here plus its import line below.
+"""
+
+from .base import KINDS, WORLD, ElementKind, Group, Kinematics, add_point_forces, attachment, cross
+from .support import Support
+from .spring import Spring
+from .damper import Damper
+from .body_force import BodyForce, vector_or_callable
+from .joint_spring import JointSpring
+from .joint_damper import JointDamper
+from .joint_force import JointForce, joint_force_value
+from .cubic_joint_spring import CubicJointSpring
+
+__all__ = ["KINDS", "WORLD", "ElementKind", "Group", "Kinematics", "add_point_forces", "attachment", "cross",
+           "Support", "Spring", "Damper", "BodyForce", "JointSpring", "JointDamper", "JointForce",
+           "CubicJointSpring", "vector_or_callable", "joint_force_value"]

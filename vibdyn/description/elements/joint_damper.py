@@ -1,0 +1,57 @@
+"""Viscous damper on a joint's tangent coordinates: Q = −c·v."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..._check import stiffness_like, value_nonnegative_number_or_list, value_string
+from ..._format import vector
+from .base import ElementKind, Group, scalar_or_list
+
+
+class JointDampers(Group):
+    """Viscous dampers on joint coordinates: Q = −c v."""
+
+    velocity_dependent = True
+
+    def __init__(self, system, elements):
+        self.iv = np.array([i for e in elements for i in system.body_info(e.body).v_indices])
+        self.c = np.array([c for e in elements for c in e.damping])
+
+    def apply(self, t, q, v, kin, Q, F):
+        Q[self.iv] -= self.c * v[self.iv]
+
+    def derivatives(self, d):
+        dV = np.zeros((d.system.nv, d.system.nv))
+        np.add.at(dV, (self.iv, self.iv), -self.c)
+        return None, dV
+
+
+@dataclass(frozen=True)
+class JointDamper(ElementKind):
+    """Viscous damper on a joint's tangent coordinates: Q = −c·v (N·s/m or N·m·s/rad)."""
+
+    table = "joint_damper"
+    keys = {"body": value_string, "damping": value_nonnegative_number_or_list, "name": value_string}
+    required = ("body", "damping")
+    group = JointDampers
+
+    name: str
+    body: str
+    damping: tuple
+
+    @classmethod
+    def add(cls, scene, body, damping, name=None) -> JointDamper:
+        b = scene.joint_body(body, "joint damper")
+        name = name or f"{b.name}.damper"
+        scene.check_new_name(name, "element")
+        c = stiffness_like(damping, b.joint.nv, f"joint damper '{name}' damping")
+        return scene.add_element(cls(name, b.name, tuple(map(float, c))))
+
+    def to_dict(self):
+        return {"name": self.name, "body": self.body, "damping": scalar_or_list(self.damping)}
+
+    def describe(self):
+        return f"on {self.body}, c = {vector(self.damping)}"

@@ -1,0 +1,125 @@
+"""Spring on a joint's tangent coordinates: Q = −k·(q ⊖ q_rest) (torsion spring on a pivot, on the rotation
+vector for a ball)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..._check import (finite_array, one_or_each, stiffness_like, value_nonnegative_number_or_list,
+                       value_number_or_list, value_string)
+from ..._format import vector
+from ...errors import ModelError
+from .base import ElementKind, Group, scalar_or_list, tangent
+
+
+class JointSprings(Group):
+    """Springs on joint coordinates: Q = −Jᵀ K (q ⊖ q_rest), J = ∂(q ⊖ q_rest)/∂q (identity for vector
+    joints; for an isotropic ball spring Jᵀφ = φ, so the torque is −k φ exactly)."""
+
+    def __init__(self, system, elements):
+        model = system.model
+        self.names = [e.name for e in elements]
+        self.q_rest = system.neutral()
+        iv, k, curved = [], [], []
+        for e in elements:
+            b = system.body_info(e.body)
+            iq = list(range(b.idx_q, b.idx_q + b.nq))
+            self.q_rest[iq] = pin.integrate(model, system.neutral(), tangent(model, b, e.rest))[iq]
+            iv += list(range(b.idx_v, b.idx_v + b.nv))
+            k += list(e.stiffness)
+            # SE(2)/SE(3) joints and anisotropic ball springs need the Jacobian of the difference
+            if b.nq != b.nv and (b.joint.kind != "ball" or len(set(e.stiffness)) > 1):
+                curved.append(len(iv) - b.nv + np.arange(b.nv))
+        self.iv, self.k = np.array(iv), np.array(k)
+        self.model = model
+        self.vector = all(system.body_info(e.body).nq == system.body_info(e.body).nv for e in elements)
+        if self.vector:
+            self.iq = np.array([system.body_info(e.body).idx_q + i for e in elements
+                                for i in range(system.body_info(e.body).nv)])
+            self.rest = self.q_rest[self.iq]
+        self.curved = np.concatenate(curved) if curved else None
+
+    def deflection(self, q):
+        """q ⊖ q_rest on the sprung coordinates (m or rad; rotation vector for a ball)."""
+        if self.vector:
+            return q[self.iq] - self.rest
+        return pin.difference(self.model, self.q_rest, q)[self.iv]
+
+    def apply(self, t, q, v, kin, Q, F):
+        phi = self.deflection(q)
+        force = self.k * phi
+        if self.curved is not None:
+            J = pin.dDifference(self.model, self.q_rest, q, pin.ARG1)[np.ix_(self.iv, self.iv)]
+            c = self.curved
+            force[c] = J[np.ix_(c, c)].T @ force[c]
+        Q[self.iv] -= force
+
+    def potential(self, q, kin):
+        phi = self.deflection(q)
+        return 0.5 * float(self.k @ phi**2)
+
+    def derivatives(self, d):
+        nv = d.system.nv
+        dQ = np.zeros((nv, nv))
+        if self.vector:
+            dQ[self.iv, self.iv] = -self.k
+            return dQ, None
+        J = pin.dDifference(self.model, self.q_rest, d.q, pin.ARG1)[np.ix_(self.iv, self.iv)]
+        dQ[np.ix_(self.iv, self.iv)] = -(self.k[:, None] * J)
+        if self.curved is not None:  # Q = −Jᵀ K φ: the turning of J is differenced on the group alone
+            fd = d.element_fd(lambda qq, vv: d.group_force(self, qq, d.v), with_v=False)
+            dQ[:, self.iv[self.curved]] = fd[0][:, self.iv[self.curved]]
+        return dQ, None
+
+
+def per_coordinate(value, nv, what, key):
+    """``key`` of the element ``what``: one number for every coordinate of a joint, or one per coordinate
+    (a tuple of nv floats)."""
+    r = np.atleast_1d(finite_array(value, None, f"{what} {key}"))
+    if r.size == 1:
+        r = np.full(nv, float(r[0]))
+    if r.shape != (nv,):
+        raise ModelError(f"{what}: {key} needs {one_or_each(nv)}, got {r.size}")
+    return tuple(map(float, r))
+
+
+@dataclass(frozen=True)
+class JointSpring(ElementKind):
+    """Spring on a joint's tangent coordinates: Q = −k·(q ⊖ q_rest) (N/m or N·m/rad).
+
+    ``stiffness`` is one number or one per coordinate; ``rest`` is the rest offset from the neutral
+    configuration in tangent coordinates (for a ball joint: the rotation vector, rad).
+    """
+
+    table = "joint_spring"
+    keys = {"body": value_string, "stiffness": value_nonnegative_number_or_list, "rest": value_number_or_list,
+            "name": value_string}
+    required = ("body", "stiffness")
+    group = JointSprings
+
+    name: str
+    body: str
+    stiffness: tuple
+    rest: tuple
+
+    @classmethod
+    def add(cls, scene, body, stiffness, rest=0.0, name=None) -> JointSpring:
+        b = scene.joint_body(body, "joint spring")
+        name = name or f"{b.name}.spring"
+        what = f"joint spring '{name}'"
+        scene.check_new_name(name, "element")
+        k = stiffness_like(stiffness, b.joint.nv, f"{what} stiffness")
+        r = per_coordinate(rest, b.joint.nv, what, "rest")
+        return scene.add_element(cls(name, b.name, tuple(map(float, k)), r))
+
+    def to_dict(self):
+        d = {"name": self.name, "body": self.body, "stiffness": scalar_or_list(self.stiffness)}
+        if np.any(self.rest):
+            d["rest"] = scalar_or_list(self.rest)
+        return d
+
+    def describe(self):
+        return f"on {self.body}, k = {vector(self.stiffness)}, rest {vector(self.rest)}"

@@ -1,0 +1,130 @@
+"""Point-to-point linear spring: force k (L − free_length) along the line between two points."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..._check import scalar, value_attachment, value_nonnegative, value_string
+from ..._format import number
+from ...errors import ModelError
+from .base import WORLD, ElementKind, TwoPoint, att_list, end_label, file_attachment
+
+
+class Springs(TwoPoint):
+    """Point-to-point linear springs: force on end b = −k (L − l0) u, u from a to b."""
+
+    kind = "spring"
+
+    def __init__(self, system, elements):
+        super().__init__(system, elements)
+        self.k = np.array([e.stiffness for e in elements])
+        self.l0 = np.array(free_lengths(system, elements), dtype=float)
+        self.zero_l0 = self.l0 == 0.0  # a zero-free-length spring pulls as −k d: no direction needed
+        self.tiny = 1e-9 * np.maximum(self.l0, 1e-3)
+
+    def apply(self, t, q, v, kin, Q, F):
+        xa, xb, d, L = self.geometry(kin, self.zero_l0)
+        Ls = np.where(self.zero_l0, 1.0, L)
+        fb = (-self.k * np.where(self.zero_l0, 1.0, (L - self.l0) / Ls))[:, None] * d
+        self.add_end_forces(F, kin, xa, xb, fb)
+
+    def potential(self, q, kin):
+        _, _, _, L = self.geometry(kin, self.zero_l0)
+        return 0.5 * float(self.k @ (L - self.l0) ** 2)
+
+    def derivatives(self, d):
+        xa, xb, dx, L = self.geometry(d.fkin, self.zero_l0)
+        for i in range(len(self.k)):
+            ja, jb = int(self.ja[i]), int(self.jb[i])
+            Jrel = d.point(jb, self.pb[i]) - d.point(ja, self.pa[i])
+            if self.zero_l0[i]:
+                Fb, Ks = -self.k[i] * dx[i], self.k[i] * np.eye(3)
+            else:
+                u = dx[i] / L[i]
+                ratio = self.l0[i] / L[i]
+                Fb = -self.k[i] * (L[i] - self.l0[i]) * u
+                Ks = self.k[i] * ((1 - ratio) * np.eye(3) + ratio * np.outer(u, u))
+            dF = -Ks @ Jrel
+            d.add_force(jb, self.pb[i], Fb, dF, None)
+            d.add_force(ja, self.pa[i], -Fb, -dF, None)
+
+
+def free_lengths(system, springs):
+    """Free length of each spring (m): as given, or the distance at the neutral configuration."""
+    q0 = system.neutral()
+    out = []
+    for s in springs:
+        xa, xb = _anchor(system, s.a, q0), _anchor(system, s.b, q0)
+        L = float(np.linalg.norm(xb - xa))
+        l0 = L if s.free_length is None else s.free_length
+        if s.a[0] == s.b[0] and np.array_equal(np.asarray(s.a[1], float), np.asarray(s.b[1], float)):
+            raise ModelError(f"spring '{s.name}': both ends are the same point of '{s.a[0]}' (coincident "
+                             "ends: its direction is undefined)")
+        if s.free_length is None and L <= 1e-12:  # the threshold below with l0 = L
+            raise ModelError(f"spring '{s.name}': its two ends coincide at the neutral configuration (at "
+                             f"{np.round(xa, 12).tolist()} m) and no free_length is given: attach the ends at "
+                             "distinct points, or give free_length=0 for a zero-length spring (force −k·d)")
+        if l0 > 0 and L <= 1e-9 * max(l0, 1e-3):  # the threshold Springs uses at each call
+            raise ModelError(f"spring '{s.name}': its two ends coincide at build time (neutral "
+                             "configuration), so its direction is undefined")
+        out.append(l0)
+    return out
+
+
+def _anchor(system, att, q, t=0.0):
+    """World position (m) of an attachment (body point, world point or support point) at (q, t)."""
+    body, point = att
+    if body == WORLD:
+        return np.array(point, dtype=float)
+    if body in system.support_index:
+        return np.array(point, dtype=float) + system.supports[system.support_index[body]].motion.position(t)
+    return system.point_position(body, point, q)
+
+
+@dataclass(frozen=True)
+class Spring(ElementKind):
+    """Linear spring between two points: force k (L − free_length) along the line (N, m).
+
+    ``free_length`` None means the distance at the neutral configuration (unstressed there).
+    """
+
+    table = "spring"
+    keys = {"name": value_string, "a": value_attachment, "b": value_attachment, "stiffness": value_nonnegative,
+            "free_length": value_nonnegative}
+    required = ("name", "a", "b", "stiffness")
+    group = Springs
+
+    name: str
+    a: tuple
+    b: tuple
+    stiffness: float
+    free_length: float | None = None
+
+    @classmethod
+    def add(cls, scene, name, a, b, stiffness, free_length=None) -> Spring:
+        what = f"spring '{name}'"
+        scene.check_new_name(name, "element")
+        a, b = scene.resolve_attachment(a, what + " end a"), scene.resolve_attachment(b, what + " end b")
+        k = scalar(stiffness, f"{what} stiffness", nonnegative=True)
+        l0 = None if free_length is None else scalar(free_length, f"{what} free_length", nonnegative=True)
+        return scene.add_element(cls(name, a, b, k, l0))
+
+    @classmethod
+    def from_file(cls, scene, e, error):
+        return cls.add(scene, e["name"], file_attachment(e["a"]), file_attachment(e["b"]), e["stiffness"],
+                       e.get("free_length"))
+
+    def to_dict(self):
+        d = {"name": self.name, "a": att_list(self.a), "b": att_list(self.b), "stiffness": self.stiffness}
+        if self.free_length is not None:
+            d["free_length"] = self.free_length
+        return d
+
+    def describe(self):
+        l0 = "neutral distance" if self.free_length is None else number(self.free_length, "m")
+        return f"{end_label(self.a)} – {end_label(self.b)}, k = {number(self.stiffness, 'N/m')}, free length {l0}"
+
+    def reference_points(self):
+        return (self.a[1],)

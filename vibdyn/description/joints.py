@@ -1,0 +1,364 @@
+"""Joints (links) between a body and its parent: what moves, about which axis, and where.
+
+Every joint is placed in its parent body's frame by ``at`` (m) and ``rotation`` (a 3×3 matrix or a rotation
+vector in rad). At the neutral configuration the child body's frame is that placed frame; axes are given in
+the child body's frame (equal to the parent's axes when ``rotation`` is None).
+
+Tangent coordinates (the velocity vector v) per joint, named ``<body><suffix>``:
+
+=============  ==  ==  =========================================================
+joint          nq  nv  coordinates
+=============  ==  ==  =========================================================
+Pivot           1   1  angle about ``axis`` (rad)
+Slider          1   1  travel along ``axis`` (m)
+Helical         1   1  angle (rad); the body also advances ``pitch`` m per rad
+Cylindrical     2   2  ``.s`` travel (m), ``.theta`` angle (rad), same axis
+Universal       2   2  ``.theta1`` about ``axis1``, ``.theta2`` about ``axis2``
+Planar          4   3  ``.x``, ``.y`` (m), ``.theta`` (rad) in the plane normal to ``normal``
+Ball            4   3  ``.rx .ry .rz`` rotation (rad, body axes); q is a unit quaternion
+Free            7   6  ``.x .y .z`` (m), ``.rx .ry .rz`` (rad), in body axes
+Fixed           0   0  none (the body is welded to its parent)
+=============  ==  ==  =========================================================
+"""
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+import pinocchio as pin
+
+from .._check import (kind_of, rotation_matrix, scalar, unit_axis, value_number, value_rotation, value_string,
+                      value_vec3, vector3)
+from ..errors import ModelError
+
+
+def _floats(a):
+    return tuple(float(x) for x in a)
+
+
+@dataclass(frozen=True, eq=False)
+class Joint:
+    """Common placement of every joint: ``at`` (m) and ``rotation`` in the parent body frame."""
+
+    at: tuple = (0.0, 0.0, 0.0)
+    rotation: object = None
+    name: str | None = None  # optional joint name (URDF joint name); body name is used otherwise
+
+    kind = "joint"
+    #: scene-file keys every joint takes, and each kind's own (``file_keys``, ``file_required``)
+    common_file_keys: ClassVar[dict] = {"type": value_string, "at": value_vec3, "rotation": value_rotation, "name": value_string}
+    file_keys: ClassVar[dict] = {}
+    file_required: ClassVar[tuple] = ()
+    suffixes: ClassVar[tuple[str, ...]] = ()
+    units: ClassVar[tuple[str, ...]] = ()  # "m" or "rad" per coordinate
+    problem = None  # what is wrong with the parameters (str), reported when the joint joins a scene
+
+    def __post_init__(self):
+        try:
+            self._check()
+        except ModelError as e:  # raised by checked(), with the body's name, when the joint joins a scene
+            object.__setattr__(self, "problem", str(e))
+
+    @classmethod
+    def from_file(cls, params: dict, error) -> "Joint":
+        """The joint of a scene file's checked ``params`` (``error(subkey, message)`` makes the file's error)."""
+        return cls(**params)
+
+    def checked(self, what=None):
+        """The joint, or the ModelError saying what is wrong with its parameters (after ``what``, e.g.
+        "body 'rod'": a joint is made before the body it will carry, so only the scene can name it)."""
+        if self.problem:
+            raise ModelError(f"{what}: {self.problem}" if what else self.problem)
+        return self
+
+    def _check(self):
+        """Check and normalise the parameters (ModelError naming the parameter)."""
+        if self.name is not None and (not isinstance(self.name, str) or not self.name
+                                      or self.name.strip() != self.name):
+            raise ModelError(f"{self.kind} joint name must be a non-empty string without surrounding spaces,"
+                             f" got {self.name!r}")
+        object.__setattr__(self, "at", _floats(vector3(self.at, f"{self._what} 'at'")))
+        if self.rotation is not None:
+            R = rotation_matrix(self.rotation, f"{self._what} 'rotation'")
+            object.__setattr__(self, "rotation", tuple(_floats(r) for r in R))
+
+    @property
+    def _what(self):
+        """How error messages name this joint: its kind, and its name if it has one."""
+        return f"{self.kind} joint '{self.name}'" if self.name else f"{self.kind} joint"
+
+    @property
+    def placement(self):
+        """Placement of the joint frame in the parent body frame (pin.SE3)."""
+        R = np.eye(3) if self.rotation is None else np.array(self.rotation)
+        return pin.SE3(R, np.array(self.at))
+
+    @property
+    def alignment(self):
+        """Rotation from the body frame to Pinocchio's joint frame (identity unless the joint needs it)."""
+        return np.eye(3)
+
+    @property
+    def nv(self):
+        return len(self.suffixes)
+
+    def pin_model(self):
+        raise NotImplementedError
+
+    def params(self):
+        """The joint's own parameters as plain data (for scene files)."""
+        return {}
+
+    def to_dict(self):
+        d = {"type": self.kind, **self.params(), "at": list(self.at)}
+        if self.rotation is not None:
+            d["rotation"] = [list(r) for r in self.rotation]
+        if self.name:
+            d["name"] = self.name
+        return d
+
+
+@dataclass(frozen=True, eq=False)
+class _AxisJoint(Joint):
+    axis: tuple = (0.0, 0.0, 1.0)
+
+    def _check(self):
+        super()._check()
+        object.__setattr__(self, "axis", _floats(unit_axis(self.axis, f"{self._what} axis")))
+
+    def params(self):
+        return {"axis": list(self.axis)}
+
+
+def _ordered(cls):
+    """Let axis-type joints take ``axis`` as their first positional argument: Pivot((0, 1, 0))."""
+    fields = cls.__dataclass_fields__
+    order = [n for n in cls._positional if n in fields] + [n for n in ("at", "rotation", "name") if n in fields]
+    init = cls.__init__
+
+    def __init__(self, *args, **kwargs):
+        if len(args) > len(order):
+            raise ModelError(f"{cls.__name__}: too many positional arguments")
+        for name, value in zip(order, args):
+            if name in kwargs:
+                raise ModelError(f"{cls.__name__}: '{name}' given twice")
+            kwargs[name] = value
+        unknown = set(kwargs) - set(fields)
+        if unknown:
+            raise ModelError(f"{cls.__name__}: unknown argument(s) {sorted(unknown)}")
+        init(self, **kwargs)
+
+    cls.__init__ = __init__
+    return cls
+
+
+@_ordered
+@dataclass(frozen=True, eq=False)
+class Pivot(_AxisJoint):
+    """Revolute joint: rotation (rad) about ``axis`` through the joint origin."""
+
+    kind = "pivot"
+    file_keys = {"axis": value_vec3}
+    file_required = ("axis",)
+    suffixes = ("",)
+    units = ("rad",)
+    _positional = ("axis",)
+
+    def pin_model(self):
+        return pin.JointModelRevoluteUnaligned(np.array(self.axis))
+
+
+@_ordered
+@dataclass(frozen=True, eq=False)
+class Slider(_AxisJoint):
+    """Prismatic joint: translation (m) along ``axis``."""
+
+    kind = "slider"
+    file_keys = {"axis": value_vec3}
+    file_required = ("axis",)
+    suffixes = ("",)
+    units = ("m",)
+    _positional = ("axis",)
+
+    def pin_model(self):
+        return pin.JointModelPrismaticUnaligned(np.array(self.axis))
+
+
+@_ordered
+@dataclass(frozen=True, eq=False)
+class Helical(_AxisJoint):
+    """Screw joint: rotation θ (rad) about ``axis`` with translation ``pitch``·θ along it (pitch in m/rad).
+
+    A lead given per turn (m/turn) converts with :meth:`per_turn`: pitch = lead / 2π.
+    """
+
+    pitch: float = 0.0
+    kind = "helical"
+    file_keys = {"axis": value_vec3, "pitch": value_number, "lead": value_number}
+    file_required = ("axis",)
+    suffixes = ("",)
+    units = ("rad",)
+    _positional = ("axis", "pitch")
+
+    def _check(self):
+        super()._check()
+        p = scalar(self.pitch, f"{self._what} pitch (m/rad)")
+        if p == 0.0:
+            raise ModelError(f"{self._what} pitch is zero: use a Pivot for a pure rotation")
+        object.__setattr__(self, "pitch", p)
+
+    @classmethod
+    def per_turn(cls, axis, lead, **kwargs):
+        """Helical joint from its lead in metres per turn (pitch = lead / 2π m/rad)."""
+        return cls(axis, scalar(lead, "helical joint lead (m/turn)") / (2 * math.pi), **kwargs)
+
+    def params(self):
+        return {"axis": list(self.axis), "pitch": self.pitch}
+
+    def pin_model(self):
+        return pin.JointModelHelicalUnaligned(np.array(self.axis), self.pitch)
+
+    @classmethod
+    def from_file(cls, params, error):
+        """``pitch`` (m/rad) or ``lead`` (m/turn), exactly one."""
+        if ("pitch" in params) == ("lead" in params):
+            raise error("pitch", "a helical joint needs either pitch (m/rad) or lead (m/turn)")
+        if "lead" in params:
+            params = dict(params)
+            params["pitch"] = params.pop("lead") / (2.0 * math.pi)
+        return cls(**params)
+
+
+@_ordered
+@dataclass(frozen=True, eq=False)
+class Cylindrical(_AxisJoint):
+    """Translation ``s`` (m) along and rotation ``theta`` (rad) about the same ``axis``."""
+
+    kind = "cylindrical"
+    file_keys = {"axis": value_vec3}
+    file_required = ("axis",)
+    suffixes = (".s", ".theta")
+    units = ("m", "rad")
+    _positional = ("axis",)
+
+    def pin_model(self):
+        a = np.array(self.axis)
+        j = pin.JointModelComposite(pin.JointModelPrismaticUnaligned(a))
+        j.addJoint(pin.JointModelRevoluteUnaligned(a))
+        return j
+
+
+@_ordered
+@dataclass(frozen=True, eq=False)
+class Universal(Joint):
+    """Cardan joint: rotation about ``axis1``, then about ``axis2`` (orthogonal, in the body frame)."""
+
+    axis1: tuple = (1.0, 0.0, 0.0)
+    axis2: tuple = (0.0, 1.0, 0.0)
+    kind = "universal"
+    file_keys = {"axis1": value_vec3, "axis2": value_vec3}
+    file_required = ("axis1", "axis2")
+    suffixes = (".theta1", ".theta2")
+    units = ("rad", "rad")
+    _positional = ("axis1", "axis2")
+
+    def _check(self):
+        super()._check()
+        a1 = unit_axis(self.axis1, f"{self._what} axis1")
+        a2 = unit_axis(self.axis2, f"{self._what} axis2")
+        if abs(a1 @ a2) > 1e-9:
+            raise ModelError(f"{self._what}: axes must be orthogonal (axis1·axis2 = {a1 @ a2:.3g})")
+        object.__setattr__(self, "axis1", _floats(a1))
+        object.__setattr__(self, "axis2", _floats(a2))
+
+    def params(self):
+        return {"axis1": list(self.axis1), "axis2": list(self.axis2)}
+
+    def pin_model(self):
+        return pin.JointModelUniversal(np.array(self.axis1), np.array(self.axis2))
+
+
+@_ordered
+@dataclass(frozen=True, eq=False)
+class Planar(Joint):
+    """Motion in the plane normal to ``normal``: two translations (m) and the rotation about ``normal`` (rad).
+
+    The in-plane x axis is the body x axis projected on the plane (or y when x is along ``normal``).
+    """
+
+    normal: tuple = (0.0, 0.0, 1.0)
+    kind = "planar"
+    file_keys = {"normal": value_vec3}
+    file_required = ("normal",)
+    suffixes = (".x", ".y", ".theta")
+    units = ("m", "m", "rad")
+    _positional = ("normal",)
+
+    def _check(self):
+        super()._check()
+        object.__setattr__(self, "normal", _floats(unit_axis(self.normal, f"{self._what} normal")))
+
+    @property
+    def alignment(self):
+        n = np.array(self.normal)
+        x = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+        x = x - (x @ n) * n
+        x /= np.linalg.norm(x)
+        return np.column_stack([x, np.cross(n, x), n])
+
+    def params(self):
+        return {"normal": list(self.normal)}
+
+    def pin_model(self):
+        return pin.JointModelPlanar()
+
+
+@_ordered
+@dataclass(frozen=True, eq=False)
+class Ball(Joint):
+    """Spherical joint: free rotation about the joint origin (unit quaternion, 3 tangent coordinates)."""
+
+    kind = "ball"
+    suffixes = (".rx", ".ry", ".rz")
+    units = ("rad", "rad", "rad")
+    _positional = ()
+
+    def pin_model(self):
+        return pin.JointModelSpherical()
+
+
+@_ordered
+@dataclass(frozen=True, eq=False)
+class Free(Joint):
+    """Six degrees of freedom (a floating body); q = (position, unit quaternion)."""
+
+    kind = "free"
+    suffixes = (".x", ".y", ".z", ".rx", ".ry", ".rz")
+    units = ("m", "m", "m", "rad", "rad", "rad")
+    _positional = ()
+
+    def pin_model(self):
+        return pin.JointModelFreeFlyer()
+
+
+@_ordered
+@dataclass(frozen=True, eq=False)
+class Fixed(Joint):
+    """Weld: the body moves with its parent (no coordinate)."""
+
+    kind = "fixed"
+    suffixes = ()
+    _positional = ()
+
+    def pin_model(self):
+        return None
+
+
+KINDS = {cls.kind: cls for cls in (Pivot, Slider, Helical, Cylindrical, Universal, Planar, Ball, Free, Fixed)}
+
+
+def from_dict(d, what="joint"):
+    """A joint from its plain-data form (``{"type": "pivot", "axis": [...], ...}``)."""
+    cls, params = kind_of(d, "type", KINDS, what, "{'type': 'pivot', ...}", "joint type")
+    return cls(**params).checked()

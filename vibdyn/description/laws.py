@@ -1,0 +1,134 @@
+"""Force laws as data: joint forces/torques that scene files can hold without code.
+
+A law is a callable ``law(t, q, v)`` (SI units, joint coordinates) that also says what it depends on, so
+that analyses skip what it does not need (no velocity differences for a law that ignores v).
+"""
+
+import math
+from dataclasses import MISSING, dataclass, fields
+
+import numpy as np
+
+from .._check import finite_array, kind_of, scalar, user_callable
+from ..errors import ModelError
+
+
+@dataclass(frozen=True)
+class Polynomial:
+    """Motor law in the joint speed: value = Σ_k coefficients[k] · v^k (e.g. τ = 10 − ω²: (10, 0, -1))."""
+
+    coefficients: tuple
+
+    velocity_dependent = property(lambda self: len(self.coefficients) > 1)
+    time_dependent = False
+
+    def __post_init__(self):
+        c = finite_array(self.coefficients, (None,), "polynomial law coefficients")
+        if c.size == 0:
+            raise ModelError("polynomial law: needs at least one coefficient")
+        object.__setattr__(self, "coefficients", tuple(float(x) for x in c))
+
+    def __call__(self, t, q, v):
+        return np.polynomial.polynomial.polyval(v, self.coefficients)
+
+    def to_dict(self):
+        return {"law": "polynomial", "coefficients": list(self.coefficients)}
+
+
+@dataclass(frozen=True)
+class Harmonic:
+    """Harmonic forcing: value = offset + amplitude · sin(omega·t + phase) (omega in rad/s, phase in rad)."""
+
+    amplitude: float
+    omega: float
+    phase: float = 0.0
+    offset: float = 0.0
+
+    velocity_dependent = False
+    time_dependent = True
+
+    def __post_init__(self):
+        for name in ("amplitude", "omega", "phase", "offset"):
+            object.__setattr__(self, name, scalar(getattr(self, name), f"harmonic law {name}"))
+
+    def __call__(self, t, q, v):
+        return self.offset + self.amplitude * math.sin(self.omega * t + self.phase)
+
+    def to_dict(self):
+        return {"law": "harmonic", "amplitude": self.amplitude, "omega": self.omega, "phase": self.phase,
+                "offset": self.offset}
+
+
+@dataclass(frozen=True)
+class HarmonicMotion:
+    """Harmonic motion of a support: displacement amplitude · sin(omega·t + phase) (m, world axes;
+    omega in rad/s, phase in rad), velocity amplitude · omega · cos(omega·t + phase)."""
+
+    amplitude: tuple
+    omega: float
+    phase: float = 0.0
+
+    def __post_init__(self):
+        a = finite_array(self.amplitude, (3,), "harmonic motion amplitude")
+        object.__setattr__(self, "amplitude", tuple(float(x) for x in a))
+        object.__setattr__(self, "omega", scalar(self.omega, "harmonic motion omega"))
+        object.__setattr__(self, "phase", scalar(self.phase, "harmonic motion phase"))
+
+    def position(self, t):
+        return np.array(self.amplitude) * math.sin(self.omega * t + self.phase)
+
+    def velocity(self, t):
+        return np.array(self.amplitude) * (self.omega * math.cos(self.omega * t + self.phase))
+
+    def to_dict(self):
+        return {"law": "harmonic_motion", "amplitude": list(self.amplitude), "omega": self.omega,
+                "phase": self.phase}
+
+
+def road(amplitude, wavelength, speed, direction=(0.0, 0.0, 1.0), phase=0.0):
+    """A road of harmonic profile (amplitude m, wavelength m) driven over at ``speed`` m/s: the wheel's
+    support moves along ``direction`` at ω = 2π·speed/wavelength rad/s."""
+    lam = scalar(wavelength, "road wavelength", positive=True)
+    d = finite_array(direction, (3,), "road direction")
+    if not np.any(d):
+        raise ModelError("road direction: zero vector")
+    amp = scalar(amplitude, "road amplitude") * d / np.linalg.norm(d)
+    return HarmonicMotion(tuple(amp), 2 * math.pi * scalar(speed, "road speed") / lam, phase)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Support motion from two callables of t: ``position(t)`` (m) and ``velocity(t)`` (m/s), 3-vectors."""
+
+    position: object
+    velocity: object
+
+    def __post_init__(self):
+        if not (callable(self.position) and callable(self.velocity)):
+            raise ModelError("support motion: position and velocity must both be callables of t")
+        user_callable(self.position, 1, "support motion: position (a callable of t)")
+        user_callable(self.velocity, 1, "support motion: velocity (a callable of t)")
+
+    def to_dict(self):
+        raise ModelError("support motion given as Python callables cannot be written to a scene file "
+                         "(use vibdyn.description.laws.HarmonicMotion)")
+
+
+LAWS = {"polynomial": Polynomial, "harmonic": Harmonic, "harmonic_motion": HarmonicMotion}
+#: the laws a joint force can follow (scene files: ``law = "polynomial"`` with the law's keys beside it)
+FORCE_LAWS = ("polynomial", "harmonic")
+
+
+def law_keys(name):
+    """(allowed keys, required keys) of the law ``name``, read from its fields (its one declaration)."""
+    fs = fields(LAWS[name])
+    return tuple(f.name for f in fs), tuple(f.name for f in fs if f.default is MISSING)
+
+
+def from_dict(d, what="law"):
+    """A law from its plain-data form (``{"law": "polynomial", "coefficients": [...]}``)."""
+    cls, params = kind_of(d, "law", LAWS, what, "{'law': 'harmonic', ...}", "law")
+    try:
+        return cls(**params)
+    except (TypeError, ModelError) as e:  # bad keywords, or bad values: say which element has them
+        raise ModelError(f"{what}: {e}") from None

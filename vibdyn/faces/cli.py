@@ -1,0 +1,548 @@
+"""The ``vibdyn`` command: ``vibdyn info SCENE``, ``vibdyn modes SCENE [--json]``, ``vibdyn demo``,
+``vibdyn bench [--quick] [--smoke] [--check] [--only NAME]`` (the repository's benchmark suite).
+
+SCENE is a TOML scene file, or ``robot:NAME`` for a robot of example-robot-data (e.g. ``robot:ur5``).
+"""
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .._format import json_ready, number, table, vector
+from ..errors import ModelError, VibdynError
+
+
+def models_dir():
+    """The bundled ``models/`` folder (override with the VIBDYN_MODELS environment variable)."""
+    return Path(os.environ.get("VIBDYN_MODELS", Path(__file__).resolve().parents[2] / "models"))
+
+
+def benchmarks_dir():
+    """The repository's ``benchmarks/`` folder (override with the VIBDYN_BENCHMARKS environment variable).
+    It is not part of the installed package: it exists in a source checkout (an editable install)."""
+    return Path(os.environ.get("VIBDYN_BENCHMARKS", Path(__file__).resolve().parents[2] / "benchmarks"))
+
+
+def bench(argv):
+    """``vibdyn bench ARGS``: run ``python -m benchmarks ARGS`` from the repository's benchmarks folder."""
+    folder = benchmarks_dir()
+    if not (folder / "suite.py").is_file():
+        raise ModelError(f"vibdyn bench: no benchmark suite at {folder} (it lives in the source repository, not "
+                         "in an installed package): run it from a checkout (pip install -e .) or set "
+                         "VIBDYN_BENCHMARKS to the repository's benchmarks/ folder")
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    root = str(folder.resolve().parent)
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    from benchmarks.suite import main as bench_main
+
+    return bench_main(argv, prog="vibdyn bench")
+
+
+def load(spec):
+    """A Scene from a scene file path, a bundled model name, or ``robot:NAME``."""
+    if spec.startswith("robot:"):
+        from ..io.robots import load_robot
+
+        return load_robot(spec[len("robot:"):])
+    from ..io.scenefile import load_scene
+
+    path = Path(spec)
+    if not path.exists() and (models_dir() / f"{spec}.toml").exists():
+        path = models_dir() / f"{spec}.toml"
+    return load_scene(path)
+
+
+def describe(scene, system, out=None):
+    """Print a scene's bodies (joint, mass, centre of mass, inertia), coordinates and force elements."""
+    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
+    p(f"scene      {scene.name}")
+    if scene.source:
+        p(f"source     {scene.source}")
+    p(f"gravity    {vector(scene.gravity, 'm/s²')}")
+    p(f"size       {len(scene.bodies)} bodies, nq = {system.nq}, nv = {system.nv}")
+    p("")
+    p("bodies: joint placed at `at` (m) in the parent's frame, axes in the body frame; centre of mass (m) in the "
+      "body frame; inertia (kg·m²) about the centre of mass, body axes")
+    for b in scene.bodies.values():
+        J = b.joint
+        place = f"at {vector(J.at, 'm')}" + (f", rotated {_rotation(J.rotation)}" if J.rotation is not None else "")
+        if J.nv == 0 and b.mass == 0.0:
+            p(f"  {b.name} (on {b.parent}): fixed {place}, no mass (a marker)")
+            continue
+        p(f"  {b.name} (on {b.parent})")
+        params = ", ".join(f"{k} {vector(v) if isinstance(v, (list, tuple)) else number(v)}"
+                           for k, v in J.params().items())
+        coords = ", ".join(f"{c} ({u}{_limits(system, c)})" for c, u in zip(b.coordinates, J.units))
+        p(f"    joint    {J.kind}{', ' + params if params else ''}, {place}"
+          + (f"; coordinates {coords}" if coords else ""))
+        p(f"    mass     {number(b.mass, 'kg')}, centre of mass {vector(b.com, 'm')}")
+        p(f"    inertia  {_inertia(b.inertia)}")
+    if scene.elements:
+        p("")
+        p("force elements")
+        for line in table(["name", "kind", "details"], [[e.name, e.label, e.describe()] for e in scene.elements.values()],
+                          ["<", "<", "<"]):
+            p("  " + line)
+    if scene.references:
+        p("")
+        p("reference values: " + ", ".join(sorted(k for k in scene.references if k not in ("source", "note"))))
+    if system.nv:
+        t0 = time.perf_counter()
+        M = system.mass_matrix(system.neutral())
+        dt = time.perf_counter() - t0
+        w = np.linalg.eigvalsh(M)
+        p("")
+        p(f"mass matrix at neutral: eigenvalues {w[0]:.4g} … {w[-1]:.4g} (condition {w[-1] / w[0]:.3g}), "
+          f"{dt * 1e3:.2f} ms")
+    needs = [n for n, f in (("velocity", system.depends_on_velocity), ("time", system.depends_on_time)) if f]
+    p(f"forces depend on: q{''.join(', ' + n for n in needs)}")
+
+
+def modal_report(system, method="fd"):
+    """Operating point, linear model and modes of a system, as plain data (the ``--json`` object)."""
+    op = system.operating_point()
+    lin = op.linearize(method=method)
+    m = lin.modes()
+    return op, lin, m, {
+        "scene": system.name,
+        "coordinates": list(system.coordinates),
+        "units": list(system.units),
+        "operating_point": {
+            "kind": op.kind, "stability": op.stability, "residual": op.residual, "iterations": op.iterations,
+            "q": op.q.tolist(), "v": op.v.tolist(),
+            "offsets": system.difference(system.neutral(), op.q).tolist(),
+            "speeds": op.speeds, "drive": op.drive, "elapsed_s": op.elapsed},
+        "linearization": {"method": lin.method, "error_estimate": lin.error, "elapsed_s": lin.elapsed,
+                          "evaluations": lin.evaluations, "M": lin.M.tolist(), "C": lin.C.tolist(),
+                          "K": lin.K.tolist()},
+        "modes": m.to_dict(),
+    }
+
+
+def print_modes(system, method="fd", out=None, report=None):
+    """Print the operating point, the modes (ascending in ω²) with their shapes, the damped modes, stability
+    and error estimates (``report``: a :func:`modal_report` already computed)."""
+    out = out or sys.stdout
+    op, lin, m, _ = report or modal_report(system, method)
+    print(op, file=out)
+    print(f"linearisation ({lin.method}): error ≈ {lin.error:.1e}, {lin.elapsed * 1e3:.2f} ms, "
+          f"{lin.evaluations} evaluations", file=out)
+    print("", file=out)
+    print(modes_text(lin, m), file=out)
+
+
+def modes_text(lin, m, per_block=8):
+    """The modes of ``m`` as text: undamped modes in ascending order of signed ω² (unstable directions
+    first, then rigid ones, then natural frequencies), their shapes per coordinate (largest entry 1), and
+    the damped modes with a note on how they are counted."""
+    order = np.argsort(m.omega2, kind="stable")
+    lines = ["modes, in ascending order of ω² (unstable directions, ω² < 0, first; then rigid ones, ω² = 0)"]
+    rows = []
+    for j in order:
+        if m.unstable[j]:
+            w, f, note = "-", "-", f"unstable: grows as exp({number(m.omega[j], digits=5)} t), t in s"
+        else:
+            w, f = number(m.omega[j], digits=8), number(m.frequency_hz[j], digits=6)
+            note = "rigid" if m.rigid[j] else ""
+        rows.append([str(j + 1), number(m.omega2[j], digits=6), w, f, number(m.residual[j], digits=1), note])
+    lines += ["  " + x for x in table(["mode", "ω² 1/s²", "ω rad/s", "f Hz", "error", "note"], rows,
+                                      ["<", ">", ">", ">", ">", "<"])]
+    if m.n:
+        # a shape is known to about K's relative error (first order): entries below it are noise
+        cut = 10 * (lin.error + m.n * np.finfo(float).eps)
+        lines.append("")
+        lines.append("mode shapes (each scaled so its largest entry is 1; m or rad per coordinate)")
+        S = m.shapes / np.abs(m.shapes).max(axis=0, initial=1e-300)
+        names, units = m.linear.coordinates, m.linear.system.units  # what the shapes refer to
+        for b in range(0, len(order), per_block):
+            cols = order[b:b + per_block]
+            rows = [[c, u] + [number(S[i, j], error=cut, digits=4) for j in cols]
+                    for i, (c, u) in enumerate(zip(names, units))]
+            lines += ["  " + x for x in table(["coordinate", "unit"] + [f"mode {j + 1}" for j in cols], rows,
+                                              ["<", "<"] + [">"] * len(cols))]
+    if m.eigenvalues.size:
+        lines.append("")
+        lines.append("damped modes (state form: eigenvalues λ = −ζω_n ± iω_d, 1/s)")
+        rows = []
+        for i, lam in enumerate(m.damped_eigenvalues):
+            err = m.eigenvalue_error[i] * abs(lam)  # absolute: a real part below it is round-off, shown as 0
+            im = "" if lam.imag == 0 else f" ± {number(abs(lam.imag), digits=8)}i"
+            rows.append([str(i + 1), number(lam.real, error=err, digits=8) + im,
+                         number(m.zeta[i], error=m.eigenvalue_error[i], digits=6),
+                         number(m.omega_n[i], digits=8), number(m.eigenvalue_error[i], digits=1)])
+        lines += ["  " + x for x in table(["mode", "λ 1/s", "ζ", "ω_n rad/s", "error"], rows)]
+        lines.append("  " + _damped_note(m))
+    lines.append(f"stability {m.stability}; error ≈ {m.error:.1e}; {m.elapsed * 1e3:.2f} ms")
+    return "\n".join(lines)
+
+
+def _damped_note(m):
+    """Why the damped table's length differs from the undamped one's."""
+    lam = m.damped_eigenvalues
+    pairs = int(np.sum(lam.imag > 0))
+    real = lam[lam.imag == 0]
+    zero = int(np.sum(np.abs(real) <= m.zero_threshold))
+    decay = int(np.sum(real.real < -m.zero_threshold))
+    grow = len(real) - zero - decay
+    kinds = [f"{k} {what}" for k, what in ((zero, "zero (rigid or cyclic)"), (decay, "decaying (overdamped)"),
+                                           (grow, "growing (unstable)")) if k]
+    text = (f"{m.eigenvalues.size} eigenvalues for {m.n} coordinates: each complex pair λ, λ̄ is one row "
+            f"({pairs} pair{'s' * (pairs != 1)}), "
+            + (f"each real eigenvalue a row of its own ({len(real)}: {', '.join(kinds)})" if len(real)
+               else "none is real"))
+    if len(lam) != m.n:
+        text += f", hence {len(lam)} rows against {m.n} undamped modes"
+    return "note: " + text
+
+
+def start_offsets(items):
+    """{coordinate: offset (m or rad)} from ``NAME=VALUE`` strings (the ``--start`` option)."""
+    out = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        try:
+            if not sep or not name.strip():
+                raise ValueError
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise ModelError(f"--start {item!r}: expected NAME=VALUE, a coordinate and its offset from neutral "
+                             "(m or rad), e.g. --start pendulum=-1.5") from None
+    return out
+
+
+def with_start(scene, start):
+    """``scene`` with its operating point starting from ``start`` ({coordinate: offset}); coordinates not
+    named keep the scene's own start."""
+    if not start:
+        return scene
+    op = scene.operating_point or {}
+    own = op.get("start")
+    if own is not None and not isinstance(own, dict):
+        own = dict(zip(scene.build().coordinates, own))
+    scene.set_operating_point(op.get("cyclic"), {**(own or {}), **start}, op.get("held", False))
+    return scene
+
+
+def demo(out=None):
+    """The main job on the bundled trailer model: the scene, its equilibrium, linear model and modes,
+    and its nonlinear dynamics at a displaced state."""
+    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
+    scene = load(str(models_dir() / "trailer.toml"))
+    system = scene.build()
+    describe(scene, system, out)
+    p("")
+    print_modes(system, out=out)
+    ref = scene.references.get("omega")
+    if ref is not None:
+        m = system.operating_point().linearize().modes()
+        p(f"reference omega {vector(ref)} rad/s: largest relative difference "
+          f"{np.max(np.abs(m.omega - np.array(ref)) / np.array(ref)):.1e}")
+    q = system.integrate(system.neutral(), np.full(system.nv, 0.2))
+    v = np.zeros(system.nv)
+    times = []
+    for _ in range(20):
+        t0 = time.perf_counter()
+        a = system.accelerations(q, v)
+        times.append(time.perf_counter() - t0)
+    dt = min(times)
+    p("")
+    p(f"displaced  q = {vector(q)} (m, rad), v = 0")
+    p(f"dv/dt      {vector(a)} (ABA, {dt * 1e6:.0f} µs; RNEA residual "
+      f"{np.abs(system.inverse_dynamics(q, v, a)).max():.1e})")
+    e = system.energy(q, v)
+    p(f"energy     gravity {number(e.gravity, 'J')}, elastic {number(e.elastic, 'J')}")
+    r = system.reactions(q, v, a)
+    for name, f, mo in zip(r.bodies, r.force, r.moment):
+        p(f"link {name:<8} force {vector(f)} N, moment {vector(mo)} N·m (world axes, at the joint)")
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"]:  # forwarded whole to the suite's own parser (vibdyn bench --help)
+        try:
+            return bench(argv[1:])
+        except VibdynError as e:
+            print(f"vibdyn: error: {e}", file=sys.stderr)
+            return 2
+    parser = argparse.ArgumentParser(prog="vibdyn", description="Vibration analysis of sets of rigid solids.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    info = sub.add_parser("info", help="print a scene's bodies, joints, coordinates and elements")
+    info.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    modes = sub.add_parser("modes", help="equilibrium, natural frequencies, damping ratios and stability")
+    modes.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    modes.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    modes.add_argument("--method", choices=("fd", "analytic"), default="fd", help="linearisation method")
+    modes.add_argument("--start", nargs="+", metavar="NAME=VALUE",
+                       help="where the operating point's search starts (or the held configuration): offsets "
+                            "from neutral by coordinate, m or rad (others: the scene's start, else 0)")
+    modes.add_argument("--png", help="also draw every mode (deformed over undeformed) into this PNG file")
+    sub.add_parser("demo", help="run the main job on the bundled trailer model")
+    frf = sub.add_parser("frf", help="frequency response between two channels: peaks, half-power damping, plots")
+    frf.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    frf.add_argument("--input", required=True, help="coordinate name, BODY:X,Y,Z:DX,DY,DZ (point force), or "
+                     "support:NAME[:DX,DY,DZ] (base motion: transmissibility)")
+    frf.add_argument("--output", required=True, help="coordinate name or BODY:X,Y,Z:DX,DY,DZ (point displacement)")
+    frf.add_argument("--from", dest="w0", type=float, help="lowest frequency, rad/s (default 0.1 × lowest ω)")
+    frf.add_argument("--to", dest="w1", type=float, help="highest frequency, rad/s (default 2 × highest ω)")
+    frf.add_argument("--points", type=int, default=400, help="number of frequencies (log-spaced; default 400)")
+    frf.add_argument("--method", choices=("direct", "modal"), default="direct", help="direct solve or modal sum")
+    frf.add_argument("--png", help="save a Bode plot (amplitude and phase) to this PNG file")
+    frf.add_argument("--nyquist", help="save a Nyquist plot to this PNG file")
+    frf.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    frf.add_argument("--start", nargs="+", metavar="NAME=VALUE",
+                     help="where the operating point's search starts (offsets from neutral by coordinate)")
+    sub.add_parser("bench", help="the regression benchmarks (vibdyn bench --help; needs a source checkout)")
+    sim = sub.add_parser("simulate", help="nonlinear time simulation: error estimate, energy balance, export")
+    sim.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    sim.add_argument("--t-end", type=float, required=True, help="simulated time, s")
+    from ..simulation.integrators import ALIASES, METHODS  # the registry only: no scipy until a method runs
+
+    sim.add_argument("--method", default="dop853", choices=[*METHODS, *ALIASES],
+                     help=f"{', '.join(METHODS)} (default dop853)")
+    sim.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance (adaptive methods)")
+    sim.add_argument("--atol", type=float, help="absolute tolerance (default rtol × 1 rad or the length scale)")
+    sim.add_argument("--dt", type=float, help="step of rk4/symplectic, first step of adaptive methods (s)")
+    sim.add_argument("--error", help="error estimate: local, rerun or richardson (default: the method's own)")
+    sim.add_argument("--samples", type=int, help="number of equally spaced outputs (default: every step)")
+    sim.add_argument("--offset", type=float, nargs="+", help="initial tangent offsets from neutral (m, rad)")
+    sim.add_argument("--v0", type=float, nargs="+", help="initial velocities (m/s, rad/s)")
+    sim.add_argument("--out", help="write the trajectory to this .npz or .csv file")
+    sim.add_argument("--no-progress", action="store_true", help="no progress bar")
+    view = sub.add_parser("view", help="browser viewer of the modes (live, on 127.0.0.1) or an offline HTML page",
+                          description="Show the modes (or a trajectory) in the browser: a live meshcat server on "
+                          "127.0.0.1 (Ctrl-C stops it), or with --html a self-contained page.")
+    view.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    view.add_argument("--mode", type=int, default=1, help="motion shown first (1-based; default 1)")
+    view.add_argument("--amplitude", type=float, help="largest point displacement shown, m (default 10%% of the "
+                      "scene's size)")
+    view.add_argument("--trajectory", help="replay this .npz trajectory (vibdyn simulate --out) instead of the modes")
+    view.add_argument("--speed", type=float, default=1.0, help="replay speed, × real time (default 1)")
+    view.add_argument("--html", help="write a self-contained HTML page (every mode) to this file and exit")
+    view.add_argument("--no-browser", action="store_true", help="live: print the URL, do not open a browser")
+    view.add_argument("--duration", type=float, help="live: stop after this many seconds (default: until Ctrl-C)")
+    cam = sub.add_parser("campbell", help="Campbell diagram: modes against spin speed, whirl, critical speeds")
+    cam.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    cam.add_argument("--spin", required=True, help="the spinning coordinate (held at each speed by its drive)")
+    cam.add_argument("--speeds", required=True, help="FROM:TO:N (N equally spaced speeds, rad/s) or a comma list")
+    cam.add_argument("--orders", default="1", help="engine orders, comma separated (default 1)")
+    cam.add_argument("--method", choices=("fd", "analytic"), default="analytic", help="linearisation method")
+    cam.add_argument("--png", help="save the diagram to this PNG file")
+    cam.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "info":
+            scene = load(args.scene)
+            describe(scene, scene.build())
+        elif args.command == "modes":
+            system = with_start(load(args.scene), start_offsets(args.start)).build()
+            report = modal_report(system, args.method)
+            if args.json:
+                import json
+
+                print(json.dumps(report[3], indent=1))
+            else:
+                print_modes(system, args.method, report=report)
+            if args.png:
+                report[2].plot(args.png)
+                if not args.json:
+                    print(f"saved {args.png}")
+        elif args.command == "demo":
+            demo()
+        elif args.command == "view":
+            from .viewer.cli import command as view_command
+
+            view_command(load(args.scene), args)
+        elif args.command == "frf":
+            system = with_start(load(args.scene), start_offsets(args.start)).build()
+            frf, peaks, hp, data = frf_report(system, args.input, args.output, args.w0, args.w1, args.points,
+                                              args.method)
+            if args.png or args.nyquist:
+                from . import plots
+
+                if args.png:
+                    plots.bode(frf, path=args.png)
+                if args.nyquist:
+                    plots.nyquist(frf, path=args.nyquist)
+            if args.json:
+                import json
+
+                print(json.dumps(data, indent=1))
+            else:
+                print_frf(frf, peaks, hp, notes=data["notes"])
+                for path in (args.png, args.nyquist):
+                    if path:
+                        print(f"saved {path}")
+        elif args.command == "simulate":
+            from ..simulation.simulate import command
+
+            command(load(args.scene).build(), args)
+        elif args.command == "campbell":
+            campbell_command(load(args.scene).build(), args)
+    except VibdynError as e:
+        print(f"vibdyn: error: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def speed_list(text):
+    """Speeds (rad/s) from ``FROM:TO:N`` (N equally spaced, ends included) or ``a,b,c``."""
+    try:
+        if ":" in text:
+            a, b, n = text.split(":")
+            if int(n) < 2:
+                raise ValueError
+            return np.linspace(float(a), float(b), int(n))
+        return np.array([float(x) for x in text.split(",")])
+    except ValueError:
+        raise ModelError(f"--speeds: expected FROM:TO:N (N ≥ 2) or a comma list of speeds in rad/s, got "
+                         f"'{text}'") from None
+
+
+def campbell_command(system, args, out=None):
+    """``vibdyn campbell``: the diagram as a table (Hz, whirl) and its critical speeds, or JSON."""
+    from ..analysis.campbell_diagram import campbell
+
+    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
+    try:
+        orders = tuple(float(x) for x in args.orders.split(","))
+    except ValueError:
+        raise ModelError(f"--orders: expected numbers separated by commas, got '{args.orders}'") from None
+    c = campbell(system, args.spin, speed_list(args.speeds), orders, method=args.method)
+    if args.png:
+        c.plot(args.png)
+    if args.json:
+        import json
+
+        p(json.dumps(c.to_dict(), indent=1))
+        return c
+    m = c.frequencies.shape[1]
+    p(f"Campbell diagram of {system.name}: {len(c.speeds)} speeds of '{c.spin}', {m} modes tracked by MAC "
+      f"({c.method} linearisation, {c.elapsed:.2f} s)")
+    rows = [[number(s)] + [f"{number(f / (2 * np.pi), digits=6)} {w[:1]}".rstrip() for f, w in zip(fr, wh)]
+            for s, fr, wh in zip(c.speeds, c.frequencies, c.whirl)]
+    for line in table(["speed rad/s"] + [f"mode {j} Hz" for j in range(m)], rows):
+        p(line)
+    p("whirl: f forward, b backward (relative to the spin); 0 Hz: rigid, cyclic or overdamped")
+    for o in orders:
+        crit = c.critical_speeds(o)
+        if not crit:
+            p(f"order {o:g}: no critical speed in {number(c.speeds[0])}…{number(c.speeds[-1])} rad/s")
+        for k in crit:
+            p(f"order {o:g}: critical speed {k.speed:.10g} rad/s ({k.speed_rpm:.6g} rpm), mode {k.mode}, "
+              f"{k.whirl or 'no'} whirl, ± {k.error:.1e} rad/s")
+    if args.png:
+        p(f"saved {args.png}")
+    return c
+
+
+def _rotation(R):
+    """A rotation matrix as its rotation vector (rad)."""
+    import pinocchio as pin
+
+    return vector(pin.log3(np.array(R)), "rad (rotation vector)")
+
+
+def _inertia(I):
+    I = np.array(I)
+    if not np.any(I - np.diag(np.diag(I))):
+        return f"diag{vector(np.diag(I))} kg·m²"
+    return "[" + ", ".join(vector(r) for r in I) + "] kg·m²"
+
+
+def _limits(system, coordinate):
+    lim = system.limits.get(coordinate)
+    return "" if lim is None else f", limits {number(lim[0])} … {number(lim[1])}"
+
+
+# ------------------------------------------------------------- vibdyn frf
+def parse_channel(spec):
+    """A CLI channel: a coordinate name, or BODY:X,Y,Z:DX,DY,DZ (a body point, in the body frame, m, and a
+    direction in world axes)."""
+    parts = spec.split(":")
+    if len(parts) == 1:
+        return spec
+    if len(parts) != 3:
+        raise ModelError(f"channel '{spec}': expected a coordinate name or BODY:X,Y,Z:DX,DY,DZ")
+    return parts[0], _numbers(parts[1], spec), _numbers(parts[2], spec)
+
+
+def frf_report(system, input_spec, output_spec, w0=None, w1=None, points=400, method="direct"):
+    """The receptance (or, for ``support:NAME:DX,DY,DZ`` inputs, the transmissibility) between two channels
+    at the scene's operating point: (FRF, peaks, half power, plain-data dict)."""
+    lin = system.operating_point().linearize()
+    m = lin.modes()
+    notes = []
+    if m.stability == "unstable":
+        notes.append("the operating point is unstable: no steady harmonic response exists; this is the transfer "
+                     "function H(iω) of the linear model (as used in control design)")
+    if w0 is None or w1 is None:
+        w = m.omega[(~m.rigid) & (m.omega > 0)]  # unstable directions give their growth rate as the scale
+        if w.size:
+            lo, hi = 0.1 * w.min(), 2.0 * w.max()
+        else:
+            lo, hi = 0.1, 100.0
+            notes.append("no natural frequency (every mode is rigid): default range 0.1 … 100 rad/s; "
+                         "give --from and --to")
+        w0 = lo if w0 is None else w0
+        w1 = hi if w1 is None else w1
+    if not (0 <= w0 < w1) or points < 3:
+        raise ModelError(f"frf: need 0 ≤ --from < --to and --points ≥ 3, got {w0}, {w1}, {points}")
+    omega = np.geomspace(w0, w1, points) if w0 > 0 else np.linspace(w0, w1, points)
+    out = parse_channel(output_spec)
+    if input_spec.startswith("support:"):
+        parts = input_spec.split(":")
+        if len(parts) not in (2, 3):
+            raise ModelError(f"input '{input_spec}': expected support:NAME or support:NAME:DX,DY,DZ")
+        d = _numbers(parts[2], input_spec) if len(parts) == 3 else (0.0, 0.0, 1.0)
+        frf = lin.base_response(omega, parts[1], direction=d, outputs=[out], method=method)
+    else:
+        frf = lin.receptance(omega, [parse_channel(input_spec)], [out], method=method)
+    peaks, hp = frf.peaks(), frf.half_power()
+    data = json_ready({"scene": system.name, **frf.to_dict(), "peaks": peaks.to_dict(), "half_power": hp.to_dict(),
+                       "units": frf.units(), "notes": notes})
+    return frf, peaks, hp, data
+
+
+def print_frf(frf, peaks, hp, out=None, notes=()):
+    """Print a frequency response's summary: resonances with half-power ζ (undamped ones: unbounded, no
+    band), anti-resonances, and ``notes``."""
+    import sys
+
+    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
+    p(f"{frf.kind} {frf.outputs[0]} / {frf.inputs[0]} ({frf.units()}), {frf.omega.size} frequencies "
+      f"{frf.omega[0]:.6g} … {frf.omega[-1]:.6g} rad/s")
+    p(f"method {frf.method}, damping {frf.damping}; residual {frf.residual:.1e}, error ≈ {frf.error:.1e}, "
+      f"{frf.elapsed * 1e3:.1f} ms")
+    for n in notes:
+        p(f"note: {n}")
+    p(f"{'':<16} {'omega rad/s':>14} {'f Hz':>12} {'|H|':>12} {'zeta (half power)':>18}")
+    for w, a in zip(peaks.resonances, peaks.amplitudes):
+        if not np.isfinite(a):
+            p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {'unbounded':>12} {'0 (undamped)':>18}")
+            continue
+        i = np.flatnonzero(np.isclose(hp.omega_peak, w, rtol=1e-9))
+        z = f"{hp.zeta[i[0]]:.6g}" if i.size else "-"
+        p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {a:>12.6g} {z:>18}")
+    undamped = peaks.unbounded is not None and peaks.unbounded.any()
+    for w, a in zip(peaks.antiresonances, peaks.antiresonance_amplitudes):
+        # undamped: an anti-resonance is a zero of H; what Brent leaves of it is round-off
+        p(f"{'anti-resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {'0' if undamped else f'{a:.6g}':>12}")
+
+
+def _numbers(text, spec):
+    try:
+        x = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        x = ()
+    if len(x) != 3:
+        raise ModelError(f"channel '{spec}': '{text}' is not three comma-separated numbers")
+    return x
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,177 @@
+"""Plots with matplotlib: Bode and Nyquist diagrams of a frequency response, mode-shape bar charts, time
+histories. matplotlib is imported only inside these functions (``pip install 'vibdyn[plot]'``); figures are
+drawn on the Agg canvas (no display needed, no pyplot state) and saved as PNG when ``path`` is given.
+
+Each function returns the matplotlib ``Figure``.
+"""
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import ModelError
+
+if TYPE_CHECKING:
+    from ..analysis.timeresult import TimeResult
+
+
+def figure(nrows=1, ncols=1, size=(7.0, 5.0), **kwargs):
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError:  # pragma: no cover - depends on the installation
+        raise ModelError("plots need matplotlib: pip install 'vibdyn[plot]'") from None
+    fig = Figure(figsize=size, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(nrows, ncols, squeeze=False, **kwargs)
+    return fig, axes
+
+
+def save(fig, path, dpi=100):
+    if path is not None:
+        fig.savefig(path, dpi=dpi, format="png")
+    return fig
+
+
+def bode(frf, output=0, input=0, *, quantity="receptance", hz=False, db=False, peaks=True, path=None, dpi=100):
+    """Amplitude (log scale, or dB) and phase (degrees) of H_jk against frequency (rad/s, or Hz with
+    ``hz``), resonances and anti-resonances marked (``peaks``)."""
+    h = frf.get(output, input, quantity)
+    j, k = frf.index(output, input)
+    x = frf.frequency_hz if hz else frf.omega
+    fig, ax = figure(2, 1, sharex=True)
+    amp, ph = ax[0, 0], ax[1, 0]
+    mag = np.abs(h)
+    if db:
+        amp.plot(x, 20 * np.log10(np.maximum(mag, 1e-300)), color="C0")
+        amp.set_ylabel(f"|H| (dB re 1 {frf.units(j, k, quantity)})")
+    else:
+        amp.semilogy(x, np.maximum(mag, 1e-300), color="C0")
+        amp.set_ylabel(f"|H| ({frf.units(j, k, quantity)})")
+    if peaks and frf.omega.size >= 3:
+        p = frf.peaks(j, k, quantity)
+        scale = (lambda w: w / (2 * np.pi)) if hz else (lambda w: w)
+        to_y = (lambda a: 20 * np.log10(np.maximum(a, 1e-300))) if db else (lambda a: np.maximum(a, 1e-300))
+        finite = np.isfinite(p.amplitudes)
+        amp.plot(scale(p.resonances[finite]), to_y(p.amplitudes[finite]), "v", color="C3", label="resonance")
+        for w in p.resonances[~finite]:  # undamped: unbounded amplitude, drawn as a line at ω_r
+            amp.axvline(scale(w), color="C3", lw=0.8, ls="--")
+        if (~finite).any():
+            amp.plot([], [], "--", color="C3", lw=0.8, label="undamped resonance (unbounded)")
+        amp.plot(scale(p.antiresonances), to_y(p.antiresonance_amplitudes), "^", color="C2",
+                 label="anti-resonance")
+        if p.resonances.size or p.antiresonances.size:
+            amp.legend(loc="best", fontsize="small")
+    ph.plot(x, np.degrees(np.unwrap(np.angle(h))), color="C1")
+    ph.set_ylabel("phase (deg)")
+    ph.set_xlabel("frequency (Hz)" if hz else "ω (rad/s)")
+    if x[0] > 0:
+        amp.set_xscale("log")
+    amp.margins(y=0.08)
+    for a in (amp, ph):
+        a.grid(True, which="both", alpha=0.3)
+    amp.set_title(f"{quantity} {frf.outputs[j]} / {frf.inputs[k]} ({frf.method}, {frf.damping})", fontsize="medium")
+    return save(fig, path, dpi)
+
+
+def nyquist(frf, output=0, input=0, *, quantity="receptance", path=None, dpi=100):
+    """Nyquist diagram of H_jk: Im H against Re H, the frequency increasing along the curve."""
+    h = frf.get(output, input, quantity)
+    j, k = frf.index(output, input)
+    fig, ax = figure(1, 1, size=(6.0, 6.0))
+    a = ax[0, 0]
+    a.plot(h.real, h.imag, color="C0")
+    a.plot(h.real[:1], h.imag[:1], "o", color="C2", label=f"ω = {frf.omega[0]:.3g} rad/s")
+    a.plot(h.real[-1:], h.imag[-1:], "s", color="C3", label=f"ω = {frf.omega[-1]:.3g} rad/s")
+    a.axhline(0, color="0.6", lw=0.8)
+    a.axvline(0, color="0.6", lw=0.8)
+    a.set_aspect("equal", adjustable="datalim")
+    unit = frf.units(j, k, quantity)
+    a.set_xlabel(f"Re H ({unit})")
+    a.set_ylabel(f"Im H ({unit})")
+    a.legend(loc="best", fontsize="small")
+    a.grid(True, alpha=0.3)
+    a.set_title(f"Nyquist: {quantity} {frf.outputs[j]} / {frf.inputs[k]}", fontsize="medium")
+    return save(fig, path, dpi)
+
+
+def mode_shapes(modes, which=None, *, points=None, direction=None, path=None, dpi=100):
+    """Bar charts of mass-normalised mode shapes (one panel per mode): components per coordinate, or
+    displacements of body ``points`` along ``direction`` (textbook absolute coordinates)."""
+    idx = list(range(modes.n)) if which is None else [int(i) for i in np.atleast_1d(which)]
+    if not idx or any(not 0 <= i < modes.n for i in idx):
+        raise ModelError(f"mode_shapes: modes must be indices from 0 to {modes.n - 1}, got {which!r}")
+    if points is None:
+        values, labels = modes.shapes, list(modes.linear.coordinates)
+    else:
+        if direction is None:
+            raise ModelError("mode_shapes: points need a direction (dx, dy, dz)")
+        values = modes.point_shapes(points, direction=direction)
+        labels = [p if isinstance(p, str) else f"{p[0]}{tuple(p[1])}" for p in points]
+    fig, ax = figure(len(idx), 1, size=(7.0, 1.0 + 1.8 * len(idx)), sharex=True)
+    pos = np.arange(len(labels))
+    for a, r in zip(ax[:, 0], idx):
+        a.bar(pos, values[:, r], color=np.where(values[:, r] >= 0, "C0", "C3"))
+        a.axhline(0, color="0.4", lw=0.8)
+        note = " (rigid)" if modes.rigid[r] else (" (unstable)" if modes.unstable[r] else "")
+        a.set_ylabel(f"mode {r + 1}")
+        a.set_title(f"mode {r + 1}: ω = {modes.omega[r]:.6g} rad/s, f = {modes.frequency_hz[r]:.6g} Hz{note}",
+                    fontsize="small")
+        a.grid(True, axis="y", alpha=0.3)
+    ax[-1, 0].set_xticks(pos)
+    ax[-1, 0].set_xticklabels(labels, rotation=30, ha="right")
+    return save(fig, path, dpi)
+
+
+def time_history(response: "TimeResult", outputs=None, *, direction=None, quantity: str = "displacement", path=None,
+                 dpi: int = 100):
+    """Time histories of a time result (:class:`vibdyn.analysis.timeresult.TimeResult`: a linear
+    :class:`~vibdyn.analysis.response.TimeResponse` or a simulated :class:`~vibdyn.simulation.simulate.Trajectory`):
+    displacement, velocity or acceleration of its outputs (one curve per output; see the result's ``series``)."""
+    labels, units, y = response.series(quantity, outputs, direction)
+    fig, ax = figure(1, 1, size=(8.0, 4.5))
+    a = ax[0, 0]
+    for i, (label, unit) in enumerate(zip(labels, units)):
+        a.plot(response.t, y[:, i], label=f"{label} ({unit})")
+    a.set_xlabel("t (s)")
+    a.set_ylabel(quantity)
+    a.grid(True, alpha=0.3)
+    a.legend(loc="best", fontsize="small")
+    a.set_title(f"{quantity} ({response.method}, error ≈ {response.error:.1e})", fontsize="medium")
+    return save(fig, path, dpi)
+
+
+def campbell(diagram, *, path=None, dpi=100):
+    """Campbell diagram: each tracked mode's frequency (Hz) against the spin speed (rad/s), forward whirl
+    solid, backward dashed, no whirl dotted grey; engine orders as thin lines; critical speeds circled."""
+    fig, ax = figure(size=(7.0, 5.0))
+    ax = ax[0, 0]
+    w = diagram.speeds
+    f = diagram.frequency_hz
+    styles = {"forward": "-", "backward": "--", "": ":"}
+    labelled = set()
+    for j in range(f.shape[1]):
+        if not np.any(f[:, j] > 0):
+            continue
+        kinds = [k for k in ("forward", "backward", "") if np.any(diagram.whirl[:, j] == k)]
+        kind = max(kinds, key=lambda k: np.sum(diagram.whirl[:, j] == k))
+        label = f"mode {j} ({kind or 'no'} whirl)"
+        ax.plot(w, f[:, j], styles[kind], lw=1.6, label=label)
+        labelled.add(kind)
+    top = max(f.max(initial=0.0) * 1.1, 1e-12)
+    for order in diagram.orders:
+        ax.plot(w, order * np.abs(w) / (2 * np.pi), color="0.5", lw=0.8)
+        x = min(w[-1], top * 2 * np.pi / order)
+        ax.annotate(f"{order:g}×", (x, order * abs(x) / (2 * np.pi)), fontsize=8, color="0.4")
+        for c in diagram.critical_speeds(order):
+            ax.plot(c.speed, c.frequency / (2 * np.pi), "o", mfc="none", mec="k", ms=8)
+            ax.annotate(f"{c.speed:.4g} rad/s ({c.whirl or 'no'} whirl)", (c.speed, c.frequency / (2 * np.pi)),
+                        xytext=(6, -12), textcoords="offset points", fontsize=8)
+    ax.set_ylim(0, top)
+    ax.set_xlim(w[0], w[-1])
+    ax.set_xlabel(f"speed of {diagram.spin} (rad/s)")
+    ax.set_ylabel("frequency (Hz)")
+    ax.set_title(f"Campbell diagram: {diagram.system.name}")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    return save(fig, path, dpi)

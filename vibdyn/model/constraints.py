@@ -1,0 +1,346 @@
+"""Compiled closed loops: the constraint equations Φ(q) = 0 of a system's loops (see
+:mod:`vibdyn.description.loops` for the kinds and their equations).
+"""
+
+import numpy as np
+import pinocchio as pin
+
+from ..defaults import ASSEMBLY_TOL, RANK_RTOL
+from ..description.elements import WORLD
+from ..errors import ConvergenceError, ModelError
+
+
+def _perpendicular(u):
+    """Two unit vectors orthogonal to the unit vector u and to each other."""
+    t = np.array([1.0, 0, 0]) if abs(u[0]) < 0.9 else np.array([0, 1.0, 0])
+    n1 = np.cross(u, t)
+    n1 /= np.linalg.norm(n1)
+    return n1, np.cross(u, n1)
+
+
+class Constraints:
+    """The compiled loop equations of a system: Φ(q), Φ_q(q) (tangent space), rank, null space, assembly."""
+
+    def __init__(self, system, loops):
+        self.system = system
+        self.loops = tuple(loops)
+        self._ends = []
+        for lp in self.loops:
+            ends = []
+            for body, point in (lp.a, lp.b):
+                if body == WORLD:
+                    ends.append((0, np.array(point), np.eye(3)))
+                else:
+                    info = system.body_info(body)
+                    B = info.body_in_joint
+                    ends.append((info.joint_id, B.act(np.array(point)), B.rotation.copy()))
+            self._ends.append(ends)
+        self.sizes = tuple(lp.equations for lp in self.loops)
+        self.m = sum(self.sizes)
+        L = system.length_scale
+        # dimensionless scaling: position rows / L, translation columns × L
+        self.row_scale = np.concatenate([self._row_units(lp) for lp in self.loops]) if self.loops else np.zeros(0)
+        self.row_scale = np.where(self.row_scale == 1, 1.0 / L, 1.0)
+        self.col_scale = np.array([L if u == "m" else 1.0 for u in system.units])
+
+    @staticmethod
+    def _row_units(lp):
+        """1 for a position equation (m), 0 for an orientation one (rad)."""
+        k = lp.joint.kind
+        pos = {"ball": 3, "pivot": 3, "universal": 3, "fixed": 3, "slider": 2, "cylindrical": 2}[k]
+        return np.array([1] * pos + [0] * (lp.equations - pos))
+
+    # ----------------------------------------------------------------- equations
+    def _frames(self, q, jacobians):
+        model, data = self.system.model, self.system.data
+        if jacobians:
+            pin.computeJointJacobians(model, data, q)
+        else:
+            pin.forwardKinematics(model, data, q)
+        nv = model.nv
+        out = []
+        for ends in self._ends:
+            fr = []
+            for jid, r, Rl in ends:
+                if jid == 0:
+                    fr.append((r.copy(), Rl.copy(), np.zeros((3, nv)), np.zeros((3, nv))))
+                    continue
+                oMi = data.oMi[jid]
+                R = oMi.rotation
+                p = oMi.act(r)
+                if jacobians:
+                    J = pin.getJointJacobian(model, data, jid, pin.LOCAL).reshape(6, nv)
+                    Jv = R @ (J[:3] - pin.skew(r) @ J[3:])
+                    Jw = R @ J[3:]
+                else:
+                    Jv = Jw = None
+                fr.append((p, R @ Rl, Jv, Jw))
+            out.append(fr)
+        return out
+
+    def evaluate(self, q, jacobian=True, wrenches=False):
+        """(Φ (m,), Φ_q (m × nv) or None) at q: positions in m, orientations in rad. With ``wrenches``, also
+        per loop the coefficient matrices (C_a, C_b) (rows × 6) with Φ_q = C_a J_a + C_b J_b, J the
+        LOCAL_WORLD_ALIGNED Jacobians (linear; angular) of the loop frames: the wrench (force N; torque N·m,
+        world axes, at the loop point) that multipliers λ exert on end a is C_aᵀ λ, on end b C_bᵀ λ."""
+        phis, jacs, coeffs = [], [], []
+        eye, zero = np.eye(3), np.zeros((3, 3))
+        for lp, ((pa, Ra, Jva, Jwa), (pb, Rb, Jvb, Jwb)) in zip(self.loops, self._frames(q, jacobian)):
+            k = lp.joint.kind
+            e = pb - pa
+            rows, Ca, Cb = [], [], []
+            if k in ("ball", "pivot", "universal", "fixed"):
+                rows.append(e)
+                Ca.append(np.hstack([-eye, zero]))
+                Cb.append(np.hstack([eye, zero]))
+            if k in ("slider", "cylindrical"):
+                for n in _perpendicular(np.array(lp.joint.axis)):
+                    w = Ra @ n
+                    rows.append([w @ e])
+                    Ca.append(np.concatenate([-w, np.cross(w, e)])[None, :])
+                    Cb.append(np.concatenate([w, np.zeros(3)])[None, :])
+            if k in ("pivot", "cylindrical", "universal"):
+                if k == "universal":
+                    pairs = [(np.array(lp.joint.axis1), np.array(lp.joint.axis2))]
+                else:
+                    u = np.array(lp.joint.axis)
+                    pairs = [(n, u) for n in _perpendicular(u)]
+                for n, u in pairs:
+                    wa, wb = Ra @ n, Rb @ u
+                    rows.append([wa @ wb])
+                    c = np.cross(wa, wb)
+                    Ca.append(np.concatenate([np.zeros(3), c])[None, :])
+                    Cb.append(np.concatenate([np.zeros(3), -c])[None, :])
+            if k in ("slider", "fixed"):
+                R = Ra.T @ Rb
+                rows.append(pin.log3(R))
+                L = pin.Jlog3(R) @ Rb.T
+                Ca.append(np.hstack([zero, -L]))
+                Cb.append(np.hstack([zero, L]))
+            phis.append(np.concatenate([np.ravel(x) for x in rows]))
+            if jacobian:
+                Ca, Cb = np.vstack(Ca), np.vstack(Cb)
+                jacs.append(Ca @ np.vstack([Jva, Jwa]) + Cb @ np.vstack([Jvb, Jwb]))
+                coeffs.append((Ca, Cb))
+        nv = self.system.nv
+        phi = np.concatenate(phis) if phis else np.zeros(0)
+        J = (np.vstack(jacs) if jacs else np.zeros((0, nv))) if jacobian else None
+        return (phi, J, coeffs) if wrenches else (phi, J)
+
+    def phi(self, q):
+        return self.evaluate(q, jacobian=False)[0]
+
+    def jacobian(self, q):
+        return self.evaluate(q)[1]
+
+    def scaled_phi(self, phi):
+        """Dimensionless residual: positions / length scale, angles in rad."""
+        return self.row_scale * phi
+
+    # ----------------------------------------------------------------- rank and null space
+    def decompose(self, J):
+        """(rank, U, s, Vt) of the dimensionless Jacobian."""
+        Js = self.row_scale[:, None] * J * self.col_scale[None, :]
+        if Js.size == 0:
+            return 0, None, np.zeros(0), np.eye(J.shape[1])
+        U, s, Vt = np.linalg.svd(Js)
+        rank = int(np.sum(s > RANK_RTOL * s[0])) if s.size and s[0] > 0 else 0
+        return rank, U, s, Vt
+
+    def rank(self, q):
+        return self.decompose(self.jacobian(q))[0]
+
+    def null_space(self, q, J=None):
+        """Basis N (nv × dof) of the motions that keep the loops closed at q (Φ_q N = 0), in the tree's
+        tangent coordinates; its columns are orthonormal in the dimensionless metric."""
+        J = self.jacobian(q) if J is None else J
+        rank, _, _, Vt = self.decompose(J)
+        return self.col_scale[:, None] * Vt[rank:].T
+
+    def correction(self, phi, J):
+        """Minimum-norm (dimensionless metric) tangent step dq with Φ + Φ_q dq = 0 on the rank's range."""
+        rank, U, s, Vt = self.decompose(J)
+        if rank == 0:
+            return np.zeros(J.shape[1])
+        y = (U[:, :rank].T @ (self.row_scale * phi)) / s[:rank]
+        return -self.col_scale * (Vt[:rank].T @ y)
+
+    def partition(self, J, independent=None):
+        """(independent, N): the tree coordinates kept as the mechanism's independent motions (dof of them,
+        chosen by QR with column pivoting of the dimensionless Jacobian: the best-conditioned dependent set)
+        and the basis N (nv × dof) of Φ_q N = 0 whose rows at the independent coordinates are the identity.
+        ``independent``: keep these (a smooth basis along a path) instead of choosing."""
+        import scipy.linalg as sla
+
+        rank, _, _, _ = self.decompose(J)
+        nv = J.shape[1]
+        Js = self.row_scale[:, None] * J * self.col_scale[None, :]
+        if rank == 0:
+            return np.arange(nv), np.eye(nv)
+        if independent is None:
+            _, _, piv = sla.qr(Js, pivoting=True, mode="economic")
+            dep, ind = np.sort(piv[:rank]), np.sort(piv[rank:])
+        else:
+            ind = np.asarray(independent, dtype=int)
+            dep = np.setdiff1d(np.arange(nv), ind)
+        # dimensionless: Js_dep x_dep + Js_ind x_ind = 0 (consistent, J_dep of full column rank)
+        X = -np.linalg.lstsq(Js[:, dep], Js[:, ind], rcond=None)[0]
+        N = np.zeros((nv, ind.size))
+        N[ind, np.arange(ind.size)] = 1.0
+        N[dep] = X
+        N = self.col_scale[:, None] * N / self.col_scale[None, ind]
+        return ind, N
+
+    def multipliers(self, J, r):
+        """Minimum-norm λ (dimensionless metric) with Φ_qᵀ λ = r in the least-squares sense (redundant
+        equations share their load evenly): N for position equations, N·m for orientation ones."""
+        rank, U, s, Vt = self.decompose(J)
+        if rank == 0:
+            return np.zeros(J.shape[0])
+        mu = U[:, :rank] @ ((Vt[:rank] @ (self.col_scale * r)) / s[:rank])
+        return self.row_scale * mu
+
+    def add_to(self, q, lam, fext=None):
+        """A new external-force vector for RNEA: ``fext`` (None: none) plus the loop forces λ."""
+        model = self.system.model
+        out = pin.StdVec_Force()
+        for j in range(model.njoints):
+            out.append(pin.Force.Zero() if fext is None else pin.Force(fext[j].vector.copy()))
+        for jid, (f, m) in self.external_forces(q, lam).items():
+            out[jid] = pin.Force(out[jid].linear + f, out[jid].angular + m)
+        return out
+
+    def external_forces(self, q, lam):
+        """{joint id: (force, moment) in the joint's local axes, moment about its origin} of the loop forces
+        λ on the bodies they join (world ends dropped)."""
+        _, _, coeffs = self.evaluate(q, wrenches=True)
+        data = self.system.data
+        out, k = {}, 0
+        for ends, n, (Ca, Cb) in zip(self._ends, self.sizes, coeffs):
+            for (jid, r, _), C in zip(ends, (Ca, Cb)):
+                if jid == 0:
+                    continue
+                w = C.T @ lam[k:k + n]
+                R = data.oMi[jid].rotation
+                f, m = R.T @ w[:3], R.T @ w[3:] + np.cross(r, R.T @ w[:3])
+                f0, m0 = out.get(jid, (np.zeros(3), np.zeros(3)))
+                out[jid] = (f0 + f, m0 + m)
+            k += n
+        return out
+
+    def assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50):
+        """The consistent configuration near q0: Gauss–Newton with minimum-norm steps (SVD) in the tangent
+        space, configurations moved with ``pin.integrate``; dimensionless residual ≤ tol."""
+        model = self.system.model
+        q = np.array(q0, dtype=float)
+        phi, J = self.evaluate(q)
+        res = np.abs(self.scaled_phi(phi)).max(initial=0.0)
+        best = (res, q.copy())
+        for _ in range(max_iter):
+            if res <= tol:
+                return q
+            dq = self.correction(phi, J)
+            alpha = 1.0
+            while True:
+                q_new = pin.integrate(model, q, alpha * dq)
+                phi_new = self.phi(q_new)
+                res_new = np.abs(self.scaled_phi(phi_new)).max(initial=0.0)
+                if res_new < res or alpha < 1e-4:
+                    break
+                alpha *= 0.5
+            if not np.isfinite(res_new):
+                break
+            q = q_new
+            phi, J = self.evaluate(q)
+            res = res_new
+            if res < best[0]:
+                best = (res, q.copy())
+            if alpha < 1e-4 and res_new >= best[0] and res > tol:
+                break
+        if best[0] <= tol:
+            return best[1]
+        phi = self.scaled_phi(self.phi(best[1]))
+        worst = self.loop_of_row(int(np.argmax(np.abs(phi))))
+        raise ConvergenceError(f"assembly: the loops cannot be closed near this configuration: loop '{worst}' "
+                               f"stays open by {np.abs(phi).max():.3e} (dimensionless: m / length scale "
+                               f"{self.system.length_scale:g} m, or rad); start nearer a closed configuration",
+                               residual=float(np.abs(phi).max()), best=best[1])
+
+    def bias(self, q, v):
+        """γ = (dΦ_q/dt) v: the loops' acceleration terms at zero acceleration (Φ_q v̇ + γ = 0 along a motion),
+        by a fourth-order central difference of Φ_q(q ⊕ εv) v in ε (step 1e-4 of the dimensionless speed)."""
+        model = self.system.model
+        speed = np.abs(v / self.col_scale).max(initial=0.0)
+        if speed == 0.0:
+            return np.zeros(self.m)
+        h = 1e-4 / speed
+
+        def f(e):
+            return self.jacobian(pin.integrate(model, q, e * v)) @ v
+
+        return (8 * (f(h) - f(-h)) - (f(2 * h) - f(-2 * h))) / (12 * h)
+
+    def accelerations(self, q, v, a_free, M):
+        """Accelerations of the constrained motion from the tree's free ones (ABA) and its mass matrix M:
+        Φ_q a = −γ, and a − a_free M-orthogonal to the motions the loops allow (Gauss's principle), on the
+        null space N of the rank decision: a = a_p + N z, (NᵀMN) z = NᵀM (a_free − a_p)."""
+        J = self.jacobian(q)
+        a_p = self.correction(self.bias(q, v), J)
+        N = self.null_space(q, J)
+        if N.shape[1] == 0:
+            return a_p
+        MN = M @ N
+        z = np.linalg.solve(N.T @ MN, MN.T @ (a_free - a_p))
+        return a_p + N @ z
+
+    def project(self, q, v, M=None):
+        """(q, v) projected on the loops: q assembled (Φ = 0), v the M-orthogonal projection (the kinetic-
+        energy metric; the dimensionless one if M is None) of v on Φ_q v = 0 at that q."""
+        q = self.assemble(q)
+        N = self.null_space(q)
+        if N.shape[1] == 0:
+            return q, np.zeros_like(v)
+        W = M @ N if M is not None else N / (self.col_scale ** 2)[:, None]
+        return q, N @ np.linalg.solve(W.T @ N, W.T @ v)
+
+    def loop_of_row(self, i):
+        """Name of the loop that equation i belongs to."""
+        for lp, n in zip(self.loops, self.sizes):
+            if i < n:
+                return lp.name
+            i -= n
+        raise IndexError(i)
+
+    def split(self, lam):
+        """Per-loop pieces of a vector over the equations: {loop name: array}."""
+        out, k = {}, 0
+        for lp, n in zip(self.loops, self.sizes):
+            out[lp.name] = np.array(lam[k:k + n])
+            k += n
+        return out
+
+    def check_mobility(self, q):
+        """ModelError naming the loop that locks the mechanism (no motion left) at the consistent q."""
+        J = self.jacobian(q)
+        if self.decompose(J)[0] < self.system.nv:
+            return
+        k = 0
+        for lp, n in zip(self.loops, self.sizes):
+            k += n
+            if self.decompose(J[:k])[0] == self.system.nv:
+                raise ModelError(f"loop '{lp.name}' locks the mechanism: with it the loops leave no motion at all "
+                                 f"(mobility 0: rank {self.system.nv} of the constraint Jacobian = nv)")
+
+
+def compile_loops(system):
+    """The :class:`Constraints` of a system's scene: assembled from neutral, its mobility checked (a loop
+    that cannot close near neutral, or that locks the mechanism, is a ModelError naming it)."""
+    c = Constraints(system, system.scene.loops.values())
+    try:
+        q = c.assemble(system.neutral())
+    except ConvergenceError as e:
+        raise ModelError(f"{e}".replace("assembly:", "closing the loops from the neutral configuration:")) from None
+    c.check_mobility(q)
+    c.reference = q
+    c.dof = system.nv - c.rank(q)
+    return c

@@ -1,0 +1,126 @@
+"""Analytic K and C: Pinocchio's RNEA derivatives plus the derivatives of each force-element group.
+
+r(q, v) = RNEA(q, v, a0, f(q, v)) − Q(q, v), with f the external forces of point elements in the local joint
+frames. Pinocchio differentiates RNEA holding f fixed in those frames; the chain rule adds −Σ_j J_jᵀ ∂f_j
+and the joint-space groups add −∂Q. ∂f_j/∂q includes the turning of joint j's frame:
+∂(Rᵀ F) = Rᵀ ∂F + [Rᵀ F]× Ω_j with Ω_j the local angular Jacobian of joint j.
+"""
+
+import numpy as np
+import pinocchio as pin
+
+from . import dynamics
+from .fd import steps, tangent_derivative, vector_derivative, world_point_jacobian
+
+_skew = pin.skew
+
+
+class Derivatives:
+    """What a group's ``derivatives(d)`` uses: the state (``system``, ``q``, ``v``, ``t``), Jacobians of the
+    joints point elements attach to and of points on them (world axes: ``point``, ``point_velocity_dq``, ``R``,
+    ``J``), the accumulators of their forces' derivatives (``add_force``, ``dFq``, ``dFv``), the joint poses
+    the forces were evaluated with (``fkin``), and finite differences of user callables (``element_fd``)."""
+
+    def __init__(self, system, q, v, a, t, need_velocity_derivatives):
+        model, data = system.model, system.data
+        self.system, self.q, self.v, self.t = system, q, v, t
+        self.nv = system.nv
+        self.fkin = None
+        self.dFq = {j: np.zeros((6, self.nv)) for j in system.point_joints}
+        self.dFv = {j: np.zeros((6, self.nv)) for j in system.point_joints}
+        self.J, self.R, self.u, self.dV = {}, {}, {}, {}
+        if not system.point_groups:  # joint-space groups need none of the point Jacobians
+            return
+        pin.computeJointJacobians(model, data, q)
+        pin.forwardKinematics(model, data, q, v)
+        if need_velocity_derivatives:
+            pin.computeForwardKinematicsDerivatives(model, data, q, v, a)
+        for j in system.point_joints:
+            self.J[j] = pin.getJointJacobian(model, data, j, pin.LOCAL).reshape(6, self.nv).copy()
+            self.R[j] = data.oMi[j].rotation.copy()
+            vj = data.v[j]
+            self.u[j] = (vj.linear.copy(), vj.angular.copy())
+            if need_velocity_derivatives:
+                dv_dq, _ = pin.getJointVelocityDerivatives(model, data, j, pin.LOCAL)
+                self.dV[j] = np.asarray(dv_dq).reshape(6, self.nv).copy()
+
+    def point(self, j, r):
+        """World position Jacobian (3 × nv) of the point r (joint frame) on joint j (zero for the world)."""
+        if j == 0:
+            return np.zeros((3, self.nv))
+        return world_point_jacobian(self.R[j], self.J[j], r)
+
+    def point_velocity_dq(self, j, r):
+        """∂(world velocity of the point)/∂q (3 × nv)."""
+        if j == 0:
+            return np.zeros((3, self.nv))
+        vl, w = self.u[j]
+        u = vl + np.cross(w, r)
+        dV = self.dV[j]
+        return self.R[j] @ (dV[:3] - _skew(r) @ dV[3:] - _skew(u) @ self.J[j][3:])
+
+    def add_force(self, j, r, F_world, dF_dq, dF_dv):
+        """Chain rule for a world force F applied at point r of joint j: ∂f_j/∂q, ∂f_j/∂v (6 × nv)."""
+        if j == 0:
+            return
+        R = self.R[j]
+        f_loc = R.T @ F_world
+        df_q = R.T @ dF_dq + _skew(f_loc) @ self.J[j][3:]
+        self.dFq[j][:3] += df_q
+        self.dFq[j][3:] += _skew(r) @ df_q
+        if dF_dv is not None:
+            df_v = R.T @ dF_dv
+            self.dFv[j][:3] += df_v
+            self.dFv[j][3:] += _skew(r) @ df_v
+
+    def element_fd(self, fun, with_v=True):
+        """Central differences (∂/∂q, ∂/∂v) of an element's own output ``fun(q, v)`` (for user callables,
+        which have no derivative)."""
+        h = steps(self.system, 1e-6)
+        Dq = tangent_derivative(self.system, lambda qq: fun(qq, self.v), self.q, h)
+        Dv = vector_derivative(lambda vv: fun(self.q, vv), self.v, h) if with_v else np.zeros_like(Dq)
+        return Dq, Dv
+
+    def group_force(self, group, q, v):
+        """One joint-space group's Q(q, v) at this time."""
+        Q = np.zeros(self.system.nv)
+        group.apply(self.t, q, v, None, Q, None)
+        return Q
+
+
+def analytic_derivatives(system, q, v, a, t):
+    """(K, C) = (∂r/∂q, ∂r/∂v) at (q, v, a, t), analytically."""
+    model, data = system.model, system.data
+    Q, fext = dynamics.forces(system, system.workspace(), q, v, t)
+    out = (pin.computeRNEADerivatives(model, data, q, v, a) if fext is None
+           else pin.computeRNEADerivatives(model, data, q, v, a, fext))
+    K, C = np.array(out[0]).copy(), np.array(out[1]).copy()  # Pinocchio overwrites them on the next call
+    d = Derivatives(system, q, v, a, t, any(g.needs_velocity_derivatives for g in system.point_groups))
+    if system.point_groups:
+        d.fkin = dynamics.kinematics(system, system.workspace(), q, v if system.uses_point_velocities else None, t)
+        for g in system.point_groups:
+            g.derivatives(d)
+        for j in system.point_joints:
+            K -= d.J[j].T @ d.dFq[j]
+            C -= d.J[j].T @ d.dFv[j]
+    for g in system.groups:
+        if not g.uses_points:
+            dq, dv = g.derivatives(d)
+            if dq is not None:
+                K -= dq
+            if dv is not None:
+                C -= dv
+    return K, C
+
+
+def linear_terms(system, q, v, t, a=None):
+    """(M, K, C) at (q, v, t) for the Newton iterations of implicit integrators: M by CRBA, K = ∂r/∂q and
+    C = ∂r/∂v analytically about the acceleration ``a`` (the free one if None), in the tree's coordinates.
+    No error estimate, no checks (the analyses' :func:`vibdyn.analysis.linearize.linearize` adds them)."""
+    ws = system.workspace()
+    if a is None:
+        a = dynamics.accelerations(system, ws, q, v, t).copy()
+    M = pin.crba(system.model, ws.data, q)
+    M = np.triu(M) + np.triu(M, 1).T
+    K, C = analytic_derivatives(system, q, v, a, t)
+    return M, K, C

@@ -1,0 +1,94 @@
+"""Dynamics of a compiled System as free functions over (system, workspace), in the manner of
+``pin.aba(model, data, q, v, tau)``: no input checks (the hot paths of linearisation, Newton and time
+integration; :class:`vibdyn.System`'s methods are the checked entry points). Every function writes only in
+the workspace it is given, so callers with their own workspaces can run at once. SI units: q, v in m and
+rad, t in s, forces in N and N·m. Results may share memory with the workspace: copy what you keep.
+"""
+
+import numpy as np
+import pinocchio as pin
+
+from .._check import call_user, finite_array
+from ..errors import ModelError
+from ..description.elements import Kinematics
+
+
+def forces(system, ws, q, v, t, shift=None):
+    """(Q, fext): the force elements' joint-space forces Q (N or N·m per coordinate, a new array) and, if
+    the scene has point elements, the external forces (the workspace's buffer) for ABA/RNEA, else None.
+    ``shift`` offsets the supports' displacements and velocities (n_supports × 6, m and m/s)."""
+    Q = np.zeros(system.nv)
+    if not system.point_groups:
+        for g in system.groups:
+            g.apply(t, q, v, None, Q, None)
+        return Q, None
+    kin = kinematics(system, ws, q, v if system.uses_point_velocities else None, t, shift)
+    F = np.zeros((system.model.njoints, 6))
+    for g in system.groups:
+        g.apply(t, q, v, kin, Q, F)
+    fext = ws.fext
+    for j in system.point_joints:
+        fext[j] = pin.Force(F[j, :3], F[j, 3:])
+    return Q, fext
+
+
+def kinematics(system, ws, q, v=None, t=0.0, shift=None):
+    """Poses (and velocities if ``v`` is given) of the joints point elements attach to, with the supports'
+    displacements and velocities at t (:class:`vibdyn.model.forces.Kinematics`)."""
+    supports = None
+    if system.supports:
+        n = len(system.supports)
+        sp, sv = np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
+        for i, s in enumerate(system.supports):
+            for out, part in ((sp, "position"), (sv, "velocity")):
+                x = call_user(getattr(s.motion, part), (t,), f"support '{s.name}' {part}", t)
+                out[i] = finite_array(x, (3,), f"support '{s.name}': motion is not finite or not 3 numbers "
+                                               f"({part} at t = {t})")
+        if shift is not None:
+            sp[:n] += shift[:, :3]
+            sv[:n] += shift[:, 3:]
+        if not (np.all(np.isfinite(sp)) and np.all(np.isfinite(sv))):
+            bad = next(s.name for i, s in enumerate(system.supports)
+                       if not (np.all(np.isfinite(sp[i])) and np.all(np.isfinite(sv[i]))))
+            raise ModelError(f"support '{bad}': motion is not finite at t = {t}")
+        supports = (sp, sv)
+    return Kinematics(system.model, ws.data, system.point_joints, q, v, supports)
+
+
+def gravity_term(system, ws, q):
+    """RNEA's gravity term g(q) (N or N·m): the generalized force that holds the scene against gravity
+    (minus the force gravity exerts); zeros without gravity (no work is done)."""
+    if not system.has_gravity:
+        return np.zeros(system.nv)
+    return pin.computeGeneralizedGravity(system.model, ws.data, q).copy()
+
+
+def inverse_dynamics(system, ws, q, v, a, t, shift=None):
+    """M a + b(q, v) − Q(q, v, t) (N or N·m): what must be added to the scene's own forces to move with
+    acceleration a, by RNEA. ``shift``: see :func:`forces`."""
+    Q, fext = forces(system, ws, q, v, t, shift)
+    tau = (pin.rnea(system.model, ws.data, q, v, a) if fext is None
+           else pin.rnea(system.model, ws.data, q, v, a, fext))
+    return tau - Q
+
+
+def accelerations(system, ws, q, v, t):
+    """dv/dt (m/s², rad/s²) by ABA with gravity and every force element (with closed loops, the loops'
+    constrained accelerations). May share memory with the workspace."""
+    Q, fext = forces(system, ws, q, v, t)
+    model, data = system.model, ws.data
+    a = pin.aba(model, data, q, v, Q) if fext is None else pin.aba(model, data, q, v, Q, fext)
+    if system.constraints is not None:
+        a = a.copy()
+        M = pin.crba(model, data, q)
+        return system.constraints.accelerations(q, v, a, np.triu(M) + np.triu(M, 1).T)
+    return a
+
+
+def cancelling_terms(system, ws, q, v, a, t):
+    """|RNEA| + |Q| + |g| per coordinate: the size of the terms that cancel in the inverse dynamics (the
+    scale of its round-off, N or N·m)."""
+    Q, fext = forces(system, ws, q, v, t)
+    tau = (pin.rnea(system.model, ws.data, q, v, a) if fext is None
+           else pin.rnea(system.model, ws.data, q, v, a, fext))
+    return np.abs(tau) + np.abs(Q) + np.abs(gravity_term(system, ws, q))

@@ -1,0 +1,1 @@
+"""Layer 4, time: nonlinear time simulation (simulate, Trajectory) and its integrators."""

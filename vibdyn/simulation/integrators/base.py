@@ -1,0 +1,138 @@
+"""The stepper protocol every time integrator follows (in the manner of scipy's ``OdeSolver``).
+
+A stepper advances the motion of a system from (q0, v0) at t = 0. It declares what it is — ``order``,
+``adaptive`` (it chooses its steps: :meth:`Stepper.step`) or fixed (the caller gives each step's end:
+:meth:`Stepper.step_to`), ``error_methods`` (how a run's error can be estimated, the default first),
+``dense_output`` (it interpolates inside its last step) — and counts its work: ``nfev`` dynamics evaluations,
+``njev`` Jacobians, ``nlu`` LU factorisations (or inverses), ``accepted`` steps and ``rejected`` ones (None
+when the underlying solver does not report them). ``state`` is (q, v, w) now (w: work integral, J), and
+``local_error`` the accumulated local error per (q, v) component (tangent space) or None.
+
+:data:`vibdyn.simulation.integrators.METHODS` maps each method name to its class.
+"""
+
+import math
+
+import numpy as np
+
+from .chart import make_ode
+
+
+class StepError(Exception):
+    """A step that cannot be taken; the message says why (the driver adds the time and the trajectory)."""
+
+
+class Stepper:
+    """Base class of the integrators; subclasses set the class attributes and implement ``step`` (adaptive)
+    or ``step_to`` (fixed step).
+
+    Constructor, shared by all: ``(system, q0, v0, t_end, *, rtol, atol_q, atol_v, first_step, max_step,
+    work)`` — rtol and atol_q/atol_v (arrays, tangent units) bound the local error per step of adaptive
+    methods, first_step and max_step (s) bound their steps; ``work`` integrates the power of the force
+    elements alongside (the energy balance)."""
+
+    name: str = ""
+    order: int = 0
+    adaptive: bool = False
+    dense_output: bool = False
+    error_methods: tuple = ()
+    nfev: int = 0  # counters (instance values; see the module docstring)
+
+    def __init__(self, system, q0, v0, t_end, *, rtol=None, atol_q=None, atol_v=None, first_step=None,
+                 max_step=math.inf, work=False):
+        self.system, self.t_end, self.t = system, float(t_end), 0.0
+        self.rtol, self.atol_q, self.atol_v = rtol, atol_q, atol_v
+        self.first_step, self.max_step, self.work = first_step, max_step, work
+        self.accepted, self.rejected = 0, 0
+        self.njev = self.nlu = 0
+        self.local_error = None
+        self.dense = None  # an Interpolant of the last step when asked for (adaptive methods)
+
+    @property
+    def counters(self):
+        """(nfev, njev, nlu, accepted, rejected) so far."""
+        return self.nfev, self.njev, self.nlu, self.accepted, self.rejected
+
+    @property
+    def state(self):
+        """(q, v, w) at the current time ``t``."""
+        raise NotImplementedError
+
+    def step(self, next_output=None):
+        """One accepted step (adaptive methods), not beyond t_end; if ``next_output`` (s) falls inside it,
+        ``dense`` is set to its interpolant, else None."""
+        raise NotImplementedError(f"{self.name} takes fixed steps: use step_to")
+
+    def step_to(self, t_new):
+        """One step to ``t_new`` (s) (fixed-step methods)."""
+        raise NotImplementedError(f"{self.name} chooses its own steps: use step")
+
+
+class Interpolant:
+    """A step's dense output ``sol`` (a callable y(t) in the chart of that step) as (q, v, w) at a time."""
+
+    def __init__(self, sol, chart):
+        self.sol, self.chart = sol, chart
+
+    def __call__(self, t):
+        y, chart = self.sol(t), self.chart
+        nv = chart.nv
+        return chart.configuration(y), y[nv:2 * nv].copy(), (y[-1] if chart.work else 0.0)
+
+
+class ODEStepper(Stepper):
+    """A stepper of the first-order ODE y' = f(t, y) of :mod:`.chart` (y = chart coordinates, v[, w]);
+    ``ode``, ``y``; ``nfev`` is the ODE's count."""
+
+    def __init__(self, system, q0, v0, t_end, **kwargs):
+        super().__init__(system, q0, v0, t_end, **kwargs)
+        self.ode, self.y = make_ode(system, q0, v0, self.work)
+
+    @property
+    def nfev(self):
+        return self.ode.nfev
+
+    @property
+    def state(self):
+        ode, y = self.ode, self.y
+        return ode.configuration(y), y[ode.nv:2 * ode.nv].copy(), (y[-1] if ode.work else 0.0)
+
+    def atol_vector(self):
+        """Absolute tolerances of every ODE component (the work component is not controlled: inf)."""
+        return np.concatenate([self.atol_q, self.atol_v, [np.inf] * (self.ode.n - 2 * self.ode.nv)])
+
+    def initial_derivative(self):
+        """f(0, y0), checked finite (no step size can be chosen from a non-finite one)."""
+        f = self.ode(self.t, self.y)
+        if not np.all(np.isfinite(f)):
+            raise StepError("the initial accelerations are not finite (initial state too large?)")
+        return f
+
+
+def initial_step(fun, t0, y0, f0, t_end, max_step, order, rtol, atol):
+    """Hairer's starting step size (Hairer, Nørsett & Wanner, Solving ODEs I, §II.4, and their code's
+    HINIT): h0 from ‖y0‖/‖f0‖, one explicit Euler step to estimate ‖f′‖, then h1 with the local error of
+    a method of ``order`` at the tolerance; norms are RMS norms scaled by atol + rtol·|y0|."""
+    interval = t_end - t0
+    if y0.size == 0 or interval <= 0:
+        return max(interval, 0.0) if y0.size else math.inf
+    scale = atol + rtol * np.abs(y0)
+
+    def norm(x):  # RMS, scaled by the largest component first so that huge states do not overflow
+        z = np.abs(x / scale)
+        m = float(z.max())
+        return m * float(np.sqrt(np.mean(np.square(z / m)))) if 0.0 < m < math.inf else m
+
+    d0, d1 = norm(y0), norm(f0)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, interval)
+    if not h0 > 0.0:  # the state is too large for the arithmetic (d1 overflowed, or d0/d1 underflowed)
+        raise StepError(f"no positive first step from the initial state (‖y0‖ = {d0:.3g}, ‖f0‖ = {d1:.3g} in "
+                        "tolerance units): the initial state is too large")
+    f1 = fun(t0 + h0, y0 + h0 * f0)
+    d2 = norm(f1 - f0) / h0
+    if max(d1, d2) <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
+    return min(100 * h0, h1, interval, max_step)

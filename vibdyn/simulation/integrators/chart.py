@@ -1,0 +1,184 @@
+"""The equations of motion as a first-order ODE y' = f(t, y) on a vector space, in a local chart if needed.
+
+Ball, free and planar joints make the configuration space a Lie group: q cannot be stepped as q + h v.
+Around a centre q_c the chart q = integrate(q_c, ξ), ξ ∈ ℝ^nv, turns the motion into an ODE on a vector
+space, smooth while every rotation in ξ stays well below π:
+
+    ξ̇ = dexp⁻¹(ξ) v = dDifference(q_c, q, ARG1) · v,    v̇ = a(q, v, t)    [, ẇ = v · τ(q, v, a)]
+
+(at q = integrate(q_c, ξ) Pinocchio's dDifference is the inverse of dIntegrate(q_c, ξ, ARG1)). Any Runge–
+Kutta method applied to this ODE keeps its full order, and configurations built as integrate(q_c, ξ) keep
+unit quaternions to round-off. Re-centring (q_c ← integrate(q_c, ξ), ξ ← 0) changes coordinates, not the
+motion. A scene whose joints all have nq == nv (pivots, sliders, helical, cylindrical, universal) pays
+nothing for this: :class:`VectorODE` integrates y = (q, v) directly, with ξ̇ = v.
+
+The optional last component w integrates the power of every applied force element, v · τ with τ = RNEA(q,
+v, a) = M v̇ + C v + g the total generalized force of the force elements (springs included): along the
+motion d(T + V_gravity)/dt = v · τ, the energy balance the simulation reports.
+"""
+
+import numpy as np
+import pinocchio as pin
+import scipy.linalg as sla
+
+from ...model import dynamics
+from ...model.derivatives import linear_terms
+
+ARG1 = pin.ArgumentPosition.ARG1
+
+# rotational tangent components of the curved joints (where a chart's validity is limited)
+_ROTATIONS = {"ball": (0, 1, 2), "free": (3, 4, 5), "planar": (2,)}
+
+
+def make_ode(system, q0, v0, work=False):
+    """The ODE of a system (a chart if it has curved joints) and its initial state y0."""
+    cls = ChartODE if system.nq != system.nv else VectorODE
+    if getattr(system, "constraints", None) is not None:  # closed loops: projected after each step
+        from ...analysis.constrained import projected_ode
+
+        cls = projected_ode(cls)
+    ode = cls(system, work)
+    return ode, ode.initial(q0, v0)
+
+
+class VectorODE:
+    """y = (q, v[, w]) for scenes whose configurations form a vector space (nq == nv); counts its evaluations
+    in ``nfev``. The chart interface (``configuration``, ``recentre``, ``extent``) is trivial here."""
+
+    curved = False
+
+    def __init__(self, system, work=False):
+        self.system = system
+        self.ws = system.workspace()  # the calling thread's: one simulation runs in one thread
+        self.model, self.data = system.model, self.ws.data
+        self.nv = system.nv
+        self.n = 2 * system.nv + (1 if work else 0)
+        self.work = work
+        self.nfev = 0
+
+    def __call__(self, t, y):
+        out = np.empty(self.n)
+        self.into(t, y, out)
+        return out
+
+    def into(self, t, y, out):
+        """f(t, y) written into ``out`` (the hot path of the explicit methods)."""
+        self.nfev += 1
+        nv = self.nv
+        q, v = y[:nv], y[nv:2 * nv]
+        out[:nv] = v
+        out[nv:2 * nv] = dynamics.accelerations(self.system, self.ws, q, v, t)
+        if self.work:
+            out[-1] = v @ pin.rnea(self.model, self.data, q, v, out[nv:2 * nv])
+
+    def initial(self, q0, v0, w0=0.0):
+        y = np.zeros(self.n)
+        y[:self.nv], y[self.nv:2 * self.nv] = q0, v0
+        if self.work:
+            y[-1] = w0
+        return y
+
+    def configuration(self, y):
+        """The configuration q of a state y (or of an interpolated one, see ``at``)."""
+        return y[:self.nv].copy()
+
+    def displacement(self, y0, y1):
+        """Tangent displacement from y0 to y1 (both in the current chart)."""
+        return y1[:self.nv] - y0[:self.nv]
+
+    def recentre(self, y, f=None):
+        """Centre the chart at y's configuration (nothing to do on a vector space)."""
+
+    def extent(self, y):
+        """Largest rotation (rad) of a curved joint in y's chart: none here."""
+        return 0.0
+
+    def frozen(self):
+        """A copy of the chart (for dense output after the chart has moved on): nothing to keep here."""
+        return self
+
+    # ------------------------------------------------------------------ Jacobian for implicit methods
+    def jacobian(self, t, y):
+        """∂f/∂y from the analytic linearisation: ∂v̇/∂q = −M⁻¹K, ∂v̇/∂v = −M⁻¹C (in the tangent space at
+        q). The work row is left zero: w feeds nothing back, so the simplified Newton iteration converges."""
+        nv = self.nv
+        q, v = self.configuration(y), y[nv:2 * nv].copy()
+        MinvK, MinvC = self._minv_kc(q, v, t)
+        J = np.zeros((self.n, self.n))
+        J[:nv, nv:2 * nv] = np.eye(nv)
+        J[nv:2 * nv, :nv] = -MinvK
+        J[nv:2 * nv, nv:2 * nv] = -MinvC
+        return J
+
+    def _minv_kc(self, q, v, t):
+        M, K, C = linear_terms(self.system, q, v, t)
+        X = sla.cho_solve(sla.cho_factor(M), np.hstack([K, C]))
+        return X[:, :self.nv], X[:, self.nv:]
+
+
+class ChartODE(VectorODE):
+    """y = (ξ, v[, w]) in the chart q = integrate(centre, ξ), for scenes with ball, free or planar joints."""
+
+    curved = True
+
+    def __init__(self, system, work=False):
+        super().__init__(system, work)
+        curved = [b for b in system.body_infos.values() if b.joint.kind in _ROTATIONS]
+        self.rotations = np.array([b.idx_v + i for b in curved for i in _ROTATIONS[b.joint.kind]], dtype=int)
+        self.curved_columns = np.array([b.idx_v + i for b in curved for i in range(b.nv)], dtype=int)
+        self.centre = None
+
+    def into(self, t, y, out):
+        self.nfev += 1
+        nv, model, c = self.nv, self.model, self.centre
+        xi, v = y[:nv], y[nv:2 * nv]
+        q = pin.integrate(model, c, xi)
+        out[:nv] = pin.dDifference(model, c, q, ARG1) @ v
+        out[nv:2 * nv] = dynamics.accelerations(self.system, self.ws, q, v, t)
+        if self.work:
+            out[-1] = v @ pin.rnea(model, self.data, q, v, out[nv:2 * nv])
+
+    def initial(self, q0, v0, w0=0.0):
+        self.centre = np.array(q0, dtype=float)
+        return super().initial(np.zeros(self.nv), v0, w0)
+
+    def configuration(self, y):
+        return pin.integrate(self.model, self.centre, y[:self.nv])
+
+    def recentre(self, y, f=None):
+        """Move the centre to y's configuration and set ξ = 0 in y (in place); ``f``, the derivative at y
+        (in place), becomes the derivative in the new chart: ξ̇ = v there, v̇ and ẇ unchanged."""
+        nv = self.nv
+        self.centre = self.configuration(y)
+        y[:nv] = 0.0
+        if f is not None:
+            f[:nv] = y[nv:2 * nv]
+
+    def extent(self, y):
+        return float(np.abs(y[self.rotations]).max())
+
+    def frozen(self):
+        c = object.__new__(ChartODE)
+        c.__dict__.update(self.__dict__)
+        return c
+
+    def jacobian(self, t, y):
+        """As :meth:`VectorODE.jacobian`, mapped to the chart: ∂v̇/∂ξ = −M⁻¹K dIntegrate(ξ), ∂ξ̇/∂v =
+        dexp⁻¹(ξ), and the chart's own term ∂(dexp⁻¹(ξ) v)/∂ξ by central differences on the curved joints'
+        columns (it is zero on the others)."""
+        nv, model, c = self.nv, self.model, self.centre
+        xi, v = y[:nv], y[nv:2 * nv].copy()
+        q = self.configuration(y)
+        MinvK, MinvC = self._minv_kc(q, v, t)
+        J = np.zeros((self.n, self.n))
+        J[:nv, nv:2 * nv] = pin.dDifference(model, c, q, ARG1)
+        J[nv:2 * nv, :nv] = -MinvK @ pin.dIntegrate(model, c, xi, ARG1)
+        J[nv:2 * nv, nv:2 * nv] = -MinvC
+        eps = 1e-7
+        for k in self.curved_columns:
+            e = np.zeros(nv)
+            e[k] = eps
+            dp = pin.dDifference(model, c, pin.integrate(model, c, xi + e), ARG1)
+            dm = pin.dDifference(model, c, pin.integrate(model, c, xi - e), ARG1)
+            J[:nv, k] = (dp - dm) @ v / (2 * eps)
+        return J

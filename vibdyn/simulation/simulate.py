@@ -1,0 +1,663 @@
+"""Nonlinear time simulation: the full equations of motion of any scene, on its configuration Lie group.
+
+``simulate(system, t_end, ...)`` (or :meth:`vibdyn.System.simulate`) integrates M(q) v̇ + b(q, v) = Q(q, v, t)
+from (q0, v0) at t = 0 and returns a :class:`Trajectory`: times, configurations, velocities, energies, the
+work of the non-conservative forces, counters, an error estimate and the elapsed time.
+
+Methods: the registry :data:`METHODS` (name → stepper class, :mod:`vibdyn.simulation.integrators`), all
+exact in order on Lie groups (ball, free and planar joints are stepped in a local chart q = integrate(q_c,
+ξ), see :mod:`vibdyn.simulation.integrators.chart`):
+
+- ``"dop853"`` (default): Dormand–Prince 8(5,3), adaptive, re-centred at every step (Runge–Kutta–Munthe-
+  Kaas). Error estimate ``"local"``: the sum of the step's local error estimates (cheap; it ignores how the
+  motion amplifies or damps earlier errors), or ``"rerun"``.
+- ``"rk4"``: classical Runge–Kutta, fixed step ``dt``, re-centred at every step. Error ``"richardson"``:
+  a second run with steps 2·dt, error ≈ |y_dt − y_2dt| / 15.
+- ``"radau"`` (Radau IIA, order 5) and ``"bdf"`` (orders 1–5): scipy's implicit solvers for stiff scenes,
+  Newton with the analytic Jacobian; the chart is re-centred (solver restarted) when a rotation in it passes
+  1 rad. Error ``"rerun"``: a second run at tolerances / 100, error ≈ |y − y_tight|.
+- ``"symplectic"`` (alias ``"variational"``): midpoint variational integrator on the group, fixed step
+  ``dt``, second order, symplectic: no energy drift over long conservative runs, momentum maps of symmetric
+  scenes conserved to round-off. Error ``"richardson"`` (/3).
+
+Errors are in the tangent space (m or rad for q, per second for v), largest over the coordinates.
+
+Energy monitoring: E = T + V_gravity + V_elastic (:meth:`System.energy`) and W_nc, the work of the
+non-conservative forces (dampers, applied forces, motor laws: every force element without a potential).
+W_nc = ∫ v·τ dt + V_elastic(t) − V_elastic(0), with τ = RNEA(q, v, v̇) the total generalized force of the
+force elements, integrated with the motion; ``energy_balance`` = E − E(0) − W_nc is zero for the exact
+motion and its largest magnitude is the ``drift`` figure. A scene whose elements all have a potential
+integrates nothing extra (W_nc = 0).
+"""
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._check import finite_array, scalar
+from .._format import number, table
+from ..analysis.timeresult import TimeResult, check_quantity
+from ..errors import ConvergenceError, ModelError, VibdynError
+from ..description.elements import Group
+from ..model.system import Energy
+from .integrators import ALIASES, METHODS, StepError, method_class
+
+__all__ = ["ALIASES", "METHODS", "SimulationError", "Trajectory", "simulate"]
+RERUN_FACTOR = 100.0  # the "rerun" error estimate tightens rtol and atol by this factor
+MIN_RTOL = 100 * np.finfo(float).eps
+MAX_FIXED_STEPS = 1e9  # a fixed-step run longer than this is a mistake (days of computing), refused
+PROGRESS_DELAY = 2.0  # s of wall time before a progress bar appears
+
+
+class SimulationError(ConvergenceError):
+    """A simulation that could not go on. ``t``: the time reached; ``trajectory``: the motion up to it
+    (status "failed"); the message says why."""
+
+    def __init__(self, message, trajectory, t):
+        super().__init__(message, best=trajectory)
+        self.trajectory = trajectory
+        self.t = float(t)
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory(TimeResult):
+    """A simulated motion (a :class:`~vibdyn.analysis.timeresult.TimeResult`). Arrays have one row per
+    output time ``t`` (s).
+
+    ``q`` (n × nq) and ``v`` (n × nv) in the system's coordinates, ``a`` (n × nv, m/s² or rad/s²) the
+    accelerations there (computed on first use); ``coordinates`` and ``units`` the system's; ``kinetic``,
+    ``gravity``, ``elastic`` (J) from :meth:`System.energy`; ``work`` (J) the work of the non-conservative
+    forces since t = 0; ``q_error``/``v_error`` (arrays) the estimated global error at each output (tangent
+    space, largest over the coordinates: m or rad, m/s or rad/s) by ``error_method``, and ``error``/``error_v``
+    (numbers) their largest values over the outputs; ``nfev`` dynamics evaluations, ``njev`` Jacobians
+    (implicit and symplectic methods), ``nlu`` LU factorisations (or inverses), ``accepted``/``rejected`` steps
+    (rejected is None for scipy's implicit solvers, which do not report it), all of the run itself;
+    ``error_nfev`` the evaluations spent on the error estimate (its second run, if any); ``elapsed`` (s) the
+    whole call; ``status`` "finished", "interrupted" (Ctrl-C) or "failed", with ``message``.
+    """
+
+    system: Any = field(repr=False)
+    method: str
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    kinetic: np.ndarray
+    gravity: np.ndarray
+    elastic: np.ndarray
+    work: np.ndarray
+    q_error: np.ndarray
+    v_error: np.ndarray
+    error_method: str
+    nfev: int
+    njev: int
+    nlu: int
+    accepted: int
+    rejected: object
+    error_nfev: int
+    elapsed: float
+    status: str
+    message: str
+    rtol: float
+    atol: np.ndarray = field(repr=False)
+    dt: object
+    energy0: Any = None  # Energy at t = 0 (the outputs need not include t = 0)
+
+    @property
+    def coordinates(self) -> tuple:
+        return tuple(self.system.coordinates)
+
+    @property
+    def units(self) -> tuple:
+        return tuple(self.system.units)
+
+    @cached_property
+    def a(self) -> np.ndarray:
+        """Accelerations (m/s², rad/s²) at each output (n × nv), from the equations of motion; NaN rows
+        where they are not finite (a failed run's last state)."""
+        out = np.full((len(self), self.system.nv), np.nan)
+        for i, (q, v, t) in enumerate(zip(self.q, self.v, self.t)):
+            try:
+                out[i] = self.system.accelerations(q, v, t)
+            except ModelError:
+                pass
+        return out
+
+    def series(self, quantity: str = "displacement", outputs: Any = None,
+               direction: Any = None) -> tuple[list, list, np.ndarray]:
+        """(labels, units, values n_t × k) of coordinates (a name, a list of names, or None: all):
+        displacement = offset from the neutral configuration (tangent space, m or rad), velocity or
+        acceleration. Body points: see :meth:`point_positions`."""
+        rate = check_quantity(quantity, "trajectory")
+        names = list(self.coordinates) if outputs is None else [outputs] if isinstance(outputs, str) else outputs
+        try:
+            names = list(names)
+        except TypeError:
+            names = [None]
+        if not names or direction is not None or not all(isinstance(n, str) for n in names):
+            raise ModelError(f"trajectory outputs: give coordinate names ({', '.join(self.coordinates)}) or None, "
+                             f"got {outputs!r}; for body points use point_positions(body, point)")
+        idx = [self.system.coordinate_index(n) for n in names]
+        if quantity == "displacement":
+            neutral = self.system.neutral()
+            full = np.array([self.system.difference(neutral, q) for q in self.q]).reshape(len(self), -1)
+        else:
+            full = self.v if quantity == "velocity" else self.a
+        return list(names), [self.units[i] + rate for i in idx], full[:, idx]
+
+    @property
+    def error(self) -> float:
+        """Estimated global error of the configuration (m or rad), largest over the outputs."""
+        return float(self.q_error.max()) if len(self) else 0.0
+
+    @property
+    def error_kind(self) -> str:
+        """What :attr:`error` is: "local (not a global bound)" for DOP853's accumulated local error estimates
+        (measured up to ~30× too low on long chaotic or light-bodied runs: use error="rerun" for a global
+        estimate), else "global estimate (rerun)" or "global estimate (richardson)"; "none" without one."""
+        if self.error_method == "local":
+            return "local (not a global bound)"
+        return "none" if self.error_method == "none" else f"global estimate ({self.error_method})"
+
+    @property
+    def error_v(self) -> float:
+        """Estimated global error of the velocities (m/s or rad/s), largest over the outputs."""
+        return float(self.v_error.max()) if len(self) else 0.0
+
+    @property
+    def constraint_residual(self) -> np.ndarray:
+        """Largest |Φ| of the loops at each output (m for positions, rad for orientations; zeros for a
+        tree): how well the motion keeps the loops closed (see :mod:`vibdyn.analysis.constrained`)."""
+        if getattr(self.system, "constraints", None) is None:
+            return np.zeros(len(self.t))
+        return np.array([np.abs(self.system.constraint_residual(q)).max(initial=0.0) for q in self.q])
+
+    @property
+    def energy(self) -> np.ndarray:
+        """Total mechanical energy T + V_gravity + V_elastic (J) at each output."""
+        return self.kinetic + self.gravity + self.elastic
+
+    @property
+    def energy_balance(self) -> np.ndarray:
+        """E − E(0) − W_nc (J): zero for the exact motion."""
+        return self.energy - self.energy0.total - self.work
+
+    @property
+    def drift(self) -> float:
+        """Largest |energy_balance| (J)."""
+        return float(np.abs(self.energy_balance).max()) if len(self) else 0.0
+
+    @property
+    def energy_scale(self) -> float:
+        """The energy that moves (J): largest kinetic energy, change of a potential, or work."""
+        if not len(self):
+            return 0.0
+        e0 = self.energy0
+        return float(max(e0.kinetic, self.kinetic.max(), np.abs(self.gravity - e0.gravity).max(),
+                         np.abs(self.elastic - e0.elastic).max(), np.abs(self.work).max()))
+
+    @property
+    def drift_relative(self) -> float:
+        """drift / energy_scale (0 when nothing moves)."""
+        scale = self.energy_scale
+        return self.drift / scale if scale > 0 else 0.0
+
+    def point_positions(self, body: str, point: Any = (0.0, 0.0, 0.0)) -> np.ndarray:
+        """World positions (m) of a point given in a body's frame at every output (n × 3)."""
+        return np.array([self.system.point_position(body, point, q) for q in self.q]).reshape(-1, 3)
+
+    def summary(self) -> str:
+        steps = f"{self.accepted} steps" + ("" if self.rejected is None else f" ({self.rejected} rejected)")
+        return (f"{self.method}: t = {self.t[-1] if len(self) else 0.0:.6g} s ({self.status}), {steps}, "
+                f"{self.nfev} evaluations, error ≈ {self.error:.1e} ({self.error_kind}), energy drift "
+                f"{self.drift:.2e} J ({self.drift_relative:.1e} relative), {self.elapsed:.3g} s")
+
+    def __repr__(self):
+        return f"Trajectory({self.summary()})"
+
+    def _repr_html_(self):
+        from .._format import html_table, number
+
+        sysm = self.system
+        rows = []
+        if len(self):
+            dq = sysm.difference(sysm.neutral(), self.q[-1])
+            rows = [[n, u, number(x), number(v)] for n, u, x, v in zip(sysm.coordinates, sysm.units, dq, self.v[-1])]
+        return html_table(self.summary(), ["coordinate", "unit", "final offset", "final speed"], rows)
+
+    # ------------------------------------------------------------------ export
+    def columns(self) -> tuple[list[str], np.ndarray]:
+        """(names, table): one column per time, q and v component, energy, work, balance and error."""
+        qn, vn = q_names(self.system), self.system.coordinates
+        names = (["t"] + [f"q:{n}" for n in qn] + [f"v:{n}" for n in vn]
+                 + ["kinetic", "gravity", "elastic", "work", "energy_balance", "q_error", "v_error"])
+        table = np.column_stack([self.t, self.q, self.v, self.kinetic, self.gravity, self.elastic, self.work,
+                                 self.energy_balance, self.q_error, self.v_error])
+        return names, table
+
+    def _meta(self):
+        return {"scene": self.system.name, "method": self.method, "status": self.status, "message": self.message,
+                "error_method": self.error_method, "error_kind": self.error_kind, "error": self.error,
+                "error_v": self.error_v,
+                "drift_J": self.drift, "drift_relative": self.drift_relative, "nfev": self.nfev,
+                "njev": self.njev, "nlu": self.nlu, "accepted": self.accepted,
+                "rejected": -1 if self.rejected is None else self.rejected, "error_nfev": self.error_nfev,
+                "elapsed_s": self.elapsed,
+                "rtol": self.rtol, "dt": float("nan") if self.dt is None else self.dt}
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: the time-result protocol's fields (q in the system's nq components, named by
+        ``q_names``), the energies, work and errors per output, and the run's figures."""
+        return {**self.time_dict(), "q_names": q_names(self.system), "kinetic": self.kinetic.tolist(),
+                "gravity": self.gravity.tolist(), "elastic": self.elastic.tolist(), "work": self.work.tolist(),
+                "q_error": self.q_error.tolist(), "v_error": self.v_error.tolist(),
+                **{k: v for k, v in self._meta().items() if k not in ("method", "error", "elapsed_s")},
+                "rejected": self.rejected, "dt": self.dt}  # None where not applicable (the files write -1, nan)
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write a CSV file: '#' header lines with the run's figures, then one row per output time."""
+        names, table = self.columns()
+        header = "\n".join([f"{k} = {v}" for k, v in self._meta().items()] + [",".join(names)])
+        np.savetxt(Path(path), table, delimiter=",", header=header, comments="# ", fmt="%.17g")
+        return Path(path)
+
+    def to_npz(self, path: str | Path) -> Path:
+        """Write a NumPy .npz archive: the arrays (t, q, v, energies, work, errors, atol), the coordinate
+        names and the run's figures."""
+        arrays: dict[str, Any] = dict(
+            t=self.t, q=self.q, v=self.v, kinetic=self.kinetic, gravity=self.gravity, elastic=self.elastic,
+            work=self.work, energy_balance=self.energy_balance, q_error=self.q_error, v_error=self.v_error,
+            atol=self.atol, q_names=np.array(q_names(self.system)), coordinates=np.array(self.system.coordinates),
+            **{k: np.array(v) for k, v in self._meta().items()})
+        np.savez(Path(path), **arrays)
+        return Path(path)
+
+
+def q_names(system):
+    """A name for each configuration component: the coordinate for vector joints; x, y, z, qx, qy, qz,
+    qw (free), qx … qw (ball), x, y, cos, sin (planar)."""
+    parts = {"ball": ("qx", "qy", "qz", "qw"), "free": ("x", "y", "z", "qx", "qy", "qz", "qw"),
+             "planar": ("x", "y", "cos", "sin")}
+    names = []
+    for b in system.body_infos.values():
+        names += [f"{b.name}.{p}" for p in parts[b.joint.kind]] if b.joint.kind in parts else list(b.coordinates)
+    return names
+
+
+# ---------------------------------------------------------------------------------------------- entry point
+def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rtol: float = 1e-8, atol=None,
+             dt: float | None = None, t_eval=None, *, error: str | None = None, max_step: float | None = None,
+             progress: bool | None = None) -> Trajectory:
+    """Integrate the nonlinear motion of ``system`` from (q0, v0) at t = 0 to ``t_end`` (s).
+
+    q0: configuration (default neutral) or an equilibrium/steady-motion result (then v0 defaults to its v);
+    v0: velocities (default zero). ``method``: a name of :data:`METHODS` — "dop853", "rk4", "radau", "bdf"
+    or "symplectic" (alias "variational") — see the module docstring. ``rtol`` and ``atol`` (adaptive methods): local error per step below atol + rtol·|x|,
+    positions measured from the step's start; ``atol`` a number, one per coordinate (positions and
+    velocities alike) or 2·nv numbers (positions then velocities); default rtol × (1 rad, or the scene's
+    length scale for m coordinates). ``dt``: the step of fixed-step methods (required; each interval between
+    output times gets an even number of equal steps ≤ dt), the first step of adaptive ones. ``t_eval``:
+    output times in [0, t_end] (default: every step, and t = 0). ``error``: how the error is estimated
+    (default "local" for dop853, "rerun" for radau/bdf, "richardson" for fixed-step methods).
+    ``max_step``: largest step of adaptive methods. ``progress``: a tqdm bar for runs longer than a few
+    seconds (None: only on a terminal).
+
+    Returns a :class:`Trajectory`; Ctrl-C returns the motion so far with status "interrupted". Bad input is
+    a :class:`ModelError`; a run that cannot go on (step-size underflow, non-finite state, an element that
+    fails) raises :class:`SimulationError` carrying the time reached and the trajectory so far.
+    """
+    start = time.perf_counter()
+    cfg = _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress)
+    main = _integrate(system, cfg, "simulate")
+    runs = [main]
+    q_err = v_err = None
+    if main.status == "finished":
+        if cfg.error == "local":
+            q_err, v_err = main.local
+        else:
+            check = _integrate(system, cfg, "error estimate", reference=main)
+            runs.append(check)
+            q_err, v_err = _compare(system, main, check, cfg)
+            if check.status != "finished":
+                main.message = f"reached t_end = {cfg.t_end:g} s; error estimate incomplete: {check.message}"
+    elif cfg.error == "local" and main.local is not None:
+        q_err, v_err = main.local
+    if q_err is None:  # the run stopped before its error could be estimated
+        q_err = v_err = np.full(len(main.t), np.inf)
+    traj = _trajectory(system, cfg, main, runs, q_err, v_err, time.perf_counter() - start)
+    if main.status == "finished" and not np.all(np.isfinite(traj.energy)):
+        raise SimulationError("the energies of the motion overflow (state too large for double precision)",
+                              traj, cfg.t_end)
+    if main.status == "failed":
+        t = _t_reached(main)
+        raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}", traj,
+                              t) from main.failure
+    return traj
+
+
+# ---------------------------------------------------------------------------------------------- settings
+@dataclass(frozen=True)
+class _Settings:
+    t_end: float
+    q0: np.ndarray
+    v0: np.ndarray
+    method: str
+    rtol: float
+    atol_q: np.ndarray
+    atol_v: np.ndarray
+    dt: object
+    t_eval: object
+    error: str
+    max_step: float
+    progress: object
+    work: bool
+
+
+def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress):
+    what = "simulate"
+    if system.nv == 0:
+        raise ModelError(f"{what}: the scene has no coordinates: nothing moves")
+    t_end = scalar(t_end, f"{what}: t_end (s)", positive=True)
+    stepper = method_class(method)
+    if stepper is None:
+        raise ModelError(f"{what}: unknown method {method!r} (use one of {', '.join(METHODS)})")
+    method = stepper.name
+    if hasattr(q0, "q") and hasattr(q0, "v"):  # an equilibrium or a steady motion
+        q0, v0 = q0.q, q0.v if v0 is None else v0
+    q0 = system.neutral() if q0 is None else system.check_configuration(q0, f"{what}: q0")
+    v0 = np.zeros(system.nv) if v0 is None else system.check_velocity(v0, f"{what}: v0")
+    system.check_mass_matrix(q0, "the initial configuration q0")
+    rtol = scalar(rtol, f"{what}: rtol")
+    if not MIN_RTOL <= rtol < 1.0:
+        raise ModelError(f"{what}: rtol must be in [{MIN_RTOL:.2g}, 1) (relative error per step), got {rtol:g}")
+    scale = np.array([system.length_scale if u == "m" else 1.0 for u in system.units])
+    if atol is None:
+        atol_q = atol_v = rtol * scale
+    else:
+        a = np.atleast_1d(finite_array(atol, None, f"{what}: atol"))
+        if a.ndim != 1 or a.size not in (1, system.nv, 2 * system.nv):
+            raise ModelError(f"{what}: atol must be one number, one per coordinate ({system.nv}) or one per "
+                             f"position and velocity ({2 * system.nv}), got shape {np.shape(atol)}")
+        if np.any(a <= 0):
+            raise ModelError(f"{what}: atol must be positive, got {a.tolist()}")
+        a = np.broadcast_to(a, (system.nv,)) if a.size < 2 * system.nv else a
+        atol_q, atol_v = (a[:system.nv], a[system.nv:]) if a.size == 2 * system.nv else (a, a)
+        atol_q, atol_v = np.array(atol_q, dtype=float), np.array(atol_v, dtype=float)
+    if dt is not None:
+        dt = scalar(dt, f"{what}: dt (s)", positive=True)
+        if dt > t_end:
+            raise ModelError(f"{what}: dt = {dt:g} s is longer than t_end = {t_end:g} s")
+        if not stepper.adaptive and t_end / dt > MAX_FIXED_STEPS:
+            raise ModelError(f"{what}: t_end / dt = {t_end / dt:.3g} steps is more than {MAX_FIXED_STEPS:.0e}: "
+                             "take a larger dt or a shorter t_end")
+    elif not stepper.adaptive:
+        raise ModelError(f"{what}: method '{method}' takes fixed steps: give dt (s)")
+    if t_eval is not None:
+        t_eval = np.atleast_1d(finite_array(t_eval, None, f"{what}: t_eval"))
+        if t_eval.ndim != 1 or t_eval.size == 0:
+            raise ModelError(f"{what}: t_eval must be a non-empty list of times (s)")
+        if np.any(np.diff(t_eval) <= 0):
+            raise ModelError(f"{what}: t_eval must be strictly increasing")
+        if t_eval[0] < 0 or t_eval[-1] > t_end:
+            raise ModelError(f"{what}: t_eval must lie in [0, t_end = {t_end:g}] s, got [{t_eval[0]:g}, "
+                             f"{t_eval[-1]:g}]")
+    error = stepper.error_methods[0] if error is None else error
+    if error not in stepper.error_methods:
+        raise ModelError(f"{what}: error estimate {error!r} is not available for method '{method}' (use "
+                         f"{' or '.join(map(repr, stepper.error_methods))})")
+    max_step = np.inf if max_step is None else scalar(max_step, f"{what}: max_step (s)", positive=True)
+    if progress not in (None, True, False):
+        raise ModelError(f"{what}: progress must be None, True or False, got {progress!r}")
+    work = bool(system.supports) or any(type(g).potential is Group.potential or g.time_dependent
+                                         for g in system.groups)
+    return _Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work)
+
+
+# ---------------------------------------------------------------------------------------------- one run
+@dataclass
+class _Run:
+    t: list
+    q: list
+    v: list
+    w: list
+    err: list  # accumulated local error (q part, v part) at each output, or None
+    stepper: object = None
+    status: str = "finished"
+    message: str = ""
+    failure: BaseException | None = None
+
+    @property
+    def local(self):
+        if not self.err or self.err[0] is None:
+            return None
+        e = np.array(self.err)
+        return e[:, 0], e[:, 1]
+
+
+def _integrate(system, cfg, label, reference=None):
+    """One integration (the main run, or with ``reference`` the error-estimate run at its output times)."""
+    t_end, adaptive = cfg.t_end, METHODS[cfg.method].adaptive
+    rtol, atol_q, atol_v = cfg.rtol, cfg.atol_q, cfg.atol_v
+    if reference is not None and adaptive:  # "rerun": tighter tolerances
+        rtol = max(rtol / RERUN_FACTOR, MIN_RTOL)
+        atol_q, atol_v = atol_q / RERUN_FACTOR, atol_v / RERUN_FACTOR
+    outputs = reference.t if reference is not None else cfg.t_eval
+    run = _Run([], [], [], [], [])
+    progress = _Progress(t_end, cfg.progress, label)
+    try:
+        run.stepper = METHODS[cfg.method](system, cfg.q0, cfg.v0, t_end, rtol=rtol, atol_q=atol_q, atol_v=atol_v,
+                                          first_step=cfg.dt if adaptive else None, max_step=cfg.max_step,
+                                          work=cfg.work)
+        if adaptive:
+            _adaptive(cfg, run, outputs, progress)
+        else:
+            _fixed(cfg, run, outputs, coarse=reference is not None, progress=progress)
+    except KeyboardInterrupt:
+        run.status, run.message = "interrupted", f"interrupted (Ctrl-C) at t = {_t_reached(run):.6g} s"
+    except (StepError, VibdynError, FloatingPointError, np.linalg.LinAlgError) as e:
+        run.status, run.message, run.failure = "failed", str(e), e
+    finally:
+        progress.close()
+    if run.status != "finished" and reference is None and run.stepper is not None:
+        t = _t_reached(run)
+        if t > (run.t[-1] if run.t else 0.0):  # keep the last state reached, between output times
+            _record(run, t, *run.stepper.state, run.stepper.local_error)
+    return run
+
+
+def _t_reached(run):
+    return run.stepper.t if run.stepper is not None else 0.0
+
+
+def _record(run, t, q, v, w, local=None):
+    run.t.append(t)
+    run.q.append(q)
+    run.v.append(v)
+    run.w.append(w)
+    run.err.append(None if local is None else (local[:len(local) // 2].max(), local[len(local) // 2:].max()))
+
+
+def _adaptive(cfg, run, outputs, progress):
+    stepper = run.stepper
+    k = 0
+    if outputs is None or outputs[0] == 0.0:
+        _record(run, 0.0, *stepper.state, _zero_local(stepper))
+        k = 1 if outputs is not None else 0
+    while stepper.t < cfg.t_end:
+        stepper.step(outputs[k] if outputs is not None and k < len(outputs) else None)
+        t = stepper.t
+        if outputs is None:
+            _record(run, t, *stepper.state, stepper.local_error)
+        else:
+            while k < len(outputs) and outputs[k] <= t:
+                state = stepper.state if outputs[k] == t else stepper.dense(float(outputs[k]))
+                _record(run, float(outputs[k]), *state, stepper.local_error)
+                k += 1
+        progress.update(t)
+
+
+def _zero_local(stepper):
+    return None if stepper.local_error is None else np.zeros_like(stepper.local_error)
+
+
+def _grid(cfg, coarse):
+    """Step end times of a fixed-step run: each interval between output times (and t_end) gets an even
+    number of equal steps ≤ dt; the coarse run (Richardson) takes every other one."""
+    stops = [] if cfg.t_eval is None else [float(t) for t in cfg.t_eval if t > 0.0]
+    if not stops or stops[-1] < cfg.t_end:
+        stops.append(cfg.t_end)
+    a = 0.0
+    for b in stops:  # lazily: a long run must not allocate its whole grid
+        n = max(2, 2 * math.ceil((b - a) / (2 * cfg.dt) * (1 - 1e-12)))
+        for i in range(2 if coarse else 1, n + 1, 2 if coarse else 1):
+            yield b if i == n else a + (b - a) * i / n
+        a = b
+
+
+def _fixed(cfg, run, outputs, coarse, progress):
+    stepper = run.stepper
+    record = None if outputs is None else set(np.asarray(outputs, dtype=float).tolist())
+    if record is None or 0.0 in record:
+        _record(run, 0.0, *stepper.state)
+    for t_new in _grid(cfg, coarse):
+        stepper.step_to(float(t_new))
+        if record is None or t_new in record:
+            _record(run, float(t_new), *stepper.state)
+        progress.update(t_new)
+
+
+# ---------------------------------------------------------------------------------------------- error estimate
+def _compare(system, main, check, cfg):
+    """Per-output error of the main run from the check run (rerun or Richardson): |Δq| (tangent), |Δv|,
+    divided by 2^p − 1 for Richardson. Outputs the check run does not have (the odd steps of a fixed-step
+    run) take the larger estimate of their neighbours; outputs past its end, inf."""
+    factor = 1.0 if cfg.error == "rerun" else 2.0 ** METHODS[cfg.method].order - 1.0
+    tm, tc = np.array(main.t), np.array(check.t)
+    eq, ev = np.full(len(tm), np.nan), np.full(len(tm), np.nan)
+    idx = np.searchsorted(tm, tc)
+    for j, i in enumerate(idx):
+        if i < len(tm) and tm[i] == tc[j]:
+            eq[i] = np.abs(system.difference(check.q[j], main.q[i])).max() / factor
+            ev[i] = np.abs(check.v[j] - main.v[i]).max() / factor
+    known = np.flatnonzero(~np.isnan(eq))
+    if not known.size:
+        return np.full(len(tm), np.inf), np.full(len(tm), np.inf)
+    pos = np.searchsorted(known, np.arange(len(tm)))
+    lo, hi = known[np.clip(pos - 1, 0, known.size - 1)], known[np.clip(pos, 0, known.size - 1)]
+    for e in (eq, ev):
+        fill = np.maximum(e[lo], e[hi])
+        fill[np.arange(len(tm)) > known[-1]] = np.inf  # past the end of the check run
+        e[np.isnan(e)] = fill[np.isnan(e)]
+    return eq, ev
+
+
+# ---------------------------------------------------------------------------------------------- result
+def _trajectory(system, cfg, main, runs, q_err, v_err, elapsed):
+    n = len(main.t)
+    q = np.array(main.q).reshape(n, system.nq)
+    v = np.array(main.v).reshape(n, system.nv)
+    t = np.array(main.t, dtype=float)
+    energies = np.array([_energy(system, qi, vi, ti) for qi, vi, ti in zip(q, v, t)]).reshape(n, 3)
+    e0 = Energy(*_energy(system, cfg.q0, cfg.v0, 0.0))
+    w = np.array(main.w, dtype=float)
+    work = (w + energies[:, 2] - e0.elastic) if cfg.work and n else np.zeros(n)
+    nfev, njev, nlu, accepted, rejected = main.stepper.counters if main.stepper is not None else (0, 0, 0, 0, 0)
+    error_nfev = sum(r.stepper.nfev for r in runs[1:] if r.stepper is not None)
+    error_method = cfg.error if np.all(np.isfinite(q_err)) or cfg.error == "local" else "none"
+    return Trajectory(
+        system, cfg.method, t, q, v, energies[:, 0].copy(), energies[:, 1].copy(),
+        energies[:, 2].copy(), work, np.asarray(q_err, dtype=float), np.asarray(v_err, dtype=float), error_method,
+        nfev, njev, nlu, accepted, rejected, error_nfev, elapsed,
+        main.status, main.message or f"reached t_end = {cfg.t_end:g} s", cfg.rtol,
+        np.concatenate([cfg.atol_q, cfg.atol_v]), cfg.dt, e0)
+
+
+def _energy(system, q, v, t):
+    """(kinetic, gravity, elastic) J, NaN where they overflow (the caller reports it)."""
+    try:
+        e = system.energy(q, v, t)
+    except ModelError:
+        return (np.nan, np.nan, np.nan)
+    return (e.kinetic, e.gravity, e.elastic)
+
+
+# ---------------------------------------------------------------------------------------------- progress bar
+class _Progress:
+    """A tqdm bar of simulated time, shown only once a run has lasted PROGRESS_DELAY seconds, and (unless
+    asked) only when stderr is a terminal. tqdm is imported only then."""
+
+    def __init__(self, t_end, enabled, label):
+        self.t_end, self.label = t_end, label
+        self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.start = time.perf_counter()
+        self.start_wall = time.time()  # tqdm's clock: the bar appears late but counts from the run's start
+        self.bar = None
+        self.shown = 0.0
+
+    def update(self, t):
+        if not self.enabled:
+            return
+        if self.bar is None:
+            if time.perf_counter() - self.start < PROGRESS_DELAY:
+                return
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=self.t_end, desc=self.label, leave=False, dynamic_ncols=True,
+                            bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g} of {total:.4g} s "
+                                       "[{elapsed}<{remaining}]")
+            self.bar.start_t = self.start_wall
+        self.bar.update(float(t) - self.shown)
+        self.shown = float(t)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+# ---------------------------------------------------------------------------------------------- command line
+def command(system, args, out=None):
+    """``vibdyn simulate``: run, print a summary, write ``--out`` (.npz or .csv) — the partial trajectory
+    too if the run fails (the error is then raised for the command's exit status)."""
+    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
+    if args.out is not None and Path(args.out).suffix.lower() not in (".npz", ".csv"):
+        raise ModelError(f"--out {args.out}: the file must end in .npz or .csv")
+    if args.out is not None and not Path(args.out).parent.is_dir():  # found before the run, not after it
+        raise ModelError(f"--out {args.out}: no such directory '{Path(args.out).parent}'")
+    if args.samples is not None and args.samples < 2:
+        raise ModelError(f"--samples must be at least 2 (the start and the end), got {args.samples}")
+    q0 = None if args.offset is None else system.integrate(system.neutral(), system.check_velocity(args.offset, "--offset"))
+    t_eval = None if args.samples is None else np.linspace(0.0, args.t_end, args.samples) if args.t_end > 0 else None
+    try:
+        traj = simulate(system, args.t_end, q0, args.v0, args.method, args.rtol, args.atol, args.dt, t_eval,
+                        error=args.error, progress=False if args.no_progress else None)
+        failure = None
+    except SimulationError as e:
+        traj, failure = e.trajectory, e
+    p(f"scene      {system.name} (nq = {system.nq}, nv = {system.nv})")
+    p(f"run        {traj.summary()}")
+    if len(traj):
+        dq = system.difference(system.neutral(), traj.q[-1])
+        qe, ve = traj.q_error[-1], traj.v_error[-1]  # values below the run's error estimate print as 0
+        rows = [[c, number(x, u, qe), number(y, f"{u}/s", ve)]
+                for c, u, x, y in zip(system.coordinates, system.units, dq, traj.v[-1])]
+        p(f"final      t = {number(traj.t[-1], 's')} (offsets from neutral; error ≈ {qe:.1e} in q, {ve:.1e} in v)")
+        for line in table(["coordinate", "offset", "velocity"], rows, ["<", ">", ">"]):
+            p("  " + line)
+        de = abs(traj.drift)  # the energy balance: the run's error estimate on energies
+        p(f"energy     {number(traj.energy[0], 'J', de)} → {number(traj.energy[-1], 'J', de)}, work of "
+          f"non-conservative forces {number(traj.work[-1], 'J', de)}, balance {traj.drift:.2e} J")
+    if args.out is not None:
+        try:
+            path = traj.to_npz(args.out) if Path(args.out).suffix.lower() == ".npz" else traj.to_csv(args.out)
+        except OSError as e:
+            raise ModelError(f"--out {args.out}: cannot write: {e.strerror or e}") from None
+        p(f"written    {path} ({len(traj)} rows)")
+    if failure is not None:
+        raise failure
+    return traj
+
