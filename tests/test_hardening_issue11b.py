@@ -199,11 +199,12 @@ def test_spin_energy_overflow_in_a_run_is_a_simulation_error():
 
 
 def test_local_error_estimate_says_it_is_not_a_bound():
-    tr = damped_mass().simulate(1.0, v0=[1.0])
+    tr = damped_mass().simulate(1.0, v0=[1.0], error="local")
     assert tr.error_method == "local" and tr.error_kind == "local (not a global bound)"
     assert "not a global bound" in tr.summary()
-    tr = damped_mass().simulate(1.0, v0=[1.0], error="rerun")
-    assert tr.error_kind == "global estimate (rerun)"
+    tr = damped_mass().simulate(1.0, v0=[1.0])  # the default is a global estimate
+    assert tr.error_method == "rerun" and tr.error_kind == "global estimate (rerun)"
+    assert tr.error_nfev > 0 and 0 < tr.error_elapsed < tr.elapsed
     exact = 1.0 - np.exp(-1.0)  # x(t) = v0 (1 − e^{−t}) for m = c = 1
     assert abs(tr.q[-1, 0] - exact) <= 10 * tr.error + 1e-15
 

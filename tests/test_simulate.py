@@ -70,7 +70,7 @@ def test_a01_dop853_precision_and_2000_s_band():
     ref = A01.references
     t_eval = np.union1d(np.arange(0.0, 2000.0 + 1e-9, 0.5), ref["times"])
     start = time.perf_counter()
-    traj = system.simulate(2000.0, method="dop853", rtol=1e-12, t_eval=t_eval)
+    traj = system.simulate(2000.0, method="dop853", rtol=1e-12, t_eval=t_eval, error="local")
     wall = time.perf_counter() - start
     assert traj.status == "finished" and np.array_equal(traj.t, t_eval)
     err = np.abs(a01_position(traj.q) - a01_exact(traj.t)).max(axis=1)
@@ -84,6 +84,24 @@ def test_a01_dop853_precision_and_2000_s_band():
     assert traj.drift_relative <= 1e-9
     assert np.all(np.diff(traj.q_error) >= 0)  # accumulated local estimates never decrease
     assert traj.q_error[i10] >= err[i10]  # on the safe side at this tolerance, early on (not always: README)
+
+
+@pytest.mark.parametrize("rtol", [1e-6, 1e-8])
+def test_a01_default_error_estimate_is_global(rtol):
+    """DOP853's default estimate (a rerun at rtol / 100) covers the actual error at every output over 10 s;
+    the free "local" sum does not at loose tolerances (5× below the actual error at rtol 1e-6), and says so."""
+    system = A01.build()
+    t = np.linspace(0.0, 10.0, 21)
+    traj = system.simulate(10.0, rtol=rtol, t_eval=t)
+    err = np.abs(a01_position(traj.q) - a01_exact(t)).max(axis=1)
+    local = system.simulate(10.0, rtol=rtol, t_eval=t, error="local")
+    report(f"A01 dop853 rtol {rtol:g}: error {err.max():.2e}, estimate {traj.error:.2e} (rerun), "
+           f"{local.error:.2e} (local); {traj.elapsed * 1e3:.1f} ms of which {traj.error_elapsed * 1e3:.1f} ms "
+           "for the estimate")
+    assert traj.error_kind == "global estimate (rerun)" and local.error_kind == "local (not a global bound)"
+    assert np.all(err <= 2 * np.maximum.accumulate(traj.q_error) + 1e-13)
+    assert traj.error <= 3 * err.max()  # and not vacuous
+    np.testing.assert_array_equal(traj.q, local.q)  # the estimate never changes the answer
 
 
 @pytest.mark.parametrize("method, options, tolerance", [

@@ -98,7 +98,7 @@ class DOP853(RungeKutta):
     order = 8
     adaptive = True
     dense_output = True
-    error_methods = ("local", "rerun")
+    error_methods = ("rerun", "local")
     A = _dop.A[:_dop.N_STAGES, :_dop.N_STAGES]
     B = _dop.B
     C = _dop.C[:_dop.N_STAGES]
