@@ -143,10 +143,12 @@ def machine():
     return info
 
 
-def time_at_error(runs, error):
-    """Wall time a solver's runs would need to reach ``error``: log-log interpolation along its
-    work-precision curve (runs sorted by error); None outside the measured range."""
-    pts = sorted((r["error"], r["time_s"]) for r in runs if r.get("error") and r["error"] > 0 and r.get("time_s"))
+def time_at_error(runs, error, key="time_s"):
+    """Wall time (``key``: "time_s", or "solution_time_s" without vibdyn's error estimate) a solver's runs
+    would need to reach ``error``: log-log interpolation along its work-precision curve (runs sorted by
+    error); None outside the measured range."""
+    pts = sorted((r["error"], r.get(key) or r["time_s"]) for r in runs
+                 if r.get("error") and r["error"] > 0 and r.get("time_s"))
     if len(pts) < 2 or not pts[0][0] <= error <= pts[-1][0]:
         exact = [t for e, t in pts if e == error]
         return exact[0] if exact else None

@@ -349,6 +349,8 @@ def sweep(build: Callable, parameters: Any, analysis: Any = "modes", executor: A
     todo = [i for i, p in enumerate(points) if _key(p) not in done]
     results: dict[int, dict] = {i: done[_key(p)] for i, p in enumerate(points) if _key(p) in done}
     kind, run = _runner(executor, options)
+    # ~4 chunks per worker, at most 64 points: few tasks (each costs Dask a few ms), and a short wait for
+    # the last one
     size = chunksize or max(1, min(64, len(todo) // (4 * _workers(executor)) or 1))
     chunks = [todo[k:k + size] for k in range(0, len(todo), size)]
     bar = _bar(progress, len(points), len(results))
@@ -399,6 +401,11 @@ def _workers(executor) -> int:
         return 1
     if executor == "processes":
         return os.cpu_count() or 1
+    if hasattr(executor, "nthreads"):  # a Dask Client: its workers' threads
+        try:
+            return max(1, sum(executor.nthreads().values()))
+        except Exception:  # a client without a live cluster: the sweep's own submit will say so
+            return 2
     return getattr(executor, "_max_workers", None) or 2
 
 
