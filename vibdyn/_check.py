@@ -40,13 +40,16 @@ def vector3(value, what):
 
 def scalar(value, what, *, positive=False, nonnegative=False):
     """A finite float; ``positive`` (> 0) or ``nonnegative`` (>= 0) if asked."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+    if type(value) is float:  # the common case, without the generic checks below
+        x = value
+    elif isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
         raise ModelError(f"{what}: expected a number, got {value!r}")
-    try:
-        x = float(value)
-    except OverflowError:
-        raise ModelError(f"{what}: too large for double precision (beyond ±1.8e308)") from None
-    if not np.isfinite(x):
+    else:
+        try:
+            x = float(value)
+        except OverflowError:
+            raise ModelError(f"{what}: too large for double precision (beyond ±1.8e308)") from None
+    if not math.isfinite(x):
         raise ModelError(f"{what}: must be finite, got {x}")
     if positive and not x > 0:
         raise ModelError(f"{what}: must be positive, got {x}")
@@ -65,9 +68,19 @@ def integer(value, what, *, minimum=None, maximum=None):
     return n
 
 
+def all_finite(a):
+    """Whether every number of the float array ``a`` is finite. Up to 100 numbers are first summed in Python
+    (a NaN or inf makes the sum non-finite; it overflows silently, with no numpy call's fixed cost); they are
+    tested one by one where that sum is not finite, and always beyond 100."""
+    if a.size <= 100 and math.isfinite(sum(a.ravel().tolist())):
+        return True
+    return bool(np.all(np.isfinite(a)))
+
+
 def finite_result(value, what):
     """``value`` unchanged if every number in it is finite, else ModelError: a result that overflowed."""
-    if not np.all(np.isfinite(value)):
+    if not (all_finite(value) if isinstance(value, np.ndarray) and value.dtype == float
+            else np.all(np.isfinite(value))):
         raise ModelError(f"{what} is not finite (overflow: state or parameters too large)")
     return value
 

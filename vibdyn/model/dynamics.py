@@ -26,10 +26,9 @@ def forces(system, ws, q, v, t, shift=None):
     F = np.zeros((system.model.njoints, 6))
     for g in system.groups:
         g.apply(t, q, v, kin, Q, F)
-    fext = ws.fext
     for j in system.point_joints:
-        fext[j] = pin.Force(F[j, :3], F[j, 3:])
-    return Q, fext
+        ws.forces[j][:] = F[j]
+    return Q, ws.fext
 
 
 def kinematics(system, ws, q, v=None, t=0.0, shift=None):
@@ -52,7 +51,7 @@ def kinematics(system, ws, q, v=None, t=0.0, shift=None):
                        if not (np.all(np.isfinite(sp[i])) and np.all(np.isfinite(sv[i]))))
             raise ModelError(f"support '{bad}': motion is not finite at t = {t}")
         supports = (sp, sv)
-    return Kinematics(system.model, ws.data, system.point_joints, q, v, supports)
+    return Kinematics(system.model, ws, system.point_joints, q, v, supports)
 
 
 def gravity_term(system, ws, q):

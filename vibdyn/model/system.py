@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .._check import count, finite_array, finite_result, scalar, unknown_name, vector3
+from .._check import all_finite, count, finite_array, finite_result, scalar, unknown_name, vector3
 from ..defaults import EQUILIBRIUM_TOL, FD_STEP, MAX_ITER, RTOL
 from ..description.elements import WORLD, Support
 from ..errors import ModelError
@@ -114,7 +114,7 @@ class System:
     :meth:`check_mass_matrix`; the compiled tables ``body_infos`` (name -> :class:`BodyInfo`),
     ``support_index`` (support name -> index in ``supports``), ``groups`` (force-element groups),
     ``point_groups``/``point_joints``/``uses_point_velocities`` (what point elements need);
-    ``model`` (pinocchio.Model, read only).
+    ``model`` and ``model_without_gravity`` (pinocchio.Model, read only).
     """
 
     def __setattr__(self, name, value):
@@ -159,6 +159,10 @@ class System:
         self.model, infos = _compile(self.scene, order)
         self.body_infos = MappingProxyType(infos)
         self.model.gravity.linear = np.array(self.scene.gravity)
+        # the same model without gravity (read only, like ``model``): RNEA at rest on it is −Σ Jᵀ f of the
+        # external forces alone (generalized_forces), with no gravity term to subtract
+        self.model_without_gravity = pin.Model(self.model)
+        self.model_without_gravity.gravity = pin.Motion.Zero()
         self._per_thread = PerThread()
         self.workspace()  # the first workspace now: a scene too large for memory is refused at build time
         self.nq, self.nv = self.model.nq, self.model.nv
@@ -294,7 +298,7 @@ class System:
         """dv/dt (m/s², rad/s²) by ABA with gravity and every force element of the scene."""
         q, v, t = self.check_configuration(q), self.check_velocity(v), self.check_time(t)
         a = dynamics.accelerations(self, self.workspace(), q, v, t)
-        if not np.all(np.isfinite(a)):
+        if not all_finite(a):
             self.check_mass_matrix(q, "this configuration")
             raise ModelError(f"accelerations are not finite at t = {t} (state too large?)")
         return a.copy()
@@ -302,10 +306,11 @@ class System:
     def generalized_forces(self, q: ArrayLike, v: ArrayLike, t: float = 0.0) -> Vector:
         """Q(q, v, t) (N or N·m per coordinate): the generalized force of every force element (not gravity)."""
         q, v, t = self.check_configuration(q), self.check_velocity(v), self.check_time(t)
-        Q, fext = dynamics.forces(self, self.workspace(), q, v, t)
+        ws = self.workspace()
+        Q, fext = dynamics.forces(self, ws, q, v, t)
         if fext is not None:
             zero = np.zeros(self.nv)
-            Q -= pin.rnea(self.model, self.data, q, zero, zero, fext) - dynamics.gravity_term(self, self.workspace(), q)
+            Q -= pin.rnea(self.model_without_gravity, ws.data, q, zero, zero, fext)
         return finite_result(Q, f"generalized forces at t = {t}")
 
     def gravity_forces(self, q: ArrayLike) -> Vector:
@@ -532,7 +537,7 @@ class System:
                          "inertia scale); give it mass or inertia")
 
     def check_configuration(self, q: ArrayLike, what: str = "q") -> Vector:
-        x = _state(q, self.nq, what, f"a configuration of {count(self.nq, 'number')}")
+        x = _state(q, self.nq, what, lambda: f"a configuration of {count(self.nq, 'number')}")
         for body, i, n in self._unit_blocks:
             norm = np.linalg.norm(x[i:i + n])
             if abs(norm - 1.0) > 1e-3:
@@ -541,7 +546,7 @@ class System:
         return x
 
     def check_velocity(self, v: ArrayLike, what: str = "v") -> Vector:
-        return _state(v, self.nv, what, f"{count(self.nv, 'number')} (one per coordinate)")
+        return _state(v, self.nv, what, lambda: f"{count(self.nv, 'number')} (one per coordinate)")
 
     def check_time(self, t: float | None) -> float:
         """A finite time (s); None only for a scene that does not depend on time."""
@@ -551,7 +556,10 @@ class System:
 
 
 def _state(x, n, what, expected):
-    """A finite float vector of n numbers (the one input layer: finite_array)."""
+    """A finite float vector of n numbers (the one input layer: finite_array), a new array; ``expected()``
+    says what it should be in the error."""
+    if type(x) is np.ndarray and x.dtype == float and x.shape == (n,) and all_finite(x):
+        return x.copy()  # the common case, without finite_array's conversions
     try:
         return finite_array(x, (n,), what)
     except ModelError as e:
@@ -559,7 +567,7 @@ def _state(x, n, what, expected):
         if detail.startswith("contains"):
             raise
         got = f"shape {detail.split('got ', 1)[1]}" if detail.startswith("expected shape") else repr(x)
-        raise ModelError(f"{what}: expected {expected}, got {got}") from None
+        raise ModelError(f"{what}: expected {expected()}, got {got}") from None
 
 
 def massless_leaves(scene):

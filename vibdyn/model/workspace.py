@@ -12,15 +12,24 @@ from ..errors import ModelError
 
 class Workspace:
     """Pinocchio Data of one model and the external-force buffer handed to ABA/RNEA (one ``pin.Force`` per
-    joint). Results of :mod:`vibdyn.model.dynamics` may share memory with it: copy what you keep."""
+    joint), with live numpy views, one per joint, of the Data's joint poses (``rotations``, ``translations``)
+    and velocities (``linear``, ``angular``, local axes), which every forward kinematics updates in place,
+    and of the forces (``forces``: writing one writes its ``pin.Force``). Results of
+    :mod:`vibdyn.model.dynamics` may share memory with it: copy what you keep."""
 
-    __slots__ = ("data", "fext")
+    __slots__ = ("data", "fext", "rotations", "translations", "linear", "angular", "forces")
 
     def __init__(self, model: pin.Model):
-        self.data = create_data(model)
+        self.data = data = create_data(model)
         self.fext = pin.StdVec_Force()
         for _ in range(model.njoints):
             self.fext.append(pin.Force.Zero())
+        joints = range(model.njoints)
+        self.rotations = [data.oMi[j].rotation for j in joints]
+        self.translations = [data.oMi[j].translation for j in joints]
+        self.linear = [data.v[j].linear for j in joints]
+        self.angular = [data.v[j].angular for j in joints]
+        self.forces = [self.fext[j].vector for j in joints]
 
 
 class PerThread(threading.local):

@@ -120,34 +120,29 @@ def cross(a, b):
 
 
 _NO_SUPPORT = np.zeros((1, 3))
+_ONES3 = np.ones(3)
 
 
 class Kinematics:
-    """Poses (and local velocities if asked) of the joints that point elements attach to."""
+    """Poses (and local velocities if asked) of the joints that point elements attach to: ``R``, ``p`` (and
+    ``v``, ``w``) indexed by Pinocchio joint id, rows of other joints zero; joint 0 (the world) is the
+    identity at rest. Computed in the workspace ``ws`` (its Data, and its live views of the Data's joint
+    poses and velocities, one per joint: ``rotations``, ``translations``, ``linear``, ``angular``), read
+    after forward kinematics in one copy per array."""
 
     __slots__ = ("R", "p", "v", "w", "sp", "sv")
 
-    def __init__(self, model, data, joints, q, v=None, supports=None):
+    def __init__(self, model, ws, joints, q, v=None, supports=None):
         # support displacements and velocities (m, m/s), one row per support and a last zero row, so that
         # index −1 (an end on no support) adds nothing
         self.sp, self.sv = supports if supports is not None else (_NO_SUPPORT, _NO_SUPPORT)
         if v is None:
-            pin.forwardKinematics(model, data, q)
+            pin.forwardKinematics(model, ws.data, q)
         else:
-            pin.forwardKinematics(model, data, q, v)
-        nj = model.njoints
-        self.R = np.empty((nj, 3, 3))
-        self.p = np.empty((nj, 3))
-        self.R[0], self.p[0] = np.eye(3), 0.0
-        for j in joints:
-            M = data.oMi[j]
-            self.R[j], self.p[j] = M.rotation, M.translation
+            pin.forwardKinematics(model, ws.data, q, v)
+        self.R, self.p = gather(ws.rotations, joints), gather(ws.translations, joints)
         if v is not None:
-            self.v = np.zeros((nj, 3))
-            self.w = np.zeros((nj, 3))
-            for j in joints:
-                vj = data.v[j]
-                self.v[j], self.w[j] = vj.linear, vj.angular
+            self.v, self.w = gather(ws.linear, joints), gather(ws.angular, joints)
 
     def points(self, joints, local):
         """World positions (m) of points given in their joint frames."""
@@ -159,13 +154,65 @@ class Kinematics:
         return np.einsum("nij,nj->ni", self.R[joints], lin)
 
 
-def add_point_forces(F, kin, joints, world_points, world_forces):
-    """Accumulate forces (world axes) applied at world points into the local spatial forces ``F``."""
-    # Rᵀ applied to the force and to the lever arm at once: (n, 3, 3)ᵀ @ (n, 3, 2)
-    fr = np.matmul(np.transpose(kin.R[joints], (0, 2, 1)),
-                   np.stack([world_forces, world_points - kin.p[joints]], axis=2))
-    f, r = fr[:, :, 0], fr[:, :, 1]
-    np.add.at(F, joints, np.concatenate([f, cross(r, f)], axis=1))
+def gather(views, joints):
+    """The arrays ``views[j]`` of joint 0 (the world's identity pose, zero velocity) and of the sorted
+    ``joints`` as rows of one array, indexed by joint id (rows of other joints zero)."""
+    if len(joints) == len(views) - 1:  # every joint: one copy
+        return np.array(views)
+    out = np.zeros((len(views),) + views[0].shape)  # zeros: PointSet's constant maps span unset rows
+    out[0] = views[0]
+    out[list(joints)] = [views[j] for j in joints]
+    return out
+
+
+class PointSet:
+    """Fixed points of joint frames (``joints``, ``local`` points in those frames) seen through n combinations
+    ``D`` (n × points; None: the points themselves): the combined positions D x and the forces Dᵀ f on the
+    points for n given forces f, as constant linear maps of the joint poses.
+
+    A position R r + p is linear in joint j's (R, p); in j's frame a force f (world axes) at r is
+    (Rᵀ f, r × Rᵀ f), bilinear in (R, f): both are one constant matrix over the contiguous span of joints the
+    points are on (the world, joint 0, left out: its points are constants and it takes no force). The
+    matrices are dense, of size (points × joints spanned): a few matrix products for the tens of elements
+    of a scene, in place of per-point indexing and scatter."""
+
+    def __init__(self, joints, local, D=None):
+        joints = np.asarray(joints, dtype=int)
+        local = np.asarray(local, dtype=float).reshape(-1, 3)
+        D = np.eye(len(joints)) if D is None else np.asarray(D, dtype=float)
+        moving = np.flatnonzero(joints)
+        lo, hi = (int(joints[moving].min()), int(joints[moving].max()) + 1) if len(moving) else (0, 0)
+        self.span, k, n = slice(lo, hi), hi - lo, len(D)
+        Gr, Gp = np.zeros((len(joints), 3, k, 3, 3)), np.zeros((len(joints), 3, k, 3))
+        B = np.zeros((k, 6, len(joints), 3))  # (force, moment) on each joint per local force at each point
+        const = np.zeros((len(joints), 3))
+        for e, (j, r) in enumerate(zip(joints, local)):
+            if j == 0:
+                const[e] = r
+                continue
+            for i in range(3):
+                Gr[e, i, j - lo, i], Gp[e, i, j - lo, i] = r, 1.0
+            B[j - lo, :3, e], B[j - lo, 3:, e] = np.eye(3), pin.skew(r)
+        self.Gr = np.einsum("me,eX->mX", D, Gr.reshape(len(joints), -1)).reshape(3 * n, 9 * k)
+        self.Gp = np.einsum("me,eX->mX", D, Gp.reshape(len(joints), -1)).reshape(3 * n, 3 * k)
+        self.const = (D @ const).ravel()
+        # F_j,a = Σ_ik C[j, a, i, k] R_j[i, k] with C = K f: K[j, a, i, k, l, i] = Σ_e B[j, a, e, k] D[l, e]
+        BD = np.einsum("jaek,le->jakl", B, D)
+        K = np.zeros((k, 6, 3, 3, n, 3))
+        for i in range(3):
+            K[:, :, i, :, :, i] = BD
+        self.K = K.reshape(54 * k, 3 * n)
+
+    def positions(self, kin):
+        """The combined world positions D x (m), n × 3."""
+        s = self.span
+        return (self.Gr @ kin.R[s].ravel() + self.Gp @ kin.p[s].ravel() + self.const).reshape(-1, 3)
+
+    def add_forces(self, F, kin, f):
+        """Accumulate the forces Dᵀ f (world axes; ``f`` n × 3) on the points into ``F``."""
+        s = self.span
+        R = kin.R[s]
+        F[s] += ((self.K @ f.ravel()).reshape(len(R), 6, 9) @ R.reshape(len(R), 9, 1)).reshape(len(R), 6)
 
 
 class Group:
@@ -194,10 +241,10 @@ class Group:
 
 
 class TwoPoint(Group):
-    """Elements between two points: ends a and b of each member."""
+    """Elements between two points: ends a and b of each member (the ends' arrays: a's then b's)."""
 
     uses_points = True
-    tiny: np.ndarray
+    tiny: np.ndarray  # lengths at or below these are zero (negative: the member may reach zero length)
 
     def __init__(self, system, elements):
         self.names = [e.name for e in elements]
@@ -207,31 +254,34 @@ class TwoPoint(Group):
         self.sb = system.support_indices([e.b for e in elements])
         self.joints = tuple(sorted(set(self.ja) | set(self.jb)))
         self.j_ends = np.concatenate([self.ja, self.jb])
+        self.on_supports = bool(np.any(self.sa >= 0) or np.any(self.sb >= 0))
+        n = len(elements)
+        self.ends = PointSet(self.j_ends, np.concatenate([self.pa, self.pb]),
+                             np.hstack([-np.eye(n), np.eye(n)]))  # combined: xb − xa
 
-    def add_end_forces(self, F, kin, xa, xb, fb):
+    def add_end_forces(self, F, kin, fb):
         """Force fb (world axes) on every end b and −fb on every end a, in one accumulation."""
-        add_point_forces(F, kin, self.j_ends, np.concatenate([xa, xb]), np.concatenate([-fb, fb]))
+        self.ends.add_forces(F, kin, fb)
 
     def end_velocities(self, kin):
         """World velocities (m/s) of the two ends, supports' motion included."""
         return (kin.velocities(self.ja, self.pa) + kin.sv[self.sa],
                 kin.velocities(self.jb, self.pb) + kin.sv[self.sb])
 
-    def geometry(self, kin, zero_ok=None):
-        """(xa, xb, d, L): world ends (m), d = xb − xa and lengths L (m); a zero length is a ModelError
-        naming the element (``zero_ok`` marks elements allowed to reach it)."""
-        xa = kin.points(self.ja, self.pa) + kin.sp[self.sa]
-        xb = kin.points(self.jb, self.pb) + kin.sp[self.sb]
-        d = xb - xa
-        L = np.linalg.norm(d, axis=1)
-        tiny = L <= self.tiny
-        if zero_ok is not None:
-            tiny &= ~zero_ok
-        if tiny.any():
-            i = int(np.flatnonzero(tiny)[0])
+    def geometry(self, kin):
+        """(d, L): d = xb − xa between the world ends (m) and the lengths L (m); a length at or below ``tiny``
+        is a ModelError naming the element."""
+        d = self.ends.positions(kin)
+        if self.on_supports:
+            d += kin.sp[self.sb] - kin.sp[self.sa]
+        L = np.sqrt((d * d) @ _ONES3)
+        zero = (L <= self.tiny).tolist()  # a list: faster than a numpy reduction on a few elements
+        if True in zero:
+            i = zero.index(True)
+            xa = kin.points(self.ja[i:i + 1], self.pa[i:i + 1])[0] + kin.sp[self.sa[i]]
             raise ModelError(f"{self.kind} '{self.names[i]}' reached zero length (its two ends coincide at "
-                             f"{np.round(xa[i], 12).tolist()}): its direction is undefined")
-        return xa, xb, d, L
+                             f"{np.round(xa, 12).tolist()}): its direction is undefined")
+        return d, L
 
     kind = "element"
 

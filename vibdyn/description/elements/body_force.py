@@ -10,7 +10,7 @@ import pinocchio as pin
 from ..._check import call_user, user_callable, value_string, value_vec3, vector3
 from ..._format import vector
 from ...errors import ModelError
-from .base import ElementKind, Group, add_point_forces, numbers
+from .base import ElementKind, Group, PointSet, numbers
 
 
 class BodyForces(Group):
@@ -24,6 +24,7 @@ class BodyForces(Group):
         self.Rb = np.array([system.body_in_joint(e.body).rotation for e in elements])
         self.body_axes = np.array([e.frame == "body" for e in elements])
         self.joints = tuple(sorted(set(self.jp)))
+        self.points = PointSet(self.jp, self.pp)
         self.velocity_dependent = any(e.velocity_dependent for e in elements)
         self.time_dependent = any(e.time_dependent for e in elements)
 
@@ -46,7 +47,7 @@ class BodyForces(Group):
         Rw = np.einsum("nij,njk->nik", kin.R[self.jp], self.Rb)  # body axes -> world
         f = np.where(self.body_axes[:, None], np.einsum("nij,nj->ni", Rw, f), f)
         tq = np.where(self.body_axes[:, None], np.einsum("nij,nj->ni", Rw, tq), tq)
-        add_point_forces(F, kin, self.jp, kin.points(self.jp, self.pp), f)
+        self.points.add_forces(F, kin, f)
         Rt = np.transpose(kin.R[self.jp], (0, 2, 1))
         np.add.at(F[:, 3:], self.jp, np.einsum("nij,nj->ni", Rt, tq))
 

@@ -25,15 +25,15 @@ class Dampers(TwoPoint):
         self.tiny = np.full(len(elements), 1e-12)
 
     def apply(self, t, q, v, kin, Q, F):
-        xa, xb, d, L = self.geometry(kin)
+        d, L = self.geometry(kin)
         u = d / L[:, None]
         va, vb = self.end_velocities(kin)
         rate = np.einsum("ni,ni->n", u, vb - va)
         fb = (-self.c * rate)[:, None] * u
-        self.add_end_forces(F, kin, xa, xb, fb)
+        self.add_end_forces(F, kin, fb)
 
     def derivatives(self, d):
-        xa, xb, dx, L = self.geometry(d.fkin)
+        dx, L = self.geometry(d.fkin)
         va, vb = self.end_velocities(d.fkin)
         vrel = vb - va
         for i in range(len(self.c)):

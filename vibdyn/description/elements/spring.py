@@ -22,20 +22,24 @@ class Springs(TwoPoint):
         self.k = np.array([e.stiffness for e in elements])
         self.l0 = np.array(free_lengths(system, elements), dtype=float)
         self.zero_l0 = self.l0 == 0.0  # a zero-free-length spring pulls as −k d: no direction needed
-        self.tiny = 1e-9 * np.maximum(self.l0, 1e-3)
+        self.tiny = np.where(self.zero_l0, -1.0, 1e-9 * np.maximum(self.l0, 1e-3))
+        # (L − l0)/L is 1 for a zero-free-length spring: L/L, its L kept off zero by the smallest normal float
+        # (below it d is zero to double precision); the others are longer than tiny (None: no such spring)
+        self.L_floor = np.where(self.zero_l0, np.finfo(float).tiny, 0.0) if self.zero_l0.any() else None
+        self.minus_k = -self.k
 
     def apply(self, t, q, v, kin, Q, F):
-        xa, xb, d, L = self.geometry(kin, self.zero_l0)
-        Ls = np.where(self.zero_l0, 1.0, L)
-        fb = (-self.k * np.where(self.zero_l0, 1.0, (L - self.l0) / Ls))[:, None] * d
-        self.add_end_forces(F, kin, xa, xb, fb)
+        d, L = self.geometry(kin)
+        Ls = L if self.L_floor is None else np.maximum(L, self.L_floor)
+        fb = (self.minus_k * ((L - self.l0) / Ls))[:, None] * d
+        self.add_end_forces(F, kin, fb)
 
     def potential(self, q, kin):
-        _, _, _, L = self.geometry(kin, self.zero_l0)
+        _, L = self.geometry(kin)
         return 0.5 * float(self.k @ (L - self.l0) ** 2)
 
     def derivatives(self, d):
-        xa, xb, dx, L = self.geometry(d.fkin, self.zero_l0)
+        dx, L = self.geometry(d.fkin)
         for i in range(len(self.k)):
             ja, jb = int(self.ja[i]), int(self.jb[i])
             Jrel = d.point(jb, self.pb[i]) - d.point(ja, self.pa[i])
