@@ -128,9 +128,10 @@ class Kinematics:
     ``v``, ``w``) indexed by Pinocchio joint id, rows of other joints zero; joint 0 (the world) is the
     identity at rest. Computed in the workspace ``ws`` (its Data, and its live views of the Data's joint
     poses and velocities, one per joint: ``rotations``, ``translations``, ``linear``, ``angular``), read
-    after forward kinematics in one copy per array."""
+    after forward kinematics in one copy per array. ``R`` and ``p`` are views of one vector ``pose`` =
+    (R, p), of which point positions are linear functions (:class:`PointSet`)."""
 
-    __slots__ = ("R", "p", "v", "w", "sp", "sv")
+    __slots__ = ("R", "p", "pose", "v", "w", "sp", "sv")
 
     def __init__(self, model, ws, joints, q, v=None, supports=None):
         # support displacements and velocities (m, m/s), one row per support and a last zero row, so that
@@ -140,9 +141,12 @@ class Kinematics:
             pin.forwardKinematics(model, ws.data, q)
         else:
             pin.forwardKinematics(model, ws.data, q, v)
-        self.R, self.p = gather(ws.rotations, joints), gather(ws.translations, joints)
+        nj = len(ws.rotations)
+        self.pose = np.empty(12 * nj) if len(joints) == nj - 1 else np.zeros(12 * nj)
+        self.R = gather(ws.rotations, joints, self.pose[:9 * nj].reshape(nj, 3, 3))
+        self.p = gather(ws.translations, joints, self.pose[9 * nj:].reshape(nj, 3))
         if v is not None:
-            self.v, self.w = gather(ws.linear, joints), gather(ws.angular, joints)
+            self.v, self.w = gather(ws.linear, joints, np.zeros((nj, 3))), gather(ws.angular, joints, np.zeros((nj, 3)))
 
     def points(self, joints, local):
         """World positions (m) of points given in their joint frames."""
@@ -154,48 +158,46 @@ class Kinematics:
         return np.einsum("nij,nj->ni", self.R[joints], lin)
 
 
-def gather(views, joints):
-    """The arrays ``views[j]`` of joint 0 (the world's identity pose, zero velocity) and of the sorted
-    ``joints`` as rows of one array, indexed by joint id (rows of other joints zero)."""
+def gather(views, joints, out):
+    """``out`` with the arrays ``views[j]`` of joint 0 (the world's identity pose, zero velocity) and of the
+    sorted ``joints`` as its rows, indexed by joint id (rows of other joints left as they are: zeros, as
+    PointSet's constant maps take every row)."""
     if len(joints) == len(views) - 1:  # every joint: one copy
-        return np.array(views)
-    out = np.zeros((len(views),) + views[0].shape)  # zeros: PointSet's constant maps span unset rows
-    out[0] = views[0]
-    out[list(joints)] = [views[j] for j in joints]
+        out[:] = views
+    else:
+        out[0] = views[0]
+        out[list(joints)] = [views[j] for j in joints]
     return out
 
 
 class PointSet:
-    """Fixed points of joint frames (``joints``, ``local`` points in those frames) seen through n combinations
-    ``D`` (n × points; None: the points themselves): the combined positions D x and the forces Dᵀ f on the
-    points for n given forces f, as constant linear maps of the joint poses.
+    """Fixed points of joint frames (``joints``, ``local`` points in those frames, of a model of ``nj``
+    joints) seen through n combinations ``D`` (n × points; None: the points themselves): the combined
+    positions D x and the forces Dᵀ f on the points for n given forces f, as constant linear maps of the
+    joint poses.
 
-    A position R r + p is linear in joint j's (R, p); in j's frame a force f (world axes) at r is
-    (Rᵀ f, r × Rᵀ f), bilinear in (R, f): both are one constant matrix over the contiguous span of joints the
-    points are on (the world, joint 0, left out: its points are constants and it takes no force). The
-    matrices are dense, of size (points × joints spanned): a few matrix products for the tens of elements
-    of a scene, in place of per-point indexing and scatter."""
+    A position R r + p is linear in joint j's (R, p): D x is one constant matrix times the joints' poses
+    (:attr:`Kinematics.pose`). In j's frame a force f (world axes) at r is (Rᵀ f, r × Rᵀ f), bilinear in
+    (R, f): one constant matrix times f gives its coefficients on the rotations of the contiguous span of
+    joints the points are on (the world, joint 0, takes no force). The matrices are dense, of size
+    (points × joints): a few matrix products for the tens of elements of a scene, in place of per-point
+    indexing and scatter."""
 
-    def __init__(self, joints, local, D=None):
+    def __init__(self, joints, local, nj, D=None):
         joints = np.asarray(joints, dtype=int)
         local = np.asarray(local, dtype=float).reshape(-1, 3)
         D = np.eye(len(joints)) if D is None else np.asarray(D, dtype=float)
         moving = np.flatnonzero(joints)
         lo, hi = (int(joints[moving].min()), int(joints[moving].max()) + 1) if len(moving) else (0, 0)
         self.span, k, n = slice(lo, hi), hi - lo, len(D)
-        Gr, Gp = np.zeros((len(joints), 3, k, 3, 3)), np.zeros((len(joints), 3, k, 3))
+        G = np.zeros((len(joints), 3, 12 * nj))  # x[e, i] = G[e, i] · (R, p)
         B = np.zeros((k, 6, len(joints), 3))  # (force, moment) on each joint per local force at each point
-        const = np.zeros((len(joints), 3))
         for e, (j, r) in enumerate(zip(joints, local)):
-            if j == 0:
-                const[e] = r
-                continue
             for i in range(3):
-                Gr[e, i, j - lo, i], Gp[e, i, j - lo, i] = r, 1.0
-            B[j - lo, :3, e], B[j - lo, 3:, e] = np.eye(3), pin.skew(r)
-        self.Gr = np.einsum("me,eX->mX", D, Gr.reshape(len(joints), -1)).reshape(3 * n, 9 * k)
-        self.Gp = np.einsum("me,eX->mX", D, Gp.reshape(len(joints), -1)).reshape(3 * n, 3 * k)
-        self.const = (D @ const).ravel()
+                G[e, i, 9 * j + 3 * i:9 * j + 3 * i + 3], G[e, i, 9 * nj + 3 * j + i] = r, 1.0
+            if j != 0:
+                B[j - lo, :3, e], B[j - lo, 3:, e] = np.eye(3), pin.skew(r)
+        self.G = np.einsum("me,eX->mX", D, G.reshape(len(joints), -1)).reshape(3 * n, 12 * nj)
         # F_j,a = Σ_ik C[j, a, i, k] R_j[i, k] with C = K f: K[j, a, i, k, l, i] = Σ_e B[j, a, e, k] D[l, e]
         BD = np.einsum("jaek,le->jakl", B, D)
         K = np.zeros((k, 6, 3, 3, n, 3))
@@ -205,8 +207,7 @@ class PointSet:
 
     def positions(self, kin):
         """The combined world positions D x (m), n × 3."""
-        s = self.span
-        return (self.Gr @ kin.R[s].ravel() + self.Gp @ kin.p[s].ravel() + self.const).reshape(-1, 3)
+        return (self.G @ kin.pose).reshape(-1, 3)
 
     def add_forces(self, F, kin, f):
         """Accumulate the forces Dᵀ f (world axes; ``f`` n × 3) on the points into ``F``."""
@@ -256,7 +257,7 @@ class TwoPoint(Group):
         self.j_ends = np.concatenate([self.ja, self.jb])
         self.on_supports = bool(np.any(self.sa >= 0) or np.any(self.sb >= 0))
         n = len(elements)
-        self.ends = PointSet(self.j_ends, np.concatenate([self.pa, self.pb]),
+        self.ends = PointSet(self.j_ends, np.concatenate([self.pa, self.pb]), system.model.njoints,
                              np.hstack([-np.eye(n), np.eye(n)]))  # combined: xb − xa
 
     def add_end_forces(self, F, kin, fb):
