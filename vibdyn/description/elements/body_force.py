@@ -10,7 +10,7 @@ import pinocchio as pin
 from ..._check import call_user, user_callable, value_string, value_vec3, vector3
 from ..._format import vector
 from ...errors import ModelError
-from .base import ElementKind, Group, PointSet, numbers
+from .base import ElementKind, Group, numbers, point_set
 
 
 class BodyForces(Group):
@@ -24,7 +24,7 @@ class BodyForces(Group):
         self.Rb = np.array([system.body_in_joint(e.body).rotation for e in elements])
         self.body_axes = np.array([e.frame == "body" for e in elements])
         self.joints = tuple(sorted(set(self.jp)))
-        self.points = PointSet(self.jp, self.pp, system.model.njoints)
+        self.points = point_set(self.jp, self.pp, system.model.njoints)
         self.velocity_dependent = any(e.velocity_dependent for e in elements)
         self.time_dependent = any(e.time_dependent for e in elements)
 
