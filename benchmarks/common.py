@@ -31,21 +31,24 @@ ESTIMATE_SLACK = 2.0
 FLOOR = 1e-13
 
 
-def verdict(error, estimate):
-    """"right" (finite error within ESTIMATE_SLACK × the estimate), "silently wrong", or "unchecked" when the
-    solver gives no estimate (MuJoCo, scipy)."""
+def verdict(error, estimate, reference_error=0.0):
+    """"right" (finite error within ESTIMATE_SLACK × the estimate, plus FLOOR and the reference's own
+    uncertainty ``reference_error``), "silently wrong", or "unchecked" when the solver gives no estimate
+    (MuJoCo, scipy)."""
     if estimate is None:
         return UNCHECKED
     if error is None or not math.isfinite(error) or not math.isfinite(estimate):
         return WRONG if error is None or not math.isfinite(error) else RIGHT
-    return RIGHT if error <= ESTIMATE_SLACK * estimate + FLOOR else WRONG
+    return RIGHT if error <= ESTIMATE_SLACK * estimate + FLOOR + reference_error else WRONG
 
 
-def run_record(label, solver, error, estimate, time_s, evaluations=None, peak_mb=None, verdict_=None, **extra):
-    """One run (one point of a work-precision diagram)."""
+def run_record(label, solver, error, estimate, time_s, evaluations=None, peak_mb=None, verdict_=None,
+               reference_error=0.0, **extra):
+    """One run (one point of a work-precision diagram); ``reference_error``: the reference's own uncertainty,
+    in the error's unit (an actual error below it says nothing about the estimate)."""
     r = {"label": label, "solver": solver, "error": _num(error), "estimate": _num(estimate), "time_s": time_s,
          "evaluations": None if evaluations is None else int(evaluations), "peak_mb": peak_mb,
-         "verdict": verdict_ or verdict(_num(error), _num(estimate))}
+         "verdict": verdict_ or verdict(_num(error), _num(estimate), reference_error)}
     r.update(extra)
     return r
 
