@@ -76,3 +76,24 @@ def test_each_thread_has_its_own_workspace_and_the_system_is_frozen():
         system.body_infos["b0"] = None
     with pytest.raises(ValueError):
         system.inertia_scales[0] = 0.0
+
+
+def test_workspace_views_follow_the_data_and_stale_copies_are_refused():
+    """Point forces read joint poses through live views of Pinocchio's Data: they must follow every forward
+    kinematics (else every point force would be silently stale), and a binding handing out copies is refused."""
+    import pinocchio as pin
+
+    from vibdyn.model.workspace import Workspace, check_views
+
+    s = vd.Scene("arm")
+    s.add_body("cart", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_body("arm", "cart", vd.Pivot((0, 1, 0)), mass=1.0, com=(0, 0, -0.5))
+    system = s.build()
+    ws = Workspace(system.model)
+    q = system.integrate(system.neutral(), [0.4, 0.9])
+    pin.forwardKinematics(system.model, ws.data, q)
+    np.testing.assert_array_equal(ws.translations[1], [0.4, 0.0, 0.0])
+    np.testing.assert_allclose(ws.rotations[2], pin.exp3(np.array([0.0, 0.9, 0.0])), atol=1e-15)
+    ws.translations[2] = ws.translations[2].copy()  # what a copying binding would give
+    with pytest.raises(vd.ModelError, match="copies"):
+        check_views(system.model, ws)

@@ -30,6 +30,28 @@ class Workspace:
         self.linear = [data.v[j].linear for j in joints]
         self.angular = [data.v[j].angular for j in joints]
         self.forces = [self.fext[j].vector for j in joints]
+        check_views(model, self)
+
+
+def check_views(model, ws):
+    """The views must be live (Pinocchio 4.1's bindings return references into its Data and Force objects):
+    a binding that hands out copies would leave them stale and every point force silently wrong, so that is
+    refused here, once per workspace."""
+    if model.njoints < 2:
+        return
+    import numpy as np
+
+    q = pin.integrate(model, pin.neutral(model), np.full(model.nv, 0.3))
+    pin.forwardKinematics(model, ws.data, q, np.full(model.nv, 0.7))
+    live = all(np.array_equal(ws.rotations[j], ws.data.oMi[j].rotation)
+               and np.array_equal(ws.translations[j], ws.data.oMi[j].translation)
+               and np.array_equal(ws.linear[j], ws.data.v[j].linear) for j in range(1, model.njoints))
+    ws.forces[1][:] = 1.0
+    live = live and np.array_equal(ws.fext[1].linear, np.ones(3))
+    ws.forces[1][:] = 0.0
+    if not live:
+        raise ModelError(f"Pinocchio {pin.__version__} returns copies of its Data's poses and velocities, not "
+                         "references: vibdyn needs a Pinocchio whose bindings return references (4.1 does)")
 
 
 class PerThread(threading.local):

@@ -23,17 +23,18 @@ def command(scene, args, out=None):
 
     previous = signal.signal(signal.SIGTERM, _interrupt)
     try:
+        # Ctrl-C anywhere from the start (even just after the URL is printed, as a script may do) stops the
+        # viewer cleanly: the with-block's exit stops the server, then "stopped" and exit status 0
         with LiveViewer(content(system, args.trajectory, args.speed), amplitude=args.amplitude,
                         mode=args.mode) as viewer:
             print(f"viewer: {viewer.url}  (meshcat: {viewer.meshcat_url}); Ctrl-C stops it", file=out, flush=True)
             if not args.no_browser and not open_in_browser(viewer.url):
                 print("no graphical browser here: open the URL above in one", file=out, flush=True)
             deadline = None if args.duration is None else time.monotonic() + args.duration
-            try:
-                while viewer.running and (deadline is None or time.monotonic() < deadline):
-                    time.sleep(0.1)
-            except KeyboardInterrupt:
-                print("stopped", file=out)
+            while viewer.running and (deadline is None or time.monotonic() < deadline):
+                time.sleep(0.1)
+    except KeyboardInterrupt:
+        print("stopped", file=out)
     finally:
         signal.signal(signal.SIGTERM, previous)
 
