@@ -5,6 +5,7 @@ caller's back (the System itself is immutable after ``build()``, like Pinocchio'
 import os
 import threading
 
+import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError
@@ -39,8 +40,6 @@ def check_views(model, ws):
     refused here, once per workspace."""
     if model.njoints < 2:
         return
-    import numpy as np
-
     q = pin.integrate(model, pin.neutral(model), np.full(model.nv, 0.3))
     pin.forwardKinematics(model, ws.data, q, np.full(model.nv, 0.7))
     live = all(np.array_equal(ws.rotations[j], ws.data.oMi[j].rotation)

@@ -5,7 +5,7 @@ are compiled and scene files are read and written: supports first (springs and d
 A new kind is one new module here plus its import line below.
 """
 
-from .base import KINDS, WORLD, ElementKind, Group, Kinematics, PointSet, attachment, cross
+from .base import KINDS, WORLD, ElementKind, Group, Kinematics, attachment, cross, point_set
 from .support import Support
 from .spring import Spring
 from .damper import Damper
@@ -15,6 +15,6 @@ from .joint_damper import JointDamper
 from .joint_force import JointForce, joint_force_value
 from .cubic_joint_spring import CubicJointSpring
 
-__all__ = ["KINDS", "WORLD", "ElementKind", "Group", "Kinematics", "PointSet", "attachment", "cross",
+__all__ = ["KINDS", "WORLD", "ElementKind", "Group", "Kinematics", "attachment", "cross", "point_set",
            "Support", "Spring", "Damper", "BodyForce", "JointSpring", "JointDamper", "JointForce",
            "CubicJointSpring", "vector_or_callable", "joint_force_value"]
