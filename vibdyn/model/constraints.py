@@ -13,9 +13,35 @@ from ..errors import ConvergenceError, ModelError
 def _perpendicular(u):
     """Two unit vectors orthogonal to the unit vector u and to each other."""
     t = np.array([1.0, 0, 0]) if abs(u[0]) < 0.9 else np.array([0, 1.0, 0])
-    n1 = np.cross(u, t)
+    n1 = _cross(u, t)
     n1 /= np.linalg.norm(n1)
-    return n1, np.cross(u, n1)
+    return n1, _cross(u, n1)
+
+
+def _cross(a, b):
+    """a × b of two 3-vectors (np.cross costs ~20 µs a call on 3-vectors)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+_EYE, _ZERO = np.eye(3), np.zeros((3, 3))
+_POSITION = ("ball", "pivot", "universal", "fixed")  # kinds whose first rows are p_b − p_a
+_NORMAL = ("slider", "cylindrical")  # kinds with rows (R_a n_i)·(p_b − p_a)
+_ALIGNED = ("pivot", "cylindrical", "universal")  # kinds with rows (R_a n)·(R_b u)
+_LOCKED = ("slider", "fixed")  # kinds with rows log(R_aᵀ R_b)
+
+
+class _End:
+    """One end of a loop as evaluated at (q[, v]): world position p (m), rotation R, Jacobians Jv, Jw
+    (LOCAL_WORLD_ALIGNED, 3 × nv) and, for the bias, the point velocity dp (m/s), its classical acceleration
+    at zero joint acceleration ddp (m/s²), the angular velocity w (rad/s) and acceleration dw (rad/s²)."""
+
+    __slots__ = ("p", "R", "Jv", "Jw", "dp", "ddp", "w", "dw")
+
+    def turn(self, n):
+        """(x, ẋ, ẍ) of the world vector x = R n, n fixed in the end's frame."""
+        x = self.R @ n
+        dx = _cross(self.w, x)
+        return x, dx, _cross(self.dw, x) + _cross(self.w, dx)
 
 
 class Constraints:
@@ -25,6 +51,7 @@ class Constraints:
         self.system = system
         self.loops = tuple(loops)
         self._ends = []
+        self._axes = []  # per loop: (normals n_i for _NORMAL rows, (n, u) pairs for _ALIGNED rows)
         for lp in self.loops:
             ends = []
             for body, point in (lp.a, lp.b):
@@ -35,8 +62,19 @@ class Constraints:
                     B = info.body_in_joint
                     ends.append((info.joint_id, B.act(np.array(point)), B.rotation.copy()))
             self._ends.append(ends)
+            k = lp.joint.kind
+            normals = _perpendicular(np.array(lp.joint.axis, dtype=float)) if k in _NORMAL else ()
+            if k == "universal":
+                pairs = [(np.array(lp.joint.axis1, dtype=float), np.array(lp.joint.axis2, dtype=float))]
+            elif k in _ALIGNED:
+                u = np.array(lp.joint.axis, dtype=float)
+                pairs = [(n, u) for n in _perpendicular(u)]
+            else:
+                pairs = []
+            self._axes.append((normals, pairs))
         self.sizes = tuple(lp.equations for lp in self.loops)
         self.m = sum(self.sizes)
+        self._locked = any(lp.joint.kind in _LOCKED for lp in self.loops)
         L = system.length_scale
         # dimensionless scaling: position rows / L, translation columns × L
         self.row_scale = np.concatenate([self._row_units(lp) for lp in self.loops]) if self.loops else np.zeros(0)
@@ -51,30 +89,41 @@ class Constraints:
         return np.array([1] * pos + [0] * (lp.equations - pos))
 
     # ----------------------------------------------------------------- equations
-    def _frames(self, q, jacobians):
+    def _frames(self, q, jacobians=False, v=None):
+        """[[_End a, _End b] per loop] at q; Jacobians if asked; with v, the motion at zero acceleration."""
         model, data = self.system.model, self.system.data
+        if v is not None:
+            pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
         if jacobians:
             pin.computeJointJacobians(model, data, q)
-        else:
+        elif v is None:
             pin.forwardKinematics(model, data, q)
         nv = model.nv
         out = []
         for ends in self._ends:
             fr = []
             for jid, r, Rl in ends:
+                e = _End()
                 if jid == 0:
-                    fr.append((r.copy(), Rl.copy(), np.zeros((3, nv)), np.zeros((3, nv))))
+                    e.p, e.R = r.copy(), Rl.copy()
+                    e.Jv = e.Jw = np.zeros((3, nv))
+                    e.dp = e.ddp = e.w = e.dw = np.zeros(3)
+                    fr.append(e)
                     continue
                 oMi = data.oMi[jid]
                 R = oMi.rotation
-                p = oMi.act(r)
+                e.p, e.R = oMi.act(r), R @ Rl
                 if jacobians:
                     J = pin.getJointJacobian(model, data, jid, pin.LOCAL).reshape(6, nv)
-                    Jv = R @ (J[:3] - pin.skew(r) @ J[3:])
-                    Jw = R @ J[3:]
-                else:
-                    Jv = Jw = None
-                fr.append((p, R @ Rl, Jv, Jw))
+                    e.Jv = R @ (J[:3] - pin.skew(r) @ J[3:])
+                    e.Jw = R @ J[3:]
+                if v is not None:
+                    vel, acc = data.v[jid], data.a[jid]  # LOCAL: d/dt of the local components
+                    w, dw = vel.angular, acc.angular
+                    dp = vel.linear + _cross(w, r)
+                    e.dp, e.w, e.dw = R @ dp, R @ w, R @ dw
+                    e.ddp = R @ (acc.linear + _cross(dw, r) + _cross(w, dp))
+                fr.append(e)
             out.append(fr)
         return out
 
@@ -84,43 +133,35 @@ class Constraints:
         LOCAL_WORLD_ALIGNED Jacobians (linear; angular) of the loop frames: the wrench (force N; torque N·m,
         world axes, at the loop point) that multipliers λ exert on end a is C_aᵀ λ, on end b C_bᵀ λ."""
         phis, jacs, coeffs = [], [], []
-        eye, zero = np.eye(3), np.zeros((3, 3))
-        for lp, ((pa, Ra, Jva, Jwa), (pb, Rb, Jvb, Jwb)) in zip(self.loops, self._frames(q, jacobian)):
+        for lp, (normals, pairs), (a, b) in zip(self.loops, self._axes, self._frames(q, jacobian)):
             k = lp.joint.kind
-            e = pb - pa
+            e = b.p - a.p
             rows, Ca, Cb = [], [], []
-            if k in ("ball", "pivot", "universal", "fixed"):
+            if k in _POSITION:
                 rows.append(e)
-                Ca.append(np.hstack([-eye, zero]))
-                Cb.append(np.hstack([eye, zero]))
-            if k in ("slider", "cylindrical"):
-                for n in _perpendicular(np.array(lp.joint.axis)):
-                    w = Ra @ n
-                    rows.append([w @ e])
-                    Ca.append(np.concatenate([-w, np.cross(w, e)])[None, :])
-                    Cb.append(np.concatenate([w, np.zeros(3)])[None, :])
-            if k in ("pivot", "cylindrical", "universal"):
-                if k == "universal":
-                    pairs = [(np.array(lp.joint.axis1), np.array(lp.joint.axis2))]
-                else:
-                    u = np.array(lp.joint.axis)
-                    pairs = [(n, u) for n in _perpendicular(u)]
-                for n, u in pairs:
-                    wa, wb = Ra @ n, Rb @ u
-                    rows.append([wa @ wb])
-                    c = np.cross(wa, wb)
-                    Ca.append(np.concatenate([np.zeros(3), c])[None, :])
-                    Cb.append(np.concatenate([np.zeros(3), -c])[None, :])
-            if k in ("slider", "fixed"):
-                R = Ra.T @ Rb
+                Ca.append(np.hstack([-_EYE, _ZERO]))
+                Cb.append(np.hstack([_EYE, _ZERO]))
+            for n in normals:
+                w = a.R @ n
+                rows.append([w @ e])
+                Ca.append(np.concatenate([-w, _cross(w, e)])[None, :])
+                Cb.append(np.concatenate([w, np.zeros(3)])[None, :])
+            for n, u in pairs:
+                wa, wb = a.R @ n, b.R @ u
+                rows.append([wa @ wb])
+                c = _cross(wa, wb)
+                Ca.append(np.concatenate([np.zeros(3), c])[None, :])
+                Cb.append(np.concatenate([np.zeros(3), -c])[None, :])
+            if k in _LOCKED:
+                R = a.R.T @ b.R
                 rows.append(pin.log3(R))
-                L = pin.Jlog3(R) @ Rb.T
-                Ca.append(np.hstack([zero, -L]))
-                Cb.append(np.hstack([zero, L]))
+                L = pin.Jlog3(R) @ b.R.T
+                Ca.append(np.hstack([_ZERO, -L]))
+                Cb.append(np.hstack([_ZERO, L]))
             phis.append(np.concatenate([np.ravel(x) for x in rows]))
             if jacobian:
                 Ca, Cb = np.vstack(Ca), np.vstack(Cb)
-                jacs.append(Ca @ np.vstack([Jva, Jwa]) + Cb @ np.vstack([Jvb, Jwb]))
+                jacs.append(Ca @ np.vstack([a.Jv, a.Jw]) + Cb @ np.vstack([b.Jv, b.Jw]))
                 coeffs.append((Ca, Cb))
         nv = self.system.nv
         phi = np.concatenate(phis) if phis else np.zeros(0)
@@ -150,18 +191,30 @@ class Constraints:
     def rank(self, q):
         return self.decompose(self.jacobian(q))[0]
 
+    def conditioning(self, q):
+        """σ_min / σ_max of the retained singular values of the dimensionless Φ_q at q: how far the
+        mechanism is from a singular position (0 there, where the rank drops)."""
+        rank, _, s, _ = self.decompose(self.jacobian(q))
+        return float(s[rank - 1] / s[0]) if rank else 1.0
+
     def null_space(self, q, J=None):
         """Basis N (nv × dof) of the motions that keep the loops closed at q (Φ_q N = 0), in the tree's
         tangent coordinates; its columns are orthonormal in the dimensionless metric."""
-        J = self.jacobian(q) if J is None else J
-        rank, _, _, Vt = self.decompose(J)
-        return self.col_scale[:, None] * Vt[rank:].T
+        return self._null(self.decompose(self.jacobian(q) if J is None else J))
 
     def correction(self, phi, J):
         """Minimum-norm (dimensionless metric) tangent step dq with Φ + Φ_q dq = 0 on the rank's range."""
-        rank, U, s, Vt = self.decompose(J)
+        return self._min_norm(self.decompose(J), phi, J.shape[1])
+
+    def _null(self, dec):
+        rank, _, _, Vt = dec
+        return self.col_scale[:, None] * Vt[rank:].T
+
+    def _min_norm(self, dec, phi, nv):
+        """−Φ_q⁺ Φ on the rank's range, from the decomposition of Φ_q."""
+        rank, U, s, Vt = dec
         if rank == 0:
-            return np.zeros(J.shape[1])
+            return np.zeros(nv)
         y = (U[:, :rank].T @ (self.row_scale * phi)) / s[:rank]
         return -self.col_scale * (Vt[:rank].T @ y)
 
@@ -268,25 +321,50 @@ class Constraints:
 
     def bias(self, q, v):
         """γ = (dΦ_q/dt) v: the loops' acceleration terms at zero acceleration (Φ_q v̇ + γ = 0 along a motion),
-        by a fourth-order central difference of Φ_q(q ⊕ εv) v in ε (step 1e-4 of the dimensionless speed)."""
+        in closed form from the frames' velocities and zero-acceleration motion (one forward-kinematics pass):
+        round-off only, so that near a singular position, where γ is divided by a vanishing singular value
+        of Φ_q, the accelerations stay accurate. The d/dt of log3's Jacobian (slider and fixed loops) by a
+        fourth-order central difference along v (step 1e-4 of the dimensionless speed)."""
+        out = []
+        for lp, (normals, pairs), (a, b) in zip(self.loops, self._axes, self._frames(q, v=v)):
+            k = lp.joint.kind
+            e, de, dde = b.p - a.p, b.dp - a.dp, b.ddp - a.ddp
+            if k in _POSITION:
+                out.append(dde)
+            for n in normals:
+                w, dw, ddw = a.turn(n)
+                out.append([ddw @ e + 2 * dw @ de + w @ dde])
+            for n, u in pairs:
+                wa, dwa, ddwa = a.turn(n)
+                wb, dwb, ddwb = b.turn(u)
+                out.append([ddwa @ wb + 2 * dwa @ dwb + wa @ ddwb])
+            if k in _LOCKED:
+                out.append(self._log_rate(lp, q, v, b.w - a.w) + pin.Jlog3(a.R.T @ b.R) @ b.R.T @ (b.dw - a.dw))
+        return np.concatenate([np.ravel(x) for x in out]) if out else np.zeros(0)
+
+    def _log_rate(self, lp, q, v, dw):
+        """(d/dt of Jlog3(R_aᵀR_b) R_bᵀ) (ω_b − ω_a) for loop lp, by a fourth-order central difference."""
         model = self.system.model
         speed = np.abs(v / self.col_scale).max(initial=0.0)
         if speed == 0.0:
-            return np.zeros(self.m)
+            return np.zeros(3)
         h = 1e-4 / speed
+        i = self.loops.index(lp)
 
-        def f(e):
-            return self.jacobian(pin.integrate(model, q, e * v)) @ v
+        def L(eps):
+            a, b = self._frames(pin.integrate(model, q, eps * v))[i]
+            return pin.Jlog3(a.R.T @ b.R) @ b.R.T @ dw
 
-        return (8 * (f(h) - f(-h)) - (f(2 * h) - f(-2 * h))) / (12 * h)
+        return (8 * (L(h) - L(-h)) - (L(2 * h) - L(-2 * h))) / (12 * h)
 
     def accelerations(self, q, v, a_free, M):
         """Accelerations of the constrained motion from the tree's free ones (ABA) and its mass matrix M:
         Φ_q a = −γ, and a − a_free M-orthogonal to the motions the loops allow (Gauss's principle), on the
         null space N of the rank decision: a = a_p + N z, (NᵀMN) z = NᵀM (a_free − a_p)."""
         J = self.jacobian(q)
-        a_p = self.correction(self.bias(q, v), J)
-        N = self.null_space(q, J)
+        dec = self.decompose(J)
+        a_p = self._min_norm(dec, self.bias(q, v), J.shape[1])
+        N = self._null(dec)
         if N.shape[1] == 0:
             return a_p
         MN = M @ N
@@ -297,6 +375,10 @@ class Constraints:
         """(q, v) projected on the loops: q assembled (Φ = 0), v the M-orthogonal projection (the kinetic-
         energy metric; the dimensionless one if M is None) of v on Φ_q v = 0 at that q."""
         q = self.assemble(q)
+        # one more Gauss–Newton step, always: near a singular position a residual below the assembly
+        # tolerance still allows a drift across to the other branch (Φ ≈ x·y there), which the step removes
+        phi, J = self.evaluate(q)
+        q = pin.integrate(self.system.model, q, self.correction(phi, J))
         N = self.null_space(q)
         if N.shape[1] == 0:
             return q, np.zeros_like(v)

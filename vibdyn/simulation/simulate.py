@@ -55,6 +55,7 @@ RERUN_FACTOR = 100.0  # the "rerun" error estimate tightens rtol and atol by thi
 MIN_RTOL = 100 * np.finfo(float).eps
 MAX_FIXED_STEPS = 1e9  # a fixed-step run longer than this is a mistake (days of computing), refused
 PROGRESS_DELAY = 2.0  # s of wall time before a progress bar appears
+SINGULAR_NOTE = 1e-4  # a failed run of a mechanism whose loops are this near a singular position says so
 
 
 class SimulationError(ConvergenceError):
@@ -345,9 +346,22 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
                               traj, cfg.t_end)
     if main.status == "failed":
         t = _t_reached(main)
-        raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}", traj,
-                              t) from main.failure
+        raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}"
+                              f"{_singular_note(system, traj)}", traj, t) from main.failure
     return traj
+
+
+def _singular_note(system, traj):
+    """Why a mechanism's run can stop at a singular position of its loops ('' if it is not at one)."""
+    c = getattr(system, "constraints", None)
+    if c is None or not len(traj.t):
+        return ""
+    cond = c.conditioning(traj.q[-1])
+    if cond > SINGULAR_NOTE:
+        return ""
+    return (f"; the loops are at a singular position there (σ_min/σ_max of their Jacobian {cond:.1e}): the "
+            "index-1 accelerations lose about 1/σ² of round-off near it, which bounds the tolerance a step can "
+            "meet: loosen rtol (the error estimate reruns at rtol/100) or use a fixed-step method (rk4)")
 
 
 # ---------------------------------------------------------------------------------------------- settings
