@@ -422,3 +422,17 @@ def test_loop_equilibria_from_several_starts_and_refused_operating_points():
         system.held()
     with pytest.raises(vd.ModelError, match="closed loops"):
         system.steady_motion({"disk": 1.0})
+
+
+def test_info_lists_the_loops_with_their_rank_and_mobility():
+    import io
+
+    from vibdyn.faces.cli import describe
+
+    scene = vd.load_scene(MODELS / "four_bar.toml")
+    out = io.StringIO()
+    describe(scene, scene.build(), out)
+    text = out.getvalue()
+    # a planar four-bar closed by a 3-D pivot: 5 equations of which 2 independent, one motion left
+    assert "closed loops: 5 equations, rank 2, mobility 1" in text
+    assert "pin   pivot axis (0, 0, 1)  coupler(0.3, 0, 0) m – rocker(0.25, 0, 0) m" in text

@@ -88,6 +88,19 @@ def describe(scene, system, out=None):
         for line in table(["name", "kind", "details"], [[e.name, e.label, e.describe()] for e in scene.elements.values()],
                           ["<", "<", "<"]):
             p("  " + line)
+    if scene.loops:
+        c = system.constraints
+        p("")
+        p(f"closed loops: {c.m} equations, rank {system.nv - system.dof}, mobility {system.dof} at the configuration "
+          "assembled from neutral (points in the body frames, m; axes in body_a's frame)")
+        rows = []
+        for lp, n in zip(scene.loops.values(), c.sizes):
+            j = lp.joint
+            params = ", ".join(f"{k} {vector(v)}" for k, v in j.params().items())
+            rows.append([lp.name, f"{j.kind}{' ' + params if params else ''}",
+                         f"{lp.a[0]}{vector(lp.a[1], 'm')} – {lp.b[0]}{vector(lp.b[1], 'm')}", str(n)])
+        for line in table(["name", "joint", "ends", "equations"], rows, ["<", "<", "<", ">"]):
+            p("  " + line)
     if scene.references:
         p("")
         p("reference values: " + ", ".join(sorted(k for k in scene.references if k not in ("source", "note"))))
