@@ -9,7 +9,6 @@ serial point time), and extrapolates to a cluster.
 import argparse
 import json
 import os
-import time
 from pathlib import Path
 
 import numpy as np

@@ -244,7 +244,6 @@ def independent_Q(system, data, q):
     """Q rebuilt without vibdyn's force groups: springs by frame Jacobians (Jᵀ f), isotropic ball springs
     as −k log3(R_restᵀ R), constant torques as given."""
     Q = np.zeros(system.nv)
-    free_lengths = {}
     for a, b, k, l0 in data["springs"]:
         if l0 is None:  # free length = distance at the neutral configuration
             ends = [np.asarray(p) if body == vd.WORLD else system.point_position(body, p, system.neutral())

@@ -4,7 +4,6 @@ finite result or a vibdyn error — never NaN or inf, never a raw exception."""
 import math
 
 import numpy as np
-import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 

@@ -548,11 +548,10 @@ def _joint_plan(model, i, composite_names):
     comp = jm.extract()
     subs = list(comp.joints)
     places = list(comp.jointPlacements)
-    link = None
     names = None
-    for candidate, ns in composite_names.items():
+    for ns in composite_names.values():
         if ns and ns[0] == jname.removeprefix("Composite_") and len(ns) == len(subs):
-            link, names = candidate, ns
+            names = ns
             break
     if names is None:
         names = [f"{jname}.{k}" for k in range(len(subs))]

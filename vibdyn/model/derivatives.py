@@ -120,7 +120,6 @@ def linear_terms(system, q, v, t, a=None):
     ws = system.workspace()
     if a is None:
         a = dynamics.accelerations(system, ws, q, v, t).copy()
-    M = pin.crba(system.model, ws.data, q)
-    M = np.triu(M) + np.triu(M, 1).T
+    M = dynamics.mass_matrix(system.model, ws.data, q)
     K, C = analytic_derivatives(system, q, v, a, t)
     return M, K, C

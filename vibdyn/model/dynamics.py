@@ -79,9 +79,25 @@ def accelerations(system, ws, q, v, t):
     a = pin.aba(model, data, q, v, Q) if fext is None else pin.aba(model, data, q, v, Q, fext)
     if system.constraints is not None:
         a = a.copy()
-        M = pin.crba(model, data, q)
-        return system.constraints.accelerations(q, v, a, np.triu(M) + np.triu(M, 1).T)
+        return system.constraints.accelerations(q, v, a, mass_matrix(model, data, q))
     return a
+
+
+def mass_matrix(model, data, q):
+    """M(q) by CRBA, both triangles filled (a new array)."""
+    M = pin.crba(model, data, q)
+    return M if _CRBA_FILLS_BOTH else np.triu(M) + np.triu(M, 1).T
+
+
+def _crba_fills_both():
+    """Whether this Pinocchio's Python crba returns the full symmetric matrix (4.x does) rather than its upper
+    triangle, checked once on a sample arm."""
+    model = pin.buildSampleModelManipulator()
+    M = pin.crba(model, model.createData(), pin.neutral(model))
+    return bool(np.any(np.tril(M, -1)) and np.array_equal(M, M.T))
+
+
+_CRBA_FILLS_BOTH = _crba_fills_both()
 
 
 def cancelling_terms(system, ws, q, v, a, t):

@@ -290,9 +290,7 @@ class System:
     # ------------------------------------------------------------- dynamics
     def mass_matrix(self, q: ArrayLike) -> Matrix:
         """Mass matrix M(q) (nv × nv, kg, kg·m or kg·m²) by CRBA, symmetric."""
-        M = pin.crba(self.model, self.data, self.check_configuration(q))
-        M = np.triu(M) + np.triu(M, 1).T
-        return finite_result(M, "mass matrix")
+        return finite_result(dynamics.mass_matrix(self.model, self.data, self.check_configuration(q)), "mass matrix")
 
     def accelerations(self, q: ArrayLike, v: ArrayLike, t: float = 0.0) -> Vector:
         """dv/dt (m/s², rad/s²) by ABA with gravity and every force element of the scene."""

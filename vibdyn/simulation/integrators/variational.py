@@ -60,7 +60,7 @@ class AdStar:
             out[i] = cross(mu[i], u[j])
             out[j] = cross(mu[i], u[i]) + cross(mu[j], u[j])
         if self.planar.size:
-            (vx, vy, w), (fx, fy, n) = u[self.planar].T, mu[self.planar].T
+            (vx, vy, w), (fx, fy, _) = u[self.planar].T, mu[self.planar].T
             out[self.planar] = np.stack([fy * w, -fx * w, fx * vy - fy * vx], axis=-1)
         return out
 
