@@ -11,6 +11,9 @@ Cases (error: largest tangent-space difference of the final configuration from t
   actuator for the motor law 10 − ω² (quadratic in the speed), so this case has no MuJoCo runs.
 - IFToMM A03, Andrew's squeezer (models/andrews_squeezer.toml, closed loops), 0.03 s: the seven angles
   against the CWI test set's reference solution; Radau and BDF beside DOP853 (no MuJoCo runs).
+- IFToMM A02, the N-four-bar (models/iftomm_a02.toml, N = 4, four loops), 10 s through ten singular positions
+  where the mobility jumps from 1 to 5: the position of B0 (m) against the exact parallelogram motion (one
+  angle, integrated by scipy's DOP853 at rtol 1e-13); DOP853 and RK4 (no MuJoCo runs).
 
 References: the exact solution (A01); scipy's DOP853 at rtol = atol = 1e-13 on vibdyn's accelerations for
 the chains of pivots (an independent integrator; the model itself is checked against MuJoCo by the test
@@ -253,9 +256,32 @@ def case_a03(S):
                          "rad")
 
 
+def case_a02(S):
+    """IFToMM A02, the N-four-bar (models/iftomm_a02.toml): from the neutral configuration with ẋ(B0) = 1 m/s,
+    10 s; error: distance of B0 from the exact parallelogram motion at the end (m), its one angle φ from
+    ((N+1)/3 + N) φ̈ = −g ((N+1)/2 + N) cos φ (the model's reference note)."""
+    scene = vd.load_scene(C.ROOT / "models" / "iftomm_a02.toml")
+    system, ref = scene.build(), scene.references
+    n, T = ref["N"], ref["t_end"]
+    mass, weight = (n + 1) / 3 + n, C.G * ((n + 1) / 2 + n)
+    exact = solve_ivp(lambda _, y: [y[1], -weight * math.cos(y[0]) / mass], (0.0, T), [math.pi / 2, ref["v0_crank"]],
+                      method="DOP853", rtol=1e-13, atol=1e-14).y[0, -1]
+    v0 = np.array([ref["v0_crank"] if c.startswith("crank") else ref["v0_coupler"] for c in system.coordinates])
+
+    def err(q):
+        b0 = system.point_position("crank0", (1.0, 0.0, 0.0), q)
+        return float(math.hypot(b0[0] - math.cos(exact), b0[1] - math.sin(exact)))
+
+    settings = _settings(S, [("dop853", {"rtol": r}) for r in (1e-6, 1e-7, 1e-8)] + [("rk4", {"dt": 4e-3})],
+                         [("dop853", {"rtol": 1e-8})], [])
+    runs = vibdyn_runs(system, system.neutral(), v0, T, err, settings, S)
+    return C.case_record("IFToMM A02 N-four-bar, N = 4 (10 s, 10 singular positions)", "simulation",
+                         "exact parallelogram motion (scipy DOP853 rtol 1e-13 on its one angle)", runs, "m")
+
+
 def run(S):
     """Every time-integration case (the smoke mode: A01 only)."""
     cases = [case_a01]
     if not S.smoke:
-        cases += [case_double_pendulum, case_pivot_chain, case_ball_chain, case_rotor, case_a03]
+        cases += [case_double_pendulum, case_pivot_chain, case_ball_chain, case_rotor, case_a03, case_a02]
     return [c(S) for c in cases]

@@ -371,19 +371,26 @@ class Constraints:
         z = np.linalg.solve(N.T @ MN, MN.T @ (a_free - a_p))
         return a_p + N @ z
 
-    def project(self, q, v, M=None):
+    def project(self, q, v, M=None, conditioning=False):
         """(q, v) projected on the loops: q assembled (Φ = 0), v the M-orthogonal projection (the kinetic-
-        energy metric; the dimensionless one if M is None) of v on Φ_q v = 0 at that q."""
+        energy metric; the dimensionless one if M is None) of v on Φ_q v = 0 at that q. With
+        ``conditioning``, also :meth:`conditioning` at the projected q."""
         q = self.assemble(q)
         # one more Gauss–Newton step, always: near a singular position a residual below the assembly
         # tolerance still allows a drift across to the other branch (Φ ≈ x·y there), which the step removes
         phi, J = self.evaluate(q)
         q = pin.integrate(self.system.model, q, self.correction(phi, J))
-        N = self.null_space(q)
+        dec = self.decompose(self.jacobian(q))
+        N = self._null(dec)
         if N.shape[1] == 0:
-            return q, np.zeros_like(v)
-        W = M @ N if M is not None else N / (self.col_scale ** 2)[:, None]
-        return q, N @ np.linalg.solve(W.T @ N, W.T @ v)
+            v = np.zeros_like(v)
+        else:
+            W = M @ N if M is not None else N / (self.col_scale ** 2)[:, None]
+            v = N @ np.linalg.solve(W.T @ N, W.T @ v)
+        if not conditioning:
+            return q, v
+        rank, _, s, _ = dec
+        return q, v, float(s[rank - 1] / s[0]) if rank else 1.0
 
     def loop_of_row(self, i):
         """Name of the loop that equation i belongs to."""
