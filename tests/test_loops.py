@@ -436,3 +436,20 @@ def test_info_lists_the_loops_with_their_rank_and_mobility():
     # a planar four-bar closed by a 3-D pivot: 5 equations of which 2 independent, one motion left
     assert "closed loops: 5 equations, rank 2, mobility 1" in text
     assert "pin   pivot axis (0, 0, 1)  coupler(0.3, 0, 0) m – rocker(0.25, 0, 0) m" in text
+
+
+def test_a_run_stopped_at_a_singular_position_says_so():
+    """The failure message of a mechanism's run names the singular position it stopped at (and nothing for
+    a run stopped elsewhere)."""
+    from types import SimpleNamespace
+
+    from vibdyn.simulation.simulate import _singular_note
+
+    system = vd.load_scene(MODELS / "iftomm_a02.toml").build()
+    flat = system.integrate(system.neutral(), [-math.pi / 2 if c.startswith("crank") else math.pi / 2
+                                               for c in system.coordinates])
+    near = system.integrate(flat, 1e-6 * np.array([1.0 if c.startswith("crank") else -1.0
+                                                   for c in system.coordinates]))
+    note = _singular_note(system, SimpleNamespace(t=[0.0, 1.0], q=[system.neutral(), near]))
+    assert "singular position" in note and "loosen rtol" in note
+    assert _singular_note(system, SimpleNamespace(t=[0.0], q=[system.neutral()])) == ""
