@@ -293,8 +293,8 @@ def projected_ode(base):
             self._t = t
             if self.near:  # evaluate the field on the loops: project the stage's state first
                 nv, system = self.nv, self.system
-                q, v = system.constraints.project(self.configuration(y), y[nv:2 * nv],
-                                                  system.mass_matrix(self.configuration(y)))
+                q = self.configuration(y)
+                q, v = system.constraints.project(q, y[nv:2 * nv], system.mass_matrix(q))
                 y = y.copy()
                 y[:nv] = pin.difference(self.model, self.centre, q) if self.curved else q
                 y[nv:2 * nv] = v
