@@ -15,6 +15,7 @@ import scipy.linalg as sla
 from scipy.linalg import lapack
 from numpy.typing import ArrayLike
 
+from .._check import all_finite
 from ..defaults import EPS
 from ..errors import ModelError
 
@@ -174,7 +175,7 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
         L, info_l = lapack.dpotrf(M, lower=1, clean=1)
     else:  # no motion at all
         w2, Phi, L, info, info_l = np.zeros(0), np.zeros((0, 0)), np.zeros((0, 0)), 0, 0
-    if info or info_l or not (np.all(np.isfinite(w2)) and np.all(np.isfinite(Phi))):
+    if info or info_l or not (all_finite(w2) and all_finite(Phi)):
         lin.system.check_mass_matrix(lin.q0, "the operating point")
         raise ModelError("modal analysis: the generalized eigenproblem (K, M) failed")
     n = len(w2)
@@ -192,7 +193,7 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     LR = lapack.dtrtrs(L, R, lower=1)[0] if n else R  # ‖R‖²_M⁻¹ = ‖L⁻¹R‖²
     K_error = 0.5 * (lin.K_error + lin.K_error.T)
     uncertainty = r * np.sqrt(np.einsum("ij,ij->j", LR, LR)) + np.einsum("ij,ij->j", A, (n * EPS * np.abs(Ks) + K_error) @ A)
-    if not np.all(np.isfinite(uncertainty)) or not np.all(np.isfinite(w2)):
+    if not (all_finite(uncertainty) and all_finite(w2)):
         raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
                          f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
     if tolerance is None:
@@ -210,7 +211,10 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     w2 = np.where(rigid, 0.0, w2)
     unstable = w2 < 0
     Mm, Km = Phi.T @ MPhi, Phi.T @ KPhi
-    ortho = max(np.abs(Mm - np.eye(n)).max(initial=0.0), np.abs(Km - np.diag(w2)).max(initial=0.0) / scale)
+    modal_m, modal_k = Mm.diagonal().copy(), Km.diagonal().copy()
+    Mm.flat[::n + 1] -= 1.0  # now the residuals of PhiᵀMPhi = I and PhiᵀKPhi = diag(ω²)
+    Km.flat[::n + 1] -= w2
+    ortho = max(np.abs(Mm).max(initial=0.0), np.abs(Km).max(initial=0.0) / scale)
     # relative error of ω per mode (half that of ω²); a rigid mode's, relative to the spectrum's scale (or,
     # when every mode is rigid, to the largest |ω²| that still counts as rigid)
     rigid_scale = max(scale, 10 * uncertainty.max(initial=0.0))
@@ -236,7 +240,7 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
         mag = zeta = np.zeros(0)
         classical = True
     stability = classify(rigid, unstable, lam, zero_threshold)
-    return Modes(lin, w2, omega, Phi, rigid, unstable, np.diag(Mm).copy(), np.diag(Km).copy(), float(ortho), rel,
+    return Modes(lin, w2, omega, Phi, rigid, unstable, modal_m, modal_k, float(ortho), rel,
                  zero_threshold, lam, lam_modes, zeta, mag, np.abs(lam_modes.imag), lam_error, shapes_c, bool(classical),
                  stability, time.perf_counter() - start)
 
@@ -329,7 +333,6 @@ def _is_classical(lin):
 
 
 def _sign_fix(Phi):
-    """Make the largest component of each shape positive (a reproducible sign)."""
-    idx = np.argmax(np.abs(Phi), axis=0)
-    s = np.sign(Phi[idx, np.arange(Phi.shape[1])])
-    return Phi * np.where(s == 0, 1.0, s)
+    """Make the largest component of each shape positive (a reproducible sign; on a tie of magnitudes, the
+    positive one)."""
+    return np.where(-Phi.min(axis=0, initial=0.0) > Phi.max(axis=0, initial=0.0), -Phi, Phi)
