@@ -1,7 +1,7 @@
 """Modal analysis: natural frequencies (rad/s, Hz), mass-normalised shapes, damped complex modes, MAC.
 
-Undamped modes solve K_s φ = ω² M φ (``scipy.linalg.eigh``). With damping, gyroscopic or circulatory terms
-the first-order state form gives complex eigenvalues λ = −ζω ± iω√(1−ζ²) and complex shapes.
+Undamped modes solve K_s φ = ω² M φ (LAPACK's sygvd through ``scipy.linalg.lapack``). With damping,
+gyroscopic or circulatory terms the first-order state form gives complex eigenvalues λ = −ζω ± iω√(1−ζ²) and complex shapes.
 """
 
 from __future__ import annotations
@@ -166,8 +166,7 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     start = time.perf_counter()
     if tolerance is not None:
         tolerance = scalar(tolerance, "modes tolerance", nonnegative=True)
-    M, K = lin.M, lin.K
-    Ks = 0.5 * (K + K.T)
+    M, K, Ks = lin.M, lin.K, lin.K_s
     # LAPACK directly: sygvd (M = LLᵀ, then the symmetric problem of L⁻¹KL⁻ᵀ) and potrf cost a fraction
     # of numpy's and scipy's wrappers on small models, where the wrappers' overhead dominates
     if M.shape[0]:

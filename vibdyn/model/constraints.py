@@ -74,7 +74,6 @@ class Constraints:
             self._axes.append((normals, pairs))
         self.sizes = tuple(lp.equations for lp in self.loops)
         self.m = sum(self.sizes)
-        self._locked = any(lp.joint.kind in _LOCKED for lp in self.loops)
         L = system.length_scale
         # dimensionless scaling: position rows / L, translation columns × L
         self.row_scale = np.concatenate([self._row_units(lp) for lp in self.loops]) if self.loops else np.zeros(0)
@@ -194,7 +193,11 @@ class Constraints:
     def conditioning(self, q):
         """σ_min / σ_max of the retained singular values of the dimensionless Φ_q at q: how far the
         mechanism is from a singular position (0 there, where the rank drops)."""
-        rank, _, s, _ = self.decompose(self.jacobian(q))
+        return self._conditioning(self.decompose(self.jacobian(q)))
+
+    @staticmethod
+    def _conditioning(dec):
+        rank, _, s, _ = dec
         return float(s[rank - 1] / s[0]) if rank else 1.0
 
     def null_space(self, q, J=None):
@@ -284,6 +287,10 @@ class Constraints:
     def assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50):
         """The consistent configuration near q0: Gauss–Newton with minimum-norm steps (SVD) in the tangent
         space, configurations moved with ``pin.integrate``; dimensionless residual ≤ tol."""
+        return self._assemble(q0, tol, max_iter)[0]
+
+    def _assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50):
+        """(q, Φ(q), Φ_q(q)) of :meth:`assemble`; Φ and Φ_q are None where q is not the last one evaluated."""
         model = self.system.model
         q = np.array(q0, dtype=float)
         phi, J = self.evaluate(q)
@@ -291,7 +298,7 @@ class Constraints:
         best = (res, q.copy())
         for _ in range(max_iter):
             if res <= tol:
-                return q
+                return q, phi, J
             dq = self.correction(phi, J)
             alpha = 1.0
             while True:
@@ -311,7 +318,7 @@ class Constraints:
             if alpha < 1e-4 and res_new >= best[0] and res > tol:
                 break
         if best[0] <= tol:
-            return best[1]
+            return best[1], None, None
         phi = self.scaled_phi(self.phi(best[1]))
         worst = self.loop_of_row(int(np.argmax(np.abs(phi))))
         raise ConvergenceError(f"assembly: the loops cannot be closed near this configuration: loop '{worst}' "
@@ -375,10 +382,11 @@ class Constraints:
         """(q, v) projected on the loops: q assembled (Φ = 0), v the M-orthogonal projection (the kinetic-
         energy metric; the dimensionless one if M is None) of v on Φ_q v = 0 at that q. With
         ``conditioning``, also :meth:`conditioning` at the projected q."""
-        q = self.assemble(q)
+        q, phi, J = self._assemble(q)
+        if J is None:
+            phi, J = self.evaluate(q)
         # one more Gauss–Newton step, always: near a singular position a residual below the assembly
         # tolerance still allows a drift across to the other branch (Φ ≈ x·y there), which the step removes
-        phi, J = self.evaluate(q)
         q = pin.integrate(self.system.model, q, self.correction(phi, J))
         dec = self.decompose(self.jacobian(q))
         N = self._null(dec)
@@ -387,10 +395,7 @@ class Constraints:
         else:
             W = M @ N if M is not None else N / (self.col_scale ** 2)[:, None]
             v = N @ np.linalg.solve(W.T @ N, W.T @ v)
-        if not conditioning:
-            return q, v
-        rank, _, s, _ = dec
-        return q, v, float(s[rank - 1] / s[0]) if rank else 1.0
+        return (q, v, self._conditioning(dec)) if conditioning else (q, v)
 
     def loop_of_row(self, i):
         """Name of the loop that equation i belongs to."""

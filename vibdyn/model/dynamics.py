@@ -5,6 +5,8 @@ the workspace it is given, so callers with their own workspaces can run at once.
 rad, t in s, forces in N and N·m. Results may share memory with the workspace: copy what you keep.
 """
 
+import functools
+
 import numpy as np
 import pinocchio as pin
 
@@ -86,18 +88,16 @@ def accelerations(system, ws, q, v, t):
 def mass_matrix(model, data, q):
     """M(q) by CRBA, both triangles filled (a new array)."""
     M = pin.crba(model, data, q)
-    return M if _CRBA_FILLS_BOTH else np.triu(M) + np.triu(M, 1).T
+    return M if _crba_fills_both() else np.triu(M) + np.triu(M, 1).T
 
 
+@functools.cache
 def _crba_fills_both():
     """Whether this Pinocchio's Python crba returns the full symmetric matrix (4.x does) rather than its upper
-    triangle, checked once on a sample arm."""
+    triangle, checked once (at the first mass matrix, not at import) on a sample arm."""
     model = pin.buildSampleModelManipulator()
     M = pin.crba(model, model.createData(), pin.neutral(model))
     return bool(np.any(np.tril(M, -1)) and np.array_equal(M, M.T))
-
-
-_CRBA_FILLS_BOTH = _crba_fills_both()
 
 
 def cancelling_terms(system, ws, q, v, a, t):
