@@ -619,6 +619,40 @@ def test_unstressed_spring_and_rest_positions():
     assert np.abs(system.generalized_forces(system.neutral(), z)).max() > 0.1
 
 
+def test_elements_sharing_a_joint_add_up():
+    """Two joint springs with their own rests and two joint dampers on one slider, two springs with different
+    rests on one ball joint: every element acts (a later one used to overwrite an earlier one on the same
+    joint, silently). Q is the sum of the elements alone; K and C are the sums, by both linearisations."""
+    def scene(*springs, dampers=()):
+        s = vd.Scene("shared")
+        s.add_body("cart", joint=vd.Slider((1, 0, 0)), mass=2.0, inertia=vd.inertia.box(2.0, (0.2, 0.1, 0.1)))
+        s.add_body("top", "cart", vd.Ball(at=(0, 0, 0.1)), mass=1.0, com=(0, 0, 0.3),
+                   inertia=vd.inertia.box(1.0, (0.1, 0.2, 0.3)))
+        for i, (body, k, rest) in enumerate(springs):
+            s.add_joint_spring(body, k, rest=rest, name=f"k{i}")
+        for i, c in enumerate(dampers):
+            s.add_joint_damper("cart", c, name=f"c{i}")
+        return s.build()
+
+    springs = [("cart", 10.0, 0.0), ("cart", 20.0, 0.05), ("top", 3.0, (0.1, 0.0, 0.0)), ("top", 5.0, (0.0, -0.2, 0.1))]
+    both = scene(*springs, dampers=(1.0, 2.0))
+    alone = [scene(sp) for sp in springs]
+    q = both.integrate(both.neutral(), [0.1, 0.3, -0.1, 0.2])
+    v = np.array([0.7, 0.0, 0.0, 0.0])
+    Q = both.generalized_forces(q, v)
+    z = np.zeros(both.nv)
+    Q_sum = sum(a.generalized_forces(q, z) for a in alone)
+    assert_close(Q_sum[0], -10.0 * 0.1 - 20.0 * (0.1 - 0.05), 1e-15, scale=1.0, what="slider springs alone")
+    assert_close(Q, Q_sum - np.array([3.0 * 0.7, 0, 0, 0]), 1e-14, scale=1.0, what="Q of elements sharing joints")
+    # the elements' stiffness: K of the scene less K of the bare bodies (RNEA's own part), analytically
+    K_bare = scene().linearize(q, a=z, method="analytic").K
+    K_sum = sum(a.linearize(q, a=z, method="analytic").K - K_bare for a in alone)
+    for method in ("analytic", "fd"):
+        lin = both.linearize(q, a=z, method=method)
+        assert np.all(np.abs(lin.K - K_bare - K_sum) <= 10 * lin.K_error + 1e-12), method
+        assert lin.C[0, 0] == pytest.approx(3.0, rel=1e-9) and not lin.C[1:].any() and not lin.C[:, 1:].any(), method
+
+
 # ================================================================================================ trees: coordinate order
 def test_tree_added_out_of_depth_first_order():
     """The same Y-shaped tree added trunk, left, right, leaf (not depth-first) must have the same dynamics

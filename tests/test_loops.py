@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import vibdyn as vd
-from vibdyn.analysis.linearize import tangent_derivative
+from vibdyn.model.fd import tangent_derivative
 
 EPS = np.finfo(float).eps
 G = 9.81

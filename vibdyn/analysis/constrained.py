@@ -17,7 +17,7 @@ from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
 from ..model.fd import steps, tangent_derivative, vector_derivative
 from .equilibrium import Equilibrium
-from .linearize import LinearModel, reference_state, two_step_derivative
+from .linearize import LinearModel, fd_error, reference_state
 from .modal import classify
 from .modal import modes as _modes
 
@@ -252,7 +252,8 @@ def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_ST
     lam = c.multipliers(J, r) if multipliers is None else np.asarray(multipliers, dtype=float)
     h = steps(system, step)
     terms = dynamics.cancelling_terms(system, system.workspace(), q0, zero, zero, t0)
-    G, G_err = two_step_derivative(lambda hh: tangent_derivative(system, lambda q: c.jacobian(q).T @ lam, q0, hh), terms, h)
+    G, T = tangent_derivative(system, lambda q: c.jacobian(q).T @ lam, q0, h, estimate=True)
+    G_err = fd_error(G, T, terms, h)
     K_tree = tree.K - G
     tree = replace(tree, K=K_tree, K_error=tree.K_error + G_err)
     ind, N = c.partition(J)
@@ -262,7 +263,7 @@ def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_ST
     rank = system.nv - ind.size
     return ConstrainedLinearModel(IndependentView(system, ind), q0, zero, zero, t0, M_r, C_r, K_r,
                                   aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN, tree.method,
-                                  time.perf_counter() - start, tree.evaluations + 4 * system.nv, N, tree, lam, rank)
+                                  time.perf_counter() - start, tree.evaluations + 4 * system.nv + 1, N, tree, lam, rank)
 
 
 NEAR_SINGULAR = 1e-2  # conditioning of the loops' Jacobian below which stages are projected (projected_ode)

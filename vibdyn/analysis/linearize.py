@@ -16,7 +16,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
-from .._check import unknown_name
+from .._check import all_finite, scalar, unknown_name
 from ..defaults import EPS, FD_STEP
 from ..errors import ModelError
 
@@ -26,7 +26,8 @@ if TYPE_CHECKING:  # result types of the entry points below (imported on call, n
     from .response import FRF, Appropriation, HarmonicResponse, TimeResponse
     from .statespace import StateSpace
 from ..model import dynamics
-from ..model.fd import point_jacobian, steps, tangent_derivative, vector_derivative
+from ..model.derivatives import analytic_derivatives
+from ..model.fd import differences, displaced_vectors, point_jacobian, stencil, steps, vector_derivative
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,7 +97,7 @@ class LinearModel:
 
     @property
     def has_damping(self):
-        return bool(np.any(self.C))
+        return bool(self.C.any())
 
     @property
     def A(self):
@@ -269,66 +270,85 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     scale; error estimated from a second step 2h) or "analytic" (Pinocchio's RNEA derivatives plus the
     force elements' derivatives).
     """
-    from .._check import scalar
-
     start = time.perf_counter()
     step = scalar(step, "linearize step", positive=True)
+    if method not in ("fd", "analytic"):
+        raise ModelError(f"linearize: unknown method {method!r} (use 'fd' or 'analytic')")
     q0, v0, t0 = reference_state(system, at, v, t)
-    M = system.mass_matrix(q0)
-    system.check_mass_matrix(q0, "the operating point", M)
+    ws = system.workspace()
+    M = dynamics.mass_matrix(system.model, ws.data, q0)
+    system.check_mass_matrix(q0, "the operating point", M)  # (finite, and regular against the scene's scales)
     if a is not None:
         a0 = system.check_velocity(a, "a")
     elif hasattr(at, "drive"):  # an equilibrium or steady motion: the reference motion does not accelerate
         a0 = np.zeros(system.nv)
     else:
-        a0 = system.accelerations(q0, v0, t0)
-    terms = dynamics.cancelling_terms(system, system.workspace(), q0, v0, a0, t0)
+        a0 = dynamics.accelerations(system, ws, q0, v0, t0).copy()
+        if not all_finite(a0):
+            raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t0})")
     if method == "fd":
-        K, C, K_err, C_err, n = _finite_differences(system, q0, v0, a0, t0, step, terms)
-    elif method == "analytic":
-        from ..model.derivatives import analytic_derivatives
-
-        K, C = analytic_derivatives(system, q0, v0, a0, t0)
-        # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad)
-        unit = steps(system, 1.0)
-        K_err = 16 * EPS * (np.abs(K) + terms[:, None] / unit[None, :])
-        C_err = 16 * EPS * (np.abs(C) + terms[:, None] / unit[None, :]) if np.any(C) else np.zeros_like(C)
-        n = 1
+        K, C, K_err, C_err, n = _finite_differences(system, ws, q0, v0, a0, t0, step)
     else:
-        raise ModelError(f"linearize: unknown method {method!r} (use 'fd' or 'analytic')")
+        K, C, terms = analytic_derivatives(system, q0, v0, a0, t0)
+        # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad)
+        scaled_terms = terms[:, None] / system.coordinate_scales
+        K_err = 16 * EPS * (np.abs(K) + scaled_terms)
+        C_err = 16 * EPS * (np.abs(C) + scaled_terms) if C.any() else np.zeros_like(C)
+        n = 1
     for name, X in (("K", K), ("C", C)):
-        if not np.all(np.isfinite(X)):
+        if not all_finite(X):
             raise ModelError(f"linearize: {name} is not finite at the operating point")
     return LinearModel(system, q0, v0, a0, t0, M, C, K, K_err, C_err, method, time.perf_counter() - start, n)
 
 
 def jacobian_q(system, q0, v0, a0, t0, h):
-    """∂r/∂q by central differences in the tangent space (steps h per coordinate)."""
-    return tangent_derivative(system, lambda q: dynamics.inverse_dynamics(system, system.workspace(), q, v0, a0, t0), q0, h)
+    """∂r/∂q by central differences in the tangent space (steps h per coordinate), all columns in one pass."""
+    ws = system.workspace()
+    st = stencil(system, ws, h)
+    tau, F = dynamics.inverse_dynamics_rows(system, ws, st.configurations(system, q0), v0, a0, t0)
+    tau -= F
+    return st.derivatives(tau)[0]
 
 
 def jacobian_v(system, q0, v0, a0, t0, h):
-    """∂r/∂v by central differences (steps h per coordinate)."""
-    return vector_derivative(lambda v: dynamics.inverse_dynamics(system, system.workspace(), q0, v, a0, t0), v0, h)
+    """∂r/∂v by central differences (steps h per coordinate), all columns in one pass."""
+    tau, F = dynamics.inverse_dynamics_rows(system, system.workspace(), q0[None, :], displaced_vectors(v0, h), a0, t0)
+    tau -= F
+    return differences(tau, h)[0]
 
 
-def two_step_derivative(jac, terms, h):
-    """Central difference with step h and its error estimate: the change from step 2h (truncation, and
-    round-off noise) plus the round-off of the terms that cancel in r (|RNEA| + |Q| + |g| per row)."""
-    J1, J2 = jac(h), jac(2 * h)
-    return J1, np.abs(J1 - J2) + 16 * EPS * terms[:, None] / h[None, :] + 4 * EPS * np.abs(J1)
+def fd_error(D, T, terms, h):
+    """Error estimate of central differences D with steps h: the truncation estimate T = D(h) − D(2h)
+    (:mod:`vibdyn.model.fd`) plus the round-off of the terms that cancel in r (|RNEA| + |Q| + |g| per row,
+    N or N·m) and of D itself."""
+    err = np.abs(T)
+    err += np.multiply.outer(16 * EPS * terms, 1.0 / h)
+    err += 4 * EPS * np.abs(D)
+    return err
 
 
-def _finite_differences(system, q0, v0, a0, t0, step, terms):
+def _finite_differences(system, ws, q0, v0, a0, t0, step):
+    """K, C and their error estimates (:func:`fd_error`): every displaced configuration evaluated in one
+    pass (:func:`vibdyn.model.dynamics.inverse_dynamics_rows`), the operating point's own evaluation first
+    (its terms size the round-off), then the velocities if anything depends on them."""
     h = steps(system, step)
-    K, K_err = two_step_derivative(lambda hh: jacobian_q(system, q0, v0, a0, t0, hh), terms, h)
-    evaluations = 4 * system.nv
-    if system.depends_on_velocity or np.any(v0):
+    st = stencil(system, ws, h, estimate=True)
+    tau, F = dynamics.inverse_dynamics_rows(system, ws, st.configurations(system, q0), v0, a0, t0)
+    tau0 = np.abs(tau[0])
+    terms = tau0 + np.abs(F[0])
+    terms += tau0 if dynamics.is_gravity(system, v0, a0) else np.abs(dynamics.gravity_term(system, ws, q0))
+    tau -= F
+    K, T = st.derivatives(tau)
+    K_err = fd_error(K, T, terms, h)
+    evaluations = 4 * system.nv + 1
+    if system.depends_on_velocity or v0.any():
         hv = h * np.maximum(1.0, np.abs(v0))
-        C, C_err = two_step_derivative(lambda hh: jacobian_v(system, q0, v0, a0, t0, hh), terms, hv)
-        evaluations *= 2
+        tau_v, F = dynamics.inverse_dynamics_rows(system, ws, q0[None, :], displaced_vectors(v0, hv, estimate=True),
+                                                  a0, t0)
+        tau_v -= F
+        C, T = differences(tau_v, hv)
+        C_err = fd_error(C, T, terms, hv)
+        evaluations += 4 * system.nv
     else:  # nothing depends on velocity and v0 = 0: C is exactly zero
         C, C_err = np.zeros_like(K), np.zeros_like(K)
     return K, C, K_err, C_err, evaluations
-
-

@@ -7,8 +7,10 @@ and complex shapes.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -16,7 +18,7 @@ import scipy.linalg as sla
 from scipy.linalg import lapack
 from numpy.typing import ArrayLike
 
-from .._check import all_finite
+from .._check import all_finite, scalar
 from ..defaults import EPS
 from ..errors import ModelError
 
@@ -32,6 +34,11 @@ class Modes:
     ``omega2`` is signed: a negative ω² is an unstable direction (``unstable`` flag), with
     ``omega`` = √|ω²| then its growth rate (1/s). Rigid-body / cyclic modes have ω² cleaned to exactly 0
     (``rigid`` flag) when |ω²| is within 10 times its own uncertainty (see :func:`modes`).
+
+    ``modal_mass`` = diag(ΦᵀMΦ) (1: mass-normalised shapes, to the eigensolver's round-off),
+    ``modal_stiffness`` = diag(ΦᵀK_sΦ) = ω² (per unit modal mass) and ``orthogonality`` (the largest of
+    |ΦᵀMΦ − 1| and |ΦᵀK_sΦ − Λ| / max|ω²|) are computed on first use, from the eigenproblem that was
+    solved (kept in ``basis``).
     """
 
     linear: LinearModel = field(repr=False)
@@ -40,9 +47,6 @@ class Modes:
     shapes: np.ndarray  # nv × n, φᵀ M φ = 1
     rigid: np.ndarray
     unstable: np.ndarray
-    modal_mass: np.ndarray  # diag(Φᵀ M Φ) (1 after normalisation)
-    modal_stiffness: np.ndarray  # diag(Φᵀ K_s Φ) = ω² (N·m/rad or N/m per unit modal mass)
-    orthogonality: float  # max |Φᵀ M Φ − 1| and |Φᵀ K Φ − Λ| / max|ω²|
     residual: np.ndarray  # estimated relative error of ω per mode (eigen residual + K's error)
     zero_threshold: float  # 1/s: state eigenvalues this small count as rigid/cyclic
     # damped / non-symmetric part (state form); empty when the model is undamped and symmetric
@@ -57,6 +61,33 @@ class Modes:
     stability: str  # "stable", "unstable" or "neutral"
     elapsed: float  # s
     note: str = ""  # e.g. that an unresolved finite-difference model was replaced by the analytic one
+    basis: tuple = field(default=(), repr=False)  # (M, K_s, Φ, ω², scale) of the solved eigenproblem
+
+    @cached_property
+    def _products(self):
+        """(diag ΦᵀMΦ, diag ΦᵀK_sΦ, orthogonality residual) of the solved eigenproblem."""
+        M, Ks, Phi, w2, scale = self.basis
+        n = len(w2)
+        Mm, Km = Phi.T @ (M @ Phi), Phi.T @ (Ks @ Phi)
+        modal_m, modal_k = Mm.diagonal().copy(), Km.diagonal().copy()
+        Mm.flat[::n + 1] -= 1.0  # now the residuals of ΦᵀMΦ = I and ΦᵀKΦ = diag(ω²)
+        Km.flat[::n + 1] -= w2
+        return modal_m, modal_k, float(max(np.abs(Mm).max(initial=0.0), np.abs(Km).max(initial=0.0) / scale))
+
+    @property
+    def modal_mass(self) -> np.ndarray:
+        """diag(ΦᵀMΦ) per mode (kg, kg·m² per unit modal coordinate²: 1 for mass-normalised shapes)."""
+        return self._products[0]
+
+    @property
+    def modal_stiffness(self) -> np.ndarray:
+        """diag(ΦᵀK_sΦ) per mode (= ω², rad²/s², for mass-normalised shapes)."""
+        return self._products[1]
+
+    @property
+    def orthogonality(self) -> float:
+        """The largest of |ΦᵀMΦ − 1| and |ΦᵀK_sΦ − Λ| / max|ω²| (relative)."""
+        return self._products[2]
 
     @property
     def frequency_hz(self):
@@ -162,43 +193,47 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     checks it; if that one resolves the mode, its modes are returned (``linear`` is then the analytic model)
     and ``note`` says so.
     """
-    from .._check import scalar
-
     start = time.perf_counter()
     if tolerance is not None:
         tolerance = scalar(tolerance, "modes tolerance", nonnegative=True)
-    M, K, Ks = lin.M, lin.K, lin.K_s
-    # LAPACK directly: sygvd (M = LLᵀ, then the symmetric problem of L⁻¹KL⁻ᵀ) and potrf cost a fraction
-    # of numpy's and scipy's wrappers on small models, where the wrappers' overhead dominates
-    if M.shape[0]:
-        w2, Phi, info = lapack.dsygvd(Ks, M)
-        L, info_l = lapack.dpotrf(M, lower=1, clean=1)
-    else:  # no motion at all
-        w2, Phi, L, info, info_l = np.zeros(0), np.zeros((0, 0)), np.zeros((0, 0)), 0, 0
-    if info or info_l or not (all_finite(w2) and all_finite(Phi)):
+    M, K, Ke = lin.M, lin.K, lin.K_error
+    Ks = lin.K_s
+    n = M.shape[0]
+    # LAPACK directly (on small models the wrappers of numpy and scipy cost more than the solves): sygvd
+    # factors M = LLᵀ (uplo "L", scipy's default), left in the lower triangle of its copy of M, and solves the
+    # symmetric problem of L⁻¹ Ks L⁻ᵀ
+    L = M.copy(order="F")
+    w2, Phi, info = lapack.dsygvd(Ks, L, overwrite_b=1) if n else (np.zeros(0), np.zeros((0, 0)), 0)
+    # finite inputs give finite shapes; a non-finite one shows in w2 or, through |Φ|, in the uncertainty below
+    if info or not all_finite(w2):
         lin.system.check_mass_matrix(lin.q0, "the operating point")
         raise ModelError("modal analysis: the generalized eigenproblem (K, M) failed")
-    n = len(w2)
-    scale = max(np.abs(w2).max(initial=0.0), 1e-300)
-    Phi = _sign_fix(Phi)
+    scale = max(abs(w2[0]), abs(w2[-1]), 1e-300) if n else 1e-300  # w2 is ascending
+    # shapes mass-normalised by sygvd (φᵀMφ = 1 to its round-off, which ``orthogonality`` reports), with a
+    # reproducible sign: the largest component positive (−min > max, i.e. min + max < 0, flips; a tie keeps +)
+    if n:
+        Phi *= np.copysign(1.0, Phi.min(axis=0) + Phi.max(axis=0))
     MPhi = M @ Phi
-    mm = np.einsum("ij,ij->j", Phi, MPhi)
-    Phi = Phi / np.sqrt(mm)
-    MPhi = MPhi / np.sqrt(mm)
     KPhi = Ks @ Phi
+    # δω² per mode: the eigen residual in the M⁻¹ norm (‖R‖²_M⁻¹ = ‖L⁻¹R‖²), and |φ|ᵀ(K's error + n·ε·|K|)|φ|
+    # (a quadratic form: K's error needs no symmetrising)
     R = KPhi - MPhi * w2
+    LR = lapack.dtrtrs(L, R, lower=1)[0] if n else R
+    uncertainty = np.sqrt(np.einsum("ij,ij->j", LR, LR))
+    if not all_finite(uncertainty):  # the squares overflowed (huge ω²): the same, column by column scaled
+        r = np.abs(R).max(axis=0, initial=0.0)
+        LR = lapack.dtrtrs(L, R / np.maximum(r, 1e-300), lower=1)[0]
+        uncertainty = r * np.sqrt(np.einsum("ij,ij->j", LR, LR))
     A = np.abs(Phi)
-    r = np.abs(R).max(axis=0, initial=0.0)
-    R = R / np.where(r > 0, r, 1.0)  # scaled: ‖R‖²_M⁻¹ must not overflow when ω² is huge
-    LR = lapack.dtrtrs(L, R, lower=1)[0] if n else R  # ‖R‖²_M⁻¹ = ‖L⁻¹R‖²
-    K_error = 0.5 * (lin.K_error + lin.K_error.T)
-    uncertainty = r * np.sqrt(np.einsum("ij,ij->j", LR, LR)) + np.einsum("ij,ij->j", A, (n * EPS * np.abs(Ks) + K_error) @ A)
-    if not (all_finite(uncertainty) and all_finite(w2)):
+    abs_Ks = np.abs(Ks)
+    uncertainty += np.einsum("ij,ij->j", A, (n * EPS * abs_Ks + Ke) @ A)
+    if not all_finite(uncertainty):
         raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
                          f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
+    abs_w2 = np.abs(w2)
     if tolerance is None:
-        rigid = np.abs(w2) <= 10 * uncertainty
-        if rigid.any() and lin.method == "fd":
+        rigid = abs_w2 <= 10 * uncertainty
+        if lin.method == "fd" and rigid.any():
             from .linearize import linearize
 
             exact = modes(linearize(lin.system, lin.q0, v=lin.v0, t=lin.t0, a=lin.a0, method="analytic"))
@@ -207,23 +242,29 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
                                            "differences (ω² within their round-off): modes from the analytic "
                                            "linear model")
     else:
-        rigid = np.abs(w2) <= float(tolerance) * scale
-    w2 = np.where(rigid, 0.0, w2)
+        rigid = abs_w2 <= float(tolerance) * scale
+    any_rigid = bool(rigid.any())
+    if any_rigid:
+        w2 = np.where(rigid, 0.0, w2)
+        abs_w2 = np.abs(w2)
     unstable = w2 < 0
-    Mm, Km = Phi.T @ MPhi, Phi.T @ KPhi
-    modal_m, modal_k = Mm.diagonal().copy(), Km.diagonal().copy()
-    Mm.flat[::n + 1] -= 1.0  # now the residuals of PhiᵀMPhi = I and PhiᵀKPhi = diag(ω²)
-    Km.flat[::n + 1] -= w2
-    ortho = max(np.abs(Mm).max(initial=0.0), np.abs(Km).max(initial=0.0) / scale)
+    omega = np.sqrt(abs_w2)
     # relative error of ω per mode (half that of ω²); a rigid mode's, relative to the spectrum's scale (or,
-    # when every mode is rigid, to the largest |ω²| that still counts as rigid)
-    rigid_scale = max(scale, 10 * uncertainty.max(initial=0.0))
-    rel = np.where(rigid, uncertainty / rigid_scale, 0.5 * uncertainty / np.where(rigid, 1.0, np.abs(w2)))
-    omega = np.sqrt(np.abs(w2))
-    # a rigid mode's zero may split by ±√δω² in the state form (a Jordan block): that is still zero
-    zero_threshold = float(np.sqrt(10 * uncertainty[rigid].max(initial=0.0))) + 1e-12 * np.sqrt(scale)
+    # when every mode is rigid, to the largest |ω²| that still counts as rigid); a rigid mode's zero may
+    # split by ±√δω² in the state form (a Jordan block): that is still zero
+    if any_rigid:
+        rigid_scale = max(scale, 10 * uncertainty.max(initial=0.0))
+        rel = np.where(rigid, uncertainty / rigid_scale, 0.5 * uncertainty / np.where(rigid, 1.0, abs_w2))
+        zero_threshold = float(np.sqrt(10 * uncertainty[rigid].max(initial=0.0))) + 1e-12 * np.sqrt(scale)
+    else:
+        rel = 0.5 * uncertainty / abs_w2
+        zero_threshold = 1e-12 * math.sqrt(scale)
 
-    damped = lin.has_damping or np.any(np.abs(K - Ks) > 10 * K_error + 1e-12 * np.abs(Ks).max(initial=0.0))
+    # circulatory: |K − Kᵀ| = 2|N| beyond 10 × its error (K's symmetrised error bound, twice)
+    damped = lin.has_damping
+    if not damped and n:
+        N2 = K - K.T
+        damped = bool((np.abs(N2, out=N2) > 10 * (Ke + Ke.T) + 2e-12 * abs_Ks.max()).any())
     if damped:
         lam, lam_modes, shapes_c, lam_error = _state_modes(lin)
         mag = np.abs(lam_modes)
@@ -233,16 +274,23 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
         lam_error = np.where(mag <= zero_threshold, np.minimum(lam_error, zero_threshold / lam_scale), lam_error)
         zeta = np.where(mag > 0, -lam_modes.real / np.where(mag > 0, mag, 1.0), 0.0)
         classical = _is_classical(lin)
+        omega_d = np.abs(lam_modes.imag)
     else:
-        lam = lam_modes = np.zeros(0, complex)
-        lam_error = np.zeros(0)
-        shapes_c = np.zeros((lin.nv, 0), complex)
-        mag = zeta = np.zeros(0)
+        lam = lam_modes = _NO_COMPLEX
+        lam_error = mag = zeta = omega_d = _NO_REAL
+        shapes_c = np.zeros((n, 0), complex)
         classical = True
-    stability = classify(rigid, unstable, lam, zero_threshold)
-    return Modes(lin, w2, omega, Phi, rigid, unstable, modal_m, modal_k, float(ortho), rel,
-                 zero_threshold, lam, lam_modes, zeta, mag, np.abs(lam_modes.imag), lam_error, shapes_c, bool(classical),
-                 stability, time.perf_counter() - start)
+    if damped:
+        stability = classify(rigid, unstable, lam, zero_threshold)
+    else:
+        stability = "unstable" if unstable.any() else "neutral" if any_rigid else "stable"
+    return Modes(lin, w2, omega, Phi, rigid, unstable, rel, zero_threshold, lam, lam_modes, zeta, mag, omega_d,
+                 lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start,
+                 basis=(M, Ks, Phi, w2, scale))
+
+
+_NO_REAL, _NO_COMPLEX = np.zeros(0), np.zeros(0, complex)  # an undamped model's empty state-form parts
+_NO_REAL.flags.writeable = _NO_COMPLEX.flags.writeable = False
 
 
 def mac(a: ArrayLike, b: ArrayLike | None = None) -> np.ndarray | float:
@@ -331,8 +379,3 @@ def _is_classical(lin):
     X = C @ MiK - K @ MiC
     return bool(np.abs(X).max() <= 1e-8 * max(np.abs(C @ MiK).max(), 1e-300))
 
-
-def _sign_fix(Phi):
-    """Make the largest component of each shape positive (a reproducible sign; on a tie of magnitudes, the
-    positive one)."""
-    return np.where(-Phi.min(axis=0, initial=0.0) > Phi.max(axis=0, initial=0.0), -Phi, Phi)

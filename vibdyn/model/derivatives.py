@@ -89,12 +89,16 @@ class Derivatives:
 
 
 def analytic_derivatives(system, q, v, a, t):
-    """(K, C) = (∂r/∂q, ∂r/∂v) at (q, v, a, t), analytically."""
-    model, data = system.model, system.data
-    Q, fext = dynamics.forces(system, system.workspace(), q, v, t)
+    """(K, C, terms) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|) at (q, v, a, t), analytically; ``terms`` (N or
+    N·m per coordinate) is the size of what cancels in r, the scale of its round-off."""
+    ws = system.workspace()
+    model, data = system.model, ws.data
+    Q, fext = dynamics.forces(system, ws, q, v, t)
     out = (pin.computeRNEADerivatives(model, data, q, v, a) if fext is None
            else pin.computeRNEADerivatives(model, data, q, v, a, fext))
-    K, C = np.array(out[0]).copy(), np.array(out[1]).copy()  # Pinocchio overwrites them on the next call
+    K, C = out[0].copy(), out[1].copy()  # Pinocchio overwrites them on the next call
+    terms = np.abs(data.tau) + np.abs(Q)  # the derivatives' pass leaves RNEA's τ in data.tau
+    terms += np.abs(dynamics.gravity_term(system, ws, q))
     d = Derivatives(system, q, v, a, t, any(g.needs_velocity_derivatives for g in system.point_groups))
     if system.point_groups:
         d.fkin = dynamics.kinematics(system, system.workspace(), q, v if system.uses_point_velocities else None, t)
@@ -110,7 +114,7 @@ def analytic_derivatives(system, q, v, a, t):
                 K -= dq
             if dv is not None:
                 C -= dv
-    return K, C
+    return K, C, terms
 
 
 def linear_terms(system, q, v, t, a=None):
@@ -121,5 +125,5 @@ def linear_terms(system, q, v, t, a=None):
     if a is None:
         a = dynamics.accelerations(system, ws, q, v, t).copy()
     M = dynamics.mass_matrix(system.model, ws.data, q)
-    K, C = analytic_derivatives(system, q, v, a, t)
+    K, C, _ = analytic_derivatives(system, q, v, a, t)
     return M, K, C

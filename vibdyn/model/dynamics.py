@@ -20,17 +20,64 @@ def forces(system, ws, q, v, t, shift=None):
     the scene has point elements, the external forces (the workspace's buffer) for ABA/RNEA, else None.
     ``shift`` offsets the supports' displacements and velocities (n_supports × 6, m and m/s)."""
     Q = np.zeros(system.nv)
+    for g in system.joint_groups:
+        g.apply(t, q, v, None, Q, None)
     if not system.point_groups:
-        for g in system.groups:
-            g.apply(t, q, v, None, Q, None)
         return Q, None
+    return Q, point_forces(system, ws, q, v, t, Q, shift)
+
+
+def point_forces(system, ws, q, v, t, Q, shift=None):
+    """The point elements' external forces for ABA/RNEA (the workspace's buffer, joint frames); what they
+    add in joint space goes into Q."""
     kin = kinematics(system, ws, q, v if system.uses_point_velocities else None, t, shift)
     F = np.zeros((system.model.njoints, 6))
-    for g in system.groups:
+    for g in system.point_groups:
         g.apply(t, q, v, kin, Q, F)
     for j in system.point_joints:
         ws.forces[j][:] = F[j]
-    return Q, ws.fext
+    return ws.fext
+
+
+def inverse_dynamics_rows(system, ws, Q, V, a, t):
+    """(τ, F): RNEA's M a + b (N or N·m) at each row of the configurations Q (B × nq) and velocities V
+    (B × nv; either may be one row for all, V also one nv-vector), with the point elements' forces, and the
+    joint-space force elements' generalized forces F (B × nv); the inverse dynamics is τ − F. One pass over
+    the rows: each joint-space group evaluates every row at once; with neither velocity nor acceleration,
+    RNEA reduces to the gravity term (nothing at all without gravity)."""
+    nv = system.nv
+    B = max(len(Q), len(V) if V.ndim == 2 else 1)
+    if len(Q) < B:
+        Q = np.broadcast_to(Q, (B, system.nq))
+    if V.ndim == 2 and len(V) < B:
+        V = np.broadcast_to(V, (B, nv))
+    F = np.zeros((B, nv))
+    for g in system.joint_groups:
+        g.apply_rows(t, Q, V, F)
+    model, data = system.model, ws.data
+    tau = np.empty((B, nv))
+    rows_v = V.ndim == 2
+    if system.point_groups:
+        for c in range(B):
+            v = V[c] if rows_v else V
+            fext = point_forces(system, ws, Q[c], v, t, F[c])
+            tau[c] = pin.rnea(model, data, Q[c], v, a, fext)
+    elif not is_gravity(system, V, a):
+        for c in range(B):
+            tau[c] = pin.rnea(model, data, Q[c], V[c] if rows_v else V, a)
+    elif system.has_gravity:
+        g = pin.computeGeneralizedGravity
+        for c in range(B):
+            tau[c] = g(model, data, Q[c])
+    else:
+        tau[:] = 0.0
+    return tau, F
+
+
+def is_gravity(system, v, a):
+    """Whether RNEA at velocities v and accelerations a (any shape) is the gravity term alone: no point
+    elements, v = 0 and a = 0."""
+    return not (system.point_groups or v.any() or a.any())
 
 
 def kinematics(system, ws, q, v=None, t=0.0, shift=None):

@@ -1,48 +1,116 @@
 """Finite-difference primitives in the tangent space (configurations moved with ``pin.integrate``, never
-q + dq) and point Jacobians: the building blocks of linearisation and of the force elements' derivatives."""
+q + dq) and point Jacobians: the building blocks of linearisation and of the force elements' derivatives.
+
+A derivative column k is the central difference D(h) = (f(+h_k) − f(−h_k)) / 2h_k along tangent
+coordinate k, with truncation error h²/6·f‴ + O(h⁴). Where an error estimate is asked for, the central
+difference with step 2h is made too, and T = D(h) − D(2h) = −h²/2·f‴ + O(h⁴) (Richardson: three times the
+truncation error, to leading order). All displaced configurations of a sweep are made at once
+(:class:`Stencil`) so that a caller can evaluate them in one pass
+(:func:`vibdyn.model.dynamics.inverse_dynamics_rows`); a stencil with an estimate starts with the operating
+point itself (the caller's round-off scale).
+"""
 
 import numpy as np
 import pinocchio as pin
 
+CENTRAL = (1.0, -1.0)  # the steps of a central difference, in units of h
+ESTIMATED = (1.0, -1.0, 2.0, -2.0)  # and those of the central difference with step 2h
+
 
 def steps(system, step):
     """Finite-difference step per tangent coordinate: ``step`` rad, or ``step`` × length scale m."""
-    L = system.length_scale
-    return np.array([step * (L if u == "m" else 1.0) for u in system.units])
+    return step * system.coordinate_scales
 
 
-def tangent_derivative(system, fun, q0, h):
+class Stencil:
+    """Central differences in the tangent space with steps h per coordinate, and (``estimate``) their
+    Richardson truncation estimates D(h) − D(2h), after a first row at the operating point itself; made once
+    per (system, steps) and kept in the workspace (:func:`stencil`). Holds the offsets of the displaced
+    configurations of vector-space coordinates and the divisors of the differences."""
+
+    def __init__(self, system, h, estimate):
+        self.h, self.estimate = h.copy(), estimate
+        self.signs = ESTIMATED if estimate else CENTRAL
+        S, nv, first = len(self.signs), system.nv, int(estimate)
+        self.offsets = np.zeros((first + nv * S, system.nq))
+        k, iq = system.additive_coordinates
+        if k.size:
+            self.offsets[first:].reshape(nv, S, system.nq)[k, :, iq] = np.multiply.outer(h[k], self.signs)
+        # divisors of the differences f(+s·h) − f(−s·h), one per step pair: 2h (and 4h)
+        self.divisors = np.multiply.outer(h, 2 * np.array(self.signs[::2]))[:, :, None]
+
+    def configurations(self, system, q0):
+        """The displaced configurations as rows: q0 itself first if the stencil estimates, then q0 ⊕ s·h_k e_k
+        k-major (row k·len(signs) + i, after the centre, moves coordinate k by signs[i]·h_k). Vector-space
+        coordinates (nq = nv joints: pivots, sliders, helical, cylindrical, universal; ``integrate`` is the
+        sum) move in one numpy operation, those of ball, planar and free joints by ``pin.integrate``."""
+        Q = q0 + self.offsets
+        if system.curved_coordinates:
+            model, e, S, first = system.model, np.zeros(system.nv), len(self.signs), int(self.estimate)
+            for k in system.curved_coordinates:
+                for i, s in enumerate(self.signs):
+                    e[k] = s * self.h[k]
+                    Q[first + k * S + i] = pin.integrate(model, q0, e)
+                e[k] = 0.0
+        return Q
+
+    def derivatives(self, Y):
+        """(D, T): the derivative (outputs × nv) from the evaluations Y at the rows of :meth:`configurations`
+        (one row each), and its truncation estimate T = D(h) − D(2h) (None without ``estimate``). Each pair
+        is subtracted before it is divided (exact for nearby values: no round-off of the products)."""
+        Y = Y[int(self.estimate):].reshape(len(self.h), len(self.signs), -1)
+        pairs = (Y[:, ::2] - Y[:, 1::2]) / self.divisors
+        D = pairs[:, 0].T
+        return (D, D - pairs[:, 1].T) if self.estimate else (D, None)
+
+
+def stencil(system, ws, h, estimate=False):
+    """The :class:`Stencil` of these steps, from the workspace's few kept ones (made on first use)."""
+    key = (h.tobytes(), estimate)
+    kept = ws.stencils
+    st = kept.get(key)
+    if st is None:
+        if len(kept) >= 8:
+            kept.clear()
+        st = kept[key] = Stencil(system, h, estimate)
+    return st
+
+
+def differences(Y, h):
+    """(D, T) from evaluations Y at the rows of :func:`displaced_vectors` (outputs along Y's last axis): the
+    central differences (outputs × nv) and, from ``estimate`` rows, their truncation estimates
+    D(h) − D(2h) (else None)."""
+    nv = len(h)
+    Y = Y.reshape(nv, -1, Y.shape[-1])
+    D = (Y[:, 0] - Y[:, 1]).T / (2 * h)
+    if Y.shape[1] == 2:
+        return D, None
+    return D, D - (Y[:, 2] - Y[:, 3]).T / (4 * h)
+
+
+def displaced_vectors(x0, h, estimate=False):
+    """x0 + s·h_k e_k as rows, k-major, for a plain vector x (steps ±h, and ±2h if ``estimate``)."""
+    signs = ESTIMATED if estimate else CENTRAL
+    S, n = len(signs), len(x0)
+    X = np.empty((n * S, n))
+    X[:] = x0
+    k = np.arange(n)
+    X.reshape(n, S, n)[k, :, k] += np.multiply.outer(h, signs)
+    return X
+
+
+def tangent_derivative(system, fun, q0, h, estimate=False):
     """∂fun/∂q at q0 by central differences in the tangent space: column k is
-    (fun(q0 ⊕ h_k e_k) − fun(q0 ⊖ h_k e_k)) / 2h_k, configurations moved with ``integrate``."""
-    model, e = system.model, np.zeros(system.nv)
-
-    def shifted(k, hk):
-        e[k] = hk
-        y = np.ravel(fun(pin.integrate(model, q0, e)))
-        e[k] = 0.0
-        return y
-
-    return _columns(shifted, h)
+    (fun(q0 ⊕ h_k e_k) − fun(q0 ⊖ h_k e_k)) / 2h_k, configurations moved with ``integrate``. With
+    ``estimate``, (D, T) with T = D(h) − D(2h), the estimate of D's truncation error."""
+    st = stencil(system, system.workspace(), h, estimate)
+    D, T = st.derivatives(np.array([np.ravel(fun(q)) for q in st.configurations(system, q0)]))
+    return (D, T) if estimate else D
 
 
 def vector_derivative(fun, x0, h):
     """∂fun/∂x at x0 for a plain vector x, by central differences with steps h (one per component)."""
-    def shifted(k, hk):
-        x = x0.copy()
-        x[k] += hk
-        return np.ravel(fun(x))
-
-    return _columns(shifted, h)
-
-
-def _columns(shifted, h):
-    J = None
-    for k, hk in enumerate(h):
-        col = (shifted(k, hk) - shifted(k, -hk)) / (2 * hk)
-        if J is None:
-            J = np.empty((col.size, len(h)))
-        J[:, k] = col
-    return J
+    return differences(np.array([np.ravel(fun(x)) for x in displaced_vectors(x0, h)]), h)[0]
 
 
 def point_jacobian(system, q, points):

@@ -17,7 +17,7 @@ import pinocchio as pin
 from scipy.linalg import lapack
 
 from .._check import all_finite, count, finite_array, finite_result, scalar, unknown_name, vector3
-from ..defaults import EQUILIBRIUM_TOL, FD_STEP, MAX_ITER, RTOL
+from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER, RTOL
 from ..description.elements import WORLD, Support
 from ..errors import ModelError
 
@@ -114,7 +114,9 @@ class System:
     inputs :meth:`check_configuration`, :meth:`check_velocity`, :meth:`check_time`,
     :meth:`check_mass_matrix`; the compiled tables ``body_infos`` (name -> :class:`BodyInfo`),
     ``support_index`` (support name -> index in ``supports``), ``groups`` (force-element groups),
-    ``point_groups``/``point_joints``/``uses_point_velocities`` (what point elements need);
+    ``point_groups``/``point_joints``/``uses_point_velocities`` (what point elements need), ``joint_groups``
+    (the others); ``coordinate_scales`` (1 for rad, the length scale for m), ``additive_coordinates`` and
+    ``curved_coordinates`` (which tangent coordinates move by a sum, which by ``integrate``);
     ``model`` and ``model_without_gravity`` (pinocchio.Model, read only).
     """
 
@@ -184,13 +186,25 @@ class System:
         self.support_index = MappingProxyType({s.name: i for i, s in enumerate(self.supports)})
         self.groups = tuple(_forces.compile_groups(self, self.scene))
         self.point_groups = tuple(g for g in self.groups if g.uses_points)
+        self.joint_groups = tuple(g for g in self.groups if not g.uses_points)
         self.point_joints = tuple(sorted({int(j) for g in self.point_groups for j in g.joints} - {0}))
         self.uses_point_velocities = any(g.uses_point_velocities for g in self.groups)
         self.depends_on_velocity = any(g.velocity_dependent for g in self.groups)
         self.depends_on_time = any(g.time_dependent for g in self.groups) or bool(self.supports)
         self._lower.flags.writeable = self._upper.flags.writeable = False
         self.length_scale = self._length_scale()
+        # finite-difference scale per tangent coordinate: 1 rad, or the length scale for a length (m)
+        self.coordinate_scales = np.array([self.length_scale if u == "m" else 1.0 for u in self.units])
+        self.coordinate_scales.flags.writeable = False
+        # tangent coordinates of vector-space joints (nq = nv: integrate is the sum) with their index in q,
+        # and the others (ball, planar, free), which move by integrate (vibdyn.model.fd.displaced)
+        additive = [(b.idx_v + i, b.idx_q + i) for b in self.body_infos.values() if b.nq == b.nv
+                    for i in range(b.nv)]
+        self.additive_coordinates = tuple(np.array(c, dtype=int) for c in zip(*additive)) if additive else (
+            np.zeros(0, int), np.zeros(0, int))
+        self.curved_coordinates = tuple(k for b in self.body_infos.values() if b.nq != b.nv for k in b.v_indices)
         self.inertia_scales = self._inertia_scales()
+        self._mass_weights = 1.0 / np.outer(np.sqrt(self.inertia_scales), np.sqrt(self.inertia_scales))
         if self.nv:
             self.check_mass_matrix(self.neutral(), "the neutral configuration")
         # the loops' equations (vibdyn.model.constraints.Constraints), None for a tree
@@ -520,12 +534,20 @@ class System:
         """ModelError naming the body and coordinate if M(q) is singular against the scene's scales: an
         eigenvalue of S^-½ M S^-½ (S: :meth:`inertia_scales`) below 1000·nv·ε is round-off, not inertia."""
         M = self.mass_matrix(q) if M is None else M
-        s = np.sqrt(self.inertia_scales)
-        Ms = M / np.outer(s, s)
-        tol = 1e3 * self.nv * np.finfo(float).eps
-        if not np.all(np.isfinite(Ms)):
+        Ms = M * self._mass_weights
+        tol = 1e3 * self.nv * EPS
+        # fast sufficient test: Ms = LLᵀ gives λ_min(Ms) = 1/‖L⁻¹‖₂² ≥ 1/‖L⁻¹‖_F² (at most nv times too
+        # cautious; a NaN or inf anywhere fails it); only where that bound is not enough do the eigenvalues
+        # decide (LAPACK directly: the wrappers of numpy and scipy cost more than these solves on small models)
+        L, info = lapack.dpotrf(Ms, lower=1, clean=1)
+        if info == 0:
+            Linv, info = lapack.dtrtri(L, lower=1)
+            if info == 0 and np.vdot(Linv, Linv) * tol < 1.0:
+                return
+        if not all_finite(Ms):
             raise ModelError(f"mass matrix at {where} is not finite")
-        w, V, info = lapack.dsyevd(Ms)  # LAPACK directly: numpy's wrapper costs more than the solve here
+        w, V, info = lapack.dsyevd(Ms)
+        s = np.sqrt(self.inertia_scales)
         if info == 0 and w[0] > tol:
             return
         i = int(np.argmax(np.abs(V[:, 0])))

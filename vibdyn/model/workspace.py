@@ -15,10 +15,11 @@ class Workspace:
     """Pinocchio Data of one model and the external-force buffer handed to ABA/RNEA (one ``pin.Force`` per
     joint), with live numpy views, one per joint, of the Data's joint poses (``rotations``, ``translations``)
     and velocities (``linear``, ``angular``, local axes), which every forward kinematics updates in place,
-    and of the forces (``forces``: writing one writes its ``pin.Force``). Results of
+    and of the forces (``forces``: writing one writes its ``pin.Force``), and the finite-difference stencils
+    made for it (``stencils``). Results of
     :mod:`vibdyn.model.dynamics` may share memory with it: copy what you keep."""
 
-    __slots__ = ("data", "fext", "rotations", "translations", "linear", "angular", "forces")
+    __slots__ = ("data", "fext", "rotations", "translations", "linear", "angular", "forces", "stencils")
 
     def __init__(self, model: pin.Model):
         self.data = data = create_data(model)
@@ -31,6 +32,7 @@ class Workspace:
         self.linear = [data.v[j].linear for j in joints]
         self.angular = [data.v[j].angular for j in joints]
         self.forces = [self.fext[j].vector for j in joints]
+        self.stencils: dict = {}  # finite-difference stencils by steps (vibdyn.model.fd.stencil)
         check_views(model, self)
 
 

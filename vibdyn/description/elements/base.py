@@ -269,6 +269,14 @@ class Group:
     def apply(self, t, q, v, kin, Q, F):
         raise NotImplementedError
 
+    def apply_rows(self, t, q, v, Q):
+        """A joint-space group's generalized forces at many states at once: rows of q (B × nq) and v (B × nv,
+        or one nv-vector for every row) add into the rows of Q (B × nv). A group whose force is plain numpy
+        over coordinates overrides this with one evaluation of all rows; this default calls :meth:`apply`
+        row by row."""
+        for c in range(len(q)):
+            self.apply(t, q[c], v[c] if v.ndim == 2 else v, None, Q[c], None)
+
     def potential(self, q, kin):
         return 0.0
 
@@ -323,6 +331,15 @@ class TwoPoint(Group):
         return d, L
 
     kind = "element"
+
+
+def as_slice(index):
+    """An index array as the equal slice when its entries are consecutive and increasing (a view, not a
+    gather), else the array itself."""
+    index = np.asarray(index, dtype=int)
+    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+        return slice(int(index[0]), int(index[0]) + index.size)
+    return index
 
 
 def tangent(model, body, rest):

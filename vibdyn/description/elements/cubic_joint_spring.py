@@ -31,6 +31,10 @@ class CubicJointSprings(Group):
         x = q[self.iq] - self.rest
         np.subtract.at(Q, self.iv, self.k3 * x**3)
 
+    def apply_rows(self, t, q, v, Q):
+        x = q[:, self.iq] - self.rest
+        np.subtract.at(Q.T, self.iv, (self.k3 * x**3).T)
+
     def potential(self, q, kin):
         x = q[self.iq] - self.rest
         return 0.25 * float(self.k3 @ x**4)

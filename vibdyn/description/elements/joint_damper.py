@@ -17,15 +17,21 @@ class JointDampers(Group):
     velocity_dependent = True
 
     def __init__(self, system, elements):
-        self.iv = np.array([i for e in elements for i in system.body_info(e.body).v_indices])
-        self.c = np.array([c for e in elements for c in e.damping])
+        iv = [i for e in elements for i in system.body_info(e.body).v_indices]
+        # dampers sharing a coordinate add up: one coefficient per coordinate
+        self.iv, where = np.unique(iv, return_inverse=True)
+        self.c = np.zeros(len(self.iv))
+        np.add.at(self.c, where, [c for e in elements for c in e.damping])
 
     def apply(self, t, q, v, kin, Q, F):
         Q[self.iv] -= self.c * v[self.iv]
 
+    def apply_rows(self, t, q, v, Q):
+        Q[:, self.iv] -= self.c * v[..., self.iv]
+
     def derivatives(self, d):
         dV = np.zeros((d.system.nv, d.system.nv))
-        np.add.at(dV, (self.iv, self.iv), -self.c)
+        dV[self.iv, self.iv] = -self.c
         return None, dV
 
 

@@ -12,12 +12,45 @@ from ..._check import (finite_array, one_or_each, stiffness_like, value_nonnegat
                        value_number_or_list, value_string)
 from ..._format import vector
 from ...errors import ModelError
-from .base import ElementKind, Group, scalar_or_list, tangent
+from .base import ElementKind, Group, as_slice, scalar_or_list, tangent
 
 
 class JointSprings(Group):
-    """Springs on joint coordinates: Q = −Jᵀ K (q ⊖ q_rest), J = ∂(q ⊖ q_rest)/∂q (identity for vector
-    joints; for an isotropic ball spring Jᵀφ = φ, so the torque is −k φ exactly)."""
+    """Springs on joint coordinates: Q = −Σ Jᵀ K (q ⊖ q_rest), J = ∂(q ⊖ q_rest)/∂q (identity for vector
+    joints; for an isotropic ball spring Jᵀφ = φ, so the torque is −k φ exactly). Springs that share a joint
+    (each with its own rest) are evaluated in layers of at most one spring per joint."""
+
+    def __init__(self, system, elements):
+        self.names = [e.name for e in elements]
+        layers, count = [], {}
+        for e in elements:
+            joint = system.body_info(e.body).idx_v
+            i = count[joint] = count.get(joint, -1) + 1
+            if i == len(layers):
+                layers.append([])
+            layers[i].append(e)
+        self.layers = [_Layer(system, members) for members in layers]
+
+    def apply(self, t, q, v, kin, Q, F):
+        for layer in self.layers:
+            layer.apply(t, q, v, kin, Q, F)
+
+    def apply_rows(self, t, q, v, Q):
+        for layer in self.layers:
+            layer.apply_rows(t, q, v, Q)
+
+    def potential(self, q, kin):
+        return sum(layer.potential(q, kin) for layer in self.layers)
+
+    def derivatives(self, d):
+        dQ = self.layers[0].derivatives(d)[0]
+        for layer in self.layers[1:]:
+            dQ += layer.derivatives(d)[0]
+        return dQ, None
+
+
+class _Layer(Group):
+    """Springs on distinct joints, one q_rest for all."""
 
     def __init__(self, system, elements):
         model = system.model
@@ -40,6 +73,8 @@ class JointSprings(Group):
             self.iq = np.array([system.body_info(e.body).idx_q + i for e in elements
                                 for i in range(system.body_info(e.body).nv)])
             self.rest = self.q_rest[self.iq]
+            # the same coordinates as slices where they are contiguous (views instead of gathers)
+            self.iq_rows, self.iv_rows = as_slice(self.iq), as_slice(self.iv)
         self.curved = np.concatenate(curved) if curved else None
 
     def deflection(self, q):
@@ -56,6 +91,11 @@ class JointSprings(Group):
             c = self.curved
             force[c] = J[np.ix_(c, c)].T @ force[c]
         Q[self.iv] -= force
+
+    def apply_rows(self, t, q, v, Q):
+        if not self.vector:
+            return super().apply_rows(t, q, v, Q)
+        Q[:, self.iv_rows] -= self.k * (q[:, self.iq_rows] - self.rest)
 
     def potential(self, q, kin):
         phi = self.deflection(q)
