@@ -69,12 +69,12 @@ def integer(value, what, *, minimum=None, maximum=None):
 
 
 def all_finite(a):
-    """Whether every number of the float array ``a`` is finite. Up to 100 numbers are first summed in Python
-    (a NaN or inf makes the sum non-finite; it overflows silently, with no numpy call's fixed cost); they are
-    tested one by one where that sum is not finite, and always beyond 100."""
-    if a.size <= 100 and math.isfinite(sum(a.ravel().tolist())):
+    """Whether every number of the float array ``a`` is finite. Up to 32 numbers are first summed in Python
+    (a NaN or inf makes the sum non-finite; it overflows silently, with no numpy call's fixed cost) and
+    tested one by one only where that sum is not finite; more are tested one by one at once."""
+    if a.size <= 32 and math.isfinite(sum(a.ravel().tolist())):
         return True
-    return bool(np.all(np.isfinite(a)))
+    return bool(np.isfinite(a).all())
 
 
 def finite_result(value, what):

@@ -97,7 +97,7 @@ class LinearModel:
 
     @property
     def has_damping(self):
-        return bool(self.C.any())
+        return np.count_nonzero(self.C) > 0
 
     @property
     def A(self):
@@ -255,7 +255,7 @@ def reference_state(system, at=None, v=None, t=0.0):
     else:
         q0 = at
     q0 = system.check_configuration(q0, "operating point q")
-    v0 = system.check_velocity(np.zeros(system.nv) if v is None else v, "operating point v")
+    v0 = np.zeros(system.nv) if v is None else system.check_velocity(v, "operating point v")
     return q0, v0, system.check_time(t)
 
 
@@ -293,7 +293,7 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
         # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad)
         scaled_terms = terms[:, None] / system.coordinate_scales
         K_err = 16 * EPS * (np.abs(K) + scaled_terms)
-        C_err = 16 * EPS * (np.abs(C) + scaled_terms) if C.any() else np.zeros_like(C)
+        C_err = 16 * EPS * (np.abs(C) + scaled_terms) if np.count_nonzero(C) else np.zeros(C.shape)
         n = 1
     for name, X in (("K", K), ("C", C)):
         if not all_finite(X):
@@ -321,9 +321,10 @@ def fd_error(D, T, terms, h):
     """Error estimate of central differences D with steps h: the truncation estimate T = D(h) − D(2h)
     (:mod:`vibdyn.model.fd`) plus the round-off of the terms that cancel in r (|RNEA| + |Q| + |g| per row,
     N or N·m) and of D itself."""
-    err = np.abs(T)
-    err += np.multiply.outer(16 * EPS * terms, 1.0 / h)
-    err += 4 * EPS * np.abs(D)
+    err = np.abs(D)
+    err *= 4 * EPS
+    err += np.abs(T)
+    err += np.multiply.outer(terms, 16 * EPS / h)
     return err
 
 
@@ -341,7 +342,7 @@ def _finite_differences(system, ws, q0, v0, a0, t0, step):
     K, T = st.derivatives(tau)
     K_err = fd_error(K, T, terms, h)
     evaluations = 4 * system.nv + 1
-    if system.depends_on_velocity or v0.any():
+    if system.depends_on_velocity or np.count_nonzero(v0):
         hv = h * np.maximum(1.0, np.abs(v0))
         tau_v, F = dynamics.inverse_dynamics_rows(system, ws, q0[None, :], displaced_vectors(v0, hv, estimate=True),
                                                   a0, t0)
@@ -350,5 +351,5 @@ def _finite_differences(system, ws, q0, v0, a0, t0, step):
         C_err = fd_error(C, T, terms, hv)
         evaluations += 4 * system.nv
     else:  # nothing depends on velocity and v0 = 0: C is exactly zero
-        C, C_err = np.zeros_like(K), np.zeros_like(K)
+        C, C_err = np.zeros(K.shape), np.zeros(K.shape)
     return K, C, K_err, C_err, evaluations

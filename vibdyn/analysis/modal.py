@@ -199,41 +199,42 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     M, K, Ke = lin.M, lin.K, lin.K_error
     Ks = lin.K_s
     n = M.shape[0]
-    # LAPACK directly (on small models the wrappers of numpy and scipy cost more than the solves): sygvd
+    # LAPACK directly (on small models the wrappers of numpy and scipy cost more than the solves): sygv(d)
     # factors M = LLᵀ (uplo "L", scipy's default), left in the lower triangle of its copy of M, and solves the
-    # symmetric problem of L⁻¹ Ks L⁻ᵀ
+    # symmetric problem of L⁻¹ Ks L⁻ᵀ (QR iterations while small, divide and conquer beyond)
     L = M.copy(order="F")
-    w2, Phi, info = lapack.dsygvd(Ks, L, overwrite_b=1) if n else (np.zeros(0), np.zeros((0, 0)), 0)
+    if n:
+        w2, Phi, info = (lapack.dsygv if n <= 32 else lapack.dsygvd)(Ks, L, overwrite_b=1)
+    else:
+        w2, Phi, info = np.zeros(0), np.zeros((0, 0)), 0
     # finite inputs give finite shapes; a non-finite one shows in w2 or, through |Φ|, in the uncertainty below
     if info or not all_finite(w2):
         lin.system.check_mass_matrix(lin.q0, "the operating point")
         raise ModelError("modal analysis: the generalized eigenproblem (K, M) failed")
     scale = max(abs(w2[0]), abs(w2[-1]), 1e-300) if n else 1e-300  # w2 is ascending
-    # shapes mass-normalised by sygvd (φᵀMφ = 1 to its round-off, which ``orthogonality`` reports), with a
+    # shapes mass-normalised by sygv (φᵀMφ = 1 to its round-off, which ``orthogonality`` reports), with a
     # reproducible sign: the largest component positive (−min > max, i.e. min + max < 0, flips; a tie keeps +)
     if n:
-        Phi *= np.copysign(1.0, Phi.min(axis=0) + Phi.max(axis=0))
-    MPhi = M @ Phi
-    KPhi = Ks @ Phi
+        Phi *= np.copysign(1.0, np.minimum.reduce(Phi) + np.maximum.reduce(Phi))
     # δω² per mode: the eigen residual in the M⁻¹ norm (‖R‖²_M⁻¹ = ‖L⁻¹R‖²), and |φ|ᵀ(K's error + n·ε·|K|)|φ|
     # (a quadratic form: K's error needs no symmetrising)
-    R = KPhi - MPhi * w2
+    R = Ks @ Phi - (M @ Phi) * w2
     LR = lapack.dtrtrs(L, R, lower=1)[0] if n else R
-    uncertainty = np.sqrt(np.einsum("ij,ij->j", LR, LR))
+    uncertainty = np.sqrt(np.add.reduce(LR * LR))
     if not all_finite(uncertainty):  # the squares overflowed (huge ω²): the same, column by column scaled
         r = np.abs(R).max(axis=0, initial=0.0)
         LR = lapack.dtrtrs(L, R / np.maximum(r, 1e-300), lower=1)[0]
-        uncertainty = r * np.sqrt(np.einsum("ij,ij->j", LR, LR))
+        uncertainty = r * np.sqrt(np.add.reduce(LR * LR))
     A = np.abs(Phi)
     abs_Ks = np.abs(Ks)
-    uncertainty += np.einsum("ij,ij->j", A, (n * EPS * abs_Ks + Ke) @ A)
+    uncertainty += np.add.reduce(A * (((n * EPS) * abs_Ks + Ke) @ A))
     if not all_finite(uncertainty):
         raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
                          f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
     abs_w2 = np.abs(w2)
     if tolerance is None:
         rigid = abs_w2 <= 10 * uncertainty
-        if lin.method == "fd" and rigid.any():
+        if lin.method == "fd" and np.count_nonzero(rigid):
             from .linearize import linearize
 
             exact = modes(linearize(lin.system, lin.q0, v=lin.v0, t=lin.t0, a=lin.a0, method="analytic"))
@@ -243,7 +244,7 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
                                            "linear model")
     else:
         rigid = abs_w2 <= float(tolerance) * scale
-    any_rigid = bool(rigid.any())
+    any_rigid = np.count_nonzero(rigid) > 0
     if any_rigid:
         w2 = np.where(rigid, 0.0, w2)
         abs_w2 = np.abs(w2)
@@ -264,7 +265,7 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     damped = lin.has_damping
     if not damped and n:
         N2 = K - K.T
-        damped = bool((np.abs(N2, out=N2) > 10 * (Ke + Ke.T) + 2e-12 * abs_Ks.max()).any())
+        damped = np.count_nonzero(np.abs(N2, out=N2) > 10 * (Ke + Ke.T) + 2e-12 * abs_Ks.max()) > 0
     if damped:
         lam, lam_modes, shapes_c, lam_error = _state_modes(lin)
         mag = np.abs(lam_modes)
@@ -283,7 +284,7 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     if damped:
         stability = classify(rigid, unstable, lam, zero_threshold)
     else:
-        stability = "unstable" if unstable.any() else "neutral" if any_rigid else "stable"
+        stability = "unstable" if np.count_nonzero(unstable) else "neutral" if any_rigid else "stable"
     return Modes(lin, w2, omega, Phi, rigid, unstable, rel, zero_threshold, lam, lam_modes, zeta, mag, omega_d,
                  lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start,
                  basis=(M, Ks, Phi, w2, scale))

@@ -130,6 +130,15 @@ class _AxisJoint(Joint):
     def params(self):
         return {"axis": list(self.axis)}
 
+    def _specialised(self, models, *args):
+        """Pinocchio's joint model for this axis: the one specialised to x, y or z when the axis is one of
+        them (cheaper in every algorithm), else ``models[3]``, the one for any axis."""
+        i = _CANONICAL.get(self.axis)
+        return models[i](*args) if i is not None else models[3](np.array(self.axis), *args)
+
+
+_CANONICAL = {(1.0, 0.0, 0.0): 0, (0.0, 1.0, 0.0): 1, (0.0, 0.0, 1.0): 2}
+
 
 def _ordered(cls):
     """Let axis-type joints take ``axis`` as their first positional argument: Pivot((0, 1, 0))."""
@@ -166,7 +175,8 @@ class Pivot(_AxisJoint):
     _positional = ("axis",)
 
     def pin_model(self):
-        return pin.JointModelRevoluteUnaligned(np.array(self.axis))
+        return self._specialised((pin.JointModelRX, pin.JointModelRY, pin.JointModelRZ,
+                                  pin.JointModelRevoluteUnaligned))
 
 
 @_ordered
@@ -182,7 +192,8 @@ class Slider(_AxisJoint):
     _positional = ("axis",)
 
     def pin_model(self):
-        return pin.JointModelPrismaticUnaligned(np.array(self.axis))
+        return self._specialised((pin.JointModelPX, pin.JointModelPY, pin.JointModelPZ,
+                                  pin.JointModelPrismaticUnaligned))
 
 
 @_ordered
@@ -217,7 +228,8 @@ class Helical(_AxisJoint):
         return {"axis": list(self.axis), "pitch": self.pitch}
 
     def pin_model(self):
-        return pin.JointModelHelicalUnaligned(np.array(self.axis), self.pitch)
+        return self._specialised((pin.JointModelHX, pin.JointModelHY, pin.JointModelHZ,
+                                  pin.JointModelHelicalUnaligned), self.pitch)
 
     @classmethod
     def from_file(cls, params, error):

@@ -77,7 +77,7 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t):
 def is_gravity(system, v, a):
     """Whether RNEA at velocities v and accelerations a (any shape) is the gravity term alone: no point
     elements, v = 0 and a = 0."""
-    return not (system.point_groups or v.any() or a.any())
+    return not (system.point_groups or np.count_nonzero(v) or np.count_nonzero(a))
 
 
 def kinematics(system, ws, q, v=None, t=0.0, shift=None):

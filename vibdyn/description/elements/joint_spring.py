@@ -74,7 +74,7 @@ class _Layer(Group):
                                 for i in range(system.body_info(e.body).nv)])
             self.rest = self.q_rest[self.iq]
             # the same coordinates as slices where they are contiguous (views instead of gathers)
-            self.iq_rows, self.iv_rows = as_slice(self.iq), as_slice(self.iv)
+            self.iq_at, self.iv_at = as_slice(self.iq), as_slice(self.iv)
         self.curved = np.concatenate(curved) if curved else None
 
     def deflection(self, q):
@@ -84,8 +84,10 @@ class _Layer(Group):
         return pin.difference(self.model, self.q_rest, q)[self.iv]
 
     def apply(self, t, q, v, kin, Q, F):
-        phi = self.deflection(q)
-        force = self.k * phi
+        if self.vector:
+            Q[self.iv_at] -= self.k * (q[self.iq_at] - self.rest)
+            return
+        force = self.k * self.deflection(q)
         if self.curved is not None:
             J = pin.dDifference(self.model, self.q_rest, q, pin.ARG1)[np.ix_(self.iv, self.iv)]
             c = self.curved
@@ -95,7 +97,7 @@ class _Layer(Group):
     def apply_rows(self, t, q, v, Q):
         if not self.vector:
             return super().apply_rows(t, q, v, Q)
-        Q[:, self.iv_rows] -= self.k * (q[:, self.iq_rows] - self.rest)
+        Q[:, self.iv_at] -= self.k * (q[:, self.iq_at] - self.rest)
 
     def potential(self, q, kin):
         phi = self.deflection(q)
