@@ -197,7 +197,9 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     if tolerance is not None:
         tolerance = scalar(tolerance, "modes tolerance", nonnegative=True)
     M, K, Ke = lin.M, lin.K, lin.K_error
-    Ks = lin.K_s
+    Kt = K.T
+    Ks = K + Kt
+    Ks *= 0.5  # lin.K_s
     n = M.shape[0]
     # LAPACK directly (on small models the wrappers of numpy and scipy cost more than the solves): sygv(d)
     # factors M = LLᵀ (uplo "L", scipy's default), left in the lower triangle of its copy of M, and solves the
@@ -264,7 +266,7 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     # circulatory: |K − Kᵀ| = 2|N| beyond 10 × its error (K's symmetrised error bound, twice)
     damped = lin.has_damping
     if not damped and n:
-        N2 = K - K.T
+        N2 = K - Kt
         damped = np.count_nonzero(np.abs(N2, out=N2) > 10 * (Ke + Ke.T) + 2e-12 * abs_Ks.max()) > 0
     if damped:
         lam, lam_modes, shapes_c, lam_error = _state_modes(lin)

@@ -13,8 +13,10 @@ point itself (the caller's round-off scale).
 import numpy as np
 import pinocchio as pin
 
+from ..defaults import EPS
+
 CENTRAL = (1.0, -1.0)  # the steps of a central difference, in units of h
-ESTIMATED = (1.0, -1.0, 2.0, -2.0)  # and those of the central difference with step 2h
+ESTIMATED = (1.0, 2.0, -1.0, -2.0)  # and those of the central difference with step 2h (positive ones first)
 
 
 def steps(system, step):
@@ -32,25 +34,26 @@ class Stencil:
         self.h, self.estimate = h.copy(), estimate
         self.signs = ESTIMATED if estimate else CENTRAL
         S, nv, first = len(self.signs), system.nv, int(estimate)
-        self.offsets = np.zeros((first + nv * S, system.nq))
+        self.offsets = np.zeros((first + S * nv, system.nq))
         k, iq = system.additive_coordinates
         if k.size:
-            self.offsets[first:].reshape(nv, S, system.nq)[k, :, iq] = np.multiply.outer(h[k], self.signs)
-        # divisors of the differences f(+s·h) − f(−s·h), one per step pair: 2h (and 4h)
-        self.divisors = np.multiply.outer(h, 2 * np.array(self.signs[::2]))[:, :, None]
+            self.offsets[first:].reshape(S, nv, system.nq)[:, k, iq] = np.multiply.outer(self.signs, h[k])
+        # divisors of the differences f(+s·h) − f(−s·h), one per coordinate and step: 2h (and 4h)
+        self.divisors = (2 * np.multiply.outer(self.signs[:S // 2], h)).reshape(-1, 1)
+        self.round_off = 16 * EPS / h  # (16ε per unit of the terms that cancel, over h: see fd_error)
 
     def configurations(self, system, q0):
         """The displaced configurations as rows: q0 itself first if the stencil estimates, then q0 ⊕ s·h_k e_k
-        k-major (row k·len(signs) + i, after the centre, moves coordinate k by signs[i]·h_k). Vector-space
+        step-major (row i·nv + k, after the centre, moves coordinate k by signs[i]·h_k). Vector-space
         coordinates (nq = nv joints: pivots, sliders, helical, cylindrical, universal; ``integrate`` is the
         sum) move in one numpy operation, those of ball, planar and free joints by ``pin.integrate``."""
         Q = q0 + self.offsets
         if system.curved_coordinates:
-            model, e, S, first = system.model, np.zeros(system.nv), len(self.signs), int(self.estimate)
+            model, e, nv, first = system.model, np.zeros(system.nv), system.nv, int(self.estimate)
             for k in system.curved_coordinates:
                 for i, s in enumerate(self.signs):
                     e[k] = s * self.h[k]
-                    Q[first + k * S + i] = pin.integrate(model, q0, e)
+                    Q[first + i * nv + k] = pin.integrate(model, q0, e)
                 e[k] = 0.0
         return Q
 
@@ -58,10 +61,12 @@ class Stencil:
         """(D, T): the derivative (outputs × nv) from the evaluations Y at the rows of :meth:`configurations`
         (one row each), and its truncation estimate T = D(h) − D(2h) (None without ``estimate``). Each pair
         is subtracted before it is divided (exact for nearby values: no round-off of the products)."""
-        Y = Y[int(self.estimate):].reshape(len(self.h), len(self.signs), -1)
-        pairs = (Y[:, ::2] - Y[:, 1::2]) / self.divisors
-        D = pairs[:, 0].T
-        return (D, D - pairs[:, 1].T) if self.estimate else (D, None)
+        first, half = int(self.estimate), len(self.divisors)
+        pairs = Y[first:first + half] - Y[first + half:]
+        pairs /= self.divisors
+        nv = len(self.h)
+        D = pairs[:nv].T
+        return (D, D - pairs[nv:].T) if self.estimate else (D, None)
 
 
 def stencil(system, ws, h, estimate=False):
@@ -81,21 +86,21 @@ def differences(Y, h):
     central differences (outputs × nv) and, from ``estimate`` rows, their truncation estimates
     D(h) − D(2h) (else None)."""
     nv = len(h)
-    Y = Y.reshape(nv, -1, Y.shape[-1])
-    D = (Y[:, 0] - Y[:, 1]).T / (2 * h)
-    if Y.shape[1] == 2:
-        return D, None
-    return D, D - (Y[:, 2] - Y[:, 3]).T / (4 * h)
+    if len(Y) == 2 * nv:
+        return (Y[:nv] - Y[nv:]).T / (2 * h), None
+    D = (Y[:nv] - Y[2 * nv:3 * nv]).T / (2 * h)
+    return D, D - (Y[nv:2 * nv] - Y[3 * nv:]).T / (4 * h)
 
 
 def displaced_vectors(x0, h, estimate=False):
-    """x0 + s·h_k e_k as rows, k-major, for a plain vector x (steps ±h, and ±2h if ``estimate``)."""
+    """x0 + s·h_k e_k as rows, step-major (row i·n + k moves component k by signs[i]·h_k), for a plain
+    vector x (steps ±h, and ±2h if ``estimate``)."""
     signs = ESTIMATED if estimate else CENTRAL
     S, n = len(signs), len(x0)
-    X = np.empty((n * S, n))
+    X = np.empty((S * n, n))
     X[:] = x0
     k = np.arange(n)
-    X.reshape(n, S, n)[k, :, k] += np.multiply.outer(h, signs)
+    X.reshape(S, n, n)[:, k, k] += np.multiply.outer(signs, h)
     return X
 
 
