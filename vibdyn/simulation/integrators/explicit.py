@@ -50,14 +50,15 @@ class RungeKutta(ODEStepper):
         self._CA = np.ones((s, s + 1))  # row i: [1, h a_i] (its first i + 1 entries are used)
         self._CB = np.ones(s + 1)  # [1, h b]
         self._plan = [(self.C[i], self._CA[i, :i + 1], YK[:i + 1], YK[i + 1]) for i in range(1, s)]
+        self._stage = np.empty(ode.n)  # each stage's state (the ODE's ``into`` keeps no reference to it)
 
     def _stages(self, h):
         """One step of size h from (t, y, f): (y_new, f_new); YK then holds y and every stage."""
-        t, YK, s, into, dot = self.t, self.YK, self.stages, self.ode.into, np.dot
+        t, YK, s, into, dot, y = self.t, self.YK, self.stages, self.ode.into, np.dot, self._stage
         YK[0], YK[1] = self.y, self.f
         np.multiply(self.A, h, out=self._CA[:, 1:])
         for c, a, Y, out in self._plan:
-            into(t + c * h, dot(a, Y), out)
+            into(t + c * h, dot(a, Y, out=y), out)
         np.multiply(self.B, h, out=self._CB[1:])
         y_new = dot(self._CB, YK[:s + 1])
         f_new = YK[s + 1]
