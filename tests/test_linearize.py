@@ -170,3 +170,60 @@ def test_singular_mass_matrix_at_the_operating_point_names_the_body():
         system.linearize(q)
     with pytest.raises(vd.ModelError, match="singular mass matrix.*'carriage'"):
         system.accelerations(q, np.zeros(2))
+
+
+def _column_by_column(system, q0, v0, a0, h, hv):
+    """The definition, one column at a time: q moved by pin.integrate, the checked inverse dynamics."""
+    import pinocchio as pin
+
+    K, C = np.zeros((system.nv, system.nv)), np.zeros((system.nv, system.nv))
+    for k in range(system.nv):
+        e = np.zeros(system.nv)
+        e[k] = h[k]
+        qp, qm = pin.integrate(system.model, q0, e), pin.integrate(system.model, q0, -e)
+        K[:, k] = (system.inverse_dynamics(qp, v0, a0) - system.inverse_dynamics(qm, v0, a0)) / (2 * h[k])
+        e[k] = hv[k]
+        C[:, k] = (system.inverse_dynamics(q0, v0 + e, a0) - system.inverse_dynamics(q0, v0 - e, a0)) / (2 * hv[k])
+    return K, C
+
+
+@pytest.mark.parametrize("where", ["rest", "moving"])
+def test_one_pass_sweep_is_the_column_by_column_difference(chain, where):
+    """The FD sweep makes every displaced configuration at once (vector-space coordinates by a sum, ball
+    joints by integrate) and evaluates them in one pass (joint-space groups on all rows at once, gravity
+    alone at rest): the same central differences as one column at a time with pin.integrate and the full
+    inverse dynamics, to within the round-off part of the model's own estimate."""
+    from vibdyn.model.fd import steps
+
+    rng = np.random.default_rng(11)
+    q0 = chain.random_configuration(0.3, rng)
+    v0 = np.zeros(chain.nv) if where == "rest" else rng.normal(size=chain.nv)
+    a0 = np.zeros(chain.nv)
+    lin = chain.linearize(q0, v=v0, a=a0, method="fd")
+    h = steps(chain, 1e-5)
+    K, C = _column_by_column(chain, q0, v0, a0, h, h * np.maximum(1.0, np.abs(v0)))
+    assert np.all(np.abs(lin.K - K) <= lin.K_error)
+    assert np.all(np.abs(lin.C - C) <= lin.C_error)
+    assert rel(lin.K, K) < 1e-6  # (and the estimate is not vacuous)
+
+
+def test_stencil_configurations_are_integrate_of_each_step(chain):
+    """Every row of a stencil is integrate(q0, s·h_k e_k), bit for bit, on every joint kind (pivot, slider,
+    helical and ball joints here: the ball's rows come from integrate, the others from a sum)."""
+    import pinocchio as pin
+
+    from vibdyn.model.fd import ESTIMATED, stencil, steps
+
+    system = chain
+    rng = np.random.default_rng(2)
+    q0 = system.random_configuration(0.5, rng)
+    h = steps(system, 1e-3)
+    st = stencil(system, system.workspace(), h, estimate=True)
+    Q = st.configurations(system, q0)
+    assert np.array_equal(Q[0], q0) and len(Q) == 1 + 4 * system.nv
+    for i, s in enumerate(ESTIMATED):
+        for k in range(system.nv):
+            e = np.zeros(system.nv)
+            e[k] = s * h[k]
+            assert np.array_equal(Q[1 + i * system.nv + k], pin.integrate(system.model, q0, e)), (i, k)
+    assert stencil(system, system.workspace(), h, estimate=True) is st  # made once per steps

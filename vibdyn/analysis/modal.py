@@ -222,14 +222,15 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     # (a quadratic form: K's error needs no symmetrising)
     R = Ks @ Phi - (M @ Phi) * w2
     LR = lapack.dtrtrs(L, R, lower=1)[0] if n else R
-    uncertainty = np.sqrt(np.add.reduce(LR * LR))
-    if not all_finite(uncertainty):  # the squares overflowed (huge ω²): the same, column by column scaled
-        r = np.abs(R).max(axis=0, initial=0.0)
-        LR = lapack.dtrtrs(L, R / np.maximum(r, 1e-300), lower=1)[0]
-        uncertainty = r * np.sqrt(np.add.reduce(LR * LR))
     A = np.abs(Phi)
     abs_Ks = np.abs(Ks)
-    uncertainty += np.add.reduce(A * (((n * EPS) * abs_Ks + Ke) @ A))
+    quadratic = np.add.reduce(A * (((n * EPS) * abs_Ks + Ke) @ A))
+    uncertainty = np.sqrt(np.add.reduce(LR * LR))
+    uncertainty += quadratic
+    if not all_finite(uncertainty):  # the squares overflowed (huge ω²)? the same, column by column scaled
+        r = np.abs(R).max(axis=0, initial=0.0)
+        LR = lapack.dtrtrs(L, R / np.maximum(r, 1e-300), lower=1)[0]
+        uncertainty = r * np.sqrt(np.add.reduce(LR * LR)) + quadratic
     if not all_finite(uncertainty):
         raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
                          f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
@@ -267,7 +268,11 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     damped = lin.has_damping
     if not damped and n:
         N2 = K - Kt
-        damped = np.count_nonzero(np.abs(N2, out=N2) > 10 * (Ke + Ke.T) + 2e-12 * abs_Ks.max()) > 0
+        np.abs(N2, out=N2)
+        E2 = Ke + Ke.T
+        E2 *= 10.0
+        N2 -= E2
+        damped = bool(np.maximum.reduce(N2, axis=None) > 2e-12 * np.maximum.reduce(abs_Ks, axis=None))
     if damped:
         lam, lam_modes, shapes_c, lam_error = _state_modes(lin)
         mag = np.abs(lam_modes)

@@ -204,6 +204,8 @@ class System:
             np.zeros(0, int), np.zeros(0, int))
         self.curved_coordinates = tuple(k for b in self.body_infos.values() if b.nq != b.nv for k in b.v_indices)
         self.inertia_scales = self._inertia_scales()
+        self._zero_v = np.zeros(self.nv)
+        self._zero_v.flags.writeable = False
         self._mass_weights = 1.0 / np.outer(np.sqrt(self.inertia_scales), np.sqrt(self.inertia_scales))
         if self.nv:
             self.check_mass_matrix(self.neutral(), "the neutral configuration")
@@ -321,9 +323,8 @@ class System:
         q, v, t = self.check_configuration(q), self.check_velocity(v), self.check_time(t)
         ws = self.workspace()
         Q, fext = dynamics.forces(self, ws, q, v, t)
-        if fext is not None:
-            zero = np.zeros(self.nv)
-            Q -= pin.rnea(self.model_without_gravity, ws.data, q, zero, zero, fext)
+        if fext is not None:  # Σ Jᵀf of the point forces: RNEA at rest on the model without gravity
+            Q -= pin.rnea(self.model_without_gravity, ws.data, q, self._zero_v, self._zero_v, fext)
         return finite_result(Q, f"generalized forces at t = {t}")
 
     def gravity_forces(self, q: ArrayLike) -> Vector:
@@ -576,10 +577,13 @@ class System:
         return scalar(t, "t (time, s)")
 
 
+_FLOAT = np.dtype(float)
+
+
 def _state(x, n, what, expected):
     """A finite float vector of n numbers (the one input layer: finite_array), a new array; ``expected()``
     says what it should be in the error."""
-    if type(x) is np.ndarray and x.dtype == float and x.shape == (n,) and all_finite(x):
+    if type(x) is np.ndarray and x.dtype is _FLOAT and x.shape == (n,) and all_finite(x):
         return x.copy()  # the common case, without finite_array's conversions
     try:
         return finite_array(x, (n,), what)

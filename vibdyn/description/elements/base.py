@@ -142,9 +142,15 @@ class Kinematics:
         else:
             pin.forwardKinematics(model, ws.data, q, v)
         nj = len(ws.rotations)
-        self.pose = np.empty(12 * nj) if len(joints) == nj - 1 else np.zeros(12 * nj)
-        self.R = gather(ws.rotations, joints, self.pose[:9 * nj].reshape(nj, 3, 3))
-        self.p = gather(ws.translations, joints, self.pose[9 * nj:].reshape(nj, 3))
+        if len(joints) == nj - 1:  # every joint: one copy each
+            self.pose = pose = np.empty(12 * nj)
+            self.R = R = pose[:9 * nj].reshape(nj, 3, 3)
+            self.p = p = pose[9 * nj:].reshape(nj, 3)
+            R[:], p[:] = ws.rotations, ws.translations
+        else:
+            self.pose = np.zeros(12 * nj)
+            self.R = gather(ws.rotations, joints, self.pose[:9 * nj].reshape(nj, 3, 3))
+            self.p = gather(ws.translations, joints, self.pose[9 * nj:].reshape(nj, 3))
         if v is not None:
             self.v, self.w = gather(ws.linear, joints, np.zeros((nj, 3))), gather(ws.angular, joints, np.zeros((nj, 3)))
 
@@ -305,10 +311,6 @@ class TwoPoint(Group):
         n = len(elements)
         self.ends = point_set(self.j_ends, np.concatenate([self.pa, self.pb]), system.model.njoints,
                              np.hstack([-np.eye(n), np.eye(n)]))  # combined: xb − xa
-
-    def add_end_forces(self, F, kin, fb):
-        """Force fb (world axes) on every end b and −fb on every end a, in one accumulation."""
-        self.ends.add_forces(F, kin, fb)
 
     def end_velocities(self, kin):
         """World velocities (m/s) of the two ends, supports' motion included."""

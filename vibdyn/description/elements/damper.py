@@ -30,7 +30,7 @@ class Dampers(TwoPoint):
         va, vb = self.end_velocities(kin)
         rate = np.einsum("ni,ni->n", u, vb - va)
         fb = (-self.c * rate)[:, None] * u
-        self.add_end_forces(F, kin, fb)
+        self.ends.add_forces(F, kin, fb)  # fb on every end b, −fb on every end a
 
     def derivatives(self, d):
         dx, L = self.geometry(d.fkin)

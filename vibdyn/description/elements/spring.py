@@ -32,7 +32,7 @@ class Springs(TwoPoint):
         d, L = self.geometry(kin)
         Ls = L if self.L_floor is None else np.maximum(L, self.L_floor)
         fb = (self.minus_k * ((L - self.l0) / Ls))[:, None] * d
-        self.add_end_forces(F, kin, fb)
+        self.ends.add_forces(F, kin, fb)  # fb on every end b, −fb on every end a
 
     def potential(self, q, kin):
         _, L = self.geometry(kin)
