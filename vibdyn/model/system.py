@@ -204,6 +204,8 @@ class System:
             np.zeros(0, int), np.zeros(0, int))
         self.curved_coordinates = tuple(k for b in self.body_infos.values() if b.nq != b.nv for k in b.v_indices)
         self.inertia_scales = self._inertia_scales()
+        self._eye = np.eye(self.nv)
+        self._eye.flags.writeable = False
         self._zero_v = np.zeros(self.nv)
         self._zero_v.flags.writeable = False
         self._mass_weights = 1.0 / np.outer(np.sqrt(self.inertia_scales), np.sqrt(self.inertia_scales))
@@ -540,9 +542,9 @@ class System:
         # fast sufficient test: Ms = LLᵀ gives λ_min(Ms) = 1/‖L⁻¹‖₂² ≥ 1/‖L⁻¹‖_F² (at most nv times too
         # cautious; a NaN or inf anywhere fails it); only where that bound is not enough do the eigenvalues
         # decide (LAPACK directly: the wrappers of numpy and scipy cost more than these solves on small models)
-        L, info = lapack.dpotrf(Ms, lower=1, clean=1)
+        L, info = lapack.dpotrf(Ms, lower=1)
         if info == 0:
-            Linv, info = lapack.dtrtri(L, lower=1)
+            Linv, info = lapack.dtrtrs(L, self._eye, lower=1)  # (the triangular solve modes() uses too)
             if info == 0 and np.vdot(Linv, Linv) * tol < 1.0:
                 return
         if not all_finite(Ms):
