@@ -220,12 +220,14 @@ def main(argv=None, prog="python -m benchmarks"):
     p.add_argument("--only", nargs="+", metavar="NAME", help=f"run only these ({', '.join(REGISTRY)})")
     p.add_argument("--out", default=str(RESULTS), help=f"results folder (default {RESULTS})")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots (no matplotlib needed)")
-    p.add_argument("--save-baseline", action="store_true", help=f"write this run as {BASELINE.name}")
+    p.add_argument("--save-baseline", action="store_true", help=f"write this run as {BASELINE.name} (with --check: "
+                   "after comparing with the one it replaces)")
     args = p.parse_args(argv)
     if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
         print(f"warning: OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}; times are meant for one "
               "thread (set OPENBLAS_NUM_THREADS=1 before starting Python)")
     mode = "smoke" if args.smoke else "quick" if args.quick else "full"
+    previous = load_baseline() if args.check else None  # (--check --save-baseline: against the one replaced)
     start = time.perf_counter()
     results = run_suite(mode, args.only, args.out, plots=not args.no_plots)
     print(f"results, report.md and plots in {args.out} ({time.perf_counter() - start:.0f} s)")
@@ -234,7 +236,7 @@ def main(argv=None, prog="python -m benchmarks"):
         print(f"baseline written to {BASELINE}")
     status = 0
     if args.check:
-        failures, notes = compare(results, load_baseline())
+        failures, notes = compare(results, previous)
         for n in notes:
             print(f"note: {n}")
         for f in failures:
