@@ -277,7 +277,6 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     q0, v0, t0 = reference_state(system, at, v, t)
     ws = system.workspace()
     M = dynamics.mass_matrix(system.model, ws.data, q0)
-    system.check_mass_matrix(q0, "the operating point", M)  # (finite, and regular against the scene's scales)
     if a is not None:
         a0 = system.check_velocity(a, "a")
     elif hasattr(at, "drive"):  # an equilibrium or steady motion: the reference motion does not accelerate
@@ -285,6 +284,7 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     else:
         a0 = dynamics.accelerations(system, ws, q0, v0, t0).copy()
         if not all_finite(a0):
+            system.check_mass_matrix(q0, "the operating point", M)
             raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t0})")
     if method == "fd":
         K, C, K_err, C_err, n = _finite_differences(system, ws, q0, v0, a0, t0, step)
@@ -295,6 +295,7 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
         K_err = 16 * EPS * (np.abs(K) + scaled_terms)
         C_err = 16 * EPS * (np.abs(C) + scaled_terms) if np.count_nonzero(C) else np.zeros(C.shape)
         n = 1
+    system.check_mass_matrix(q0, "the operating point", M)  # (finite, and regular against the scene's scales)
     for name, X in (("K", K), ("C", C)):
         if (X is K or np.count_nonzero(X)) and not all_finite(X):  # (a C of zeros needs no test)
             raise ModelError(f"linearize: {name} is not finite at the operating point")
