@@ -545,7 +545,8 @@ class System:
         L, info = lapack.dpotrf(Ms, lower=1)
         if info == 0:
             Linv, info = lapack.dtrtrs(L, self._eye, lower=1)  # (the triangular solve modes() uses too)
-            if info == 0 and np.vdot(Linv, Linv) * tol < 1.0:
+            x = Linv.ravel(order="K")  # (LAPACK's column order: a view)
+            if info == 0 and (x @ x) * tol < 1.0:
                 return
         if not all_finite(Ms):
             raise ModelError(f"mass matrix at {where} is not finite")
