@@ -112,11 +112,15 @@ def end_label(a):
 
 
 # ---------------------------------------------------------------------------------------------- groups
+_LEVI_CIVITA = np.zeros((3, 3, 3))
+_LEVI_CIVITA[0, 1, 2] = _LEVI_CIVITA[1, 2, 0] = _LEVI_CIVITA[2, 0, 1] = 1.0
+_LEVI_CIVITA[0, 2, 1] = _LEVI_CIVITA[2, 1, 0] = _LEVI_CIVITA[1, 0, 2] = -1.0
+
+
 def cross(a, b):
-    """Row-wise cross product of (n, 3) arrays (numpy's own is slow on small arrays)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+    """Row-wise cross product of (n, 3) arrays, (a × b)_i = ε_ijk a_j b_k in one einsum (numpy's own cross
+    is slow on small arrays)."""
+    return np.einsum("ijk,nj,nk->ni", _LEVI_CIVITA, a, b)
 
 
 _NO_SUPPORT = np.zeros((1, 3))
@@ -172,7 +176,8 @@ def gather(views, joints, out):
         out[:] = views
     else:
         out[0] = views[0]
-        out[list(joints)] = [views[j] for j in joints]
+        for j in joints:
+            out[j] = views[j]
     return out
 
 

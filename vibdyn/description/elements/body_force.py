@@ -27,29 +27,51 @@ class BodyForces(Group):
         self.points = point_set(self.jp, self.pp, system.model.njoints)
         self.velocity_dependent = any(e.velocity_dependent for e in elements)
         self.time_dependent = any(e.time_dependent for e in elements)
+        # the given vectors once (constants checked here, zeros for none), the callables' rows to fill per call
+        self.given, self.calls = {}, {}
+        for attr in ("force", "torque"):
+            given = np.zeros((len(elements), 3))
+            self.calls[attr] = []
+            for i, e in enumerate(elements):
+                x = getattr(e, attr)
+                if callable(x):
+                    self.calls[attr].append((i, x, f"force '{e.name}' ({attr})", e.name))
+                elif x is not None:
+                    given[i] = self._checked(x, e.name, attr, 0.0)
+            given.flags.writeable = False
+            self.given[attr] = given
+        self.has_torque = any(e.torque is not None for e in elements)
+        self.any_body_axes = bool(self.body_axes.any())
+
+    @staticmethod
+    def _checked(val, name, attr, t):
+        arr = numbers(val, (3,))
+        if arr is None:
+            raise ModelError(f"force '{name}': {attr} must be 3 finite numbers, got {val!r} at t = {t}")
+        return arr
 
     def vectors(self, attr, t, q, v):
-        """Each element's ``attr`` ("force", N, or "torque", N·m) at (t, q, v) in world axes (n × 3)."""
-        out = np.zeros((len(self.elements), 3))
-        for i, e in enumerate(self.elements):
-            x = getattr(e, attr)
-            if x is None:
-                continue
-            val = call_user(x, (t, q, v), f"force '{e.name}' ({attr})", t) if callable(x) else x
-            arr = numbers(val, (3,))
-            if arr is None:
-                raise ModelError(f"force '{e.name}': {attr} must be 3 finite numbers, got {val!r} at t = {t}")
-            out[i] = arr
+        """Each element's ``attr`` ("force", N, or "torque", N·m) at (t, q, v) in its own axes (n × 3)."""
+        calls = self.calls[attr]
+        if not calls:
+            return self.given[attr]
+        out = self.given[attr].copy()
+        for i, x, what, name in calls:
+            out[i] = self._checked(call_user(x, (t, q, v), what, t), name, attr, t)
         return out
 
     def apply(self, t, q, v, kin, Q, F):
-        f, tq = self.vectors("force", t, q, v), self.vectors("torque", t, q, v)
-        Rw = np.einsum("nij,njk->nik", kin.R[self.jp], self.Rb)  # body axes -> world
-        f = np.where(self.body_axes[:, None], np.einsum("nij,nj->ni", Rw, f), f)
-        tq = np.where(self.body_axes[:, None], np.einsum("nij,nj->ni", Rw, tq), tq)
+        f = self.vectors("force", t, q, v)
+        tq = self.vectors("torque", t, q, v) if self.has_torque else None
+        if self.any_body_axes:
+            Rw = np.einsum("nij,njk->nik", kin.R[self.jp], self.Rb)  # body axes -> world
+            f = np.where(self.body_axes[:, None], np.einsum("nij,nj->ni", Rw, f), f)
+            if tq is not None:
+                tq = np.where(self.body_axes[:, None], np.einsum("nij,nj->ni", Rw, tq), tq)
         self.points.add_forces(F, kin, f)
-        Rt = np.transpose(kin.R[self.jp], (0, 2, 1))
-        np.add.at(F[:, 3:], self.jp, np.einsum("nij,nj->ni", Rt, tq))
+        if tq is not None:
+            Rt = np.transpose(kin.R[self.jp], (0, 2, 1))
+            np.add.at(F[:, 3:], self.jp, np.einsum("nij,nj->ni", Rt, tq))
 
     def derivatives(self, d):
         """Given vectors: constant (no own derivative) or callables (differenced); body-axes vectors turn
