@@ -1,8 +1,8 @@
 """Modal analysis: natural frequencies (rad/s, Hz), mass-normalised shapes, damped complex modes, MAC.
 
-Undamped modes solve K_s φ = ω² M φ (LAPACK's sygvd through ``scipy.linalg.lapack``). With damping,
-gyroscopic or circulatory terms the first-order state form gives complex eigenvalues λ = −ζω ± iω√(1−ζ²)
-and complex shapes.
+Undamped modes solve K_s φ = ω² M φ (LAPACK's sygv, sygvd above 32 coordinates, through
+``scipy.linalg.lapack``). With damping, gyroscopic or circulatory terms the first-order state form gives
+complex eigenvalues λ = −ζω ± iω√(1−ζ²) and complex shapes.
 """
 
 from __future__ import annotations
