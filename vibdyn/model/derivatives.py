@@ -101,7 +101,7 @@ def analytic_derivatives(system, q, v, a, t):
     terms += np.abs(dynamics.gravity_term(system, ws, q))
     d = Derivatives(system, q, v, a, t, any(g.needs_velocity_derivatives for g in system.point_groups))
     if system.point_groups:
-        d.fkin = dynamics.kinematics(system, system.workspace(), q, v if system.uses_point_velocities else None, t)
+        d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t)
         for g in system.point_groups:
             g.derivatives(d)
         for j in system.point_joints:

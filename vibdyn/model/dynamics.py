@@ -123,15 +123,9 @@ def inverse_dynamics(system, ws, q, v, a, t, shift=None):
 def accelerations(system, ws, q, v, t):
     """dv/dt (m/s², rad/s²) by ABA with gravity and every force element (with closed loops, the loops'
     constrained accelerations). May share memory with the workspace."""
+    Q, fext = forces(system, ws, q, v, t)
     model, data = system.model, ws.data
-    if system.point_groups:
-        Q, fext = forces(system, ws, q, v, t)
-        a = pin.aba(model, data, q, v, Q, fext)
-    else:  # (forces() inlined: this is the hot path of time integration)
-        Q = np.zeros(system.nv)
-        for g in system.joint_groups:
-            g.apply(t, q, v, None, Q, None)
-        a = pin.aba(model, data, q, v, Q)
+    a = pin.aba(model, data, q, v, Q) if fext is None else pin.aba(model, data, q, v, Q, fext)
     if system.constraints is not None:
         a = a.copy()
         return system.constraints.accelerations(q, v, a, mass_matrix(model, data, q))

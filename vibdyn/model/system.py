@@ -197,7 +197,7 @@ class System:
         self.coordinate_scales = np.array([self.length_scale if u == "m" else 1.0 for u in self.units])
         self.coordinate_scales.flags.writeable = False
         # tangent coordinates of vector-space joints (nq = nv: integrate is the sum) with their index in q,
-        # and the others (ball, planar, free), which move by integrate (vibdyn.model.fd.displaced)
+        # and the others (ball, planar, free), which move by integrate (vibdyn.model.fd.Stencil)
         additive = [(b.idx_v + i, b.idx_q + i) for b in self.body_infos.values() if b.nq == b.nv
                     for i in range(b.nv)]
         self.additive_coordinates = tuple(np.array(c, dtype=int) for c in zip(*additive)) if additive else (

@@ -65,11 +65,11 @@ class VectorODE:
         """f(t, y) written into ``out`` (the hot path of the explicit methods)."""
         self.nfev += 1
         nv = self.nv
-        v = y[nv:2 * nv]
+        q, v = y[:nv], y[nv:2 * nv]
         out[:nv] = v
-        out[nv:2 * nv] = dynamics.accelerations(self.system, self.ws, y[:nv], v, t)
+        out[nv:2 * nv] = dynamics.accelerations(self.system, self.ws, q, v, t)
         if self.work:
-            out[-1] = v @ pin.rnea(self.model, self.data, y[:nv], v, out[nv:2 * nv])
+            out[-1] = v @ pin.rnea(self.model, self.data, q, v, out[nv:2 * nv])
 
     def initial(self, q0, v0, w0=0.0):
         y = np.zeros(self.n)
