@@ -38,8 +38,7 @@ class Stencil:
         k, iq = system.additive_coordinates
         if k.size:
             self.offsets[first:].reshape(S, nv, system.nq)[:, k, iq] = np.multiply.outer(self.signs, h[k])
-        # divisors of the differences f(+s·h) − f(−s·h), one per coordinate and step: 2h (and 4h)
-        self.divisors = (2 * np.multiply.outer(self.signs[:S // 2], h)).reshape(-1, 1)
+        self.divisors = _divisors(self.signs, h)
         self.round_off = 16 * EPS / h  # (16ε per unit of the terms that cancel, over h: see fd_error)
 
     def configurations(self, system, q0):
@@ -61,12 +60,7 @@ class Stencil:
         """(D, T): the derivative (outputs × nv) from the evaluations Y at the rows of :meth:`configurations`
         (one row each), and its truncation estimate T = D(h) − D(2h) (None without ``estimate``). Each pair
         is subtracted before it is divided (exact for nearby values: no round-off of the products)."""
-        first, half = int(self.estimate), len(self.divisors)
-        pairs = Y[first:first + half] - Y[first + half:]
-        pairs /= self.divisors
-        nv = len(self.h)
-        D = pairs[:nv].T
-        return (D, D - pairs[nv:].T) if self.estimate else (D, None)
+        return _pairs(Y[int(self.estimate):], self.divisors, len(self.h))
 
 
 def stencil(system, ws, h, estimate=False):
@@ -85,11 +79,23 @@ def differences(Y, h):
     """(D, T) from evaluations Y at the rows of :func:`displaced_vectors` (outputs along Y's last axis): the
     central differences (outputs × nv) and, from ``estimate`` rows, their truncation estimates
     D(h) − D(2h) (else None)."""
-    nv = len(h)
-    if len(Y) == 2 * nv:
-        return (Y[:nv] - Y[nv:]).T / (2 * h), None
-    D = (Y[:nv] - Y[2 * nv:3 * nv]).T / (2 * h)
-    return D, D - (Y[nv:2 * nv] - Y[3 * nv:]).T / (4 * h)
+    signs = ESTIMATED if len(Y) == len(ESTIMATED) * len(h) else CENTRAL
+    return _pairs(Y, _divisors(signs, h), len(h))
+
+
+def _divisors(signs, h):
+    """The divisors of the differences f(+s·h) − f(−s·h), one per step and coordinate: 2h (and 4h)."""
+    return (2 * np.multiply.outer(signs[:len(signs) // 2], h)).reshape(-1, 1)
+
+
+def _pairs(Y, divisors, nv):
+    """(D, T) from step-major rows (positive steps, then negative ones): each pair subtracted, then
+    divided; T = D(h) − D(2h) where the rows have a 2h step, else None."""
+    half = len(divisors)
+    pairs = Y[:half] - Y[half:]
+    pairs /= divisors
+    D = pairs[:nv].T
+    return (D, D - pairs[nv:].T) if half > nv else (D, None)
 
 
 def displaced_vectors(x0, h, estimate=False):

@@ -146,15 +146,9 @@ class Kinematics:
         else:
             pin.forwardKinematics(model, ws.data, q, v)
         nj = len(ws.rotations)
-        if len(joints) == nj - 1:  # every joint: one copy each
-            self.pose = pose = np.empty(12 * nj)
-            self.R = R = pose[:9 * nj].reshape(nj, 3, 3)
-            self.p = p = pose[9 * nj:].reshape(nj, 3)
-            R[:], p[:] = ws.rotations, ws.translations
-        else:
-            self.pose = np.zeros(12 * nj)
-            self.R = gather(ws.rotations, joints, self.pose[:9 * nj].reshape(nj, 3, 3))
-            self.p = gather(ws.translations, joints, self.pose[9 * nj:].reshape(nj, 3))
+        self.pose = np.empty(12 * nj) if len(joints) == nj - 1 else np.zeros(12 * nj)
+        self.R = gather(ws.rotations, joints, self.pose[:9 * nj].reshape(nj, 3, 3))
+        self.p = gather(ws.translations, joints, self.pose[9 * nj:].reshape(nj, 3))
         if v is not None:
             self.v, self.w = gather(ws.linear, joints, np.zeros((nj, 3))), gather(ws.angular, joints, np.zeros((nj, 3)))
 
