@@ -288,10 +288,7 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
         lam_error = mag = zeta = omega_d = _NO_REAL
         shapes_c = np.zeros((n, 0), complex)
         classical = True
-    if damped:
-        stability = classify(rigid, unstable, lam, zero_threshold)
-    else:
-        stability = "unstable" if np.count_nonzero(unstable) else "neutral" if any_rigid else "stable"
+    stability = classify(rigid, unstable, lam, zero_threshold)
     return Modes(lin, w2, omega, Phi, rigid, unstable, rel, zero_threshold, lam, lam_modes, zeta, mag, omega_d,
                  lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start,
                  basis=(M, Ks, Phi, w2, scale))
