@@ -289,7 +289,7 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     if method == "fd":
         K, C, K_err, C_err, n = _finite_differences(system, ws, q0, v0, a0, t0, step)
     else:
-        K, C, terms = analytic_derivatives(system, q0, v0, a0, t0)
+        K, C, terms = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True)
         # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad)
         scaled_terms = terms[:, None] / system.coordinate_scales
         K_err = 16 * EPS * (np.abs(K) + scaled_terms)

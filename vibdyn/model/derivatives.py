@@ -88,17 +88,20 @@ class Derivatives:
         return Q
 
 
-def analytic_derivatives(system, q, v, a, t):
+def analytic_derivatives(system, q, v, a, t, with_terms=False):
     """(K, C, terms) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|) at (q, v, a, t), analytically; ``terms`` (N or
-    N·m per coordinate) is the size of what cancels in r, the scale of its round-off."""
+    N·m per coordinate, None unless ``with_terms``) is the size of what cancels in r, the scale of its
+    round-off."""
     ws = system.workspace()
     model, data = system.model, ws.data
     Q, fext = dynamics.forces(system, ws, q, v, t)
     out = (pin.computeRNEADerivatives(model, data, q, v, a) if fext is None
            else pin.computeRNEADerivatives(model, data, q, v, a, fext))
     K, C = out[0].copy(), out[1].copy()  # Pinocchio overwrites them on the next call
-    terms = np.abs(data.tau) + np.abs(Q)  # the derivatives' pass leaves RNEA's τ in data.tau
-    terms += np.abs(dynamics.gravity_term(system, ws, q))
+    terms = None
+    if with_terms:
+        terms = np.abs(data.tau) + np.abs(Q)  # the derivatives' pass leaves RNEA's τ in data.tau
+        terms += np.abs(dynamics.gravity_term(system, ws, q))
     d = Derivatives(system, q, v, a, t, any(g.needs_velocity_derivatives for g in system.point_groups))
     if system.point_groups:
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t)
@@ -107,13 +110,12 @@ def analytic_derivatives(system, q, v, a, t):
         for j in system.point_joints:
             K -= d.J[j].T @ d.dFq[j]
             C -= d.J[j].T @ d.dFv[j]
-    for g in system.groups:
-        if not g.uses_points:
-            dq, dv = g.derivatives(d)
-            if dq is not None:
-                K -= dq
-            if dv is not None:
-                C -= dv
+    for g in system.joint_groups:
+        dq, dv = g.derivatives(d)
+        if dq is not None:
+            K -= dq
+        if dv is not None:
+            C -= dv
     return K, C, terms
 
 
