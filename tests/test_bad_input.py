@@ -342,11 +342,19 @@ def test_damper_on_unknown_body():
         cart().add_damper("d", "ghost", "cart", 1.0)
 
 
-def test_spring_with_coincident_ends_at_build_and_free_length():
+def test_spring_with_coincident_ends_at_neutral_is_refused_where_it_is_evaluated():
+    """A singular point is an error where it is met, not where it might be: the ends coincide at q = 0 only."""
     s = cart()
     s.add_spring("s", "world", "cart", 100.0, free_length=0.5)  # both ends at the origin at q = 0
-    with err("spring 's'", "coincide at build time"):
-        s.build()
+    system = s.build()
+    with err("spring 's'", "reached zero length at the configuration q = [0.0]", "q0="):
+        system.generalized_forces([0.0], [0.0])
+    with err("spring 's'", "reached zero length"):
+        system.linearize(np.zeros(1))
+    # elsewhere it pulls the cart back to |x| = 0.5: equilibria at ±0.5, ω² = k/m
+    eq = system.equilibrium([0.2])
+    assert eq.q[0] == pytest.approx(0.5, abs=1e-9)
+    assert eq.linearize().modes().omega[0] == pytest.approx(50.0 ** 0.5, rel=1e-7)
 
 
 def test_spring_with_coincident_ends_and_no_free_length():
@@ -358,12 +366,14 @@ def test_spring_with_coincident_ends_and_no_free_length():
         s.build()
 
 
-def test_spring_with_nearly_coincident_ends_at_build_and_free_length():
-    """Ends 0.5 nm apart: too close for any call to accept, so the build refuses it already."""
+def test_spring_with_nearly_coincident_ends_at_neutral_and_free_length():
+    """Ends 0.5 nm apart at neutral: too close for any call to accept there, refused where it is met."""
     s = cart()
     s.add_spring("s", ("world", (5e-10, 0, 0)), "cart", 100.0, free_length=1.0)
-    with err("spring 's'", "coincide at build time"):
-        s.build()
+    system = s.build()
+    with err("spring 's'", "reached zero length"):
+        system.accelerations([0.0], [0.0])
+    assert system.accelerations([0.5], [0.0])[0] == pytest.approx(100.0 * (1 - (0.5 - 5e-10)) / 2.0, rel=1e-9)
 
 
 def test_spring_reaching_zero_length_during_a_computation():

@@ -15,7 +15,7 @@ import pinocchio as pin
 from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
-from ..model.fd import steps, tangent_derivative, vector_derivative
+from ..model.fd import differences, displaced_vectors, steps, tangent_derivative, vector_derivative
 from .equilibrium import Equilibrium
 from .linearize import LinearModel, fd_error, reference_state
 from .modal import classify
@@ -58,8 +58,8 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
     start = time.perf_counter()
     c = _constraints(system)
     nv, zero = system.nv, np.zeros(system.nv)
-    q = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
-    q = c.assemble(q)
+    q, origin = system.start_configuration() if q0 is None else (system.check_configuration(q0, "q0"), "q0")
+    q = c.assemble(q, start=origin)
 
     def residual(qq):
         return dynamics.inverse_dynamics(system, system.workspace(), qq, zero, zero, t)
@@ -68,7 +68,7 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
         """N₁ᵀ r(q₁) at q₁ = assemble(qq ⊕ N ξ), N₁ the basis there with the same independent coordinates."""
         if not np.any(xi):
             return N.T @ residual(qq), qq
-        q1 = c.assemble(pin.integrate(system.model, qq, N @ xi))
+        q1 = c.assemble(pin.integrate(system.model, qq, N @ xi), start="an iterate of the equilibrium search")
         return c.partition(c.jacobian(q1), ind)[1].T @ residual(q1), q1
 
     r = residual(q)
@@ -228,42 +228,95 @@ for _name in ("free_response", "receptance", "harmonic_response", "base_response
 
 
 def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_STEP, multipliers=None):
-    """Linear model of a mechanism with loops about ``at`` (a LoopEquilibrium or a configuration, assembled
-    first), at rest: the tree's M, C, K (:func:`vibdyn.analysis.linearize.linearize`) with the constraint-force
+    """Linear model of a mechanism with loops about ``at`` (a LoopEquilibrium, a steady motion, or a
+    configuration, assembled first) with velocity ``v`` (zero if None; it must keep the loops closed,
+    Φ_q v = 0), in the mechanism's independent coordinates.
+
+    At rest: the tree's M, C, K (:func:`vibdyn.analysis.linearize.linearize`) with the constraint-force
     curvature ∂(Φ_qᵀλ)/∂q by central differences in the tangent space (two steps for its error), projected
-    on the null space of Φ_q. λ: ``multipliers``, the equilibrium's, or the minimum-norm λ with Φ_qᵀλ = r."""
+    on the null space of Φ_q. λ: ``multipliers``, the equilibrium's, or the minimum-norm λ with Φ_qᵀλ = r.
+
+    About a steady motion (v ≠ 0; the independent coordinates do not accelerate, ``a`` must be None or
+    zero): the reduced equations F(z, ż, z̈) = N(q)ᵀ r(q, N(q) ż, N(q) z̈ + a_γ) = 0 (q on the loops with
+    independent coordinates z, a_γ the acceleration of the dependent ones that keeps Φ_q v̇ + γ = 0) are
+    differenced in z and ż (:func:`moving`): their K holds the constraint curvature, the centrifugal and
+    the gyroscopic terms together, C the gyroscopic coupling and the dampers."""
     from .linearize import linearize as tree_linearize
 
     start = time.perf_counter()
     c = _constraints(system)
     q0, v0, t0 = reference_state(system, at, v, t)
-    if np.any(v0) or (a is not None and np.any(a)):
-        raise ModelError("linearize: a mechanism with loops is linearised at rest (v = 0, a = 0): moving "
-                         "operating points of loops are not supported")
     phi = np.abs(c.scaled_phi(c.phi(q0))).max(initial=0.0)
     if phi > 1e-9:
         q0 = c.assemble(q0)
-    zero = np.zeros(system.nv)
-    tree = tree_linearize(system, q0, v=zero, t=t0, a=zero, method=method, step=step)
+    moving = bool(np.any(v0))
+    if a is not None and np.any(a):
+        raise ModelError("linearize: a mechanism with loops is linearised about an equilibrium or a steady motion "
+                         "(its independent coordinates do not accelerate): give a = None")
     J = c.jacobian(q0)
-    r = dynamics.inverse_dynamics(system, system.workspace(), q0, zero, zero, t0)
+    ind, N = c.partition(J)
+    a0 = np.zeros(system.nv)
+    if moving:
+        speed = np.abs(v0 / c.col_scale).max()
+        if np.abs(c.scaled_phi(J @ v0)).max(initial=0.0) > 1e-9 * speed:
+            raise ModelError("linearize: the velocity v of the operating point opens the loops (Φ_q v ≠ 0: "
+                             f"{np.abs(c.scaled_phi(J @ v0)).max():.3e} dimensionless): give a motion the loops "
+                             "allow (a steady motion's v, or v = N ż)")
+        a0 = c.dependent_solution(J, -c.bias(q0, v0), np.setdiff1d(np.arange(system.nv), ind))
+    tree = tree_linearize(system, q0, v=v0, t=t0, a=a0, method=method, step=step)
+    r = dynamics.inverse_dynamics(system, system.workspace(), q0, v0, a0, t0)
     if multipliers is None:
         multipliers = getattr(at, "multipliers", None)
     lam = c.multipliers(J, r) if multipliers is None else np.asarray(multipliers, dtype=float)
     h = steps(system, step)
-    terms = dynamics.cancelling_terms(system, system.workspace(), q0, zero, zero, t0)
+    terms = dynamics.cancelling_terms(system, system.workspace(), q0, v0, a0, t0)
     G, T = tangent_derivative(system, lambda q: c.jacobian(q).T @ lam, q0, h, estimate=True)
     G_err = fd_error(G, T, terms, h)
     K_tree = tree.K - G
     tree = replace(tree, K=K_tree, K_error=tree.K_error + G_err)
-    ind, N = c.partition(J)
     aN = np.abs(N)
-    M_r, C_r, K_r = N.T @ tree.M @ N, N.T @ tree.C @ N, N.T @ K_tree @ N
+    M_r = N.T @ tree.M @ N
     M_r = 0.5 * (M_r + M_r.T)
+    evaluations = tree.evaluations + 4 * system.nv + 1
+    if moving:
+        K_r, C_r, K_err, C_err = moving_terms(system, c, q0, v0, t0, ind, h, aN.T @ terms)
+        evaluations += 8 * ind.size
+    else:
+        C_r, K_r = N.T @ tree.C @ N, N.T @ K_tree @ N
+        K_err, C_err = aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN
     rank = system.nv - ind.size
-    return ConstrainedLinearModel(IndependentView(system, ind), q0, zero, zero, t0, M_r, C_r, K_r,
-                                  aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN, tree.method,
-                                  time.perf_counter() - start, tree.evaluations + 4 * system.nv + 1, N, tree, lam, rank)
+    return ConstrainedLinearModel(IndependentView(system, ind), q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err,
+                                  tree.method, time.perf_counter() - start, evaluations, N, tree, lam, rank)
+
+
+def moving_terms(system, c, q0, v0, t0, ind, h, terms):
+    """(K_r, C_r, K_error, C_error) of the reduced equations about the steady motion (q0, v0) (see
+    :func:`linearize`): central differences in the independent coordinates z (q moved by N₀ δz, then closed
+    by the dependent ones: :meth:`Constraints.close`) and in their speeds ż, steps h and 2h (Richardson);
+    ``terms`` the reduced round-off scale (N or N·m)."""
+    nv = system.nv
+    dep = np.setdiff1d(np.arange(nv), ind)
+    ws = system.workspace()
+    zd0 = v0[ind]
+    _, N0 = c.partition(c.jacobian(q0), ind)
+
+    def residual(q, zd):
+        J = c.jacobian(q)
+        N = c.partition(J, ind)[1]
+        v = N @ zd
+        a = c.dependent_solution(J, -c.bias(q, v), dep)
+        return N.T @ dynamics.inverse_dynamics(system, ws, q, v, a, t0)
+
+    hz = h[ind]
+    hv = hz * np.maximum(1.0, np.abs(zd0))
+    Z = displaced_vectors(np.zeros(ind.size), hz, estimate=True)
+    K, T = differences(np.array([residual(c.close(pin.integrate(system.model, q0, N0 @ z), dep), zd0) for z in Z]),
+                       hz)
+    K_err = fd_error(K, T, terms, hz)
+    V = displaced_vectors(zd0, hv, estimate=True)
+    C, T = differences(np.array([residual(q0, zd) for zd in V]), hv)
+    C_err = fd_error(C, T, terms, hv)
+    return K, C, K_err, C_err
 
 
 NEAR_SINGULAR = 1e-2  # conditioning of the loops' Jacobian below which stages are projected (projected_ode)
@@ -276,9 +329,8 @@ def projected_ode(base):
     the state goes back onto Φ = 0 and Φ_q v = 0 (q assembled, v projected in the kinetic-energy metric) and
     the step's last derivative is re-evaluated. The ODE is left as it is (no Baumgarte parameters to tune,
     nothing added to the dynamics); the projection moves the state by the drift of one step, of the order of
-    its local error. The implicit methods (radau, bdf) integrate the index-1 equations without projection
-    (their Jacobian is differenced here): their constraint residual grows with the local errors and is
-    reported with the trajectory.
+    its local error. The implicit methods (radau, bdf; their Jacobian is differenced here) are projected
+    when the drift (:meth:`drift`) passes their relative tolerance, and restarted from the projected state.
 
     Near a singular position (σ_min/σ_max of the loops' Jacobian below :data:`NEAR_SINGULAR` at the last
     accepted state) the field is evaluated on the loops: each stage's state is projected first. Off the
@@ -321,6 +373,16 @@ def projected_ode(base):
             y[nv:2 * nv] = v
             if f is not None:
                 self.into(self._t, y, f)
+
+        def drift(self, y):
+            """Largest dimensionless residual of the loops at y: positions (m / length scale, rad) and
+            velocities (Φ_q v relative to the largest dimensionless speed)."""
+            c, nv = self.system.constraints, self.nv
+            phi, J = c.evaluate(self.configuration(y))
+            v = y[nv:2 * nv]
+            speed = np.abs(v / c.col_scale).max(initial=0.0)
+            dv = np.abs(c.scaled_phi(J @ v)).max(initial=0.0) / speed if speed > 0 else 0.0
+            return max(float(np.abs(c.scaled_phi(phi)).max(initial=0.0)), float(dv))
 
         def jacobian(self, t, y):
             """∂f/∂y by central differences (steps 1e-6 × (1 rad or the length scale), per unit speed)."""

@@ -52,6 +52,8 @@ class Joint:
     file_required: ClassVar[tuple] = ()
     suffixes: ClassVar[tuple[str, ...]] = ()
     units: ClassVar[tuple[str, ...]] = ()  # "m" or "rad" per coordinate
+    #: per coordinate: an angle whose q is the angle itself, so that q and q ± 2π are the same pose
+    periodic: ClassVar[tuple[bool, ...]] = ()
     problem = None  # what is wrong with the parameters (str), reported when the joint joins a scene
 
     def __post_init__(self):
@@ -172,6 +174,7 @@ class Pivot(_AxisJoint):
     file_required = ("axis",)
     suffixes = ("",)
     units = ("rad",)
+    periodic = (True,)
     _positional = ("axis",)
 
     def pin_model(self):
@@ -252,6 +255,7 @@ class Cylindrical(_AxisJoint):
     file_required = ("axis",)
     suffixes = (".s", ".theta")
     units = ("m", "rad")
+    periodic = (False, True)
     _positional = ("axis",)
 
     def pin_model(self):
@@ -273,6 +277,7 @@ class Universal(Joint):
     file_required = ("axis1", "axis2")
     suffixes = (".theta1", ".theta2")
     units = ("rad", "rad")
+    periodic = (True, True)
     _positional = ("axis1", "axis2")
 
     def _check(self):

@@ -92,7 +92,7 @@ def describe(scene, system, out=None):
         c = system.constraints
         p("")
         p(f"closed loops: {c.m} equations, rank {system.nv - system.dof}, mobility {system.dof} at the configuration "
-          "assembled from neutral (points in the body frames, m; axes in body_a's frame)")
+          f"assembled from {c.closed[1]} (points in the body frames, m; axes in body_a's frame)")
         rows = []
         for lp, n in zip(scene.loops.values(), c.sizes):
             j = lp.joint
@@ -322,7 +322,9 @@ def main(argv=None):
     sim.add_argument("--dt", type=float, help="step of rk4/symplectic, first step of adaptive methods (s)")
     sim.add_argument("--error", help="error estimate: local, rerun or richardson (default: the method's own)")
     sim.add_argument("--samples", type=int, help="number of equally spaced outputs (default: every step)")
-    sim.add_argument("--offset", type=float, nargs="+", help="initial tangent offsets from neutral (m, rad)")
+    sim.add_argument("--offset", type=float, nargs="+",
+                     help="initial tangent offsets (m, rad) from neutral (a mechanism with loops: from its declared "
+                          "start, if it has one; the start is then put on the loops)")
     sim.add_argument("--v0", type=float, nargs="+", help="initial velocities (m/s, rad/s)")
     sim.add_argument("--out", help="write the trajectory to this .npz or .csv file")
     sim.add_argument("--no-progress", action="store_true", help="no progress bar")

@@ -44,11 +44,17 @@ class _End:
         return x, dx, _cross(self.dw, x) + _cross(self.w, dx)
 
 
+MAX_STEP = 0.5  # largest tangent step of one assembly iteration (rad, or × the length scale m)
+
+
 class Constraints:
-    """The compiled loop equations of a system: Φ(q), Φ_q(q) (tangent space), rank, null space, assembly."""
+    """The compiled loop equations of a system: Φ(q), Φ_q(q) (tangent space), rank, null space, assembly.
+    ``closed``: (q, where) of the first closed configuration met, None before; ``dof`` the mobility there."""
 
     def __init__(self, system, loops):
         self.system = system
+        self.closed = None
+        self.dof_closed = None
         self.loops = tuple(loops)
         self._ends = []
         self._axes = []  # per loop: (normals n_i for _NORMAL rows, (n, u) pairs for _ALIGNED rows)
@@ -179,8 +185,8 @@ class Constraints:
 
     # ----------------------------------------------------------------- rank and null space
     def decompose(self, J):
-        """(rank, U, s, Vt) of the dimensionless Jacobian."""
-        Js = self.row_scale[:, None] * J * self.col_scale[None, :]
+        """(rank, U, s, Vt) of the dimensionless Jacobian (J: the first rows of Φ_q, or all of them)."""
+        Js = self.row_scale[:len(J), None] * J * self.col_scale[None, :]
         if Js.size == 0:
             return 0, None, np.zeros(0), np.eye(J.shape[1])
         U, s, Vt = np.linalg.svd(Js)
@@ -247,6 +253,33 @@ class Constraints:
         N = self.col_scale[:, None] * N / self.col_scale[None, ind]
         return ind, N
 
+    def dependent_solution(self, J, rhs, dep):
+        """x (nv) with Φ_q x = rhs (least squares on the rank: redundant equations are consistent) that moves
+        only the ``dep`` coordinates (x = 0 on the others), in the dimensionless metric."""
+        Js = self.row_scale[:, None] * J[:, dep] * self.col_scale[None, dep]
+        x = np.zeros(J.shape[1])
+        x[dep] = self.col_scale[dep] * np.linalg.lstsq(Js, self.row_scale * rhs, rcond=RANK_RTOL)[0]
+        return x
+
+    def close(self, q, dep, max_iter=20):
+        """q on the loops by Gauss–Newton steps of the ``dep`` coordinates only (the others held): the chart
+        of the mechanism in its independent coordinates. Iterates while the residual falls (to round-off)."""
+        model = self.system.model
+        phi, J = self.evaluate(q)
+        res = np.abs(self.scaled_phi(phi)).max(initial=0.0)
+        for _ in range(max_iter):
+            q_new = pin.integrate(model, q, self.dependent_solution(J, -phi, dep))
+            phi_new, J_new = self.evaluate(q_new)
+            res_new = np.abs(self.scaled_phi(phi_new)).max(initial=0.0)
+            if not res_new < res:
+                break
+            q, phi, J, res = q_new, phi_new, J_new, res_new
+        if res > ASSEMBLY_TOL:
+            raise ConvergenceError(f"the loops cannot be closed by their dependent coordinates here (residual "
+                                   f"{res:.3e}): the mechanism is at or near a singular position", residual=res,
+                                   best=q)
+        return q
+
     def multipliers(self, J, r):
         """Minimum-norm λ (dimensionless metric) with Φ_qᵀ λ = r in the least-squares sense (redundant
         equations share their load evenly): N for position equations, N·m for orientation ones."""
@@ -284,47 +317,80 @@ class Constraints:
             k += n
         return out
 
-    def assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50):
+    def assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0"):
         """The consistent configuration near q0: Gauss–Newton with minimum-norm steps (SVD) in the tangent
-        space, configurations moved with ``pin.integrate``; dimensionless residual ≤ tol."""
-        return self._assemble(q0, tol, max_iter)[0]
+        space, each at most :data:`MAX_STEP` (rad, or × the length scale), configurations moved with
+        ``pin.integrate``; dimensionless residual ≤ tol. Angles of pivots (and the periodic coordinates of
+        cylindrical and universal joints) end within π of q0's. ``start`` names q0 in the error (a
+        ConvergenceError naming the loop and the residual reached from it)."""
+        return self._assemble(q0, tol, max_iter, start)[0]
 
-    def _assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50):
+    def _assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0"):
         """(q, Φ(q), Φ_q(q)) of :meth:`assemble`; Φ and Φ_q are None where q is not the last one evaluated."""
         model = self.system.model
-        q = np.array(q0, dtype=float)
+        q0 = np.array(q0, dtype=float)
+        q = q0.copy()
         phi, J = self.evaluate(q)
         res = np.abs(self.scaled_phi(phi)).max(initial=0.0)
         best = (res, q.copy())
-        for _ in range(max_iter):
-            if res <= tol:
-                return q, phi, J
-            dq = self.correction(phi, J)
-            alpha = 1.0
-            while True:
-                q_new = pin.integrate(model, q, alpha * dq)
-                phi_new = self.phi(q_new)
-                res_new = np.abs(self.scaled_phi(phi_new)).max(initial=0.0)
-                if res_new < res or alpha < 1e-4:
+        # trial points far off (a step through a near-singular Jacobian) may overflow: such a step is
+        # rejected below like any step that does not reduce the residual, so numpy's warnings are not news
+        with np.errstate(over="ignore", invalid="ignore"):
+            for _ in range(max_iter):
+                if res <= tol:
+                    return self._closed_at(q, q0, start), phi, J
+                dq = self.correction(phi, J)
+                over = np.abs(dq / self.col_scale).max(initial=0.0) / MAX_STEP
+                if over > 1:  # a trust region: the linearisation holds only so far
+                    dq /= over
+                alpha = 1.0
+                while True:
+                    q_new = pin.integrate(model, q, alpha * dq)
+                    phi_new = self.phi(q_new)
+                    res_new = np.abs(self.scaled_phi(phi_new)).max(initial=0.0)
+                    if res_new < res or alpha < 1e-4:
+                        break
+                    alpha *= 0.5
+                if not np.isfinite(res_new):
                     break
-                alpha *= 0.5
-            if not np.isfinite(res_new):
-                break
-            q = q_new
-            phi, J = self.evaluate(q)
-            res = res_new
-            if res < best[0]:
-                best = (res, q.copy())
-            if alpha < 1e-4 and res_new >= best[0] and res > tol:
-                break
+                q = q_new
+                phi, J = self.evaluate(q)
+                res = res_new
+                if res < best[0]:
+                    best = (res, q.copy())
+                if alpha < 1e-4 and res_new >= best[0] and res > tol:
+                    break
         if best[0] <= tol:
-            return best[1], None, None
+            return self._closed_at(best[1], q0, start), None, None
         phi = self.scaled_phi(self.phi(best[1]))
         worst = self.loop_of_row(int(np.argmax(np.abs(phi))))
-        raise ConvergenceError(f"assembly: the loops cannot be closed near this configuration: loop '{worst}' "
+        raise ConvergenceError(f"assembly from {start}: the loops cannot be closed near it: loop '{worst}' "
                                f"stays open by {np.abs(phi).max():.3e} (dimensionless: m / length scale "
-                               f"{self.system.length_scale:g} m, or rad); start nearer a closed configuration",
+                               f"{self.system.length_scale:g} m, or rad); start nearer a closed configuration "
+                               "(q0=, or Scene.set_operating_point(start=...))",
                                residual=float(np.abs(phi).max()), best=best[1])
+
+    def _closed_at(self, q, q0, start):
+        """q with its periodic angles within π of q0's; the first closed configuration met is kept
+        (:attr:`closed`, where the mobility is taken) after the check that no loop locks the mechanism."""
+        iq = self.system.periodic_coordinates
+        if iq.size:
+            d = q[iq] - q0[iq]
+            q[iq] = q0[iq] + (d - 2 * np.pi * np.round(d / (2 * np.pi)))
+        if self.closed is None:
+            self.check_mobility(q)
+            self.dof_closed = self.system.nv - self.rank(q)
+            self.closed = (q.copy(), start)
+        return q
+
+    @property
+    def dof(self):
+        """Mobility at :attr:`closed` (assembled from the system's start first if no closed configuration
+        is known yet: a ConvergenceError naming that start if the loops cannot be closed from it)."""
+        if self.closed is None:
+            q, label = self.system.start_configuration()
+            self.assemble(q, start=label)
+        return self.dof_closed
 
     def bias(self, q, v):
         """γ = (dΦ_q/dt) v: the loops' acceleration terms at zero acceleration (Φ_q v̇ + γ = 0 along a motion),
@@ -422,19 +488,21 @@ class Constraints:
         for lp, n in zip(self.loops, self.sizes):
             k += n
             if self.decompose(J[:k])[0] == self.system.nv:
-                raise ModelError(f"loop '{lp.name}' locks the mechanism: with it the loops leave no motion at all "
-                                 f"(mobility 0: rank {self.system.nv} of the constraint Jacobian = nv)")
+                before = "" if k == n else " (with the loops before it)"
+                raise ModelError(f"loop '{lp.name}' locks the mechanism{before}: with it the loops leave no motion "
+                                 f"at all (mobility 0: rank {self.system.nv} of the constraint Jacobian = nv)")
 
 
 def compile_loops(system):
-    """The :class:`Constraints` of a system's scene: assembled from neutral, its mobility checked (a loop
-    that cannot close near neutral, or that locks the mechanism, is a ModelError naming it)."""
+    """The :class:`Constraints` of a system's scene. Nothing here assumes that the neutral configuration
+    closes the loops: the mobility is taken at the first closed configuration met (:attr:`closed`), tried
+    here from the system's start (the declared one, else neutral; a start that does not close leaves it to
+    the first analysis, which names its own start if it fails). A loop that locks the mechanism there is a
+    ModelError naming it."""
     c = Constraints(system, system.scene.loops.values())
     try:
-        q = c.assemble(system.neutral())
-    except ConvergenceError as e:
-        raise ModelError(f"{e}".replace("assembly:", "closing the loops from the neutral configuration:")) from None
-    c.check_mobility(q)
-    c.reference = q
-    c.dof = system.nv - c.rank(q)
+        q, label = system.start_configuration()
+        c.assemble(q, start=label)
+    except ConvergenceError:
+        pass
     return c

@@ -203,6 +203,10 @@ class System:
         self.additive_coordinates = tuple(np.array(c, dtype=int) for c in zip(*additive)) if additive else (
             np.zeros(0, int), np.zeros(0, int))
         self.curved_coordinates = tuple(k for b in self.body_infos.values() if b.nq != b.nv for k in b.v_indices)
+        # indices in q of the angles whose q is the angle itself (pivots, ...): q and q ± 2π are one pose
+        self.periodic_coordinates = np.array([b.idx_q + i for b in self.body_infos.values()
+                                              for i, p in enumerate(b.joint.periodic) if p], dtype=int)
+        self.periodic_coordinates.flags.writeable = False
         self.inertia_scales = self._inertia_scales()
         self._eye = np.eye(self.nv)
         self._eye.flags.writeable = False
@@ -210,7 +214,7 @@ class System:
         self._zero_v.flags.writeable = False
         self._mass_weights = 1.0 / np.outer(np.sqrt(self.inertia_scales), np.sqrt(self.inertia_scales))
         if self.nv:
-            self.check_mass_matrix(self.neutral(), "the neutral configuration")
+            self._check_inertia()
         # the loops' equations (vibdyn.model.constraints.Constraints), None for a tree
         self.constraints = compile_loops(self) if self.scene.loops else None
         self._built = True
@@ -219,6 +223,22 @@ class System:
     def neutral(self) -> Vector:
         """Neutral configuration (every joint at its zero; unit quaternions)."""
         return pin.neutral(self.model)
+
+    def start_configuration(self) -> tuple[Vector, str]:
+        """(q, what): the configuration analyses start from when given none (the scene's declared start,
+        :meth:`Scene.set_operating_point`, else neutral) and how error messages name it."""
+        start = (self.scene.operating_point or {}).get("start")
+        if start is None:
+            return self.neutral(), "the neutral configuration"
+        try:
+            q = self.configuration(start)
+        except ModelError as e:
+            raise ModelError(f"operating point start: {e}") from None
+        if isinstance(start, Mapping):
+            text = ", ".join(f"{k} = {float(x):.6g}" for k, x in start.items())
+        else:
+            text = ", ".join(f"{k} = {float(x):.6g}" for k, x in zip(self.coordinates, np.ravel(start)))
+        return q, f"the declared start ({text or 'neutral'})"
 
     def integrate(self, q: ArrayLike, dv: ArrayLike) -> Vector:
         """Configuration reached from q by the tangent displacement dv (exp map; never q + dv)."""
@@ -230,7 +250,8 @@ class System:
 
     def _length_scale(self):
         """A characteristic length of the scene (m): the largest distance of a body origin, centre of mass
-        or spring end from the world origin at the neutral configuration (at least 1 mm); ``length_scale``."""
+        or spring end from the world origin at the neutral configuration, or a spring's free length (at least
+        1 mm); ``length_scale``."""
         data = self.data
         pin.forwardKinematics(self.model, data, self.neutral())
         pts = [np.zeros(3)]
@@ -238,7 +259,8 @@ class System:
             M = data.oMi[b.joint_id] * b.body_in_joint
             pts += [M.translation, M.act(np.array(self.scene.bodies[b.name].com))]
         pts += [np.array(p, dtype=float) for e in self.scene.elements.values() for p in e.reference_points()]
-        return max(1e-3, float(np.max(np.linalg.norm(pts, axis=1))))
+        lengths = [float(x) for e in self.scene.elements.values() for x in e.reference_lengths()]
+        return max(1e-3, float(np.max(np.linalg.norm(pts, axis=1))), *lengths)
 
     def configuration(self, offsets: ArrayLike | Mapping[str, float]) -> Vector:
         """Configuration at tangent offsets from neutral (m or rad): one per coordinate, or a dict
@@ -282,8 +304,9 @@ class System:
 
     @property
     def dof(self) -> int:
-        """Mobility of the mechanism: nv − rank of the loops' Jacobian at the configuration assembled from
-        neutral (nv for a tree). See :meth:`mobility` for another configuration."""
+        """Mobility of the mechanism: nv − rank of the loops' Jacobian at the first closed configuration met
+        (``constraints.closed``: assembled from the start at build, or by the first analysis; nv for a tree).
+        See :meth:`mobility` for another configuration."""
         return self.nv if self.constraints is None else self.constraints.dof
 
     def mobility(self, q: ArrayLike) -> int:
@@ -301,10 +324,11 @@ class System:
         return self.constraints.jacobian(self.check_configuration(q))
 
     def assemble(self, q0: ArrayLike | None = None) -> Vector:
-        """The consistent configuration (loops closed) nearest q0 (neutral if None): Gauss–Newton with
-        minimum-norm steps in the tangent space. ConvergenceError if the loops cannot be closed there."""
-        q0 = self.neutral() if q0 is None else self.check_configuration(q0, "q0")
-        return q0.copy() if self.constraints is None else self.constraints.assemble(q0)
+        """The consistent configuration (loops closed) nearest q0 (if None, the start:
+        :meth:`start_configuration`): Gauss–Newton with minimum-norm steps in the tangent space, pivot angles
+        kept within π of q0's. ConvergenceError naming the loop and the start if the loops cannot be closed."""
+        q0, start = self.start_configuration() if q0 is None else (self.check_configuration(q0, "q0"), "q0")
+        return q0.copy() if self.constraints is None else self.constraints.assemble(q0, start=start)
 
     # ------------------------------------------------------------- dynamics
     def mass_matrix(self, q: ArrayLike) -> Matrix:
@@ -429,12 +453,8 @@ class System:
         by drives (:meth:`held`) if it says so (robots' default), a steady motion if it names cyclic
         coordinates, else the static equilibrium nearest its start (neutral by default)."""
         op = self.scene.operating_point or {}
-        q0 = None
-        if op.get("start") is not None:
-            try:
-                q0 = self.configuration(op["start"])
-            except ModelError as e:
-                raise ModelError(f"operating point start: {e}") from None
+        # (a mechanism with loops starts from the declared start itself, and names it if it cannot close)
+        q0 = self.start_configuration()[0] if op.get("start") is not None and self.constraints is None else None
         if op.get("held"):
             return self.held(q0)
         if op.get("cyclic"):
@@ -460,9 +480,6 @@ class System:
         estimate and elapsed time (see :func:`vibdyn.simulation.simulate.simulate`)."""
         from ..simulation.simulate import simulate
 
-        if self.constraints is not None and str(method).lower() in ("symplectic", "variational"):
-            raise ModelError(f"simulate: method '{method}' does not handle closed loops; use dop853, rk4 (projection "
-                             "onto the loops after each step), radau or bdf")
         return simulate(self, t_end, q0, v0, method, rtol, atol, dt, t_eval, **options)
 
     # ------------------------------------------------------------- geometry
@@ -532,6 +549,22 @@ class System:
         scales = np.array([mass if u == "m" else rot for u in self.units])
         scales.flags.writeable = False
         return scales
+
+    def _check_inertia(self):
+        """At build: a body without inertia along one of its coordinates is refused. The test is made at
+        neutral and, only if M is singular there, at a second configuration: a mass matrix singular at
+        neutral alone is a singular point of the motion (a slider at the axis of a pivot), refused where
+        an analysis meets it, not a fault of the description."""
+        try:
+            self.check_mass_matrix(self.neutral(), "the neutral configuration")
+        except ModelError:
+            try:
+                self.check_mass_matrix(self.random_configuration(0.5, rng=0), "a random configuration")
+            except ModelError:
+                pass
+            else:
+                return
+            raise
 
     def check_mass_matrix(self, q: ArrayLike, where: str, M: Matrix | None = None) -> None:
         """ModelError naming the body and coordinate if M(q) is singular against the scene's scales: an

@@ -299,8 +299,11 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
              progress: bool | None = None) -> Trajectory:
     """Integrate the nonlinear motion of ``system`` from (q0, v0) at t = 0 to ``t_end`` (s).
 
-    q0: configuration (default neutral) or an equilibrium/steady-motion result (then v0 defaults to its v);
-    v0: velocities (default zero). ``method``: a name of :data:`METHODS` — "dop853", "rk4", "radau", "bdf"
+    q0: configuration (default neutral; for a mechanism with loops, whose neutral configuration need not close
+    them, the scene's declared start if it has one: :meth:`System.start_configuration`), or an
+    equilibrium/steady-motion result (then v0 defaults to its v); v0: velocities (default zero). A mechanism
+    with loops starts from (q0, v0) put on its loops (q0 assembled, v0 projected in the kinetic-energy
+    metric): its energies, work and errors are those of that state. ``method``: a name of :data:`METHODS` — "dop853", "rk4", "radau", "bdf"
     or "symplectic" (alias "variational") — see the module docstring. ``rtol`` and ``atol`` (adaptive methods): local error per step below atol + rtol·|x|,
     positions measured from the step's start; ``atol`` a number, one per coordinate (positions and
     velocities alike) or 2·nv numbers (positions then velocities); default rtol × (1 rad, or the scene's
@@ -393,8 +396,16 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
     method = stepper.name
     if hasattr(q0, "q") and hasattr(q0, "v"):  # an equilibrium or a steady motion
         q0, v0 = q0.q, q0.v if v0 is None else v0
-    q0 = system.neutral() if q0 is None else system.check_configuration(q0, f"{what}: q0")
+    if system.constraints is not None and not stepper.supports_loops:
+        raise ModelError(f"{what}: method '{method}' does not handle closed loops; use "
+                         f"{', '.join(m for m, c in METHODS.items() if c.supports_loops)} (projected onto the loops)")
+    q0, start = system.start_configuration() if q0 is None and system.constraints is not None else (
+        system.neutral() if q0 is None else system.check_configuration(q0, f"{what}: q0"), "q0")
     v0 = np.zeros(system.nv) if v0 is None else system.check_velocity(v0, f"{what}: v0")
+    if system.constraints is not None:  # the run starts on the loops: its energies and errors are of that state
+        c = system.constraints
+        q0 = c.assemble(q0, start=start)
+        q0, v0 = c.project(q0, v0, system.mass_matrix(q0))
     system.check_mass_matrix(q0, "the initial configuration q0")
     rtol = scalar(rtol, f"{what}: rtol")
     if not MIN_RTOL <= rtol < 1.0:
@@ -654,7 +665,8 @@ def command(system, args, out=None):
         raise ModelError(f"--out {args.out}: no such directory '{Path(args.out).parent}'")
     if args.samples is not None and args.samples < 2:
         raise ModelError(f"--samples must be at least 2 (the start and the end), got {args.samples}")
-    q0 = None if args.offset is None else system.integrate(system.neutral(), system.check_velocity(args.offset, "--offset"))
+    origin = system.start_configuration()[0] if system.constraints is not None else system.neutral()
+    q0 = None if args.offset is None else system.integrate(origin, system.check_velocity(args.offset, "--offset"))
     t_eval = None if args.samples is None else np.linspace(0.0, args.t_end, args.samples) if args.t_end > 0 else None
     try:
         traj = simulate(system, args.t_end, q0, args.v0, args.method, args.rtol, args.atol, args.dt, t_eval,

@@ -64,6 +64,10 @@ class ElementKind:
         """Points (m) that size the scene (:attr:`vibdyn.System.length_scale`)."""
         return ()
 
+    def reference_lengths(self) -> tuple:
+        """Lengths (m) that size the scene, wherever its bodies are (a spring's free length)."""
+        return ()
+
     @property
     def label(self) -> str:
         return self.table.replace("_", " ")
@@ -135,9 +139,10 @@ class Kinematics:
     after forward kinematics in one copy per array. ``R`` and ``p`` are views of one vector ``pose`` =
     (R, p), of which point positions are linear functions (:class:`PointSet`)."""
 
-    __slots__ = ("R", "p", "pose", "v", "w", "sp", "sv")
+    __slots__ = ("R", "p", "pose", "v", "w", "sp", "sv", "q")
 
     def __init__(self, model, ws, joints, q, v=None, supports=None):
+        self.q = q  # (where an element that cannot be evaluated says it met its singular point)
         # support displacements and velocities (m, m/s), one row per support and a last zero row, so that
         # index −1 (an end on no support) adds nothing
         self.sp, self.sv = supports if supports is not None else (_NO_SUPPORT, _NO_SUPPORT)
@@ -327,8 +332,10 @@ class TwoPoint(Group):
         if True in zero:
             i = zero.index(True)
             xa = kin.points(self.ja[i:i + 1], self.pa[i:i + 1])[0] + kin.sp[self.sa[i]]
-            raise ModelError(f"{self.kind} '{self.names[i]}' reached zero length (its two ends coincide at "
-                             f"{np.round(xa, 12).tolist()}): its direction is undefined")
+            raise ModelError(f"{self.kind} '{self.names[i]}' reached zero length at the configuration q = "
+                             f"{np.round(kin.q, 9).tolist()} (its two ends coincide at {np.round(xa, 12).tolist()} m):"
+                             " its direction, and so its force, is undefined there; start the analysis or the "
+                             "motion away from it (q0=, or Scene.set_operating_point(start=...))")
         return d, L
 
     kind = "element"

@@ -36,6 +36,7 @@ class Stepper:
     adaptive: bool = False
     dense_output: bool = False
     error_methods: tuple = ()
+    supports_loops: bool = False  # integrates a mechanism with closed loops on its loops (projected ODE)
     nfev: int = 0  # counters (instance values; see the module docstring)
 
     def __init__(self, system, q0, v0, t_end, *, rtol=None, atol_q=None, atol_v=None, first_step=None,
@@ -82,7 +83,10 @@ class Interpolant:
 
 class ODEStepper(Stepper):
     """A stepper of the first-order ODE y' = f(t, y) of :mod:`.chart` (y = chart coordinates, v[, w]);
-    ``ode``, ``y``; ``nfev`` is the ODE's count."""
+    ``ode``, ``y``; ``nfev`` is the ODE's count. Closed loops: the ODE is projected (see
+    :func:`vibdyn.analysis.constrained.projected_ode`)."""
+
+    supports_loops = True
 
     def __init__(self, system, q0, v0, t_end, **kwargs):
         super().__init__(system, q0, v0, t_end, **kwargs)

@@ -89,6 +89,10 @@ class VectorODE:
     def recentre(self, y, f=None):
         """Centre the chart at y's configuration (nothing to do on a vector space)."""
 
+    def drift(self, y):
+        """How far y is off the loops (dimensionless; 0 without loops: see the projected ODE)."""
+        return 0.0
+
     def extent(self, y):
         """Largest rotation (rad) of a curved joint in y's chart: none here."""
         return 0.0

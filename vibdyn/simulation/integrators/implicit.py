@@ -74,7 +74,9 @@ class Implicit(ODEStepper):
         self.t, self.y = s.t, s.y
         self.dense = (Interpolant(s.dense_output(), self.ode.frozen())
                       if next_output is not None and next_output < s.t else None)
-        if s.status == "running" and self.ode.extent(s.y) > RECENTRE:
+        # re-centre a chart whose rotations grew, and put a mechanism with loops back on its loops once its
+        # drift reaches the local tolerance (the solver restarts from the projected state)
+        if s.status == "running" and (self.ode.extent(s.y) > RECENTRE or self.ode.drift(s.y) > self.rtol):
             y = s.y.copy()
             self.ode.recentre(y)
             self.restarts += 1
