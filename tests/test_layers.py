@@ -35,7 +35,7 @@ ENTRY_POINTS = {
     ("vibdyn.description.scene", "Scene.save"): {"vibdyn.io.scenefile"},
     ("vibdyn.model.system", "System.equilibrium"): {"vibdyn.analysis.equilibrium", "vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.equilibria"): {"vibdyn.analysis.equilibrium"},
-    ("vibdyn.model.system", "System.steady_motion"): {"vibdyn.analysis.equilibrium"},
+    ("vibdyn.model.system", "System.steady_motion"): {"vibdyn.analysis.equilibrium", "vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.held"): {"vibdyn.analysis.equilibrium"},
     ("vibdyn.model.system", "System.linearize"): {"vibdyn.analysis.linearize", "vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.simulate"): {"vibdyn.simulation.simulate"},

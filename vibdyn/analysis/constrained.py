@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 import pinocchio as pin
 
+from .._check import scalar
 from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
@@ -50,39 +51,65 @@ class LoopEquilibrium(Equilibrium):
         return self.system.reactions(self.q, self.v, np.zeros(nv), self.t, loop_forces=self.multipliers)
 
 
-def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
-    """Static equilibrium of a mechanism with loops near q0 (need not be consistent): Newton on the reduced
-    force Nᵀ r(q) = 0 (r = inverse dynamics at rest, N the null-space basis at the current point), each
-    iterate re-assembled onto Φ = 0; the reduced Jacobian by central differences (steps 1e-6 rad or
-    1e-6 × length scale along N's columns). The loop forces are the minimum-norm λ with Φ_qᵀλ = r."""
+
+def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, speeds=None):
+    """Static equilibrium of a mechanism with loops near q0 (need not be consistent; default: the system's
+    start): Newton on the reduced force Nᵀ r(q) = 0 (r = inverse dynamics at rest, N the null-space basis at
+    the current point), each iterate re-assembled onto Φ = 0; the reduced Jacobian by central differences
+    (steps 1e-6 rad or 1e-6 × length scale along N's columns). The loop forces are the minimum-norm λ with
+    Φ_qᵀλ = r. ``speeds`` ({coordinate index: speed}, rad/s or m/s): a steady motion instead, those
+    independent coordinates turning at the given speeds (held by their drives: ``drive``), r the inverse
+    dynamics at that velocity (see :func:`steady_motion`)."""
     start = time.perf_counter()
     c = _constraints(system)
     nv, zero = system.nv, np.zeros(system.nv)
+    speeds = speeds or {}
+    what = "steady motion" if speeds else "static equilibrium"
     q, origin = system.start_configuration() if q0 is None else (system.check_configuration(q0, "q0"), "q0")
     q = c.assemble(q, start=origin)
+    v = zero.copy()
+    for i, s in speeds.items():
+        v[i] = s
+    if speeds:
+        J = c.jacobian(q)
+        if np.abs(c.scaled_phi(J @ v)).max(initial=0.0) > 1e-9 * np.abs(v / c.col_scale).max():
+            raise ModelError(f"steady_motion: turning {', '.join(system.coordinates[i] for i in speeds)} opens the "
+                             "loops (Φ_q v ≠ 0): the cyclic coordinates of a mechanism with loops must carry the "
+                             "loops with them (a rotor under the mechanism)")
 
-    def residual(qq):
-        return dynamics.inverse_dynamics(system, system.workspace(), qq, zero, zero, t)
+    def residual(qq, J=None):
+        if not speeds:
+            return dynamics.inverse_dynamics(system, system.workspace(), qq, zero, zero, t)
+        J = c.jacobian(qq) if J is None else J
+        a = c.dependent_solution(J, -c.bias(qq, v), np.setdiff1d(np.arange(nv), ind))  # (zero for a rotor)
+        return dynamics.inverse_dynamics(system, system.workspace(), qq, v, a, t)
 
     def reduced(qq, N, xi):
         """N₁ᵀ r(q₁) at q₁ = assemble(qq ⊕ N ξ), N₁ the basis there with the same independent coordinates."""
         if not np.any(xi):
-            return N.T @ residual(qq), qq
-        q1 = c.assemble(pin.integrate(system.model, qq, N @ xi), start="an iterate of the equilibrium search")
-        return c.partition(c.jacobian(q1), ind)[1].T @ residual(q1), q1
+            return (N.T @ residual(qq))[rows], qq
+        q1 = c.assemble(pin.integrate(system.model, qq, N @ xi), start=f"an iterate of the {what} search")
+        J1 = c.jacobian(q1)
+        return (c.partition(J1, ind)[1].T @ residual(q1, J1))[rows], q1
 
-    r = residual(q)
     J = c.jacobian(q)
     ind, N = c.partition(J)
+    fixed = [system.coordinates[i] for i in speeds if i not in ind]
+    if fixed:
+        raise ModelError(f"steady_motion: {', '.join(fixed)} cannot turn freely: the loops tie it to the other "
+                         "coordinates (give a coordinate the loops leave free)")
+    rows = np.array([k for k, i in enumerate(ind) if i not in speeds], dtype=int)  # equations at rest
+    r = residual(q, J)
     unit = np.where(np.array(system.units) == "m", system.length_scale, 1.0)[ind]
     Kr = vector_derivative(lambda x: reduced(q, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
-    force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(Kr)) * unit).max(initial=0.0), 1e-300)
+    force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(Kr[:, rows])) * unit[rows]).max(initial=0.0),
+                      1e-300)
     target = tol * force_scale
-    rho = N.T @ r
+    rho = (N.T @ r)[rows]
     it = 0
     while np.abs(rho).max(initial=0.0) > target:
         if it >= max_iter:
-            raise ConvergenceError(f"static equilibrium of the mechanism with loops did not converge in {max_iter} "
+            raise ConvergenceError(f"{what} of the mechanism with loops did not converge in {max_iter} "
                                    f"iterations: reduced residual {np.abs(rho).max():.3e} (target {target:.3e}); "
                                    "start nearer an equilibrium (q0=)", residual=float(np.abs(rho).max()), best=q)
         it += 1
@@ -98,27 +125,45 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
             alpha *= 0.5
         q = q_new
         J = c.jacobian(q)
-        ind, N = c.partition(J)
-        r = residual(q)
-        rho = N.T @ r
+        ind, N = c.partition(J, ind if speeds else None)  # (a steady motion keeps its cyclic coordinates)
+        r = residual(q, J)
+        rho = (N.T @ r)[rows]
         if not np.all(np.isfinite(rho)):
-            raise ConvergenceError("static equilibrium search diverged (non-finite forces)", residual=None, best=q)
+            raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=None, best=q)
         if np.abs(rho).max() <= target:
             break
         if np.abs(alpha * step).max() <= 1e-15 and np.abs(rho).max() <= 1e3 * target:
             break
         unit = np.where(np.array(system.units) == "m", system.length_scale, 1.0)[ind]
         Kr = vector_derivative(lambda x: reduced(q, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
-    lam = c.multipliers(J, r)
-    res = float(np.abs(r - J.T @ lam).max(initial=0.0))
-    lin = linearize(system, q, t=t, multipliers=lam)
+    cyclic = [k for k, i in enumerate(ind) if i in speeds]
+    drive = dict(zip((system.coordinates[ind[k]] for k in cyclic), (float(x) for x in (N.T @ r)[cyclic])))
+    lam = c.multipliers(J, r - N[:, cyclic] @ ((N.T @ r)[cyclic]) if cyclic else r)
+    res = float(np.abs(rho).max(initial=0.0))
+    lin = linearize(system, q, v=v, t=t, multipliers=lam)
     m = lin.modes()
-    stability = classify(m.rigid, m.unstable, m.eigenvalues, m.zero_threshold)
+    stability = classify(m.rigid, m.unstable, m.eigenvalues, m.zero_threshold, ignore_zeros=len(speeds))
     phi = float(np.abs(c.scaled_phi(c.phi(q))).max(initial=0.0))
     q_error = np.abs(N @ np.linalg.pinv(lin.K, rcond=1e-10) @ np.full(ind.size, float(np.abs(rho).max()))) \
         + 4 * EPS * (np.abs(system.difference(system.neutral(), q)) + 1.0)
-    return LoopEquilibrium(system, q, np.zeros(nv), float(t), "static", res, float(target), it, stability, {},
-                           {}, time.perf_counter() - start, m, q_error, lam, c.split(lam), phi)
+    return LoopEquilibrium(system, q, v, float(t), "steady" if speeds else "static", res, float(target), it,
+                           stability, {system.coordinates[i]: float(s) for i, s in speeds.items()}, drive,
+                           time.perf_counter() - start, m, q_error, lam, c.split(lam), phi)
+
+
+def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
+    """Steady motion of a mechanism with loops: the coordinates of ``v_cyclic`` ({name: speed}, rad/s or
+    m/s, given) turn at constant speed, held by their drives, carrying the loops with them (Φ_q v = 0: a
+    rotor under the mechanism); the others rest relative to them (:func:`equilibrium` with ``speeds``)."""
+    if not isinstance(v_cyclic, dict) or not v_cyclic:
+        raise ModelError("steady_motion: v_cyclic must be a dict {coordinate: speed}")
+    speeds = {}
+    for name, speed in v_cyclic.items():
+        if speed is None:
+            raise ModelError(f"steady_motion: the speed of '{name}' must be given for a mechanism with loops (a "
+                             "speed found from the forces is not supported there)")
+        speeds[system.coordinate_index(name)] = scalar(speed, f"steady_motion: speed of '{name}'")
+    return equilibrium(system, q0, t, tol, max_iter, speeds)
 
 
 class IndependentView:
@@ -184,6 +229,12 @@ class ReducedLinearModel(LinearModel):
         """(Nᵀ B_y, Nᵀ B_v): the tree's base-excitation inputs reduced (see :meth:`LinearModel.support_input`)."""
         By, Bv = self.tree.support_input(name, step)
         return self.basis.T @ By, self.basis.T @ Bv
+
+    def relinearize(self, method):
+        """The same operating point linearised again with ``method`` (the tree's part: "fd" or "analytic")."""
+        return type(self)(**{f.name: getattr(linearize(self.tree.system, self.q0, v=self.v0, t=self.t0, method=method,
+                                                        multipliers=self.multipliers), f.name)
+                             for f in fields(type(self))})
 
     def summary(self):
         return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, dof={self.nv}, rank {self.rank}, "

@@ -232,6 +232,10 @@ class LinearModel:
         MPhi = self.M @ m.shapes
         return self.with_damping(MPhi @ np.diag(2 * z * m.omega) @ MPhi.T)
 
+    def relinearize(self, method: str) -> LinearModel:
+        """The same operating point linearised again with ``method`` ("fd" or "analytic")."""
+        return linearize(self.system, self.q0, v=self.v0, t=self.t0, a=self.a0, method=method)
+
     def summary(self) -> str:
         return (f"LinearModel({self.method}, nv={self.nv}, error ≈ {self.error:.1e}, "
                 f"{self.elapsed * 1e3:.2f} ms, {self.evaluations} evaluations)")

@@ -238,9 +238,7 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
     if tolerance is None:
         rigid = abs_w2 <= 10 * uncertainty
         if lin.method == "fd" and np.count_nonzero(rigid):
-            from .linearize import linearize
-
-            exact = modes(linearize(lin.system, lin.q0, v=lin.v0, t=lin.t0, a=lin.a0, method="analytic"))
+            exact = modes(lin.relinearize("analytic"))
             if exact.rigid.sum() != rigid.sum():  # the analytic model resolves what FD could not
                 return replace(exact, note=f"{int(rigid.sum() - exact.rigid.sum())} mode(s) unresolved by finite "
                                            "differences (ω² within their round-off): modes from the analytic "

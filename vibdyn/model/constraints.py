@@ -44,6 +44,7 @@ class _End:
         return x, dx, _cross(self.dw, x) + _cross(self.w, dx)
 
 
+DRIFT_RANK = 1e3  # singular values below this × the drift off the loops do not count (decompose)
 MAX_STEP = 0.5  # largest tangent step of one assembly iteration (rad, or × the length scale m)
 
 
@@ -184,13 +185,17 @@ class Constraints:
         return self.row_scale * phi
 
     # ----------------------------------------------------------------- rank and null space
-    def decompose(self, J):
-        """(rank, U, s, Vt) of the dimensionless Jacobian (J: the first rows of Φ_q, or all of them)."""
+    def decompose(self, J, drift=0.0):
+        """(rank, U, s, Vt) of the dimensionless Jacobian (J: the first rows of Φ_q, or all of them).
+        ``drift``: how far (dimensionless |Φ|) the configuration is off the loops; singular values below
+        DRIFT_RANK × drift (relative) are taken as that drift's, not the mechanism's (a mechanism whose
+        equations are redundant on its loops only, as Bricard's, gains rank off them by about the drift)."""
         Js = self.row_scale[:len(J), None] * J * self.col_scale[None, :]
         if Js.size == 0:
             return 0, None, np.zeros(0), np.eye(J.shape[1])
         U, s, Vt = np.linalg.svd(Js)
-        rank = int(np.sum(s > RANK_RTOL * s[0])) if s.size and s[0] > 0 else 0
+        tol = max(RANK_RTOL, DRIFT_RANK * drift)
+        rank = int(np.sum(s > tol * s[0])) if s.size and s[0] > 0 else 0
         return rank, U, s, Vt
 
     def rank(self, q):
@@ -433,10 +438,17 @@ class Constraints:
     def accelerations(self, q, v, a_free, M):
         """Accelerations of the constrained motion from the tree's free ones (ABA) and its mass matrix M:
         Φ_q a = −γ, and a − a_free M-orthogonal to the motions the loops allow (Gauss's principle), on the
-        null space N of the rank decision: a = a_p + N z, (NᵀMN) z = NᵀM (a_free − a_p)."""
-        J = self.jacobian(q)
-        dec = self.decompose(J)
-        a_p = self._min_norm(dec, self.bias(q, v), J.shape[1])
+        null space N of the rank decision: a = a_p + N z, (NᵀMN) z = NᵀM (a_free − a_p). A state too large for
+        the arithmetic (an integrator's trial stage far off) gives NaN accelerations, which reject its step."""
+        if not (np.all(np.isfinite(v)) and np.all(np.isfinite(a_free)) and np.all(np.isfinite(M))):
+            return np.full(len(v), np.nan)
+        with np.errstate(over="ignore", invalid="ignore"):
+            phi, J = self.evaluate(q)
+            gamma = self.bias(q, v)
+        if not (np.all(np.isfinite(J)) and np.all(np.isfinite(gamma))):
+            return np.full(len(v), np.nan)
+        dec = self.decompose(J, np.abs(self.scaled_phi(phi)).max(initial=0.0))
+        a_p = self._min_norm(dec, gamma, J.shape[1])
         N = self._null(dec)
         if N.shape[1] == 0:
             return a_p

@@ -427,10 +427,14 @@ class System:
     def steady_motion(self, v_cyclic: Mapping[str, float | None], q0: ArrayLike | None = None, t: float = 0.0,
                       tol: float = EQUILIBRIUM_TOL, max_iter: int = MAX_ITER, guess: float = 1.0) -> Equilibrium:
         """Steady motion with the coordinates of ``v_cyclic`` turning at constant speed (given, or None
-        for found) (see :func:`vibdyn.analysis.equilibrium.steady_motion`)."""
+        for found) (see :func:`vibdyn.analysis.equilibrium.steady_motion`; with loops
+        :func:`vibdyn.analysis.constrained.steady_motion`, speeds given)."""
+        if self.constraints is not None:
+            from ..analysis.constrained import steady_motion as constrained_steady_motion
+
+            return constrained_steady_motion(self, v_cyclic, q0, t, tol, max_iter)
         from ..analysis.equilibrium import steady_motion
 
-        self._no_loops("steady_motion")
         return steady_motion(self, v_cyclic, q0, t, tol, max_iter, guess)
 
     def held(self, q: ArrayLike | None = None, v: ArrayLike | None = None, t: float = 0.0) -> Equilibrium:
