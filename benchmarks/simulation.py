@@ -14,6 +14,9 @@ Cases (error: largest tangent-space difference of the final configuration from t
 - IFToMM A02, the N-four-bar (models/iftomm_a02.toml, N = 4, four loops), 10 s through ten singular positions
   where the mobility jumps from 1 to 5: the position of B0 (m) against the exact parallelogram motion (one
   angle, integrated by scipy's DOP853 at rtol 1e-13); DOP853 and RK4 (no MuJoCo runs).
+- IFToMM A04, Bricard's mechanism (models/iftomm_a04.toml, Grübler count 0, mobility 1), 10 s from rest: P3
+  (m) against vibdyn's DOP853 at rtol 1e-12, checked against the mechanism cut at C; MuJoCo's RK4 beside,
+  the loop closed by two soft ``connect`` equality constraints.
 
 References: the exact solution (A01); scipy's DOP853 at rtol = atol = 1e-13 on vibdyn's accelerations for
 the chains of pivots (an independent integrator; the model itself is checked against MuJoCo by the test
@@ -279,9 +282,75 @@ def case_a02(S):
                          "exact parallelogram motion (scipy DOP853 rtol 1e-13 on its one angle)", runs, "m")
 
 
+def bricard_cut_at_c():
+    """A04 as another tree (rods 1, 2 from A; rods 5, 4, 3 from F), its loop closed at C = P3 instead of F:
+    other coordinates and other loop equations, the reference's independent check."""
+    a04 = vd.load_scene(C.ROOT / "models" / "iftomm_a04.toml")
+    rod = dict(a04.bodies)
+    s = vd.Scene("a04_cut_at_c", gravity=a04.gravity)
+    for name in ("rod1", "rod2"):
+        b = rod[name]
+        s.add_body(name, parent=b.parent, joint=b.joint, mass=b.mass, com=b.com, inertia=b.inertia)
+    s.add_body("rod5", joint=vd.Pivot((1, 0, 0), at=(0, 0, 1)), mass=1.0, com=(0, -0.5, 0), inertia=rod["rod5"].inertia)
+    s.add_body("rod4", parent="rod5", joint=vd.Pivot((0, 0, 1), at=(0, -1, 0)), mass=1.0, com=(0.5, 0, 0),
+               inertia=rod["rod4"].inertia)
+    s.add_body("rod3", parent="rod4", joint=vd.Pivot((0, 1, 0), at=(1, 0, 0)), mass=1.0, com=(0, 0, -0.5),
+               inertia=rod["rod3"].inertia)
+    s.add_loop("C", ("rod2", (0, -1, 0)), ("rod3", (0, 0, -1)), joint=vd.Pivot((1, 0, 0)))
+    return s
+
+
+class _A04Sim(C.MuJoCoSim):
+    """A04 in MuJoCo: the same tree, its loop F closed by two ``connect`` equality constraints on the x axis
+    through F (a revolute closure), made as stiff as the step allows (solref time constant 2 dt, critically
+    damped): MuJoCo's constraints are soft, so its error is bounded below by their compliance."""
+
+    def __init__(self, scene, system, integrator, dt):
+        super().__init__(scene, system, integrator, dt)
+        eq = (f'  <equality>\n    <connect body1="rod5" anchor="0 1 0" solref="{2 * dt!r} 1"/>\n'
+              f'    <connect body1="rod5" anchor="0.5 1 0" solref="{2 * dt!r} 1"/>\n  </equality>\n</mujoco>')
+        xml = self.oracle.xml.replace('integrator="RK4"', f'integrator="{integrator}" timestep="{dt!r}"')
+        self.model = self.mj.MjModel.from_xml_string(xml.replace("</mujoco>", eq))
+        self.oracle.model, self.oracle.data = self.model, self.mj.MjData(self.model)
+        self.data = self.oracle.data
+
+
+def case_a04(S):
+    """IFToMM A04, Bricard's mechanism (models/iftomm_a04.toml: Grübler count 0, mobility 1), 10 s from rest:
+    error: distance of P3 (the C joint) at the end from the reference (m). Reference: vibdyn DOP853 at rtol
+    1e-12, checked against the same mechanism cut at C (another tree and loop) at the same tolerance
+    (``reference_check``). MuJoCo's RK4 beside, the loop closed by two soft ``connect`` constraints."""
+    scene = vd.load_scene(C.ROOT / "models" / "iftomm_a04.toml")
+    system, ref = scene.build(), scene.references
+    T = ref["t_end"]
+    q0, v0 = system.neutral(), np.zeros(system.nv)
+    q_ref = system.simulate(T, q0, v0, rtol=1e-12, t_eval=[T], progress=False).q[-1]
+    p_ref = system.point_position("rod3", (0, 0, 0), q_ref)
+    other = bricard_cut_at_c().build()
+    q_other = other.simulate(T, other.assemble(other.neutral()), rtol=1e-12, t_eval=[T], progress=False).q[-1]
+    check = float(np.linalg.norm(other.point_position("rod2", (0, -1, 0), q_other) - p_ref))
+
+    def err(q):
+        return float(np.linalg.norm(system.point_position("rod3", (0, 0, 0), q) - p_ref))
+
+    settings = _settings(S, [("dop853", {"rtol": r}) for r in (1e-6, 1e-8, 1e-10)] + [("rk4", {"dt": d}) for d in
+                                                                                      (4e-3, 1e-3)]
+                         + [("radau", {"rtol": 1e-8})],
+                         [("dop853", {"rtol": r}) for r in (1e-6, 1e-8)], [])
+    runs = vibdyn_runs(system, q0, v0, T, err, settings, S)
+    if C.mujoco() is not None:
+        mj_set = _settings(S, [("RK4", d) for d in (1e-3, 3e-4, 1e-4)], [("RK4", d) for d in (1e-3, 1e-4)], [])
+        runs += mujoco_runs(lambda i, dt: _A04Sim(scene, system, i, dt), q0, v0, T, err, mj_set, S)
+    case = C.case_record("IFToMM A04 Bricard's mechanism (10 s, Grübler 0, mobility 1)", "simulation",
+                         "vibdyn DOP853 rtol 1e-12, checked against the mechanism cut at C", runs, "m")
+    case["reference_check"] = check
+    case["note"] = f"Reference and its check (the mechanism cut at C) differ by {check:.1e} m."
+    return case
+
+
 def run(S):
     """Every time-integration case (the smoke mode: A01 only)."""
     cases = [case_a01]
     if not S.smoke:
-        cases += [case_double_pendulum, case_pivot_chain, case_ball_chain, case_rotor, case_a03, case_a02]
+        cases += [case_double_pendulum, case_pivot_chain, case_ball_chain, case_rotor, case_a03, case_a02, case_a04]
     return [c(S) for c in cases]

@@ -116,5 +116,48 @@ def case_point_elements(S):
     return case
 
 
+def welded_chain_text(n):
+    """A scene file of one pivot carrying a chain of n − 1 welded bodies (the case that grew faster than
+    linearly: a copy of every body at build, a name search per Pinocchio frame)."""
+    lines = ['[scene]', 'name = "welded"', 'gravity = [0.0, 0.0, -9.81]', '',
+             '[[body]]', 'name = "b0"', 'mass = 1.0', 'joint = { type = "pivot", axis = [0.0, 0.0, 1.0] }', '']
+    for i in range(1, n):
+        lines += ['[[body]]', f'name = "b{i}"', f'parent = "b{i - 1}"', 'mass = 1.0', 'com = [0.1, 0.0, 0.0]',
+                  'joint = { type = "fixed", at = [0.1, 0.0, 0.0] }', '']
+    return "\n".join(lines)
+
+
+SCALE_TARGET = 1.5  # time per body at the largest size over that at the smallest: linear within this
+
+
+def case_scale(S):
+    """Load and build of a welded chain against its size: the time per body must stay flat (linear)."""
+    import tempfile
+    from pathlib import Path
+
+    sizes = (2000, 4000, 8000) if S.quick else (5000, 10000, 20000, 40000)
+    runs, per_body = [], []
+    with tempfile.TemporaryDirectory() as folder:
+        for n in sizes:
+            path = Path(folder) / f"welded{n}.toml"
+            path.write_text(welded_chain_text(n))
+            t0 = time.perf_counter()
+            scene = vd.load_scene(path)
+            t1 = time.perf_counter()
+            scene.build()
+            t2 = time.perf_counter()
+            per_body.append((t2 - t0) / n)
+            runs.append(C.run_record(f"vibdyn load + build, {n} bodies", "vibdyn", None, None, t2 - t0, n,
+                                     verdict_=C.UNCHECKED, load_s=t1 - t0, build_s=t2 - t1,
+                                     us_per_body=1e6 * (t2 - t0) / n))
+    growth = per_body[-1] / per_body[0]
+    case = C.case_record("target: load + build linear in the number of bodies (welded chain)", "speed",
+                         "time per body at the largest size / at the smallest", runs, unit="s",
+                         target=f"≤ {SCALE_TARGET}", growth=growth)
+    case["target_met"] = growth <= SCALE_TARGET
+    return case
+
+
 def run(S):
-    return [case_lin10(S), case_point_elements(S)]
+    cases = [case_lin10(S), case_point_elements(S)]
+    return cases if S.smoke else cases + [case_scale(S)]

@@ -5,6 +5,7 @@ reduction written here), energy balances of the states integrated."""
 import dataclasses
 import io
 import math
+import re
 import warnings
 
 import numpy as np
@@ -327,3 +328,88 @@ def test_a_cyclic_coordinate_that_opens_the_loops_is_refused():
     eq = system.operating_point()
     with pytest.raises(vd.ModelError, match="opens the loops"):
         system.linearize(eq.q, v=[1.0, 0.0, 0.0])
+
+
+# ------------------------------------------------------------------ IFToMM A04: Bricard's mechanism
+
+def bricard_cut_at_c():
+    """A04 as another tree: rods 1, 2 from A and rods 5, 4, 3 from F, the loop closed at C (P3) instead of F.
+    Same rods, same joints; other coordinates and other loop equations: an independent check of the run."""
+    a04 = vd.load_scene(MODELS / "iftomm_a04.toml")
+    rod = {n: b for n, b in a04.bodies.items()}
+    s = vd.Scene("a04_cut_at_c", gravity=(0, -G, 0))
+    for name in ("rod1", "rod2"):
+        b = rod[name]
+        s.add_body(name, parent=b.parent, joint=b.joint, mass=b.mass, com=b.com, inertia=b.inertia)
+    s.add_body("rod5", joint=vd.Pivot((1, 0, 0), at=(0, 0, 1)), mass=1.0, com=(0, -0.5, 0), inertia=rod["rod5"].inertia)
+    s.add_body("rod4", parent="rod5", joint=vd.Pivot((0, 0, 1), at=(0, -1, 0)), mass=1.0, com=(0.5, 0, 0),
+               inertia=rod["rod4"].inertia)
+    s.add_body("rod3", parent="rod4", joint=vd.Pivot((0, 1, 0), at=(1, 0, 0)), mass=1.0, com=(0, 0, -0.5),
+               inertia=rod["rod3"].inertia)
+    s.add_loop("C", ("rod2", (0, -1, 0)), ("rod3", (0, 0, -1)), joint=vd.Pivot((1, 0, 0)))
+    return s
+
+
+def test_iftomm_a04_bricard_mechanism_moves_with_one_degree_of_freedom_against_its_count():
+    """Grübler's count 6·5 − 5·6 = 0 (five moving rods, six revolute joints), yet the mechanism moves: the
+    rank of the loop's Jacobian is 4 of its 5 equations. 10 s from rest at the published configuration:
+    energy conserved to 1e-6 (E = −29.43 J), the loop closed, and P3's trajectory equal to that of the same
+    mechanism cut at C (another tree and loop) within the two runs' own error estimates."""
+    scene = vd.load_scene(MODELS / "iftomm_a04.toml")
+    ref = scene.references
+    system = scene.build()
+    links, joints = len(scene.bodies) + 1, len(scene.bodies) + len(scene.loops)
+    assert 6 * (links - 1) - 5 * joints == ref["grubler"] == 0
+    assert system.dof == ref["mobility"] == 1
+    assert system.constraints.rank(system.neutral()) == 4
+    assert system.energy(system.neutral(), np.zeros(5)).total == pytest.approx(ref["energy"], abs=1e-12)
+    t = np.linspace(0.0, ref["t_end"], 51)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning escapes a successful run
+        traj = system.simulate(ref["t_end"], rtol=1e-10, t_eval=t)
+    assert traj.status == "finished"
+    assert abs(traj.energy - ref["energy"]).max() <= 1e-6 * abs(ref["energy"])
+    assert np.abs(traj.constraint_residual).max() <= 1e-9
+    other = bricard_cut_at_c().build()
+    assert other.dof == 1
+    q0 = other.assemble(other.neutral())
+    assert np.abs(other.point_position("rod2", (0, -1, 0), q0) - [1, -1, 0]).max() <= 1e-12
+    check = other.simulate(ref["t_end"], q0, rtol=1e-10, t_eval=t)
+    p3 = traj.point_positions("rod3", (0, 0, 0))
+    p3_other = check.point_positions("rod2", (0, -1, 0))
+    assert np.abs(p3[0] - [1, -1, 0]).max() <= 1e-15
+    # the rods swing through (P3 travels about 1.8 m along x and back, period ~5 s)
+    assert p3[:, 0].min() < -0.7
+    # the estimates are of the tangent coordinates (rad); P3 is at most 2 m from A
+    assert np.abs(p3 - p3_other).max() <= 2 * 10 * (traj.error + check.error) + 1e-12
+
+
+# ------------------------------------------------------------------ large and deep scene files
+
+def test_a_value_nested_too_deep_for_the_parser_names_its_key(tmp_path):
+    """Nested past the TOML parser's own recursion (1000 levels), inside a body and in [reference] alike."""
+    deep = "[" * 1000 + "]" * 1000
+    body = ('[scene]\nname = "x"\n[[body]]\nname = "b"\nmass = 1.0\ncom = ' + deep
+            + '\njoint = { type = "pivot", axis = [0.0, 0.0, 1.0] }\n')
+    ref = ('[scene]\nname = "x"\n[[body]]\nname = "b"\nmass = 1.0\njoint = { type = "pivot", axis = [0.0, 0.0, 1.0] }'
+           '\n[reference]\nv = ' + deep + '\n')
+    for text, key, line in ((body, "body[0].com", 6), (ref, "reference.v", 8)):
+        path = tmp_path / "deep.toml"
+        path.write_text(text)
+        with pytest.raises(vd.SceneFileError, match=rf"key '{re.escape(key)}': nested more than 64 levels deep "
+                                                     rf"\(line {line}\)"):
+            vd.load_scene(path)
+
+
+def test_building_copies_the_scene_without_copying_its_immutable_bodies():
+    """The build's own copy of the scene is linear in the number of bodies: its tables are new, their frozen
+    entries shared (a deep copy of every body made a 20 000-body build superlinear; see benchmarks/speed.py
+    for the timing). The copy stays independent of later edits."""
+    scene = vd.load_scene(MODELS / "four_bar.toml")
+    scene.references["list"] = [1, 2]
+    system = scene.build()
+    assert system.scene.bodies is not scene.bodies
+    assert all(system.scene.bodies[n] is b for n, b in scene.bodies.items())
+    scene.add_body("extra", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    scene.references["list"].append(3)
+    assert "extra" not in system.scene.bodies and system.scene.references["list"] == [1, 2]

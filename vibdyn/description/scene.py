@@ -274,11 +274,19 @@ class Scene:
         plural = "valid parents" if noun == "parent" else "bodies with a coordinate" if moving else "bodies"
         return unknown_name(name, names, noun, plural, what)
 
+    #: tables of immutable entries (frozen bodies, elements, loops): a copy shares their entries
+    _IMMUTABLE_ENTRIES = ("bodies", "elements", "loops")
+
     def copy(self) -> Scene:
+        """An independent copy: new tables sharing their immutable entries, the rest copied deeply (linear in
+        the number of bodies, where a deep copy of every body was not)."""
+        new = copy.copy(self)
         try:
-            return copy.deepcopy(self)
+            for key, value in vars(self).items():
+                setattr(new, key, dict(value) if key in self._IMMUTABLE_ENTRIES else copy.deepcopy(value))
         except RecursionError:  # e.g. references nested a thousand deep
             raise ModelError(f"scene '{self.name}': data nested too deeply to copy (references?)") from None
+        return new
 
     def build(self) -> System:
         """Compile the scene into a :class:`vibdyn.System` (checks it as a whole first)."""

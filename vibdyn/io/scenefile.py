@@ -163,8 +163,10 @@ def load_scene(path):
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise SceneFileError(f"TOML syntax error: {e}", path=str(p)) from None
-    except RecursionError:
-        raise SceneFileError("nested too deeply", path=str(p)) from None
+    except RecursionError:  # (the parser recursed too deep to say where: a scan of the text does)
+        key, line = _too_deep(text)
+        raise SceneFileError(f"nested more than {MAX_DEPTH} levels deep" + (f" (line {line})" if line else ""),
+                             path=str(p), key=key) from None
     _check_values(doc, str(p))
     return scene_from_dict(doc, path=p)
 
@@ -195,6 +197,40 @@ def _check_values(doc, path):
         elif isinstance(x, int) and not isinstance(x, bool) and not _fits_float(x):
             raise SceneFileError("integer too large for a number (beyond ±1.8e308)", path=path and str(path),
                                  key=key)
+
+
+def _too_deep(text):
+    """(key, line number) where arrays or inline tables first nest deeper than MAX_DEPTH in a TOML text
+    (strings and comments skipped), the key as _check_values names it; (None, None) if nowhere."""
+    table, counts, key, depth = "", {}, None, 0
+    for number, line in enumerate(text.splitlines(), 1):
+        s = line.strip()
+        if depth == 0:
+            if s.startswith("[["):
+                name = s[2:s.find("]]")].strip()
+                counts[name] = counts.get(name, -1) + 1
+                table = f"{name}[{counts[name]}]"
+                continue
+            if s.startswith("["):
+                table = s[1:s.find("]")].strip()
+                continue
+            if "=" in s:
+                key = s.split("=", 1)[0].strip().strip('"')
+        quote = None
+        for ch in line:
+            if quote:
+                quote = None if ch == quote else quote
+            elif ch in "\"'":
+                quote = ch
+            elif ch == "#":
+                break
+            elif ch in "[{":
+                depth += 1
+                if depth > MAX_DEPTH:
+                    return ".".join(x for x in (table, key) if x) or None, number
+            elif ch in "]}":
+                depth = max(depth - 1, 0)
+    return None, None
 
 
 def _fits_float(n):

@@ -675,7 +675,8 @@ def _compile(scene, order):
         I_body = np.array(body.inertia)
         inertia = pin.Inertia(body.mass, B.act(np.array(body.com)), B.rotation @ I_body @ B.rotation.T)
         _append_body(model, jid, inertia)
-        model.addFrame(pin.Frame(body.name, jid, B, pin.FrameType.BODY), False)  # inertia added above
+        if J.nv:  # (Pinocchio's addFrame searches every frame by name: one per welded body would be quadratic)
+            model.addFrame(pin.Frame(body.name, jid, B, pin.FrameType.BODY), False)  # inertia added above
         infos[body.name] = BodyInfo(body.name, J, jid, B, idx_q, idx_v, J.nv and model.nqs[jid], J.nv,
                                     body.coordinates)
     return model, infos
