@@ -407,3 +407,55 @@ class MuJoCoOracle:
 
 def _mj_nv(jnt_type):
     return {0: 6, 1: 3, 2: 1, 3: 1}[int(jnt_type)]
+
+
+# ---------------------------------------------------------------------------------------------- IFToMM A05 in MuJoCo
+A05_MJCF = """<mujoco model="a05">
+  <compiler angle="radian" inertiafromgeom="false" autolimits="true"/>
+  <option gravity="0 0 -9.81" integrator="RK4" timestep="{dt!r}"><flag contact="disable"/></option>
+  <worldbody>
+    <body name="shaft">
+      <joint name="shaft" type="hinge" axis="0 0 1"/>
+      <inertial pos="0 0 0.5" mass="0.3" fullinertia="0.0250025 0.0250025 5e-6 0 0 0"/>
+      <body name="sleeve">
+        <joint name="sleeve" type="slide" axis="0 0 1"/>
+        <inertial pos="0 0 0" mass="3" fullinertia="0.005 0.005 0.005 0 0 0"/>
+        <site name="s1" pos="0.05 0 0"/><site name="s2" pos="-0.05 0 0"/>
+      </body>
+      {rods}
+    </body>
+  </worldbody>
+  <tendon>
+    <spatial stiffness="8e5" damping="4e4" springlength="0.5"><site site="s1"/><site site="m1"/></spatial>
+    <spatial stiffness="8e5" damping="4e4" springlength="0.5"><site site="s2"/><site site="m2"/></spatial>
+  </tendon>
+</mujoco>"""
+A05_ROD = """<body name="rod{i}" pos="{x} 0 1">
+        <joint name="rod{i}" type="hinge" axis="0 {y} 0"/>
+        <inertial pos="{c} 0 0" mass="0.3" fullinertia="5e-6 0.0250025 0.0250025 0 0 0"/>
+        <site name="m{i}" pos="{c} 0 0"/>
+        <body pos="{t} 0 0"><inertial pos="0 0 0" mass="5" diaginertia="1e-12 1e-12 1e-12"/></body>
+      </body>"""
+
+
+def a05_mjcf(dt):
+    """IFToMM A05 (models/iftomm_a05.toml) in MuJoCo: the same bodies and joints (qpos = vibdyn's q: shaft,
+    sleeve, rod1, rod2), the spring-dampers as spatial tendons, the tip masses with MuJoCo's least inertia."""
+    rods = "\n      ".join(A05_ROD.format(i=i, x=x, y=y, c=0.5 * x / 0.05, t=x / 0.05)
+                            for i, x, y in ((1, 0.05, 1), (2, -0.05, -1)))
+    return A05_MJCF.format(dt=dt, rods=rods)
+
+
+def a05_mjcf_run(mujoco, t_out, q0, v0, dt):
+    """qpos (rows) at the times ``t_out`` of MuJoCo's RK4 run of A05 from (q0, v0) at step ``dt``."""
+    model = mujoco.MjModel.from_xml_string(a05_mjcf(dt))
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = q0, v0
+    out, t = [], 0.0
+    for target in t_out:
+        n = int(round((target - t) / dt))
+        if n:
+            mujoco.mj_step(model, data, nstep=n)
+        t += n * dt
+        out.append(data.qpos.copy())
+    return np.array(out)

@@ -11,6 +11,7 @@ import warnings
 import numpy as np
 import pytest
 from conftest import MODELS, ROOT
+from oracles import a05_mjcf_run
 
 import vibdyn as vd
 from vibdyn.description.elements import JointSpring
@@ -413,3 +414,65 @@ def test_building_copies_the_scene_without_copying_its_immutable_bodies():
     scene.add_body("extra", joint=vd.Slider((1, 0, 0)), mass=1.0)
     scene.references["list"].append(3)
     assert "extra" not in system.scene.bodies and system.scene.references["list"] == [1, 2]
+
+
+# ------------------------------------------------------------------ IFToMM A05: the stiff flyball governor
+
+def a05_mujoco(t_out, q0, v0, dt):
+    """MuJoCo's RK4 run of A05 (tests/oracles.py): s at the times ``t_out``."""
+    mujoco = pytest.importorskip("mujoco")
+    return a05_mjcf_run(mujoco, t_out, q0, v0, dt)[:, 1]
+
+
+def a05_steady_by_hand(spin):
+    """(s, β) of the steady spin at ``spin`` rad/s: the effective potential V = V_gravity + V_springs − ½ I_z(β) Ω²
+    stationary, every term written here from the benchmark's definition (no vibdyn)."""
+    from scipy.optimize import root
+
+    g, k, l0, mr, mt = G, 8e5, 0.5, 0.3, 5.0
+
+    def gradient(x):
+        s, b = x
+        a, c = 0.5 * math.cos(b), 1 - 0.5 * math.sin(b) - s
+        L = math.hypot(a, c)
+        dL_ds, dL_db = -c / L, (a * -0.5 * math.sin(b) + c * -0.5 * math.cos(b)) / L
+        dIz = 2 * ((5e-6 - 0.0250025) * 2 * math.sin(b) * math.cos(b)
+                   + mr * 2 * (0.05 + 0.5 * math.cos(b)) * (-0.5 * math.sin(b))
+                   + mt * 2 * (0.05 + math.cos(b)) * (-math.sin(b)))
+        return [3 * g + 2 * k * (L - l0) * dL_ds,
+                -2 * g * math.cos(b) * (0.5 * mr + mt) + 2 * k * (L - l0) * dL_db - 0.5 * dIz * spin**2]
+
+    sol = root(gradient, [0.69, 0.31], method="hybr", tol=1e-15)
+    assert sol.success
+    return sol.x
+
+
+def test_iftomm_a05_flyball_governor_steady_spin_modes_and_transient():
+    """A05, stiff (the spring-dampers' fastest mode decays at ~3e3 1/s over a 10 s run): the steady spin
+    at 2π rad/s against the effective potential written here; its modes stable (the cyclic shaft's zero
+    within the error, not an instability); the transient's s(t) against MuJoCo (tendons, RK4 at two steps:
+    their difference is MuJoCo's error), with the shaft's angular momentum conserved and the energy balanced."""
+    scene = vd.load_scene(MODELS / "iftomm_a05.toml")
+    ref = scene.references
+    system = scene.build()
+    st = system.operating_point()
+    s_hand, b_hand = a05_steady_by_hand(ref["spin0"])
+    for name, hand in (("sleeve", s_hand), ("rod1", b_hand), ("rod2", b_hand)):  # within the search's own error
+        assert st.coordinate(name) == pytest.approx(hand, abs=st.q_error[system.coordinate_index(name)])
+    m = st.linearize().modes()
+    assert m.stability in ("stable", "neutral")
+    assert np.all(m.damped_eigenvalues.real <= m.eigenvalue_error * np.abs(m.damped_eigenvalues) + m.zero_threshold)
+    # the transient from the benchmark's start, everything co-rotating
+    q0 = system.configuration({"sleeve": ref["s0"], "rod1": ref["beta0"], "rod2": ref["beta0"]})
+    v0 = np.array([ref["spin0"], 0.0, 0.0, 0.0])
+    t = np.linspace(0.0, ref["t_end"], 11)
+    traj = system.simulate(ref["t_end"], q0, v0, method="radau", rtol=1e-9, t_eval=t)
+    s = np.array([system.difference(system.neutral(), q)[1] for q in traj.q])
+    qm = [0.0, ref["s0"], ref["beta0"], ref["beta0"]]
+    s1, s2 = a05_mujoco(t, qm, v0, 5e-5), a05_mujoco(t, qm, v0, 2.5e-5)
+    mujoco_error = np.abs(s1 - s2) * 16 / 15  # RK4: the error of the finer run is 1/15 of the difference
+    assert np.abs(s - s2).max() <= 10 * (traj.error * system.length_scale + mujoco_error.max()) + 1e-9
+    assert np.ptp(s) > 0.05  # (the sleeve moves)
+    momentum = [(system.mass_matrix(q) @ v)[0] for q, v in zip(traj.q, traj.v)]
+    assert np.ptp(momentum) <= 10 * traj.error * abs(momentum[0]) + 1e-10
+    assert abs(traj.drift) <= 1e-6 * traj.energy_scale

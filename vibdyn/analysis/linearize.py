@@ -293,10 +293,11 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     if method == "fd":
         K, C, K_err, C_err, n = _finite_differences(system, ws, q0, v0, a0, t0, step)
     else:
-        K, C, terms = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True)
-        # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad)
+        K, C, terms, K_size = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True)
+        # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad), and of
+        # those summed into K by the point elements
         scaled_terms = terms[:, None] / system.coordinate_scales
-        K_err = 16 * EPS * (np.abs(K) + scaled_terms)
+        K_err = 16 * EPS * (np.abs(K) + scaled_terms + K_size)
         C_err = 16 * EPS * (np.abs(C) + scaled_terms) if np.count_nonzero(C) else np.zeros(C.shape)
         n = 1
     system.check_mass_matrix(q0, "the operating point", M)  # (finite, and regular against the scene's scales)

@@ -281,8 +281,9 @@ class Scene:
         """An independent copy: new tables sharing their immutable entries, the rest copied deeply (linear in
         the number of bodies, where a deep copy of every body was not)."""
         new = copy.copy(self)
+        new.__dict__.pop("_joint_index", None)  # (a cache of this scene's own bodies: rebuilt on demand)
         try:
-            for key, value in vars(self).items():
+            for key, value in list(vars(new).items()):
                 setattr(new, key, dict(value) if key in self._IMMUTABLE_ENTRIES else copy.deepcopy(value))
         except RecursionError:  # e.g. references nested a thousand deep
             raise ModelError(f"scene '{self.name}': data nested too deeply to copy (references?)") from None

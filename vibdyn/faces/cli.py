@@ -106,12 +106,13 @@ def describe(scene, system, out=None):
         p("reference values: " + ", ".join(sorted(k for k in scene.references if k not in ("source", "note"))))
     if system.nv:
         t0 = time.perf_counter()
-        M = system.mass_matrix(system.neutral())
+        q, where = system.start_configuration()
+        M = system.mass_matrix(q)
         dt = time.perf_counter() - t0
         w = np.linalg.eigvalsh(M)
         p("")
-        p(f"mass matrix at neutral: eigenvalues {w[0]:.4g} … {w[-1]:.4g} (condition {w[-1] / w[0]:.3g}), "
-          f"{dt * 1e3:.2f} ms")
+        condition = f"condition {w[-1] / w[0]:.3g}" if w[0] > 0 else "singular there"
+        p(f"mass matrix at {where}: eigenvalues {w[0]:.4g} … {w[-1]:.4g} ({condition}), {dt * 1e3:.2f} ms")
     needs = [n for n, f in (("velocity", system.depends_on_velocity), ("time", system.depends_on_time)) if f]
     p(f"forces depend on: q{''.join(', ' + n for n in needs)}")
 

@@ -19,15 +19,18 @@ class Derivatives:
     """What a group's ``derivatives(d)`` uses: the state (``system``, ``q``, ``v``, ``t``), Jacobians of the
     joints point elements attach to and of points on them (world axes: ``point``, ``point_velocity_dq``, ``R``,
     ``J``), the accumulators of their forces' derivatives (``add_force``, ``dFq``, ``dFv``), the joint poses
-    the forces were evaluated with (``fkin``), and finite differences of user callables (``element_fd``)."""
+    the forces were evaluated with (``fkin``), and finite differences of user callables (``element_fd``).
+    With ``magnitudes``, also ``dFq_abs``: the sizes of the terms summed into ``dFq`` (their round-off scale;
+    a term that cancels, as the turning of a force that turns with its joint, leaves round-off of its size)."""
 
-    def __init__(self, system, q, v, a, t, need_velocity_derivatives):
+    def __init__(self, system, q, v, a, t, need_velocity_derivatives, magnitudes=False):
         model, data = system.model, system.data
         self.system, self.q, self.v, self.t = system, q, v, t
         self.nv = system.nv
         self.fkin = None
         self.dFq = {j: np.zeros((6, self.nv)) for j in system.point_joints}
         self.dFv = {j: np.zeros((6, self.nv)) for j in system.point_joints}
+        self.dFq_abs = {j: np.zeros((6, self.nv)) for j in system.point_joints} if magnitudes else None
         self.J, self.R, self.u, self.dV = {}, {}, {}, {}
         if not system.point_groups:  # joint-space groups need none of the point Jacobians
             return
@@ -59,15 +62,22 @@ class Derivatives:
         dV = self.dV[j]
         return self.R[j] @ (dV[:3] - _skew(r) @ dV[3:] - _skew(u) @ self.J[j][3:])
 
-    def add_force(self, j, r, F_world, dF_dq, dF_dv):
-        """Chain rule for a world force F applied at point r of joint j: ∂f_j/∂q, ∂f_j/∂v (6 × nv)."""
+    def add_force(self, j, r, F_world, dF_dq, dF_dv, size_q=None):
+        """Chain rule for a world force F applied at point r of joint j: ∂f_j/∂q, ∂f_j/∂v (6 × nv).
+        ``size_q``: the size of dF_dq's own terms (3 × nv, default |dF_dq|) for the round-off estimate."""
         if j == 0:
             return
         R = self.R[j]
         f_loc = R.T @ F_world
-        df_q = R.T @ dF_dq + _skew(f_loc) @ self.J[j][3:]
+        turning = _skew(f_loc) @ self.J[j][3:]
+        df_q = R.T @ dF_dq + turning
         self.dFq[j][:3] += df_q
         self.dFq[j][3:] += _skew(r) @ df_q
+        if self.dFq_abs is not None:
+            m = np.abs(R.T) @ (np.abs(dF_dq) if size_q is None else size_q) + np.abs(_skew(f_loc)) @ np.abs(
+                self.J[j][3:])
+            self.dFq_abs[j][:3] += m
+            self.dFq_abs[j][3:] += np.abs(_skew(r)) @ m
         if dF_dv is not None:
             df_v = R.T @ dF_dv
             self.dFv[j][:3] += df_v
@@ -89,9 +99,9 @@ class Derivatives:
 
 
 def analytic_derivatives(system, q, v, a, t, with_terms=False):
-    """(K, C, terms) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|) at (q, v, a, t), analytically; ``terms`` (N or
-    N·m per coordinate, None unless ``with_terms``) is the size of what cancels in r, the scale of its
-    round-off."""
+    """(K, C, terms, K_size) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|, Σ |J|ᵀ |∂f|) at (q, v, a, t), analytically;
+    ``terms`` (N or N·m per coordinate) is the size of what cancels in r, ``K_size`` (nv × nv) that of the
+    point elements' terms summed into K: the scales of their round-off (None unless ``with_terms``)."""
     ws = system.workspace()
     model, data = system.model, ws.data
     Q, fext = dynamics.forces(system, ws, q, v, t)
@@ -102,7 +112,9 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False):
     if with_terms:
         terms = np.abs(data.tau) + np.abs(Q)  # the derivatives' pass leaves RNEA's τ in data.tau
         terms += np.abs(dynamics.gravity_term(system, ws, q))
-    d = Derivatives(system, q, v, a, t, any(g.needs_velocity_derivatives for g in system.point_groups))
+    d = Derivatives(system, q, v, a, t, any(g.needs_velocity_derivatives for g in system.point_groups),
+                    magnitudes=with_terms)
+    K_size = np.zeros_like(K) if with_terms else None
     if system.point_groups:
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t)
         for g in system.point_groups:
@@ -110,13 +122,15 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False):
         for j in system.point_joints:
             K -= d.J[j].T @ d.dFq[j]
             C -= d.J[j].T @ d.dFv[j]
+            if with_terms:
+                K_size += np.abs(d.J[j].T) @ d.dFq_abs[j]
     for g in system.joint_groups:
         dq, dv = g.derivatives(d)
         if dq is not None:
             K -= dq
         if dv is not None:
             C -= dv
-    return K, C, terms
+    return K, C, terms, K_size
 
 
 def linear_terms(system, q, v, t, a=None):
@@ -127,5 +141,5 @@ def linear_terms(system, q, v, t, a=None):
     if a is None:
         a = dynamics.accelerations(system, ws, q, v, t).copy()
     M = dynamics.mass_matrix(system.model, ws.data, q)
-    K, C, _ = analytic_derivatives(system, q, v, a, t)
+    K, C, _, _ = analytic_derivatives(system, q, v, a, t)
     return M, K, C

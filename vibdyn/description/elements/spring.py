@@ -51,8 +51,9 @@ class Springs(TwoPoint):
                 Fb = -self.k[i] * (L[i] - self.l0[i]) * u
                 Ks = self.k[i] * ((1 - ratio) * np.eye(3) + ratio * np.outer(u, u))
             dF = -Ks @ Jrel
-            d.add_force(jb, self.pb[i], Fb, dF, None)
-            d.add_force(ja, self.pa[i], -Fb, -dF, None)
+            size = self.k[i] * np.abs(Jrel) if d.dFq_abs is not None else None  # (|Ks| ≤ k: its round-off)
+            d.add_force(jb, self.pb[i], Fb, dF, None, size)
+            d.add_force(ja, self.pa[i], -Fb, -dF, None, size)
 
 
 def free_lengths(system, springs):

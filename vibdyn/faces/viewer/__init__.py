@@ -130,9 +130,10 @@ def content(obj, trajectory=None, speed=1.0):
     if modes is None and data is None and system.nv:
         try:
             modes = system.operating_point().linearize().modes()
-        except ConvergenceError as e:  # no operating point: show the modes about neutral, and say so
-            modes = system.linearize(system.neutral()).modes()
-            note = f" (no operating point found: {e}; modes about the neutral configuration, not an equilibrium)"
+        except ConvergenceError as e:  # no operating point: show the modes about the start, and say so
+            q, where = system.start_configuration()
+            modes = system.linearize(q).modes()
+            note = f" (no operating point found: {e}; modes about {where}, not an equilibrium)"
     lin = modes.linear if modes is not None else None
     q0 = lin.q0 if lin is not None else (data[1][0] if data is not None else system.neutral())
     d = _drawing(system, q0)
