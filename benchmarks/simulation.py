@@ -17,6 +17,9 @@ Cases (error: largest tangent-space difference of the final configuration from t
 - IFToMM A04, Bricard's mechanism (models/iftomm_a04.toml, Grübler count 0, mobility 1), 10 s from rest: P3
   (m) against vibdyn's DOP853 at rtol 1e-12, checked against the mechanism cut at C; MuJoCo's RK4 beside,
   the loop closed by two soft ``connect`` equality constraints.
+- IFToMM A05, the stiff flyball governor (models/iftomm_a05.toml), 10 s: the sleeve height against MuJoCo's
+  RK4 at dt 2.5e-5 (the spring-dampers as tendons), checked against vibdyn's Radau at rtol 1e-11; Radau, BDF
+  and DOP853 beside MuJoCo's RK4 and implicitfast.
 
 References: the exact solution (A01); scipy's DOP853 at rtol = atol = 1e-13 on vibdyn's accelerations for
 the chains of pivots (an independent integrator; the model itself is checked against MuJoCo by the test
@@ -348,9 +351,60 @@ def case_a04(S):
     return case
 
 
+class _A05Sim:
+    """A05 in MuJoCo (tests/oracles.py: the spring-dampers as spatial tendons), qpos = vibdyn's q."""
+
+    def __init__(self, integrator, dt):
+        mj = C.mujoco()
+        xml = C._oracles().a05_mjcf(dt).replace('integrator="RK4"', f'integrator="{integrator}"')
+        self.mj, self.model = mj, mj.MjModel.from_xml_string(xml)
+        self.data = mj.MjData(self.model)
+
+    def run(self, q0, v0, n):
+        self.mj.mj_resetData(self.model, self.data)
+        self.data.qpos[:], self.data.qvel[:] = q0, v0
+        self.mj.mj_step(self.model, self.data, nstep=n)
+        return self.data.qpos.copy(), self.data.qvel.copy()
+
+
+def case_a05(S):
+    """IFToMM A05, the stiff flyball governor (models/iftomm_a05.toml; spring-dampers 8e5 N/m, 4e4 N·s/m),
+    10 s from s = 0.5 m, β = 30°, co-rotating at 2π rad/s: error of the sleeve height s at the end (m).
+    Reference: MuJoCo's RK4 at dt = 2.5e-5 s (its error, from the run at 5e-5, ~1e-14 m), checked against
+    vibdyn's Radau at rtol 1e-11 (``reference_check``); without MuJoCo, that Radau run itself."""
+    scene = vd.load_scene(C.ROOT / "models" / "iftomm_a05.toml")
+    system, ref = scene.build(), scene.references
+    T = ref["t_end"]
+    q0 = system.configuration({"sleeve": ref["s0"], "rod1": ref["beta0"], "rod2": ref["beta0"]})
+    v0 = np.array([ref["spin0"], 0.0, 0.0, 0.0])
+    own = system.simulate(T, q0, v0, method="radau", rtol=1e-11, t_eval=[T], progress=False).q[-1][1]
+    if C.mujoco() is not None:
+        s_ref = float(_A05Sim("RK4", 2.5e-5).run(q0, v0, int(round(T / 2.5e-5)))[0][1])
+        kind = "MuJoCo RK4 dt 2.5e-5 (checked against vibdyn Radau rtol 1e-11)"
+    else:
+        s_ref, kind = float(own), "vibdyn Radau rtol 1e-11 (MuJoCo not installed)"
+
+    def err(q):
+        return abs(float(q[1]) - s_ref)
+
+    settings = _settings(S, [("radau", {"rtol": r}) for r in (1e-6, 1e-8, 1e-10)]
+                         + [("bdf", {"rtol": r}) for r in (1e-6, 1e-8)] + [("dop853", {"rtol": 1e-6})],
+                         [("radau", {"rtol": r}) for r in (1e-6, 1e-8)] + [("bdf", {"rtol": 1e-6})], [])
+    runs = vibdyn_runs(system, q0, v0, T, err, settings, S)
+    if C.mujoco() is not None:
+        mj_set = _settings(S, [("RK4", d) for d in (2e-4, 1e-4, 5e-5)] + [("implicitfast", d) for d in (1e-3, 1e-4)],
+                           [("RK4", 1e-4), ("implicitfast", 1e-4)], [])
+        runs += mujoco_runs(lambda i, dt: _A05Sim(i, dt), q0, v0, T, err, mj_set, S)
+    case = C.case_record("IFToMM A05 stiff flyball governor (10 s, K = 8e5 N/m, C = 4e4 N·s/m)", "simulation",
+                         kind, runs, "m")
+    case["reference_check"] = abs(float(own) - s_ref)
+    return case
+
+
 def run(S):
     """Every time-integration case (the smoke mode: A01 only)."""
     cases = [case_a01]
     if not S.smoke:
-        cases += [case_double_pendulum, case_pivot_chain, case_ball_chain, case_rotor, case_a03, case_a02, case_a04]
+        cases += [case_double_pendulum, case_pivot_chain, case_ball_chain, case_rotor, case_a03, case_a02, case_a04,
+                  case_a05]
     return [c(S) for c in cases]
