@@ -285,24 +285,6 @@ def case_a02(S):
                          "exact parallelogram motion (scipy DOP853 rtol 1e-13 on its one angle)", runs, "m")
 
 
-def bricard_cut_at_c():
-    """A04 as another tree (rods 1, 2 from A; rods 5, 4, 3 from F), its loop closed at C = P3 instead of F:
-    other coordinates and other loop equations, the reference's independent check."""
-    a04 = vd.load_scene(C.ROOT / "models" / "iftomm_a04.toml")
-    rod = dict(a04.bodies)
-    s = vd.Scene("a04_cut_at_c", gravity=a04.gravity)
-    for name in ("rod1", "rod2"):
-        b = rod[name]
-        s.add_body(name, parent=b.parent, joint=b.joint, mass=b.mass, com=b.com, inertia=b.inertia)
-    s.add_body("rod5", joint=vd.Pivot((1, 0, 0), at=(0, 0, 1)), mass=1.0, com=(0, -0.5, 0), inertia=rod["rod5"].inertia)
-    s.add_body("rod4", parent="rod5", joint=vd.Pivot((0, 0, 1), at=(0, -1, 0)), mass=1.0, com=(0.5, 0, 0),
-               inertia=rod["rod4"].inertia)
-    s.add_body("rod3", parent="rod4", joint=vd.Pivot((0, 1, 0), at=(1, 0, 0)), mass=1.0, com=(0, 0, -0.5),
-               inertia=rod["rod3"].inertia)
-    s.add_loop("C", ("rod2", (0, -1, 0)), ("rod3", (0, 0, -1)), joint=vd.Pivot((1, 0, 0)))
-    return s
-
-
 class _A04Sim(C.MuJoCoSim):
     """A04 in MuJoCo: the same tree, its loop F closed by two ``connect`` equality constraints on the x axis
     through F (a revolute closure), made as stiff as the step allows (solref time constant 2 dt, critically
@@ -329,7 +311,7 @@ def case_a04(S):
     q0, v0 = system.neutral(), np.zeros(system.nv)
     q_ref = system.simulate(T, q0, v0, rtol=1e-12, t_eval=[T], progress=False).q[-1]
     p_ref = system.point_position("rod3", (0, 0, 0), q_ref)
-    other = bricard_cut_at_c().build()
+    other = C._oracles().bricard_cut_at_c(scene).build()
     q_other = other.simulate(T, other.assemble(other.neutral()), rtol=1e-12, t_eval=[T], progress=False).q[-1]
     check = float(np.linalg.norm(other.point_position("rod2", (0, -1, 0), q_other) - p_ref))
 

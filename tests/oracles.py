@@ -459,3 +459,22 @@ def a05_mjcf_run(mujoco, t_out, q0, v0, dt):
         t += n * dt
         out.append(data.qpos.copy())
     return np.array(out)
+
+
+# ---------------------------------------------------------------------------------------------- IFToMM A04 cut elsewhere
+def bricard_cut_at_c(a04):
+    """IFToMM A04 (the scene of models/iftomm_a04.toml) as another tree: rods 1, 2 from A and rods 5, 4, 3 from
+    F, the loop closed at C (P3) instead of F. Same rods, same joints; other coordinates and other loop
+    equations: an independent check of a run of the bundled model."""
+    rod = dict(a04.bodies)
+    s = vd.Scene("a04_cut_at_c", gravity=a04.gravity)
+    for name in ("rod1", "rod2"):
+        b = rod[name]
+        s.add_body(name, parent=b.parent, joint=b.joint, mass=b.mass, com=b.com, inertia=b.inertia)
+    s.add_body("rod5", joint=vd.Pivot((1, 0, 0), at=(0, 0, 1)), mass=1.0, com=(0, -0.5, 0), inertia=rod["rod5"].inertia)
+    s.add_body("rod4", parent="rod5", joint=vd.Pivot((0, 0, 1), at=(0, -1, 0)), mass=1.0, com=(0.5, 0, 0),
+               inertia=rod["rod4"].inertia)
+    s.add_body("rod3", parent="rod4", joint=vd.Pivot((0, 1, 0), at=(1, 0, 0)), mass=1.0, com=(0, 0, -0.5),
+               inertia=rod["rod3"].inertia)
+    s.add_loop("C", ("rod2", (0, -1, 0)), ("rod3", (0, 0, -1)), joint=vd.Pivot((1, 0, 0)))
+    return s

@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 import pytest
 from conftest import MODELS, ROOT
-from oracles import a05_mjcf_run
+from oracles import a05_mjcf_run, bricard_cut_at_c
 
 import vibdyn as vd
 from vibdyn.description.elements import JointSpring
@@ -333,24 +333,6 @@ def test_a_cyclic_coordinate_that_opens_the_loops_is_refused():
 
 # ------------------------------------------------------------------ IFToMM A04: Bricard's mechanism
 
-def bricard_cut_at_c():
-    """A04 as another tree: rods 1, 2 from A and rods 5, 4, 3 from F, the loop closed at C (P3) instead of F.
-    Same rods, same joints; other coordinates and other loop equations: an independent check of the run."""
-    a04 = vd.load_scene(MODELS / "iftomm_a04.toml")
-    rod = {n: b for n, b in a04.bodies.items()}
-    s = vd.Scene("a04_cut_at_c", gravity=(0, -G, 0))
-    for name in ("rod1", "rod2"):
-        b = rod[name]
-        s.add_body(name, parent=b.parent, joint=b.joint, mass=b.mass, com=b.com, inertia=b.inertia)
-    s.add_body("rod5", joint=vd.Pivot((1, 0, 0), at=(0, 0, 1)), mass=1.0, com=(0, -0.5, 0), inertia=rod["rod5"].inertia)
-    s.add_body("rod4", parent="rod5", joint=vd.Pivot((0, 0, 1), at=(0, -1, 0)), mass=1.0, com=(0.5, 0, 0),
-               inertia=rod["rod4"].inertia)
-    s.add_body("rod3", parent="rod4", joint=vd.Pivot((0, 1, 0), at=(1, 0, 0)), mass=1.0, com=(0, 0, -0.5),
-               inertia=rod["rod3"].inertia)
-    s.add_loop("C", ("rod2", (0, -1, 0)), ("rod3", (0, 0, -1)), joint=vd.Pivot((1, 0, 0)))
-    return s
-
-
 def test_iftomm_a04_bricard_mechanism_moves_with_one_degree_of_freedom_against_its_count():
     """Grübler's count 6·5 − 5·6 = 0 (five moving rods, six revolute joints), yet the mechanism moves: the
     rank of the loop's Jacobian is 4 of its 5 equations. 10 s from rest at the published configuration:
@@ -371,7 +353,7 @@ def test_iftomm_a04_bricard_mechanism_moves_with_one_degree_of_freedom_against_i
     assert traj.status == "finished"
     assert abs(traj.energy - ref["energy"]).max() <= 1e-6 * abs(ref["energy"])
     assert np.abs(traj.constraint_residual).max() <= 1e-9
-    other = bricard_cut_at_c().build()
+    other = bricard_cut_at_c(vd.load_scene(MODELS / "iftomm_a04.toml")).build()
     assert other.dof == 1
     q0 = other.assemble(other.neutral())
     assert np.abs(other.point_position("rod2", (0, -1, 0), q0) - [1, -1, 0]).max() <= 1e-12
