@@ -19,7 +19,6 @@ from ..model import dynamics
 from ..model.fd import differences, displaced_vectors, steps, tangent_derivative, vector_derivative
 from .equilibrium import Equilibrium
 from .linearize import LinearModel, fd_error, reference_state
-from .modal import classify
 from .modal import modes as _modes
 
 
@@ -142,7 +141,7 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
     res = float(np.abs(rho).max(initial=0.0))
     lin = linearize(system, q, v=v, t=t, multipliers=lam)
     m = lin.modes()
-    stability = classify(m.rigid, m.unstable, m.eigenvalues, m.zero_threshold, ignore_zeros=len(speeds))
+    stability = m.verdict(ignore_zeros=len(speeds))
     phi = float(np.abs(c.scaled_phi(c.phi(q))).max(initial=0.0))
     q_error = np.abs(N @ np.linalg.pinv(lin.K, rcond=1e-10) @ np.full(ind.size, float(np.abs(rho).max()))) \
         + 4 * EPS * (np.abs(system.difference(system.neutral(), q)) + 1.0)

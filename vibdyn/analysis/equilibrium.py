@@ -19,7 +19,6 @@ from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
 from ..model.fd import steps
 from .linearize import LinearModel, jacobian_q, jacobian_v, linearize
-from .modal import classify
 
 if TYPE_CHECKING:
     from ..model.system import System
@@ -258,7 +257,7 @@ def _finish(system, q, v, t, kind, residual, tolerance, iterations, ignore_zeros
     nv = system.nv
     lin = linearize(system, q, v=v, t=t, a=np.zeros(nv))
     m = lin.modes()
-    stability = classify(m.rigid, m.unstable, m.eigenvalues, m.zero_threshold, ignore_zeros=ignore_zeros)
+    stability = m.verdict(ignore_zeros=ignore_zeros)
     q_error = np.abs(np.linalg.pinv(lin.K, rcond=1e-10)) @ np.full(nv, residual) if nv else np.zeros(0)
     if iterations:  # the offsets carry the round-off of the steps that reached them
         q_error = q_error + 4 * np.finfo(float).eps * (np.abs(system.difference(system.neutral(), q)) + 1.0)

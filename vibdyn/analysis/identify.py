@@ -110,7 +110,8 @@ def extrema(omega, values, function=None, kind="max"):
     pos, val, err, last = [], [], [], -10
     for j in cand:
         lo, hi = w[j - 1], w[j + 1]
-        res = minimize_scalar(lambda x: sign * f(x), bounds=(lo, hi), method="bounded",
+        # (an unbounded value, a pole within the bracket, is clamped: Brent's arithmetic stays finite)
+        res = minimize_scalar(lambda x: sign * min(f(x), 1e300), bounds=(lo, hi), method="bounded",
                               options={"xatol": 1e-12 * hi, "maxiter": 500})
         x = float(res.x)
         if function is None:  # data only: compare with the vertex of the parabola through three samples
@@ -141,6 +142,9 @@ def half_power(omega, amplitude, quantity="receptance", function=None):
     peaks, amps, perr = extrema(w, a, function, "max")
     rows, unresolved = [], []
     for wp, ap, ep in zip(peaks, amps, perr):
+        if not math.isfinite(ap):  # unbounded within the model's error: an undamped resonance has no band
+            unresolved.append(wp)
+            continue
         level = ap / math.sqrt(2)
         k = int(np.searchsorted(w, wp))
         lower = _crossing(w, a, f, level, wp, k - 1, -1, function is None)

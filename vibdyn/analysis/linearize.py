@@ -297,7 +297,12 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
         # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad), and of
         # those summed into K by the point elements
         scaled_terms = terms[:, None] / system.coordinate_scales
-        K_err = 16 * EPS * (np.abs(K) + scaled_terms + K_size)
+        # and a floor common to every entry: the largest of those terms (N·m: per unit rad, or m × the length
+        # scale) reaches each entry through the tree's transforms (a joint that gravity does not load still
+        # has derivatives made of its neighbours' torques; a held robot's wrist read −4e-10 rad²/s² for 0)
+        s = system.coordinate_scales
+        floor = float((terms * s).max(initial=0.0)) / np.outer(s, s)
+        K_err = 16 * EPS * (np.abs(K) + scaled_terms + K_size + floor)
         C_err = 16 * EPS * (np.abs(C) + scaled_terms) if np.count_nonzero(C) else np.zeros(C.shape)
         n = 1
     system.check_mass_matrix(q0, "the operating point", M)  # (finite, and regular against the scene's scales)

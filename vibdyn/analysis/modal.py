@@ -18,7 +18,7 @@ import scipy.linalg as sla
 from scipy.linalg import lapack
 from numpy.typing import ArrayLike
 
-from .._check import all_finite, scalar
+from .._check import all_finite, scalar, vector3
 from ..defaults import EPS
 from ..errors import ModelError
 
@@ -62,6 +62,14 @@ class Modes:
     elapsed: float  # s
     note: str = ""  # e.g. that an unresolved finite-difference model was replaced by the analytic one
     basis: tuple = field(default=(), repr=False)  # (M, K_s, Φ, ω², scale) of the solved eigenproblem
+    zero: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)  # per state eigenvalue: rigid/cyclic
+    damped_zero: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)  # per damped mode: rigid/cyclic
+    eigenvalue_uncertainty: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)  # 1/s, per state eigenvalue
+
+    def verdict(self, ignore_zeros: int = 0) -> str:
+        """Stability with ``ignore_zeros`` zero modes not counted (the cyclic coordinates of a steady motion)."""
+        return classify(self.rigid, self.unstable, self.eigenvalues, self.zero, self.eigenvalue_uncertainty,
+                        ignore_zeros)[0]
 
     @cached_property
     def _products(self):
@@ -107,6 +115,38 @@ class Modes:
         ``residual`` and ``eigenvalue_error``)."""
         return float(max(self.residual.max(initial=0.0), self.eigenvalue_error.max(initial=0.0)))
 
+    def participation(self, direction: ArrayLike, rotation: bool = False,
+                      point: ArrayLike = (0.0, 0.0, 0.0)) -> np.ndarray:
+        """Participation factor of each mode in a base excitation: Γ_r = φ_rᵀ L / φ_rᵀ M φ_r, with L the
+        generalized inertia load of a unit base acceleration — a translation along ``direction`` (L = A_linᵀ
+        d: √kg for mass-normalised shapes), or with ``rotation`` an angular acceleration about the axis
+        ``direction`` through ``point`` (m; L = A_angᵀ a: √kg·m). See :meth:`vibdyn.System.momentum_matrix`."""
+        return (self.shapes.T @ self._base_load(direction, rotation, point)) / self.modal_mass
+
+    def effective_mass(self, direction: ArrayLike, rotation: bool = False,
+                       point: ArrayLike = (0.0, 0.0, 0.0)) -> np.ndarray:
+        """Effective modal mass of each mode in a base excitation (see :meth:`participation`): (φ_rᵀ L)² /
+        φ_rᵀ M φ_r, kg for a translation (kg·m² for a rotation). Over all modes they sum to Lᵀ M⁻¹ L
+        (:meth:`moved_mass`): for a fixed-base building shaken along its floors, the floors' total mass."""
+        g = self.shapes.T @ self._base_load(direction, rotation, point)
+        return g * g / self.modal_mass
+
+    def moved_mass(self, direction: ArrayLike, rotation: bool = False, point: ArrayLike = (0.0, 0.0, 0.0)) -> float:
+        """The mass (kg; kg·m² for a rotation) that the base excitation moves: Lᵀ M⁻¹ L in the motions the
+        model has (a mechanism's: those its loops allow), the sum of every mode's effective mass (rigid modes
+        included; the mass-normalised shapes are a complete basis, Φ Φᵀ = M⁻¹)."""
+        return float(self.effective_mass(direction, rotation, point).sum())
+
+    def _base_load(self, direction, rotation, point):
+        d = vector3(direction, "direction")
+        n = float(np.linalg.norm(d))
+        if n == 0:
+            raise ModelError("participation: direction must be a non-zero 3-vector (a translation, or with "
+                             "rotation=True an axis)")
+        lin = self.linear
+        A_lin, A_ang = lin.system.momentum_matrix(lin.q0, point)
+        return (A_ang if rotation else A_lin).T @ (d / n)
+
     def point_shapes(self, points: list, direction: ArrayLike | None = None, complex: bool = False) -> np.ndarray:
         """Mode shapes as displacements (m per unit modal coordinate, world axes) of body points.
 
@@ -131,8 +171,10 @@ class Modes:
         return plot_modes(self, path=path, which=which, amplitude=amplitude, dpi=dpi)
 
     def to_dict(self) -> dict:
-        """Plain data (JSON-ready): SI units, complex numbers as [re, im]."""
-        d = {"omega_rad_s": self.omega.tolist(), "frequency_hz": self.frequency_hz.tolist(),
+        """Plain data (JSON-ready): SI units, complex numbers as [re, im]; ``glossary`` says what each
+        frequency is."""
+        d = {"glossary": dict(GLOSSARY),
+             "omega_rad_s": self.omega.tolist(), "frequency_hz": self.frequency_hz.tolist(),
              "omega2": self.omega2.tolist(), "rigid": self.rigid.tolist(), "unstable": self.unstable.tolist(),
              "shapes": self.shapes.tolist(), "coordinates": list(self.linear.coordinates),
              "stability": self.stability, "orthogonality_residual": self.orthogonality,
@@ -143,7 +185,9 @@ class Modes:
         if self.eigenvalues.size:
             d.update({"eigenvalues": [[z.real, z.imag] for z in self.eigenvalues],
                       "zeta": self.zeta.tolist(), "omega_n_rad_s": self.omega_n.tolist(),
-                      "omega_d_rad_s": self.omega_d.tolist(), "eigenvalue_error": self.eigenvalue_error.tolist(),
+                      "omega_d_rad_s": self.omega_d.tolist(), "frequency_d_hz": self.damped_frequency_hz.tolist(),
+                      "damped_eigenvalues": [[z.real, z.imag] for z in self.damped_eigenvalues],
+                      "eigenvalue_error": self.eigenvalue_error.tolist(),
                       "classical_damping": self.classical})
         return d
 
@@ -166,19 +210,33 @@ class Modes:
         return html_table(f"{self.n} modes, {self.stability}", ["mode", "ω rad/s", "f Hz", "", "rel. error"], rows)
 
     def __str__(self):
-        lines = [f"{'mode':>4} {'omega rad/s':>14} {'f Hz':>12}  note"]
+        lines = [f"{'mode':>4} {'ω rad/s':>14} {'f Hz':>12}  note (undamped: ω the undamped natural frequency)"]
         for i in range(self.n):
-            note = "rigid" if self.rigid[i] else ("UNSTABLE (growth rate)" if self.unstable[i] else "")
+            note = "rigid" if self.rigid[i] else ("UNSTABLE: ω column is a growth rate, 1/s" if self.unstable[i]
+                                                  else "")
             lines.append(f"{i + 1:>4} {self.omega[i]:>14.8g} {self.frequency_hz[i]:>12.6g}  {note}")
         if self.eigenvalues.size:
-            lines.append(f"{'':>4} {'lambda':>30} {'zeta':>10} {'omega_n':>12}")
+            lines.append(f"{'':>4} {'λ 1/s':>30} {'ζ':>10} {'ω_n rad/s':>12} {'ω_d rad/s':>12}  (damped)")
             for i, lam in enumerate(self.damped_eigenvalues):
                 lines.append(f"{i + 1:>4} {lam.real:>14.8g}{lam.imag:>+14.8g}i {self.zeta[i]:>10.6g} "
-                             f"{self.omega_n[i]:>12.8g}")
+                             f"{self.omega_n[i]:>12.8g} {self.omega_d[i]:>12.8g}")
         lines.append(f"stability {self.stability}; error ≈ {self.error:.1e}; {self.elapsed * 1e3:.2f} ms")
         if self.note:
             lines.append(self.note)
         return "\n".join(lines)
+
+
+#: what each frequency of a modal analysis is (the README's glossary; every output names its numbers so)
+GLOSSARY = {
+    "omega": "ω (rad/s): undamped natural frequency, from K_s φ = ω² M φ (damping and gyroscopic terms left out)",
+    "frequency": "f = ω/2π (Hz), of the undamped ω",
+    "omega_n": "ω_n = |λ| (rad/s): natural frequency of a damped (state-form) mode",
+    "omega_d": "ω_d = |Im λ| = ω_n √(1 − ζ²) (rad/s): damped frequency, the one a free vibration oscillates at",
+    "frequency_d": "f_d = ω_d/2π (Hz)",
+    "zeta": "ζ = −Re λ / |λ|: damping ratio",
+    "rate": "σ (1/s): growth (> 0) or decay rate of a mode that does not oscillate (a real λ, or ω² < 0): a "
+            "rate, not a frequency",
+}
 
 
 def modes(lin: Any, tolerance: float | None = None) -> Modes:
@@ -240,9 +298,9 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
         if lin.method == "fd" and np.count_nonzero(rigid):
             exact = modes(lin.relinearize("analytic"))
             if exact.rigid.sum() != rigid.sum():  # the analytic model resolves what FD could not
-                return replace(exact, note=f"{int(rigid.sum() - exact.rigid.sum())} mode(s) unresolved by finite "
-                                           "differences (ω² within their round-off): modes from the analytic "
-                                           "linear model")
+                why = (f"{int(rigid.sum() - exact.rigid.sum())} mode(s) unresolved by finite differences (ω² "
+                       "within their round-off): modes from the analytic linear model")
+                return replace(exact, note="; ".join(x for x in (why, exact.note) if x))
     else:
         rigid = abs_w2 <= float(tolerance) * scale
     any_rigid = np.count_nonzero(rigid) > 0
@@ -272,28 +330,40 @@ def modes(lin: Any, tolerance: float | None = None) -> Modes:
         N2 -= E2
         damped = bool(np.maximum.reduce(N2, axis=None) > 2e-12 * np.maximum.reduce(abs_Ks, axis=None))
     if damped:
-        lam, lam_modes, shapes_c, lam_error = _state_modes(lin)
+        lam, lam_modes, shapes_c, lam_error, lam_abs, modes_abs = _state_modes(lin)
         mag = np.abs(lam_modes)
-        # a rigid mode's zero is a Jordan block (x = a + b t; left and right eigenvectors orthogonal), where
-        # first-order perturbation does not apply: its error is the split that still counts as zero
+        # an eigenvalue is zero (rigid or cyclic) when it is within 10 × its own uncertainty of 0 (or at
+        # round-off of the largest): a genuine slow mode (a precession at 0.0025 rad/s beside a spin of 1e6)
+        # keeps its value. A rigid mode's zero is a Jordan block (x = a + b t; left and right eigenvectors
+        # orthogonal) split by round-off: first-order perturbation gives it a large uncertainty, so it counts
+        # as zero, and its error is then the split that still counts as zero
         lam_scale = max(mag.max(initial=0.0), 1e-300)
-        lam_error = np.where(mag <= zero_threshold, np.minimum(lam_error, zero_threshold / lam_scale), lam_error)
+        floor = 1e-12 * lam_scale
+        zero = np.abs(lam) <= np.maximum(10 * lam_abs, floor)
+        zero_modes = mag <= np.maximum(10 * modes_abs, floor)
+        zero_threshold = float(mag[zero_modes].max(initial=floor))
+        lam_error = np.where(zero_modes, np.minimum(lam_error, zero_threshold / lam_scale), lam_error)
         zeta = np.where(mag > 0, -lam_modes.real / np.where(mag > 0, mag, 1.0), 0.0)
         classical = _is_classical(lin)
         omega_d = np.abs(lam_modes.imag)
     else:
         lam = lam_modes = _NO_COMPLEX
-        lam_error = mag = zeta = omega_d = _NO_REAL
+        lam_error = mag = zeta = omega_d = lam_abs = _NO_REAL
+        zero = zero_modes = _NO_BOOL
         shapes_c = np.zeros((n, 0), complex)
         classical = True
-    stability = classify(rigid, unstable, lam, zero_threshold)
+    stability, within = classify(rigid, unstable, lam, zero, lam_abs)
+    note = ""
+    if within:
+        note = (f"growth rate {within[0]:.2g} 1/s within its own error {within[1]:.2g} 1/s: neutral within the "
+                "error, not unstable")
     return Modes(lin, w2, omega, Phi, rigid, unstable, rel, zero_threshold, lam, lam_modes, zeta, mag, omega_d,
-                 lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start,
-                 basis=(M, Ks, Phi, w2, scale))
+                 lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start, note,
+                 basis=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes, eigenvalue_uncertainty=lam_abs)
 
 
-_NO_REAL, _NO_COMPLEX = np.zeros(0), np.zeros(0, complex)  # an undamped model's empty state-form parts
-_NO_REAL.flags.writeable = _NO_COMPLEX.flags.writeable = False
+_NO_REAL, _NO_COMPLEX, _NO_BOOL = np.zeros(0), np.zeros(0, complex), np.zeros(0, bool)  # undamped: no state form
+_NO_REAL.flags.writeable = _NO_COMPLEX.flags.writeable = _NO_BOOL.flags.writeable = False
 
 
 def mac(a: ArrayLike, b: ArrayLike | None = None) -> np.ndarray | float:
@@ -330,9 +400,10 @@ def rayleigh(zeta: ArrayLike, omega: ArrayLike) -> tuple[float, float]:
 
 
 def _state_modes(lin):
-    """State eigenvalues (all, and one per mode), complex shapes, and each mode's estimated relative error:
-    first-order perturbation |wᴴ δA v| / |wᴴ v| with δA from the error estimates of K and C (and the
-    round-off of the eigensolver), w and v the left and right eigenvectors."""
+    """State eigenvalues (all, and one per mode), complex shapes, each mode's estimated relative error, and
+    the absolute uncertainties (1/s) of all eigenvalues and of the modes': first-order perturbation
+    |wᴴ δA v| / |wᴴ v| with δA from the error estimates of K and C (and the round-off of the eigensolver), w
+    and v the left and right eigenvectors."""
     A = lin.A
     lam, W, V = sla.eig(A, left=True, right=True)
     n = lin.nv
@@ -355,25 +426,32 @@ def _state_modes(lin):
     piv = Vm[big, np.arange(Vm.shape[1])]
     Vm = Vm / np.where(np.abs(piv) > 0, piv, 1.0)
     rel = dm / np.where(np.abs(lm) > 0, np.abs(lm), scale)
-    return lam, lm, Vm, rel
+    return lam, lm, Vm, rel, dlam, dm
 
 
-def classify(rigid, unstable, eigenvalues, zero_threshold, ignore_zeros=0):
-    """"stable", "unstable" or "neutral" from the undamped flags, or from the state eigenvalues if any.
+def classify(rigid, unstable, eigenvalues, zero, uncertainty, ignore_zeros=0):
+    """(verdict, within): "stable", "unstable" or "neutral" from the undamped flags, or from the state
+    eigenvalues if any; ``within`` = (growth rate, its uncertainty) (1/s) of the largest growth found within
+    its own error (which is then no verdict of instability: "neutral within the error"), else None.
 
-    State eigenvalues with |λ| ≤ ``zero_threshold`` (1/s) are rigid/cyclic; up to ``ignore_zeros`` of them
-    (zero modes of cyclic positions in a steady motion) do not make the point neutral. Other eigenvalues on
-    the imaginary axis are undamped oscillations: bounded, so stable (in the linear sense).
+    State eigenvalues flagged ``zero`` are rigid/cyclic; up to ``ignore_zeros`` of them (zero modes of cyclic
+    positions in a steady motion) do not make the point neutral. A real part above its ``uncertainty``
+    (1/s, per eigenvalue) is a growth; other eigenvalues on the imaginary axis are undamped oscillations:
+    bounded, so stable (in the linear sense).
     """
     if eigenvalues.size == 0:
         if unstable.any():
-            return "unstable"
-        return "neutral" if rigid.sum() > ignore_zeros else "stable"
+            return "unstable", None
+        return ("neutral" if rigid.sum() > ignore_zeros else "stable"), None
     scale = max(np.abs(eigenvalues).max(initial=0.0), 1e-300)
-    zero = np.abs(eigenvalues) <= zero_threshold
-    if np.any(eigenvalues[~zero].real > 1e-10 * scale):
-        return "unstable"
-    return "neutral" if zero.sum() > ignore_zeros else "stable"  # an undamped oscillation is bounded
+    growth = eigenvalues.real > 1e-10 * scale
+    if np.any(growth & ~zero & (eigenvalues.real > uncertainty)):
+        return "unstable", None
+    within = growth & ~zero
+    if within.any():  # a growth rate inside its own error: not a verdict
+        k = int(np.argmax(np.where(within, eigenvalues.real, -np.inf)))
+        return "neutral", (float(eigenvalues[k].real), float(uncertainty[k]))
+    return ("neutral" if zero.sum() > ignore_zeros else "stable"), None  # an undamped oscillation is bounded
 
 
 def _is_classical(lin):

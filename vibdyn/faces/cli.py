@@ -134,8 +134,45 @@ def modal_report(system, method="fd"):
         "linearization": {"method": lin.method, "error_estimate": lin.error, "elapsed_s": lin.elapsed,
                           "evaluations": lin.evaluations, "M": lin.M.tolist(), "C": lin.C.tolist(),
                           "K": lin.K.tolist()},
-        "modes": m.to_dict(),
+        "modes": {**m.to_dict(), "participation": participation(m)},
     }
+
+
+AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+
+
+def participation(m):
+    """{x, y, z, rx, ry, rz: {factor, effective_mass, moved_mass}} of base accelerations: translations along
+    the world axes (kg) and rotations about them through the origin (kg·m²), as Nastran and Code_Aster print
+    them (:meth:`vibdyn.analysis.modal.Modes.effective_mass`)."""
+    out = {}
+    for rotation in (False, True):
+        unit = "kg_m2" if rotation else "kg"
+        for axis, d in AXES.items():
+            out[("r" if rotation else "") + axis] = {
+                "factor": m.participation(d, rotation).tolist(),
+                f"effective_mass_{unit}": m.effective_mass(d, rotation).tolist(),
+                f"moved_mass_{unit}": m.moved_mass(d, rotation)}
+    return out
+
+
+def participation_text(m):
+    """Effective modal masses per mode for the base translations that move any mass (kg, and % of the mass
+    they move), with their sums: what a modal report lists."""
+    rows, cols = [], []
+    for axis, d in AXES.items():
+        total = m.moved_mass(d)
+        if total > 1e-12 * max(m.moved_mass(x) for x in AXES.values()):
+            cols.append((axis, m.effective_mass(d), total))
+    if not cols or not m.n:
+        return ""
+    for i in range(m.n):
+        rows.append([str(i + 1)] + [f"{number(e[i], digits=6)} ({100 * e[i] / t:.1f} %)" for _, e, t in cols])
+    rows.append(["sum"] + [f"{number(e.sum(), digits=6)} ({100 * e.sum() / t:.1f} %)" for _, e, t in cols])
+    lines = ["effective modal masses, kg (base translation along x, y, z; % of the mass it moves, "
+             f"{', '.join(f'{a}: {number(t, digits=6)} kg' for a, _, t in cols)})"]
+    lines += ["  " + x for x in table(["mode"] + [f"along {a}" for a, _, _ in cols], rows)]
+    return "\n".join(lines)
 
 
 def print_modes(system, method="fd", out=None, report=None):
@@ -148,6 +185,15 @@ def print_modes(system, method="fd", out=None, report=None):
           f"{lin.evaluations} evaluations", file=out)
     print("", file=out)
     print(modes_text(lin, m), file=out)
+    text = participation_text(m)
+    if text:
+        print("", file=out)
+        print(text, file=out)
+    if op.kind == "held" and (m.rigid.any() or m.unstable.any()):
+        n = int(m.rigid.sum() + m.unstable.sum())
+        print(f"note: held by drives with no servo stiffness: only gravity stiffens it, so {n} mode(s) come out "
+              "rigid or unstable; give the joints servo stiffness (--servo K,C, or vd.load_robot(name, servo=(K, "
+              "C)), vd.io.robots.add_servo(scene, K, C) in Python)", file=out)
 
 
 def modes_text(lin, m, per_block=8):
@@ -155,11 +201,13 @@ def modes_text(lin, m, per_block=8):
     first, then rigid ones, then natural frequencies), their shapes per coordinate (largest entry 1), and
     the damped modes with a note on how they are counted."""
     order = np.argsort(m.omega2, kind="stable")
-    lines = ["modes, in ascending order of ω² (unstable directions, ω² < 0, first; then rigid ones, ω² = 0)"]
+    lines = ["undamped modes (K_s φ = ω² M φ: ω the undamped natural frequency, f = ω/2π), in ascending order of "
+             "ω² (unstable directions, ω² < 0, first; then rigid ones, ω² = 0)"]
     rows = []
     for j in order:
         if m.unstable[j]:
-            w, f, note = "-", "-", f"unstable: grows as exp({number(m.omega[j], digits=5)} t), t in s"
+            w, f = "-", "-"
+            note = f"UNSTABLE: grows as exp(σt), growth rate σ = {number(m.omega[j], digits=5)} 1/s (not a frequency)"
         else:
             w, f = number(m.omega[j], digits=8), number(m.frequency_hz[j], digits=6)
             note = "rigid" if m.rigid[j] else ""
@@ -181,17 +229,24 @@ def modes_text(lin, m, per_block=8):
                                               ["<", "<"] + [">"] * len(cols))]
     if m.eigenvalues.size:
         lines.append("")
-        lines.append("damped modes (state form: eigenvalues λ = −ζω_n ± iω_d, 1/s)")
+        lines.append("damped modes (state form: eigenvalues λ = −ζω_n ± iω_d, 1/s; ω_n = |λ| the natural "
+                     "frequency, ω_d = |Im λ| the damped frequency, f_d = ω_d/2π; a real λ is a rate, not a "
+                     "frequency)")
         rows = []
         for i, lam in enumerate(m.damped_eigenvalues):
             err = m.eigenvalue_error[i] * abs(lam)  # absolute: a real part below it is round-off, shown as 0
             im = "" if lam.imag == 0 else f" ± {number(abs(lam.imag), digits=8)}i"
+            wd = number(m.omega_d[i], digits=8) if lam.imag else "-"
+            fd = number(m.omega_d[i] / (2 * np.pi), digits=6) if lam.imag else "-"
             rows.append([str(i + 1), number(lam.real, error=err, digits=8) + im,
                          number(m.zeta[i], error=m.eigenvalue_error[i], digits=6),
-                         number(m.omega_n[i], digits=8), number(m.eigenvalue_error[i], digits=1)])
-        lines += ["  " + x for x in table(["mode", "λ 1/s", "ζ", "ω_n rad/s", "error"], rows)]
+                         number(m.omega_n[i], digits=8), wd, fd, number(m.eigenvalue_error[i], digits=1)])
+        lines += ["  " + x for x in table(["mode", "λ 1/s", "ζ", "ω_n rad/s", "ω_d rad/s", "f_d Hz", "error"],
+                                          rows)]
         lines.append("  " + _damped_note(m))
     lines.append(f"stability {m.stability}; error ≈ {m.error:.1e}; {m.elapsed * 1e3:.2f} ms")
+    if m.note:
+        lines.append(f"note: {m.note}")
     return "\n".join(lines)
 
 
@@ -199,9 +254,10 @@ def _damped_note(m):
     """Why the damped table's length differs from the undamped one's."""
     lam = m.damped_eigenvalues
     pairs = int(np.sum(lam.imag > 0))
-    real = lam[lam.imag == 0]
-    zero = int(np.sum(np.abs(real) <= m.zero_threshold))
-    decay = int(np.sum(real.real < -m.zero_threshold))
+    is_real = lam.imag == 0
+    real = lam[is_real]
+    zero = int(np.sum(m.damped_zero[is_real]))
+    decay = int(np.sum(~m.damped_zero[is_real] & (real.real < 0)))
     grow = len(real) - zero - decay
     kinds = [f"{k} {what}" for k, what in ((zero, "zero (rigid or cyclic)"), (decay, "decaying (overdamped)"),
                                            (grow, "growing (unstable)")) if k]
@@ -227,6 +283,15 @@ def start_offsets(items):
             raise ModelError(f"--start {item!r}: expected NAME=VALUE, a coordinate and its offset from neutral "
                              "(m or rad), e.g. --start pendulum=-1.5") from None
     return out
+
+
+def servo_pair(text):
+    """(stiffness, damping) from ``K,C`` (the ``--servo`` option)."""
+    try:
+        k, c = (float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected K,C (two numbers: stiffness and damping), got {text!r}") from None
+    return k, c
 
 
 def with_start(scene, start):
@@ -295,6 +360,9 @@ def main(argv=None):
                        help="where the operating point's search starts (or the held configuration): offsets "
                             "from neutral by coordinate, m or rad (others: the scene's start, else 0)")
     modes.add_argument("--png", help="also draw every mode (deformed over undeformed) into this PNG file")
+    modes.add_argument("--servo", type=servo_pair, metavar="K,C",
+                       help="hold every pivot and slider by a position servo: stiffness K (N·m/rad or N/m) and "
+                            "damping C (N·m·s/rad or N·s/m) about the start (a held robot's vibration modes)")
     sub.add_parser("demo", help="run the main job on the bundled trailer model")
     frf = sub.add_parser("frf", help="frequency response between two channels: peaks, half-power damping, plots")
     frf.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
@@ -355,7 +423,12 @@ def main(argv=None):
             scene = load(args.scene)
             describe(scene, scene.build())
         elif args.command == "modes":
-            system = with_start(load(args.scene), start_offsets(args.start)).build()
+            scene = with_start(load(args.scene), start_offsets(args.start))
+            if args.servo:
+                from ..io.robots import add_servo
+
+                add_servo(scene, *args.servo)
+            system = scene.build()
             report = modal_report(system, args.method)
             if args.json:
                 import json
@@ -538,8 +611,9 @@ def print_frf(frf, peaks, hp, out=None, notes=()):
         p(f"note: {n}")
     p(f"{'':<16} {'omega rad/s':>14} {'f Hz':>12} {'|H|':>12} {'zeta (half power)':>18}")
     for w, a in zip(peaks.resonances, peaks.amplitudes):
-        if not np.isfinite(a):
-            p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {'unbounded':>12} {'0 (undamped)':>18}")
+        if not np.isfinite(a):  # undamped, or damped less than the linear model's own error resolves
+            zeta = "0 (undamped)" if frf.damping.startswith("undamped") else "within the error"
+            p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {'unbounded':>12} {zeta:>18}")
             continue
         i = np.flatnonzero(np.isclose(hp.omega_peak, w, rtol=1e-9))
         z = f"{hp.zeta[i[0]]:.6g}" if i.size else "-"

@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .._check import count, unknown_name
+from .._check import count, scalar, unknown_name
 from ..description import joints as _joints
 from ..description.elements import WORLD
 from ..description.scene import Scene
@@ -240,12 +240,14 @@ def load_mjcf(path, name=None, gravity=None, damping=True, weld_massless=False):
     return scene
 
 
-def load_robot(name, floating=None, **kwargs):
+def load_robot(name, floating=None, servo=None, **kwargs):
     """A :class:`vibdyn.Scene` of a robot of example-robot-data by its name (see :data:`ROBOTS`).
 
     ``floating`` None uses the robot's usual base (free for legged robots, humanoids and drones, fixed for
     arms); other keywords go to :func:`load_urdf`. The scene's ``robot_source`` records the SRDF file whose
-    postures :func:`reference_configuration` reads.
+    postures :func:`reference_configuration` reads. ``servo`` = (stiffness, damping): the joints held by
+    position servos (:func:`add_servo`): a robot held by its drives alone has only gravity's stiffness, so
+    most of its modes come out rigid.
     """
     if name not in ROBOTS:
         raise unknown_name(name, known_robots(), "robot", "known robots")
@@ -263,7 +265,37 @@ def load_robot(name, floating=None, **kwargs):
     scene.source = f"example-robot-data '{name}': URDF {path}"
     if scene.robot_source.posture:  # held at the SRDF's posture rather than at neutral
         scene.set_operating_point(start=_posture_offsets(scene), held=True)
+    if servo is not None:
+        add_servo(scene, *_servo_pair(servo))
     return scene
+
+
+def _servo_pair(servo):
+    try:
+        stiffness, damping = servo
+    except (TypeError, ValueError):
+        raise ModelError(f"servo: expected (stiffness, damping) (N·m/rad or N/m, N·m·s/rad or N·s/m), got "
+                         f"{servo!r}") from None
+    return stiffness, damping
+
+
+def add_servo(scene, stiffness, damping=0.0):
+    """Hold every one-coordinate joint (pivots, sliders, helical: the actuated ones) by a position servo: a
+    joint spring ``stiffness`` (N·m/rad or N/m) about the held posture (the operating point's start, else
+    neutral) and a joint damper ``damping`` (N·m·s/rad or N·s/m), named ``<joint>.servo``. The modes of the
+    held robot are then its vibration modes on its servos (without them only gravity stiffens it)."""
+    k = scalar(stiffness, "servo stiffness", positive=True)
+    c = scalar(damping, "servo damping", nonnegative=True)
+    start = (scene.operating_point or {}).get("start") or {}
+    if not isinstance(start, dict):
+        start = dict(zip((n for b in scene.bodies.values() for n in b.coordinates), start))
+    for body in list(scene.bodies.values()):
+        if body.joint.nv != 1 or body.joint.kind not in ("pivot", "slider", "helical"):
+            continue
+        (coordinate,) = body.coordinates
+        scene.add_joint_spring(body.name, k, rest=start.get(coordinate, 0.0), name=f"{coordinate}.servo_spring")
+        if c > 0:
+            scene.add_joint_damper(body.name, c, name=f"{coordinate}.servo_damper")
 
 
 def _posture_offsets(scene):

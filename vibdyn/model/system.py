@@ -486,6 +486,18 @@ class System:
 
         return simulate(self, t_end, q0, v0, method, rtol, atol, dt, t_eval, **options)
 
+    def momentum_matrix(self, q: ArrayLike, point: ArrayLike = (0.0, 0.0, 0.0)) -> tuple[Matrix, Matrix]:
+        """(A_lin, A_ang) (3 × nv each): the linear momentum p = A_lin v (kg·m/s) and the angular momentum
+        about ``point`` (m, world) k = A_ang v (kg·m²/s) of every body at q, from Pinocchio's centroidal map.
+        Transposed, they are the generalized inertia loads of a unit base acceleration: A_linᵀ d for a
+        translation along d, A_angᵀ a for an angular acceleration about a through ``point``."""
+        q = self.check_configuration(q)
+        data = self.data
+        A = pin.computeCentroidalMap(self.model, data, q)
+        lin, ang = A[:3].copy(), A[3:].copy()
+        ang += pin.skew(data.com[0] - vector3(point, "point")) @ lin  # about the point, not the centre of mass
+        return lin, ang
+
     # ------------------------------------------------------------- geometry
     def body_pose(self, body: str, q: ArrayLike) -> tuple[Matrix, Vector]:
         """(R, p): rotation (3×3) and origin (m) of a body's frame in world axes."""

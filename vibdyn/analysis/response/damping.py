@@ -106,6 +106,19 @@ class DampedModel:
         """Dynamic stiffness K − ω²M + i(ωC + D)."""
         return self.K - w * w * self.M + 1j * (w * self.C + self.D)
 
+    @cached_property
+    def _error_norms(self):
+        """(‖δK‖₂, ‖δC‖₂) bounds from the linear model's elementwise error estimates (the model's own C only)."""
+        lin = self.lin
+        dC = lin.C_error if self.C is lin.C else np.zeros_like(self.C)
+        norm = lambda X: float(np.linalg.norm(X, 2)) if X.size else 0.0  # noqa: E731
+        return norm(lin.K_error), norm(dC)
+
+    def z_error(self, w):
+        """A bound of the 2-norm of the dynamic stiffness's error at ω (rad/s): ‖δK‖ + ω‖δC‖ (N/m, N·m/rad)."""
+        dK, dC = self._error_norms
+        return dK + w * dC
+
     @property
     def classical(self):
         """The real modes decouple the equations (classical damping, symmetric K)."""

@@ -285,7 +285,10 @@ def _omegas(omega):
 
 
 def _transfer(model, omega, Bfun, out, method, n_modes=None, offset=None):
-    """H(ω) = out · X(ω) (+ offset), X solving Z(ω) X = B(ω); with its backward residual and condition."""
+    """H(ω) = out · X(ω) (+ offset), X solving Z(ω) X = B(ω); with its backward residual, condition and the
+    amplification of the linear model's own error, max over ω of ‖δZ‖/σ_min(Z) (the relative error of X
+    that K's and C's errors cause: near a resonance σ_min → 0). A Z singular within that error (σ_min ≤
+    ‖δZ‖) is an undamped resonance within the error: SingularResponse."""
     if method not in ("direct", "modal"):
         raise ModelError(f"frequency response: unknown method {method!r} (use 'direct' or 'modal')")
     nv = model.M.shape[0]
@@ -293,22 +296,27 @@ def _transfer(model, omega, Bfun, out, method, n_modes=None, offset=None):
         Phi, w2, c, d, _ = model.modal
         keep = slice(None) if n_modes is None else slice(0, _n_modes(n_modes, w2.size))
         Phi, w2, c, d = Phi[:, keep], w2[keep], c[keep], d[keep]
+        dw2 = 2 * np.abs(w2) * model.modes.residual[keep]  # each ω²'s uncertainty (residual: relative, of ω)
     H = None
-    residual = condition = 0.0
+    residual = condition = amplification = 0.0
     for i, w in enumerate(omega):
         B = np.asarray(Bfun(w), dtype=complex).reshape(nv, -1)
         Z = model.z(w)
         s = sla.svdvals(Z) if nv else np.ones(1)
         cond = s[0] / s[-1] if s[-1] > 0 else np.inf
+        dz = model.z_error(w) if nv else 0.0
         if method == "direct":
-            if not cond < 1e14:
-                _singular(w, model)
+            if not cond < 1e14 or s[-1] <= dz:
+                _singular(w, model, s[-1], dz)
             X = sla.solve(Z, B, check_finite=False)
         else:
             den = w2 - w * w + 1j * (w * c + d)
-            if np.any(np.abs(den) <= 64 * EPS * (np.abs(w2) + w * w + w * np.abs(c) + np.abs(d)) + 1e-300):
-                _singular(w, model)
+            small = 64 * EPS * (np.abs(w2) + w * w + w * np.abs(c) + np.abs(d)) + 1e-300
+            if np.any(np.abs(den) <= np.maximum(small, dw2)):
+                k = int(np.argmin(np.abs(den) - np.maximum(small, dw2)))
+                _singular(w, model, abs(den[k]), max(small[k], dw2[k]))
             X = Phi @ ((Phi.T @ B) / den[:, None])
+        amplification = max(amplification, dz / s[-1] if s[-1] > 0 else np.inf)
         r = np.linalg.norm(Z @ X - B) / (np.linalg.norm(Z) * np.linalg.norm(X) + np.linalg.norm(B) + 1e-300)
         residual, condition = max(residual, float(r)), max(condition, float(min(cond, 1 / EPS)))
         h = out @ X
@@ -319,7 +327,7 @@ def _transfer(model, omega, Bfun, out, method, n_modes=None, offset=None):
         H[i] = h
     if H is None:
         H = np.zeros((0, out.shape[0], 0), dtype=complex)
-    return H, residual, condition
+    return H, residual, condition, amplification
 
 
 class SingularResponse(ModelError):
@@ -327,10 +335,14 @@ class SingularResponse(ModelError):
     rigid-body mode (the steady response is unbounded)."""
 
 
-def _singular(w, model):
+def _singular(w, model, smallest=0.0, error=0.0):
     why = "a rigid-body mode (K is singular)" if w == 0 else "an undamped resonance"
-    raise SingularResponse(f"the dynamic stiffness K − ω²M + i(ωC + D) is singular at ω = {w:g} rad/s "
-                     f"({w / (2 * np.pi):g} Hz): {why}; the steady response is unbounded there")
+    within = ""
+    if smallest > 0:  # not singular to the arithmetic, but within the linear model's own error
+        within = (f" within its own error (smallest singular value {smallest:.3g} ≤ its error {error:.3g}: at a "
+                  "resonance, within the error)")
+    raise SingularResponse(f"the dynamic stiffness K − ω²M + i(ωC + D) is singular{within} at ω = {w:g} rad/s "
+                           f"({w / (2 * np.pi):g} Hz): {why}; the steady response is unbounded there")
 
 
 def _n_modes(n, total):
@@ -350,9 +362,10 @@ def _natural(model):
 
 def frf_of(model, omega, Bfun, cout, labels_in, units_in, kind, method, n_modes, start, offset=None):
     w = _omegas(omega)
-    H, res, cond = _transfer(model, w, Bfun, cout.matrix, method, n_modes, offset)
+    H, res, cond, amp = _transfer(model, w, Bfun, cout.matrix, method, n_modes, offset)
     evaluate = lambda ww: _transfer(model, _omegas(ww), Bfun, cout.matrix, method, n_modes, offset)[0]  # noqa: E731
-    err = min(1.0, cond * (max(res, EPS) + model.lin.error))  # solve + the linear model's own error
+    # the solve's error, and the linear model's own error amplified by 1/σ_min(Z) (large near a resonance)
+    err = min(1.0, cond * max(res, EPS) + amp)
     return FRF(w, H, cout.labels, tuple(labels_in), cout.units, tuple(units_in), kind, method, model.damping,
                res, cond, err, time.perf_counter() - start, _natural(model), evaluate)
 

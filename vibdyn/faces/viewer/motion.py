@@ -21,13 +21,20 @@ PERIOD = 2.0  # s: one cycle of a shown mode lasts this long (whatever its frequ
 
 @dataclass(frozen=True)
 class ModeView:
-    """One mode as the viewer lists it: frequencies in rad/s and Hz, damping ratio, kind, shape."""
+    """One mode as the viewer lists it, each number named after the glossary (README, "Frequencies"):
+    ``omega`` is the undamped ω of the undamped problem, or the damped ω_d = |Im λ| of the state form
+    (``damped``), rad/s; ``omega_n`` = |λ| (state form), ``zeta`` = −Re λ/|λ| (nan when undamped); ``rate``
+    the growth (> 0) or decay (< 0) rate of a mode that does not oscillate, or the growth of an unstable
+    oscillation (1/s: a rate, not a frequency)."""
 
     index: int  # 0-based
-    omega: float  # rad/s (damped frequency for a damped mode; growth/decay rate for a real one)
+    omega: float  # rad/s: ω (undamped) or ω_d (damped); 0 for a mode that does not oscillate
     zeta: float  # damping ratio (nan when undamped analysis)
     kind: str  # "oscillating", "rigid", "unstable" or "overdamped"
     shape: np.ndarray  # complex, nv
+    rate: float = 0.0  # 1/s
+    omega_n: float = float("nan")  # rad/s (state form)
+    damped: bool = False  # from the state form (ω_d, ω_n, ζ) rather than the undamped problem (ω)
 
     @property
     def hz(self):
@@ -37,13 +44,19 @@ class ModeView:
     def label(self):
         head = f"mode {self.index + 1}"
         if self.kind == "rigid":
-            return f"{head}: rigid (0 Hz), drifts"
-        if self.kind in ("unstable", "overdamped") and not np.iscomplexobj(self.shape) or self.kind == "overdamped":
-            rate = "growth" if self.kind == "unstable" else "decay"
-            return f"{head}: {self.kind.upper() if self.kind == 'unstable' else self.kind}, {rate} rate {self.omega:.4g} 1/s"
-        z = "" if np.isnan(self.zeta) else f", ζ = {self.zeta:.3g}"
-        note = " UNSTABLE" if self.kind == "unstable" else ""
-        return f"{head}: {self.hz:.4g} Hz ({self.omega:.4g} rad/s){z}{note}"
+            return f"{head}: rigid (ω = 0), drifts"
+        if self.omega == 0.0:  # no oscillation: a rate (1/s), not a frequency
+            what = "UNSTABLE, growth rate" if self.kind == "unstable" else "overdamped, decay rate"
+            z = f", ζ = {self.zeta:.4g}" if self.damped else ""
+            return f"{head}: {what} {abs(self.rate):.4g} 1/s (not a frequency){z}"
+        if self.damped:
+            text = (f"ω_d = {self.omega:.4g} rad/s (f_d = {self.hz:.4g} Hz), ω_n = {self.omega_n:.4g} rad/s, "
+                    f"ζ = {self.zeta:.4g}")
+        else:
+            text = f"ω = {self.omega:.4g} rad/s (f = {self.hz:.4g} Hz), undamped"
+        if self.kind == "unstable":
+            text += f", UNSTABLE: growth rate {self.rate:.4g} 1/s"
+        return f"{head}: {text}"
 
 
 def mode_views(modes):
@@ -51,23 +64,27 @@ def mode_views(modes):
     model has damping or gyroscopic terms, else the undamped real ones."""
     out = []
     if modes.eigenvalues.size:
+        err = modes.eigenvalue_error * modes.omega_n  # absolute (1/s): a growth within it is no growth
         for i, lam in enumerate(modes.damped_eigenvalues):
             phi = modes.complex_shapes[:, i]
-            if abs(lam) <= modes.zero_threshold:
+            grows = lam.real > err[i]
+            if modes.damped_zero[i]:
                 kind, w = "rigid", 0.0
             elif lam.imag == 0:
-                kind, w = ("unstable" if lam.real > 0 else "overdamped"), abs(lam.real)
+                kind, w = ("unstable" if grows else "overdamped"), 0.0
                 phi = _real(phi)
             else:
-                kind, w = ("unstable" if lam.real > 0 else "oscillating"), abs(lam.imag)
+                kind, w = ("unstable" if grows else "oscillating"), abs(lam.imag)
             if kind == "rigid":
                 phi = _real(phi)
-            out.append(ModeView(i, float(w), float(modes.zeta[i]), kind, phi))
+            out.append(ModeView(i, float(w), float(modes.zeta[i]), kind, phi, float(lam.real),
+                                float(modes.omega_n[i]), True))
     else:
         for i in range(modes.n):
             kind = "rigid" if modes.rigid[i] else ("unstable" if modes.unstable[i] else "oscillating")
-            out.append(ModeView(i, 0.0 if kind == "rigid" else float(modes.omega[i]), float("nan"), kind,
-                                modes.shapes[:, i].astype(complex)))
+            w = 0.0 if kind != "oscillating" else float(modes.omega[i])
+            rate = float(modes.omega[i]) if kind == "unstable" else 0.0  # ω² < 0: e^{±√|ω²| t}
+            out.append(ModeView(i, w, float("nan"), kind, modes.shapes[:, i].astype(complex), rate))
     return out
 
 

@@ -1,0 +1,204 @@
+"""Numbers fit for a report (issue 22): one meaning per frequency (the glossary: ω undamped, ω_n and ω_d of
+the damped modes, σ a rate), the same numbers in the text table, the JSON, the web page and the pictures;
+stability verdicts and error estimates that stay honest near their limits."""
+
+import contextlib
+import io
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+from conftest import MODELS
+
+import vibdyn as vd
+from vibdyn.faces.cli import main
+
+
+def cli(*args):
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = main(list(args))
+    assert code in (0, None)
+    return out.getvalue()
+
+
+def numbers_after(label, text):
+    """Every number that follows ``label =`` in a text (a label, a title)."""
+    return [float(x) for x in re.findall(re.escape(label) + r" = ([-+0-9.e]+)", text)]
+
+
+def quarter_car_modes():
+    """The quarter car's damped modes computed once, with the analytic model beside it: the quarter car's
+    two undamped ω from its 2×2 closed form (tyre and suspension in series), checked first."""
+    system = vd.load_scene(MODELS / "quarter_car.toml").build()
+    m = system.operating_point().linearize().modes()
+    ms, mu, ks, kt = 250.0, 35.0, 16000.0, 160000.0
+    a, b, c = ms * mu, -(ks * mu + (ks + kt) * ms), ks * kt  # det(K − ω²M) = a ω⁴ + b ω² + c
+    w2 = sorted([(-b - s * math.sqrt(b * b - 4 * a * c)) / (2 * a) for s in (1, -1)])
+    assert m.omega == pytest.approx(np.sqrt(w2), rel=10 * m.error + 1e-9)
+    return system, m
+
+
+def test_one_damped_model_gives_the_same_number_for_the_same_quantity_everywhere(tmp_path):
+    """The quarter car (damped): its undamped ω (1.213 Hz for the body mode), ω_n (1.225 Hz) and ω_d
+    (1.196 Hz) differ by a few per cent; each output names which one it shows, and all agree on each."""
+    pytest.importorskip("matplotlib")
+    system, m = quarter_car_modes()
+    assert m.eigenvalues.size and np.all(m.damped_eigenvalues.imag > 0)
+    text = cli("modes", str(MODELS / "quarter_car.toml"))
+    data = json.loads(cli("modes", str(MODELS / "quarter_car.toml"), "--json"))["modes"]
+    assert set(data["glossary"]) >= {"omega", "omega_n", "omega_d", "zeta", "rate"}
+    vd.export_html(m, tmp_path / "modes.html")
+    page = (tmp_path / "modes.html").read_text()
+    fig = m.plot()
+    titles = " | ".join(a.get_title() for a in fig.axes)
+    # the text table: undamped ω and f, then the damped table with ω_n, ω_d, f_d
+    undamped = re.findall(r"^\s+(\d)\s+[-0-9.e]+\s+([0-9.e]+)\s+([0-9.e]+)\s", text.split("mode shapes")[0], re.M)
+    damped = re.findall(r"^\s+(\d)\s+[-0-9.e]+ ± [0-9.e]+i\s+([0-9.e]+)\s+([0-9.e]+)\s+([0-9.e]+)\s+([0-9.e]+)",
+                        text, re.M)
+    assert len(undamped) == len(damped) == 2
+    for i in range(2):
+        w, f = float(undamped[i][1]), float(undamped[i][2])
+        zeta, wn, wd, fd = (float(x) for x in damped[i][1:])
+        assert w == pytest.approx(m.omega[i], rel=1e-6) == pytest.approx(data["omega_rad_s"][i], rel=1e-12)
+        assert f == pytest.approx(m.frequency_hz[i], rel=1e-5) == pytest.approx(data["frequency_hz"][i], rel=1e-12)
+        for name, value, ref, key in (("ζ", zeta, m.zeta[i], "zeta"), ("ω_n", wn, m.omega_n[i], "omega_n_rad_s"),
+                                      ("ω_d", wd, m.omega_d[i], "omega_d_rad_s"),
+                                      ("f_d", fd, m.omega_d[i] / (2 * np.pi), "frequency_d_hz")):
+            assert value == pytest.approx(ref, rel=1e-5), name
+            assert data[key][i] == pytest.approx(ref, rel=1e-12), key
+            # the page's mode list and the pictures' titles name the same quantities (4 digits)
+            shown = numbers_after(name, page) if name != "ζ" else numbers_after("ζ", page)
+            assert shown[i] == pytest.approx(ref, rel=1e-3), (name, shown)
+            assert numbers_after(name, titles)[i] == pytest.approx(ref, rel=1e-3), (name, titles)
+        # the three frequencies of one mode differ, so a number without its name would mislead
+        assert abs(m.omega[i] - m.omega_d[i]) > 1e-3 * m.omega[i]
+    assert "ω_d" in titles and "ω_n" in titles and " Hz (" not in titles
+
+
+def test_a_mode_that_does_not_oscillate_is_labelled_with_a_rate_not_a_frequency():
+    """The inverted pendulum on a cart (a cart-pole held upright, no damping): its unstable mode grows as
+    e^{σt}; σ is a rate in 1/s, never shown as a frequency in Hz."""
+    s = vd.Scene("cartpole", gravity=(0, 0, -9.81))
+    s.add_body("cart", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_body("pole", parent="cart", joint=vd.Pivot((0, 1, 0)), mass=0.5, com=(0, 0, 0.5),
+               inertia=vd.inertia.rod(0.5, 1.0, axis=(0, 0, 1)))
+    system = s.build()
+    m = system.linearize(system.neutral()).modes()
+    assert m.unstable.any()
+    from vibdyn.faces.viewer.motion import mode_views
+
+    labels = [v.label for v in mode_views(m)]
+    k = int(np.flatnonzero(m.unstable)[0])
+    assert "growth rate" in labels[k] and "1/s (not a frequency)" in labels[k] and "Hz" not in labels[k]
+    assert f"{m.omega[k]:.4g} 1/s" in labels[k]
+    from vibdyn.faces.cli import modes_text
+
+    table = modes_text(m.linear, m)
+    assert "growth rate σ" in table and "(not a frequency)" in table
+
+
+# ------------------------------------------------------------------ verdicts within their uncertainty
+
+def test_a_slow_gyroscopic_mode_is_not_erased_by_a_fast_one():
+    """The gimballed rotor at 1e6 rad/s: its precession mode is k/(I_p Ω) = 0.0025 rad/s exactly (the
+    closed form of the model's header), four hundred million times slower than its nutation; a threshold
+    relative to the largest eigenvalue erased it as rigid."""
+    system = vd.load_scene(MODELS / "gimbal_rotor.toml").build()
+    It, Ip, k = 0.08, 0.12, 300.0
+    for spin in (100.0, 1e4, 1e6):
+        m = system.steady_motion({"rotor": spin}).linearize().modes()
+        root = math.sqrt((Ip * spin) ** 2 + 4 * It * k)  # (the slow root without cancellation: 2k / (IpΩ + √…))
+        exact = [2 * k / (Ip * spin + root), (Ip * spin + root) / (2 * It)]
+        moving = ~m.damped_zero
+        assert m.omega_n[moving] == pytest.approx(exact, rel=10 * m.error + 1e-12)
+        assert m.damped_zero.sum() == 2  # the spin's own zero pair (the rotor angle is cyclic)
+
+
+def test_growth_within_its_error_is_no_instability():
+    """Modes whose growth rate is within their own error are neutral within the error, not unstable; a
+    verdict of instability always has its growth rate above its uncertainty."""
+    for name in ("rotor_slider", "gimbal_rotor", "quarter_car", "iftomm_a05", "trammel", "four_bar"):
+        system = vd.load_scene(MODELS / f"{name}.toml").build()
+        m = system.operating_point().linearize().modes()
+        if m.eigenvalues.size:
+            growing = (m.eigenvalues.real > m.eigenvalue_uncertainty) & ~m.zero
+            assert (m.stability == "unstable") == bool(growing.any()), name
+        assert m.stability != "unstable", name
+        assert np.all(m.omega2[m.rigid] == 0.0)  # cleaned to exactly 0 (no 1.2e-15 left)
+
+
+def test_the_held_ur5_is_unstable_only_where_its_growth_is_resolved():
+    """The UR5 held by its drives (no servo stiffness: gravity stiffness only). Its analytic model resolves
+    two directions of slightly negative gravity stiffness (−3.7e-10 and −7.5e-11 rad²/s², from the URDF's
+    own geometry: the K block of its three parallel axes is symmetric to 3e-16 and deviates from rank one
+    by 2e-10): a verdict of instability is given only with its growth rate above that rate's uncertainty;
+    with servo stiffness every mode oscillates."""
+    m = vd.load_robot("ur5").build().operating_point().linearize().modes()
+    sigma, err = m.omega[m.unstable], 2 * m.residual[m.unstable] * m.omega[m.unstable]
+    assert np.all(sigma > 10 * err)
+    stiff = vd.load_robot("ur5", servo=(1000.0, 10.0)).build().operating_point().linearize().modes()
+    assert stiff.stability == "stable" and not stiff.rigid.any() and not stiff.unstable.any()
+
+
+def test_four_bar_frf_at_its_undamped_resonance_is_unbounded_not_finite():
+    """An undamped mechanism with loops: the constrained model leaks no damping, and its resonance is
+    unbounded (as for trees), not a finite peak with a spurious ζ."""
+    lin = vd.load_scene(MODELS / "four_bar.toml").build().operating_point().linearize()
+    assert not np.any(lin.C)
+    frf = lin.receptance(np.linspace(10.0, 25.0, 61), inputs=["crank"], outputs=["crank"])
+    peaks = frf.peaks()
+    assert np.all(np.isinf(peaks.amplitudes)) and peaks.unbounded.all()
+    assert peaks.resonances == pytest.approx(lin.modes().omega, rel=1e-9)
+
+
+def test_receptance_at_a_resonance_says_so_within_the_error():
+    """A mass on a spring (k = 100 N/m, m = 1 kg) asked at exactly ω = 10 rad/s: the FD K is 100 to its
+    error, so |K − ω²M| is within K's own error of zero — at a resonance, within the error, not a finite
+    1e10 with a confident 1e-12. Near it the estimate carries the amplification 1/|K − ω²M|."""
+    s = vd.Scene("mass")
+    s.add_body("m", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_spring("k", ("world", (1, 0, 0)), "m", 100.0, free_length=1.0)
+    lin = s.build().linearize(np.zeros(1))
+    with pytest.raises(vd.ModelError, match="within its own error.*at a resonance, within the error"):
+        lin.receptance([10.0])
+    for w in (10.0 * (1 + 1e-6), 10.0 * (1 + 1e-3), 9.0):
+        f = lin.receptance([w])
+        exact = 1.0 / (100.0 - w * w)
+        amplification = lin.K_error[0, 0] / abs(100.0 - w * w)
+        assert f.error >= amplification  # the estimate carries K's error through 1/|K − ω²M|
+        assert abs(f.alpha[0, 0, 0].real - exact) <= f.error * abs(exact) + 1e-15
+
+
+# ------------------------------------------------------------------ participation and effective masses
+
+def test_effective_masses_of_a_building_sum_to_its_floors_and_equal_the_hand_formula():
+    """Floors m_i on sliders along x (heights h_i), storeys k_i between them (joint-space springs written as
+    point springs along x). Hand formula from an independent eigh of the textbook M = diag(m), K tridiagonal:
+    Γ_r = φ_rᵀ M 1 (mass-normalised φ), m_eff,r = Γ_r², Σ m_eff = Σ m_i; for a rocking about y through the
+    base, L = M h and Σ = Σ m_i h_i²."""
+    import scipy.linalg as sla
+
+    m, k, h = np.array([2000.0, 1500.0, 1000.0]), np.array([6e5, 4e5, 2e5]), np.array([3.0, 6.0, 9.0])
+    path = MODELS / "three_storey_building.toml"
+    modes = vd.load_scene(path).build().operating_point().linearize().modes()
+    K = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
+    w2, Phi = sla.eigh(K, np.diag(m))
+    assert modes.omega2 == pytest.approx(w2, rel=10 * modes.error + 1e-9)
+    gamma = np.abs(Phi.T @ m)  # (signs of shapes are a convention)
+    assert np.abs(modes.participation((1, 0, 0))) == pytest.approx(gamma, rel=1e-7)
+    eff = modes.effective_mass((1, 0, 0))
+    assert eff == pytest.approx(gamma**2, rel=1e-7)
+    assert eff.sum() == pytest.approx(m.sum(), rel=1e-9) == pytest.approx(modes.moved_mass((1, 0, 0)), rel=1e-9)
+    assert modes.effective_mass((0, 1, 0)) == pytest.approx(np.zeros(3), abs=1e-9 * m.sum())
+    rocking = modes.effective_mass((0, 1, 0), rotation=True)
+    assert rocking == pytest.approx((Phi.T @ (m * h)) ** 2, rel=1e-7)
+    assert rocking.sum() == pytest.approx(np.sum(m * h**2), rel=1e-9)
+    # and in the CLI and the JSON
+    data = json.loads(cli("modes", str(path), "--json"))["modes"]["participation"]
+    assert data["x"]["effective_mass_kg"] == pytest.approx(eff, rel=1e-6)
+    assert data["x"]["moved_mass_kg"] == pytest.approx(m.sum(), rel=1e-9)
+    text = cli("modes", str(path))
+    assert "effective modal masses" in text and f"{m.sum():.6g}" in text
