@@ -202,3 +202,53 @@ def test_effective_masses_of_a_building_sum_to_its_floors_and_equal_the_hand_for
     assert data["x"]["moved_mass_kg"] == pytest.approx(m.sum(), rel=1e-9)
     text = cli("modes", str(path))
     assert "effective modal masses" in text and f"{m.sum():.6g}" in text
+
+
+# ------------------------------------------------------------------ pictures that look like the mechanism
+
+def drawn_lines(fig, k=0):
+    """The line segments (each 2 × 2, screen coordinates) drawn in panel k, in drawing order."""
+    return [np.array(line.get_xydata()) for line in fig.axes[k].lines if len(line.get_xydata()) == 2
+            and line.get_linestyle() != "None"]
+
+
+def test_pictures_draw_closed_loops_that_meet_full_lengths_and_planar_scenes_face_on():
+    pytest.importorskip("matplotlib")
+    from vibdyn.faces.viewer.pictures import skeleton
+
+    # the four-bar: coupler and rocker reach their common pin (the loop closes in the picture)
+    system = vd.load_scene(MODELS / "four_bar.toml").build()
+    modes = system.operating_point().linearize().modes()
+    q0 = modes.linear.q0
+    segs, _ = skeleton(system, q0)
+    pin_a = system.point_position("coupler", (0.3, 0, 0), q0)
+    ends = segs.reshape(-1, 3)
+    assert np.linalg.norm(ends - pin_a, axis=1).min() <= 1e-12  # the coupler's rod ends at the pin ...
+    assert sum(np.linalg.norm(ends - pin_a, axis=1) <= 1e-9) >= 2  # ... and so does the rocker's
+    # drawn face-on: a planar x–y mechanism keeps its in-plane lengths on the screen (no foreshortening)
+    fig = modes.plot()
+    base = drawn_lines(fig)[:len(segs)]
+    assert [np.linalg.norm(s[1] - s[0]) for s in base] == pytest.approx(
+        [np.linalg.norm(s[1] - s[0]) for s in segs], rel=1e-9)
+    # the double pendulum is 2 m long in its picture, not 1.5
+    system = vd.load_scene(MODELS / "double_pendulum.toml").build()
+    segs, _ = skeleton(system, system.neutral())
+    pts = segs.reshape(-1, 3)
+    assert np.ptp(pts[:, 2]) == pytest.approx(2.0, rel=1e-12)
+
+
+def test_a_collinear_scene_draws_its_deformed_shape_beside_the_undeformed_one():
+    """The quarter car's two masses move on one vertical line: the deformed drawing is set beside the
+    undeformed one instead of on top of it (where nothing would show)."""
+    pytest.importorskip("matplotlib")
+    from vibdyn.faces.viewer.pictures import skeleton
+
+    system, m = quarter_car_modes()
+    n = len(skeleton(system, m.linear.q0)[0])  # segments of one drawing (the tyre, spring and damper)
+    fig = m.plot()
+    for k in range(m.n):
+        lines = drawn_lines(fig, k)
+        base_x = {round(float(x), 9) for s in lines[:n] for x in s[:, 0]}
+        assert len(base_x) == 1  # the undeformed one: a single vertical line
+        moved = np.vstack(lines[n:])
+        assert np.abs(moved[:, 0] - base_x.pop()).min() > 0.1  # m: beside it, not on it

@@ -94,6 +94,15 @@ def load_mjcf(path: str | os.PathLike, **kwargs: Any) -> Scene:
     return _load(path, **kwargs)
 
 
+def add_servo(scene: Scene, stiffness: float, damping: float = 0.0) -> None:
+    """Hold every pivot, slider and helical joint of ``scene`` by a position servo: a joint spring
+    ``stiffness`` (N·m/rad or N/m) about the held posture and a joint damper ``damping`` (N·m·s/rad or
+    N·s/m) (see :func:`vibdyn.io.robots.add_servo`)."""
+    from .io.robots import add_servo as _add
+
+    _add(scene, stiffness, damping)
+
+
 def view(obj: Any, **kwargs: Any) -> Any:
     """Show a Modes, Trajectory, System or Scene in the browser (live meshcat server on 127.0.0.1); returns
     a handle with ``.url`` and ``.close()`` (see :func:`vibdyn.faces.viewer.view`)."""
@@ -113,7 +122,7 @@ def export_html(obj: Any, path: str | os.PathLike, **kwargs: Any) -> Any:
 __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot", "Slider", "Helical", "Ball",
            "Cylindrical", "Universal", "Planar", "Free", "Fixed", "inertia", "laws", "WORLD", "ModelError",
            "ConvergenceError", "SceneFileError", "VibdynError", "load_scene", "load_robot", "load_urdf",
-           "load_mjcf", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
+           "load_mjcf", "add_servo", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
            "transmissibility", "fit_rayleigh", "log_decrement", "Trajectory", "SimulationError",
            "LinearModel", "Modes", "Equilibrium", "TimeResult", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",
            "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html",

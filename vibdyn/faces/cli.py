@@ -193,7 +193,7 @@ def print_modes(system, method="fd", out=None, report=None):
         n = int(m.rigid.sum() + m.unstable.sum())
         print(f"note: held by drives with no servo stiffness: only gravity stiffens it, so {n} mode(s) come out "
               "rigid or unstable; give the joints servo stiffness (--servo K,C, or vd.load_robot(name, servo=(K, "
-              "C)), vd.io.robots.add_servo(scene, K, C) in Python)", file=out)
+              "C)) or vd.add_servo(scene, K, C) in Python)", file=out)
 
 
 def modes_text(lin, m, per_block=8):

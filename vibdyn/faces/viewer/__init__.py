@@ -137,6 +137,8 @@ def content(obj, trajectory=None, speed=1.0):
     lin = modes.linear if modes is not None else None
     q0 = lin.q0 if lin is not None else (data[1][0] if data is not None else system.neutral())
     d = _drawing(system, q0)
+    if data is not None:
+        d.frame(data[1])  # the camera frames the whole replayed motion
     views = _motion.mode_views(modes) if modes is not None and data is None else []
     if not views and data is None:
         raise ModelError(f"scene '{system.name}' has no coordinate: nothing moves, nothing to show")

@@ -94,6 +94,22 @@ class Drawing:
         """World positions (m) of the probe points at q, (n × 3)."""
         return np.array([self.system.point_position(b, p, q) for b, p in self.probes]).reshape(-1, 3)
 
+    def frame(self, configurations, samples=60):
+        """Grow the size and centre (and lower the ground) to hold the probe points at every one of
+        ``configurations`` (a replayed motion: up to ``samples`` of them, evenly spaced, the ends included),
+        so that the camera frames the whole motion, not its first pose."""
+        qs = np.asarray(configurations, float)
+        if not len(qs) or not self.probes:
+            return
+        pick = np.unique(np.linspace(0, len(qs) - 1, min(samples, len(qs))).round().astype(int))
+        pts = np.vstack([self.points(qs[k]) for k in pick])
+        half = 0.5 * self.size / np.sqrt(3)  # the current box, as a cube of the same diagonal around the centre
+        lo = np.minimum(pts.min(axis=0), self.center - half)
+        hi = np.maximum(pts.max(axis=0), self.center + half)
+        self.size = max(float(np.linalg.norm(hi - lo)), self.size)
+        self.center = 0.5 * (lo + hi)
+        self.ground = min(self.ground, float(pts[:, 2].min()) - 0.05 * self.size)
+
 
 def stretch(a, b):
     """4×4 matrix placing a unit segment along z at a, pointing at b, scaled by |b − a| along z."""
@@ -117,14 +133,10 @@ def rotation_z_to(u):
     return np.eye(3) + K + K @ K / (1 + c)
 
 
-def drawing(system, q0):
-    """The :class:`Drawing` of a system, sized and centred at configuration q0."""
-    scene = system.scene
-    d = Drawing(system)
-    robot = getattr(scene, "robot_source", None)
-    if robot is not None:
-        d.robot = _robot_geometry(robot)
-    # points that matter: body origins, centres of mass, anchors, children's joints
+def link_points(scene):
+    """{body: [points in its frame (m)]} where a body meets the rest of the scene besides its own joint
+    (its frame's origin): its children's joints, the ends of springs and dampers on it, and its loop
+    points — what a drawing joins to its centre of mass, so that a closed loop's links meet."""
     anchors = {name: [] for name in scene.bodies}
     for e in list(scene.elements_of(Spring)) + list(scene.elements_of(Damper)):
         for body, p in (e.a, e.b):
@@ -133,6 +145,22 @@ def drawing(system, q0):
     for b in scene.bodies.values():
         if b.parent in anchors:
             anchors[b.parent].append(np.asarray(b.joint.at, dtype=float))
+    for lp in scene.loops.values():
+        for body, p in (lp.a, lp.b):
+            if body in anchors:
+                anchors[body].append(np.asarray(p, dtype=float))
+    return anchors
+
+
+def drawing(system, q0):
+    """The :class:`Drawing` of a system, sized and centred at configuration q0."""
+    scene = system.scene
+    d = Drawing(system)
+    robot = getattr(scene, "robot_source", None)
+    if robot is not None:
+        d.robot = _robot_geometry(robot)
+    # points that matter: body origins, centres of mass, anchors, children's joints, loop points
+    anchors = link_points(scene)
     pts = []
     for b in scene.bodies.values():
         pts += [system.point_position(b.name, p, q0) for p in [np.zeros(3), np.asarray(b.com)] + anchors[b.name]]
@@ -182,15 +210,17 @@ def drawing(system, q0):
                                 np.eye(4)))
     if d.robot is not None:
         d.items += _robot_items(d.robot)
+    sprung = {_ends(e) for e in scene.elements_of(Spring)}
     for e in list(scene.elements_of(Spring)) + list(scene.elements_of(Damper)):
         node = "links/" + e.name
         d.links.append((e.name, e.a, e.b))
         if isinstance(e, Spring):
             d.items.append(Item(node, "coil", coil_geometry(0.025 * s), line_material(SPRING_COLOR), np.eye(4),
                                 "Line"))
-        else:
-            d.items.append(Item(node, "body", cylinder_geometry(0.018 * s, 1.0), phong(DAMPER_COLOR, 0.85),
-                                _translate_z(0.5) @ Y_TO_Z))
+        else:  # beside a spring on the same ends, as a suspension is drawn (inside it, it would hide the coil)
+            beside = _ends(e) in sprung
+            d.items.append(Item(node, "body", cylinder_geometry(0.012 * s, 1.0), phong(DAMPER_COLOR, 0.85),
+                                _translate((0.06 * s if beside else 0.0, 0.0, 0.5)) @ Y_TO_Z))
         for end in (e.a, e.b):
             if end[0] == WORLD or isinstance(scene.elements.get(end[0]), Support):
                 d.items.append(Item("world", f"{e.name}.{end[0]}", box_geometry((1.5 * joint_r,) * 3),
@@ -201,6 +231,11 @@ def drawing(system, q0):
 # ------------------------------------------------------------------ three.js JSON helpers
 
 Y_TO_Z = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])  # three.js y axis → z
+
+
+def _ends(element):
+    """The two ends of a spring or damper, in either order."""
+    return frozenset({(element.a[0], tuple(element.a[1])), (element.b[0], tuple(element.b[1]))})
 
 
 def _translate(p):

@@ -56,9 +56,10 @@ def scene_commands(drawing, q0, view_dir=None):
     return cmds
 
 
-def view_direction(displacements):
-    """A viewing direction across a motion: along the direction its points move least ((n × 3) point
-    displacements, m); None (the usual oblique view) when they move in every direction."""
+def plane_normal(displacements):
+    """The unit normal of the plane a motion spans ((n × 3) point displacements, m, real or complex): the
+    direction its points move least, when they hardly move along it (below 5 % of the largest spread); None
+    when they move in every direction. Its sign puts the viewer in front (−y) or above (+z)."""
     D = np.asarray(displacements).reshape(-1, 3)
     if D.size == 0:
         return None
@@ -67,9 +68,21 @@ def view_direction(displacements):
     if not np.any(C):
         return None
     w, V = np.linalg.eigh(C)
-    if w[0] > 0.05 * w[-1]:  # no plane of motion: the usual oblique view
+    if w[0] > 0.05 * w[-1]:  # no plane of motion
         return None
-    n = V[:, 0] if V[1, 0] <= 0 else -V[:, 0]  # from the front (−y) when it is a side
+    n = V[:, 0]
+    if abs(n[1]) >= max(abs(n[0]), abs(n[2])):
+        return n if n[1] <= 0 else -n
+    return n if n[2] >= 0 else -n
+
+
+def view_direction(displacements):
+    """A viewing direction across a motion for the 3-D page: along its plane's normal (:func:`plane_normal`)
+    raised to an elevation of 12–35° (the page keeps a 3-D view), or None (the usual oblique view) when it
+    moves in every direction."""
+    n = plane_normal(displacements)
+    if n is None:
+        return None
     h = np.array([n[0], n[1], 0.0])
     if np.linalg.norm(h) < 0.3:  # motion in a horizontal plane: look from the front, from above
         h = np.array([0.3, -1.0, 0.0])

@@ -3,23 +3,27 @@ skeleton of the scene drawn over the undeformed one, projected on the plane the 
 
 import numpy as np
 
-from ...description.elements import WORLD, Damper, Spring
+from ...description.elements import Damper, Spring
 from ...errors import ModelError
 from . import motion as _motion
 
 
-def _segments(system, q):
-    """World segments (n × 2 × 3) of the scene's skeleton at q: each joint to its body's origin and centre
-    of mass, springs and dampers between their anchors; and the centres of mass (m × 3)."""
+def skeleton(system, q):
+    """World segments (n × 2 × 3) of the scene's skeleton at q: each body from its centre of mass to its own
+    joint and to every point where it meets the rest (children's joints, spring and damper ends, loop points:
+    :func:`vibdyn.faces.viewer.drawing.link_points`), so that a closed loop's links meet and a pendulum shows
+    its full length; springs and dampers between their anchors; and the centres of mass (m × 3)."""
+    from .drawing import link_points
+
     scene = system.scene
     segs, coms = [], []
+    links = link_points(scene)
     for b in scene.bodies.values():
-        o = system.point_position(b.name, (0, 0, 0), q)
-        start = (system.point_position(b.parent, (0, 0, 0), q) if b.parent != WORLD
-                 else np.zeros(3) if not np.any(b.joint.at) else np.asarray(b.joint.at, float))
-        segs.append((start, o))
         c = system.point_position(b.name, b.com, q)
-        segs.append((o, c))
+        for p in [np.zeros(3)] + links[b.name]:
+            x = system.point_position(b.name, p, q)
+            if np.any(x != c):
+                segs.append((c, x))
         if b.mass > 0:
             coms.append(c)
     for e in list(scene.elements_of(Spring)) + list(scene.elements_of(Damper)):
@@ -36,7 +40,7 @@ def plot_modes(modes, path=None, which=None, amplitude=None, dpi=100, columns=3)
     10 % of the scene's size). Saved as PNG when ``path`` is given; returns the matplotlib Figure."""
     from ..plots import figure, save
     from .drawing import drawing
-    from .page import view_direction
+    from .page import plane_normal
 
     lin = modes.linear
     system, q0 = lin.system, lin.q0
@@ -46,11 +50,14 @@ def plot_modes(modes, path=None, which=None, amplitude=None, dpi=100, columns=3)
         raise ModelError(f"plot: modes must be indices from 0 to {len(views) - 1}, got {which!r}")
     d = drawing(system, q0)
     J = lin.point_jacobian(d.probes) if d.probes else np.zeros((0, lin.nv))
-    axes3 = _projection(view_direction(np.concatenate([(J @ views[i].shape).reshape(-1, 3) for i in idx])))
+    # face-on to the plane the modes move in (a planar mechanism is drawn in its own plane), up against gravity
+    axes3 = projection(plane_normal(np.concatenate([(J @ views[i].shape).reshape(-1, 3) for i in idx])),
+                       -np.asarray(system.scene.gravity, float))
     ncol = min(columns, len(idx))
     nrow = -(-len(idx) // ncol)
     fig, ax = figure(nrow, ncol, size=(3.6 * ncol, 3.4 * nrow))
-    base, base_m = _segments(system, q0)
+    base, base_m = skeleton(system, q0)
+    shift = _beside(base, axes3, d.size)
     for a in ax.ravel()[len(idx):]:
         a.set_axis_off()
     for a, i in zip(ax.ravel(), idx):
@@ -59,32 +66,61 @@ def plot_modes(modes, path=None, which=None, amplitude=None, dpi=100, columns=3)
         _draw(a, base, base_m, axes3, color="0.7", lw=1.5, label="operating point")
         phases = (1.0, 1j) if np.any(v.shape.imag != 0) else (1.0,)
         for k, z in enumerate(phases):
-            seg, m = _segments(system, system.integrate(q0, s * (v.shape * z).real))
+            seg, m = skeleton(system, system.integrate(q0, s * (v.shape * z).real))
             _draw(a, seg, m, axes3, color="C0" if v.kind != "unstable" else "C3", lw=2.0,
-                  ls="-" if k == 0 else "--", label="mode" if k == 0 else "mode, 90° later")
+                  ls="-" if k == 0 else "--", label="mode" if k == 0 else "mode, 90° later", shift=shift)
         a.set_aspect("equal", adjustable="datalim")
         a.set_xticks([])
         a.set_yticks([])
-        a.set_title(v.label, fontsize="small")
+        a.set_title(_wrap(v.label), fontsize="small")
     return save(fig, path, dpi)
 
 
-def _projection(direction):
-    """Two screen axes (2 × 3) perpendicular to the viewing direction, the second as close to z as can be."""
+def projection(direction, up=None):
+    """Two screen axes (2 × 3): perpendicular to the viewing ``direction`` (None: the usual oblique view),
+    the second as close to ``up`` (default z; a zero vector, e.g. no gravity, counts as none) as can be."""
     n = np.array([0.55, -1.0, 0.45]) if direction is None else np.asarray(direction, float)
     n = n / np.linalg.norm(n)
-    up = np.array([0.0, 0.0, 1.0])
-    if abs(n @ up) > 0.95:
-        up = np.array([0.0, 1.0, 0.0])
+    up = np.array([0.0, 0.0, 1.0]) if up is None or not np.any(up) else np.asarray(up, float) / np.linalg.norm(up)
+    if abs(n @ up) > 0.95:  # looking along "up": z, else y, becomes the screen's vertical
+        up = np.array([0.0, 0.0, 1.0]) if abs(n[2]) <= 0.95 else np.array([0.0, 1.0, 0.0])
     x = np.cross(up, n)  # right, for a camera at +n looking back along −n
     x /= np.linalg.norm(x)
-    return np.vstack([x, np.cross(x, -n)])
+    return np.vstack([x, np.cross(n, x)])
 
 
-def _draw(a, segs, masses, P, color, lw, ls="-", label=None):
+def _wrap(label, width=44):
+    """A title on several lines, broken only after its commas (a number keeps its name on its line)."""
+    lines, line = [], ""
+    for part in label.split(", "):
+        if line and len(line) + 2 + len(part) > width:
+            lines.append(line + ",")
+            line = part
+        else:
+            line = f"{line}, {part}" if line else part
+    return "\n".join(lines + [line])
+
+
+def _beside(segs, P, size):
+    """Screen offset (2,) of the deformed drawing: none, unless the undeformed one is a single line on the
+    screen (masses on one vertical line, as a quarter car), where the deformed shape would be drawn on top
+    of it; then a quarter of the scene's size across that line."""
+    pts = segs.reshape(-1, 3) @ P.T
+    if len(pts) < 2:
+        return np.zeros(2)
+    c = pts - pts.mean(axis=0)
+    _, sv, Vt = np.linalg.svd(c, full_matrices=False)
+    if sv.size > 1 and sv[1] > 1e-6 * max(sv[0], 1e-300):
+        return np.zeros(2)
+    across = np.array([-Vt[0, 1], Vt[0, 0]]) if sv[0] > 0 else np.array([1.0, 0.0])
+    return 0.25 * size * across * np.sign(across[0] or 1.0)
+
+
+def _draw(a, segs, masses, P, color, lw, ls="-", label=None, shift=(0.0, 0.0)):
+    shift = np.asarray(shift, float)
     for k, (p, q) in enumerate(segs):
-        u, w = P @ p, P @ q
+        u, w = P @ p + shift, P @ q + shift
         a.plot([u[0], w[0]], [u[1], w[1]], color=color, lw=lw, ls=ls, label=label if k == 0 else None)
     if masses.size:
-        m = masses @ P.T
+        m = masses @ P.T + shift
         a.plot(m[:, 0], m[:, 1], "o", color=color, ms=5)
