@@ -252,3 +252,72 @@ def test_a_collinear_scene_draws_its_deformed_shape_beside_the_undeformed_one():
         assert len(base_x) == 1  # the undeformed one: a single vertical line
         moved = np.vstack(lines[n:])
         assert np.abs(moved[:, 0] - base_x.pop()).min() > 0.1  # m: beside it, not on it
+
+
+# ------------------------------------------------------------------ small defects, each with its test
+
+def test_a_support_channel_answers_to_its_plain_name_and_a_direction():
+    lin = vd.load_scene(MODELS / "quarter_car.toml").build().operating_point().linearize()
+    frf = lin.base_response(np.linspace(1.0, 100.0, 40), "road", direction=(0, 0, 1), outputs=["body"])
+    assert frf.inputs == ("road·(0,0,1)",)
+    h = frf.get("body", "road·(0,0,1)")
+    assert np.array_equal(frf.get("body", "road"), h) and np.array_equal(frf.get("body", ("road", (0, 0, 2))), h)
+    assert abs(h[0]) == pytest.approx(1.0, abs=0.05)  # transmissibility → 1 at low frequency
+    pytest.importorskip("matplotlib")
+    from vibdyn.faces import plots
+
+    fig = plots.bode(frf)
+    assert fig.axes[0].get_title().startswith("transmissibility body / road")
+
+
+def test_a_shallow_dip_between_two_modes_is_not_an_anti_resonance():
+    """A damped chain ground–k–m–k–m: the transfer from a force on m1 to m2 has no zero (no anti-resonance)
+    though |H| dips between its two modes; the driving point of m1 has one, at √(k/m)."""
+    s = vd.Scene("chain")
+    for i in (1, 2):
+        s.add_body(f"m{i}", joint=vd.Slider((1, 0, 0), at=(float(i), 0, 0)), mass=1.0)
+    s.add_joint_spring("m1", 1.0)  # (to ground; the coupling spring below)
+    s.add_spring("k12", ("m1", (0, 0, 0)), ("m2", (0, 0, 0)), 1.0)
+    s.add_joint_damper("m1", 0.02)
+    s.add_joint_damper("m2", 0.02)
+    lin = s.build().linearize(np.zeros(2))
+    frf = lin.receptance(np.linspace(0.2, 3.0, 400), inputs=["m1"], outputs=["m1", "m2"])
+    assert frf.peaks("m2", "m1").antiresonances.size == 0
+    assert frf.peaks("m1", "m1").antiresonances == pytest.approx([1.0], rel=1e-3)
+
+
+def test_info_prints_laws_and_values_with_their_units_and_no_empty_lines():
+    text = cli("info", str(MODELS / "rotor_slider.toml"))
+    assert "c = 2 N·s/m" in text and "10 − 1·v² N·m (v in rad/s)" in text
+    assert "{'law'" not in text and "(2)" not in text
+    text = cli("info", str(MODELS / "four_bar.toml"))  # its [reference] holds a note only
+    assert "reference values:" not in text and "k = 2 N·m/rad, rest 1 rad" in text
+
+
+def test_output_cut_short_by_its_reader_ends_quietly(tmp_path):
+    import subprocess
+    import sys
+
+    code = ("import sys; from vibdyn.faces.cli import main; sys.stdout.reconfigure(line_buffering=False); "
+            "sys.exit(main(['info', 'four_bar']))")
+    run = subprocess.run(f"{sys.executable} -c \"{code}\" | head -1", shell=True, capture_output=True, text=True)
+    assert run.stdout.startswith("scene") and "Traceback" not in run.stderr and "BrokenPipe" not in run.stderr
+
+
+def test_view_reads_csv_trajectories_and_names_the_formats_it_reads(tmp_path):
+    system = vd.load_scene(MODELS / "double_pendulum.toml").build()
+    traj = system.simulate(0.5, system.configuration([0.5, 0.2]), t_eval=np.linspace(0, 0.5, 11))
+    from vibdyn.faces.viewer.motion import load_trajectory
+
+    t, q = load_trajectory(system, traj.to_csv(tmp_path / "dp.csv"))
+    assert np.array_equal(t, traj.t) and np.abs(q - traj.q).max() == 0.0
+    (tmp_path / "dp.txt").write_text("1,2\n")
+    with pytest.raises(vd.ModelError, match=r"reads the .npz and .csv files of `vibdyn simulate --out`"):
+        load_trajectory(system, tmp_path / "dp.txt")
+
+
+def test_a_rotation_vector_longer_than_a_turn_is_refused_naming_the_joint():
+    s = vd.Scene("deg")
+    with pytest.raises(vd.ModelError, match=r"body 'b': pivot joint 'rotation': .* 90 rad .*90° is 1.5708 rad"):
+        s.add_body("b", joint=vd.Pivot((0, 0, 1), rotation=(0, 0, 90)), mass=1.0)
+    s.add_body("b", joint=vd.Pivot((0, 0, 1), rotation=(0, 0, math.pi / 2)), mass=1.0)  # a quarter turn: fine

@@ -108,6 +108,10 @@ def rotation_matrix(value, what):
     if arr is not None and arr.shape == (3,):
         from scipy.spatial.transform import Rotation
 
+        angle = float(np.linalg.norm(vector3(value, what)))
+        if angle > 2 * np.pi:  # one turn is the most a rotation needs: degrees given for radians?
+            raise ModelError(f"{what}: a rotation vector of {angle:.6g} rad (more than a full turn, 2π): give it in "
+                             f"radians (degrees by mistake? {angle:g}° is {np.radians(angle):.6g} rad)")
         R = Rotation.from_rotvec(vector3(value, what)).as_matrix()
         if not np.all(np.isfinite(R)):
             raise ModelError(f"{what}: rotation vector too large ({np.linalg.norm(arr):.3g} rad)")

@@ -24,6 +24,21 @@ def vector(xs, unit="", error=0.0, digits=6):
     return f"{text} {unit}" if unit else text
 
 
+def with_units(values, units, names):
+    """``values`` (one, or one per coordinate) with their units: ``units`` the joint's ("m" or "rad" per
+    coordinate), ``names`` the unit of the quantity for each ({"m": "N/m", "rad": "N·m/rad"}); without units
+    (unknown joint) the bare numbers."""
+    vals = np.ravel(values)
+    us = [names[u] for u in units]
+    if not us:
+        return number(vals[0]) if vals.size == 1 else vector(vals)
+    if vals.size == 1:
+        return number(vals[0], us[0] if len(set(us)) == 1 else "") + (" each" if len(us) > 1 else "")
+    if len(set(us)) == 1:
+        return vector(vals, us[0])
+    return "(" + ", ".join(number(v, u) for v, u in zip(vals, us)) + ")"
+
+
 def table(header, rows, align=None):
     """Columns of text padded to their widest entry; ``align`` "<" or ">" per column (default: first left,
     the others right)."""

@@ -34,6 +34,27 @@ class Polynomial:
     def to_dict(self):
         return {"law": "polynomial", "coefficients": list(self.coefficients)}
 
+    def describe(self, unit="", speed=""):
+        """The law as a formula, e.g. "10 − 1·v² N·m (v in rad/s)"."""
+        from .._format import number
+
+        parts = []
+        for k, c in enumerate(self.coefficients):
+            if c == 0.0:
+                continue
+            term = number(abs(c)) + ("" if k == 0 else "·v" if k == 1 else "·v" + _POWERS.get(k, f"^{k}"))
+            sign = "−" if c < 0 else "+"
+            parts.append((f"−{term}" if c < 0 else term) if not parts else f"{sign} {term}")
+        text = " ".join(parts) or "0"
+        if unit:
+            text += f" {unit}"
+        if speed and any(self.coefficients[1:]):
+            text += f" (v in {speed})"
+        return text
+
+
+_POWERS = {2: "²", 3: "³", 4: "⁴", 5: "⁵"}
+
 
 @dataclass(frozen=True)
 class Harmonic:
@@ -57,6 +78,15 @@ class Harmonic:
     def to_dict(self):
         return {"law": "harmonic", "amplitude": self.amplitude, "omega": self.omega, "phase": self.phase,
                 "offset": self.offset}
+
+    def describe(self, unit="", speed=""):
+        """The law as a formula, e.g. "0.5 + 2·sin(15 t + 0) N·m (t in s)"."""
+        from .._format import number
+
+        u = f" {unit}" if unit else ""
+        head = f"{number(self.offset)} + " if self.offset else ""
+        return (f"{head}{number(self.amplitude)}·sin({number(self.omega)} t + {number(self.phase)}){u} "
+                "(ω in rad/s, t in s)")
 
 
 @dataclass(frozen=True)

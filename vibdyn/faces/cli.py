@@ -85,7 +85,7 @@ def describe(scene, system, out=None):
     if scene.elements:
         p("")
         p("force elements")
-        for line in table(["name", "kind", "details"], [[e.name, e.label, e.describe()] for e in scene.elements.values()],
+        for line in table(["name", "kind", "details"], [[e.name, e.label, e.describe(scene)] for e in scene.elements.values()],
                           ["<", "<", "<"]):
             p("  " + line)
     if scene.loops:
@@ -101,9 +101,10 @@ def describe(scene, system, out=None):
                          f"{lp.a[0]}{vector(lp.a[1], 'm')} – {lp.b[0]}{vector(lp.b[1], 'm')}", str(n)])
         for line in table(["name", "joint", "ends", "equations"], rows, ["<", "<", "<", ">"]):
             p("  " + line)
-    if scene.references:
+    values = sorted(k for k in scene.references if k not in ("source", "note"))
+    if values:  # (a note alone is no reference value)
         p("")
-        p("reference values: " + ", ".join(sorted(k for k in scene.references if k not in ("source", "note"))))
+        p("reference values: " + ", ".join(values))
     if system.nv:
         t0 = time.perf_counter()
         q, where = system.start_configuration()
@@ -341,6 +342,18 @@ def demo(out=None):
 
 
 def main(argv=None):
+    """The ``vibdyn`` command (exit status 0, or 2 with a one-line error); output cut short by its reader
+    (``vibdyn info four_bar | head``) ends quietly."""
+    try:
+        return _main(argv)
+    except BrokenPipeError:  # the reader closed the pipe: no traceback (Python's documented recipe)
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+
+
+def _main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:  # forwarded whole to the suite's own parser (vibdyn bench --help)
         try:

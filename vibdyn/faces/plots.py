@@ -33,6 +33,11 @@ def save(fig, path, dpi=100):
     return fig
 
 
+def _what(frf, quantity):
+    """What a plot of ``frf`` shows: its kind (receptance, transmissibility) or the quantity derived from it."""
+    return frf.kind if quantity == "receptance" else f"{quantity} (of the {frf.kind})"
+
+
 def bode(frf, output=0, input=0, *, quantity="receptance", hz=False, db=False, peaks=True, path=None, dpi=100):
     """Amplitude (log scale, or dB) and phase (degrees) of H_jk against frequency (rad/s, or Hz with
     ``hz``), resonances and anti-resonances marked (``peaks``)."""
@@ -70,7 +75,8 @@ def bode(frf, output=0, input=0, *, quantity="receptance", hz=False, db=False, p
     amp.margins(y=0.08)
     for a in (amp, ph):
         a.grid(True, which="both", alpha=0.3)
-    amp.set_title(f"{quantity} {frf.outputs[j]} / {frf.inputs[k]} ({frf.method}, {frf.damping})", fontsize="medium")
+    amp.set_title(f"{_what(frf, quantity)} {frf.outputs[j]} / {frf.inputs[k]} ({frf.method}, {frf.damping})",
+                  fontsize="medium")
     return save(fig, path, dpi)
 
 
@@ -91,7 +97,7 @@ def nyquist(frf, output=0, input=0, *, quantity="receptance", path=None, dpi=100
     a.set_ylabel(f"Im H ({unit})")
     a.legend(loc="best", fontsize="small")
     a.grid(True, alpha=0.3)
-    a.set_title(f"Nyquist: {quantity} {frf.outputs[j]} / {frf.inputs[k]}", fontsize="medium")
+    a.set_title(f"Nyquist: {_what(frf, quantity)} {frf.outputs[j]} / {frf.inputs[k]}", fontsize="medium")
     return save(fig, path, dpi)
 
 

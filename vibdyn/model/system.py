@@ -493,7 +493,7 @@ class System:
         translation along d, A_angᵀ a for an angular acceleration about a through ``point``."""
         q = self.check_configuration(q)
         data = self.data
-        A = pin.computeCentroidalMap(self.model, data, q)
+        A = np.asarray(pin.computeCentroidalMap(self.model, data, q)).reshape(6, self.nv)  # ((6,) when nv = 1)
         lin, ang = A[:3].copy(), A[3:].copy()
         ang += pin.skew(data.com[0] - vector3(point, "point")) @ lin  # about the point, not the centre of mass
         return lin, ang

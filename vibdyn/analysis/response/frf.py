@@ -3,6 +3,7 @@ anti-resonances, half-power bandwidths, harmonic steady states."""
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -13,7 +14,7 @@ import scipy.linalg as sla
 from ..._check import count, finite_array, unknown_name
 from ...defaults import EPS
 from ...errors import ModelError
-from .channels import channels
+from .channels import channels, vector_label
 from .damping import damped_model
 
 QUANTITY_FACTOR = {"receptance": lambda w: np.ones_like(w, dtype=complex), "mobility": lambda w: 1j * w,
@@ -123,7 +124,12 @@ class FRF:
         An undamped resonance (the dynamic stiffness singular at a natural frequency that H_jk sees) is a
         resonance at exactly that natural frequency with unbounded amplitude (``inf``, ``unbounded`` True).
         On such an undamped channel an anti-resonance is a zero of H_jk (a sign change); minima of |H_jk|
-        where H_jk keeps its sign are not listed."""
+        where H_jk keeps its sign are not listed. On a damped one a minimum is an anti-resonance only when it
+        is at least :data:`ANTIRESONANCE_DEPTH` (3 dB) below the curve on both sides of it (the highest |H|
+        between it and the neighbouring minima or the range's ends) and the phase of H_jk rises there (on the
+        frequency axis each stable pole turns the phase down and each zero near it up: a rising phase at a
+        minimum is a zero's): a shallow dip, or the valley between two modes of a transfer without zeros,
+        is not one."""
         from ..identify import extrema
 
         start = time.perf_counter()
@@ -138,6 +144,9 @@ class FRF:
             wr, ar, er = wr[order], ar[order], er[order]
             zero = np.array([self._crosses_zero(x, output, input) for x in wa], dtype=bool)
             wa, aa, ea = wa[zero], aa[zero], ea[zero]
+        elif wa.size:
+            deep = _prominent(w, a, wa, aa) & np.array([self._leads(x, output, input) for x in wa], dtype=bool)
+            wa, aa, ea = wa[deep], aa[deep], ea[deep]
         j, k = self.index(output, input)
         return Peaks(self.outputs[j], self.inputs[k], _quantity(quantity), wr, ar, wa, aa,
                      float(max(er.max(initial=0.0), ea.max(initial=0.0))), time.perf_counter() - start,
@@ -153,6 +162,16 @@ class FRF:
         except SingularResponse:
             return True  # a pole within the step: keep the minimum rather than guess
         return bool(h[0] * h[1] <= 0)
+
+    def _leads(self, w, output, input, step=1e-4):
+        """Whether the phase of H_jk rises across ``w`` (rad/s): a zero of H_jk near the frequency axis (an
+        anti-resonance) turns it up; the poles alone turn it down."""
+        j, k = self.index(output, input)
+        try:
+            h = self.evaluate(np.array([w * (1 - step), w * (1 + step)]))[:, j, k]
+        except SingularResponse:
+            return False
+        return bool(np.angle(h[1] / h[0]) > 0)
 
     def half_power(self, output: int | str = 0, input: int | str = 0, quantity: str = "receptance") -> Any:
         """Half-power bandwidth and damping ratio of each resonance of |H_jk|
@@ -259,6 +278,21 @@ class Peaks:
                 "tolerance_rad_s": self.tolerance, "elapsed_s": self.elapsed}
 
 
+ANTIRESONANCE_DEPTH = math.sqrt(2.0)  # (3 dB) how far a damped minimum must fall below both its sides
+
+
+def _prominent(w, a, wa, aa):
+    """Which minima (wa, aa) of the sampled curve (w, a) fall ANTIRESONANCE_DEPTH below the highest value on
+    each side of them, up to the neighbouring minima or the ends."""
+    edges = np.concatenate([[-np.inf], wa, [np.inf]])
+    keep = []
+    for i, (x, y) in enumerate(zip(wa, aa)):
+        left = a[(w > edges[i]) & (w < x)]
+        right = a[(w > x) & (w < edges[i + 2])]
+        keep.append(left.size > 0 and right.size > 0 and min(left.max(), right.max()) >= ANTIRESONANCE_DEPTH * y)
+    return np.array(keep, dtype=bool)
+
+
 def _quantity(q):
     if q not in QUANTITY_FACTOR:
         raise ModelError(f"unknown quantity {q!r} (one of {', '.join(QUANTITY_FACTOR)})")
@@ -266,12 +300,29 @@ def _quantity(q):
 
 
 def _pick(x, labels, what):
+    """A channel by position, by label, by the plain name before a label's "·" (a support "road", a body
+    point "mass(0,0,0)") when only one channel has it, or by (name, direction) — (body, point, direction) for
+    a body point — in place of the label "name·(dx,dy,dz)"."""
     if isinstance(x, (int, np.integer)) and not isinstance(x, bool):
         if not -len(labels) <= x < len(labels):
             raise ModelError(f"{what} index {x} out of range ({len(labels)} {what}s)")
         return int(x) % len(labels)
+    if isinstance(x, (tuple, list)) and len(x) in (2, 3) and isinstance(x[0], str):
+        try:
+            name = x[0] + (vector_label(x[1]) if len(x) == 3 else "")
+            d = np.asarray(x[-1], dtype=float)
+            x = f"{name}·{vector_label(d / np.linalg.norm(d))}"
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: expected a label, an index, or (name, direction), got {x!r}") from None
     if x in labels:
         return labels.index(x)
+    if isinstance(x, str):
+        named = [i for i, label in enumerate(labels) if label.split("·")[0] == x]
+        if len(named) == 1:
+            return named[0]
+        if named:
+            raise ModelError(f"{what} '{x}' is ambiguous: {', '.join(labels[i] for i in named)} (give (name, "
+                             "direction))")
     raise unknown_name(x, labels, what)
 
 

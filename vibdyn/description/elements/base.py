@@ -56,9 +56,15 @@ class ElementKind:
         """The scene-file entry (plain data)."""
         raise NotImplementedError
 
-    def describe(self) -> str:
-        """One line for ``vibdyn info``."""
+    def describe(self, scene: Any = None) -> str:
+        """One line for ``vibdyn info`` (``scene``: where the element is, for the units of its joint)."""
         return ""
+
+    def joint_units(self, scene) -> tuple:
+        """The units ("m" or "rad") of the coordinates of the joint the element acts on (``body``), () if
+        unknown."""
+        found = scene.find_body(getattr(self, "body", None)) if scene is not None else None
+        return found.joint.units if found is not None else ()
 
     def reference_points(self) -> tuple:
         """Points (m) that size the scene (:attr:`vibdyn.System.length_scale`)."""

@@ -171,6 +171,6 @@ class BodyForce(ElementKind):
             d["torque"] = list(self.torque)
         return d
 
-    def describe(self):
+    def describe(self, scene=None):
         force = "callable" if callable(self.force) else vector(self.force)
         return f"on {self.body} at {vector(self.at)}, force {force} ({self.frame})"

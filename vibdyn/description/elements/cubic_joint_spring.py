@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._check import stiffness_like, value_nonnegative_number_or_list, value_number_or_list, value_string
-from ..._format import vector
+from ..._format import with_units
 from ...errors import ModelError
 from .base import ElementKind, Group, scalar_or_list
 from .joint_spring import per_coordinate
@@ -80,5 +80,7 @@ class CubicJointSpring(ElementKind):
             d["rest"] = scalar_or_list(self.rest)
         return d
 
-    def describe(self):
-        return f"on {self.body}, k3 = {vector(self.k3)}, rest {vector(self.rest)}"
+    def describe(self, scene=None):
+        units = self.joint_units(scene)
+        k3 = with_units(self.k3, units, {"m": "N/m³", "rad": "N·m/rad³"})
+        return f"on {self.body}, k3 = {k3}, rest {with_units(self.rest, units, {'m': 'm', 'rad': 'rad'})}"

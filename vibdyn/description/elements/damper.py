@@ -79,5 +79,5 @@ class Damper(ElementKind):
     def to_dict(self):
         return {"name": self.name, "a": att_list(self.a), "b": att_list(self.b), "damping": self.damping}
 
-    def describe(self):
+    def describe(self, scene=None):
         return f"{end_label(self.a)} – {end_label(self.b)}, c = {number(self.damping, 'N·s/m')}"

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._check import stiffness_like, value_nonnegative_number_or_list, value_string
-from ..._format import vector
+from ..._format import with_units
 from .base import ElementKind, Group, scalar_or_list
 
 
@@ -59,5 +59,6 @@ class JointDamper(ElementKind):
     def to_dict(self):
         return {"name": self.name, "body": self.body, "damping": scalar_or_list(self.damping)}
 
-    def describe(self):
-        return f"on {self.body}, c = {vector(self.damping)}"
+    def describe(self, scene=None):
+        c = with_units(self.damping, self.joint_units(scene), {"m": "N·s/m", "rad": "N·m·s/rad"})
+        return f"on {self.body}, c = {c}"

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..._check import (call_user, count, finite_array, user_callable, value_number, value_number_or_list,
                        value_numbers, value_string)
-from ..._format import vector
+from ..._format import with_units
 from ...errors import ModelError
 from .. import laws
 from .base import ElementKind, Group, numbers, scalar_or_list
@@ -143,7 +143,11 @@ class JointForce(ElementKind):
             d["value"] = scalar_or_list(self.value)
         return d
 
-    def describe(self):
-        value = self.value.to_dict() if hasattr(self.value, "to_dict") else (
-            "callable" if callable(self.value) else vector(self.value))
-        return f"on {self.body}: {value}"
+    def describe(self, scene=None):
+        units = self.joint_units(scene)
+        force = {"m": "N", "rad": "N·m"}
+        if hasattr(self.value, "describe"):  # a law: its formula, in the joint's units
+            speed = {"m": "m/s", "rad": "rad/s"}.get(units[0], "") if len(units) == 1 else ""
+            unit = force.get(units[0], "") if len(units) == 1 else ""
+            return f"on {self.body}: {self.value.describe(unit, speed)}"
+        return f"on {self.body}: {'callable' if callable(self.value) else with_units(self.value, units, force)}"

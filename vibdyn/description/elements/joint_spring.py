@@ -10,7 +10,7 @@ import pinocchio as pin
 
 from ..._check import (finite_array, one_or_each, stiffness_like, value_nonnegative_number_or_list,
                        value_number_or_list, value_string)
-from ..._format import vector
+from ..._format import with_units
 from ...errors import ModelError
 from .base import ElementKind, Group, as_slice, scalar_or_list, tangent
 
@@ -163,5 +163,7 @@ class JointSpring(ElementKind):
             d["rest"] = scalar_or_list(self.rest)
         return d
 
-    def describe(self):
-        return f"on {self.body}, k = {vector(self.stiffness)}, rest {vector(self.rest)}"
+    def describe(self, scene=None):
+        units = self.joint_units(scene)
+        k = with_units(self.stiffness, units, {"m": "N/m", "rad": "N·m/rad"})
+        return f"on {self.body}, k = {k}, rest {with_units(self.rest, units, {'m': 'm', 'rad': 'rad'})}"

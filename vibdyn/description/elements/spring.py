@@ -126,7 +126,7 @@ class Spring(ElementKind):
             d["free_length"] = self.free_length
         return d
 
-    def describe(self):
+    def describe(self, scene=None):
         l0 = "neutral distance" if self.free_length is None else number(self.free_length, "m")
         return f"{end_label(self.a)} – {end_label(self.b)}, k = {number(self.stiffness, 'N/m')}, free length {l0}"
 

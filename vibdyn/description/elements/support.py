@@ -38,7 +38,7 @@ class Support(ElementKind):
     def to_dict(self):
         return {"name": self.name, "motion": self.motion.to_dict()}
 
-    def describe(self):
+    def describe(self, scene=None):
         try:
             return f"moving support: {self.motion.to_dict()}"
         except (ModelError, AttributeError):  # callables: no plain-data form

@@ -158,19 +158,46 @@ def trajectory_frames(trajectory_or_system, data=None, fps=30.0, speed=1.0, max_
 
 
 def load_trajectory(system, path):
-    """(t, q) of a ``.npz`` file written by ``Trajectory.to_npz`` (``vibdyn simulate --out``)."""
+    """(t, q) of a trajectory file written by ``vibdyn simulate --out``: ``.npz`` (``Trajectory.to_npz``) or
+    ``.csv`` (``Trajectory.to_csv``: its ``t`` and ``q:…`` columns)."""
+    from pathlib import Path
+
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".npz", ".csv"):
+        raise ModelError(f"trajectory {path}: reads the .npz and .csv files of `vibdyn simulate --out` "
+                         f"(Trajectory.to_npz, to_csv), not '{suffix or 'no extension'}'")
+    names = None
     try:
-        with np.load(path, allow_pickle=False) as z:
-            t, q = np.asarray(z["t"], float), np.asarray(z["q"], float)
-            names = [str(x) for x in z["coordinates"]] if "coordinates" in z else None
+        if suffix == ".csv":
+            t, q = _read_csv(path)
+        else:
+            with np.load(path, allow_pickle=False) as z:
+                t, q = np.asarray(z["t"], float), np.asarray(z["q"], float)
+                names = [str(x) for x in z["coordinates"]] if "coordinates" in z else None
     except (OSError, ValueError, KeyError) as e:
-        raise ModelError(f"trajectory {path}: cannot read a vibdyn .npz trajectory ({e})") from None
+        raise ModelError(f"trajectory {path}: cannot read a vibdyn {suffix} trajectory ({e})") from None
     if names is not None and tuple(names) != tuple(system.coordinates):
         raise ModelError(f"trajectory {path}: its coordinates {names} are not those of scene '{system.name}' "
                          f"{list(system.coordinates)}")
     if q.ndim != 2 or q.shape[1] != system.nq or t.shape != (q.shape[0],) or not np.all(np.isfinite(q)):
         raise ModelError(f"trajectory {path}: q must be (n × {system.nq}) finite numbers, got {q.shape}")
     return t, q
+
+
+def _read_csv(path):
+    """(t, q) of a ``Trajectory.to_csv`` file: its last '#' header line names the columns."""
+    header = None
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            if not line.startswith("#"):
+                break
+            header = line[1:].strip()
+    names = header.split(",") if header else []
+    if "t" not in names or not any(n.startswith("q:") for n in names):
+        raise ValueError("no 't' and 'q:…' columns in its header")
+    table = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
+    cols = [i for i, n in enumerate(names) if n.startswith("q:")]
+    return table[:, names.index("t")], table[:, cols]
 
 
 def animation(drawing, times, frames, root):
