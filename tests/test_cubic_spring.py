@@ -99,7 +99,7 @@ def test_scene_file_round_trip_and_info_line(tmp_path):
     out = io.StringIO()
     system = back.build()
     describe(back, system, out)
-    assert "cubic joint spring" in out.getvalue() and "k3 = (12)" in out.getvalue()
+    assert "cubic joint spring" in out.getvalue() and "k3 = 12 N" in out.getvalue()  # (with its unit)
 
 
 @pytest.mark.parametrize("call, message", [

@@ -321,3 +321,28 @@ def test_a_rotation_vector_longer_than_a_turn_is_refused_naming_the_joint():
     with pytest.raises(vd.ModelError, match=r"body 'b': pivot joint 'rotation': .* 90 rad .*90° is 1.5708 rad"):
         s.add_body("b", joint=vd.Pivot((0, 0, 1), rotation=(0, 0, 90)), mass=1.0)
     s.add_body("b", joint=vd.Pivot((0, 0, 1), rotation=(0, 0, math.pi / 2)), mass=1.0)  # a quarter turn: fine
+
+
+def test_modes_command_lists_shapes_at_the_bodies_as_textbooks_give_them():
+    """The double pendulum (equal masses and lengths, θ₂/θ₁ = ±√2 in its modes): in absolute coordinates
+    x₁/x₂ = 1/(1 + √2) = √2 − 1 in the first mode and x₂/x₁ = 1 − √2 in the second."""
+    text = cli("modes", str(MODELS / "double_pendulum.toml"))
+    block = text.split("mode shapes at the centres of mass")[1].split("\n\n")[0]
+    rows = {tuple(r.split()[:2]): [float(x) for x in r.split()[2:]] for r in block.splitlines()[2:]}
+    r = math.sqrt(2) - 1
+    assert rows[("mass1", "x")][0] / rows[("mass2", "x")][0] == pytest.approx(r, rel=1e-3)
+    assert rows[("mass2", "x")][1] / rows[("mass1", "x")][1] == pytest.approx(-r, rel=1e-3)
+
+
+def test_the_page_frames_a_whole_replay_and_sets_dampers_beside_their_springs():
+    from vibdyn.faces.viewer import content
+
+    system = vd.load_scene(MODELS / "double_pendulum.toml").build()
+    traj = system.simulate(3.0, system.configuration([2.5, 0.0]), t_eval=np.linspace(0, 3, 61))
+    c = content(traj)
+    pts = np.vstack([c.drawing.points(q) for q in traj.q])
+    half = 0.5 * c.drawing.size
+    assert np.all(np.linalg.norm(pts - c.drawing.center, axis=1) <= half + 1e-12)  # inside the framed sphere
+    d = content(vd.load_scene(MODELS / "quarter_car.toml").build()).drawing
+    damper = next(i for i in d.items if i.node == "links/shock_absorber")
+    assert abs(damper.matrix[0, 3]) > 0.03 * d.size  # beside the suspension spring's coil, not inside it

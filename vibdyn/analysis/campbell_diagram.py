@@ -61,7 +61,8 @@ class CriticalSpeed:
 class Campbell:
     """A Campbell diagram (see :func:`campbell`).
 
-    ``speeds`` (n,) rad/s; ``frequencies`` (n × m) rad/s, one column per mode tracked by MAC from one speed
+    ``speeds`` (n,) rad/s; ``frequencies`` (n × m) rad/s, the damped ω_d = |Im λ| (the glossary's) of each
+    mode, one column per mode tracked by MAC from one speed
     to the next (0 for rigid, cyclic and overdamped modes); ``zeta`` (n × m) damping ratios;
     ``whirl`` (n × m) "forward", "backward" or "" (no whirl: a planar or non-oscillating mode);
     ``error`` (n × m) estimated absolute error of each frequency (rad/s); ``elapsed`` s.

@@ -157,6 +157,32 @@ def participation(m):
     return out
 
 
+MAX_POINT_ROWS = 36  # body points listed by `vibdyn modes` (3 rows a body)
+
+
+def point_shapes_text(m, per_block=8):
+    """The mode shapes as world displacements of the bodies' centres of mass (x, y, z, m per unit modal
+    coordinate, each mode scaled so its largest entry is 1): the textbook's absolute coordinates, beside the
+    joint coordinates of the shapes table (:meth:`vibdyn.analysis.modal.Modes.point_shapes`)."""
+    scene = m.linear.system.scene
+    bodies = [b for b in scene.bodies.values() if b.mass > 0][:MAX_POINT_ROWS // 3]
+    if not bodies or not m.n:
+        return ""
+    S = m.point_shapes([(b.name, b.com) for b in bodies])  # (bodies, 3, n)
+    S = S / np.maximum(np.abs(S).max(axis=(0, 1)), 1e-300)
+    cut = 10 * (m.linear.error + m.n * np.finfo(float).eps)
+    rows = [(f"{b.name}", axis, S[i, k]) for i, b in enumerate(bodies) for k, axis in enumerate("xyz")
+            if np.abs(S[i, k]).max() > cut]
+    lines = ["mode shapes at the centres of mass (world displacements x, y, z; each mode scaled so its largest "
+             "entry is 1)"]
+    for b0 in range(0, m.n, per_block):
+        cols = range(b0, min(b0 + per_block, m.n))
+        lines += ["  " + x for x in table(["body", "axis"] + [f"mode {j + 1}" for j in cols],
+                                          [[n, a] + [number(v[j], error=cut, digits=4) for j in cols]
+                                           for n, a, v in rows], ["<", "<"] + [">"] * len(cols))]
+    return "\n".join(lines)
+
+
 def participation_text(m):
     """Effective modal masses per mode for the base translations that move any mass (kg, and % of the mass
     they move), with their sums: what a modal report lists."""
@@ -186,6 +212,10 @@ def print_modes(system, method="fd", out=None, report=None):
           f"{lin.evaluations} evaluations", file=out)
     print("", file=out)
     print(modes_text(lin, m), file=out)
+    text = point_shapes_text(m)
+    if text:
+        print("", file=out)
+        print(text, file=out)
     text = participation_text(m)
     if text:
         print("", file=out)
@@ -527,7 +557,8 @@ def campbell_command(system, args, out=None):
       f"({c.method} linearisation, {c.elapsed:.2f} s)")
     rows = [[number(s)] + [f"{number(f / (2 * np.pi), digits=6)} {w[:1]}".rstrip() for f, w in zip(fr, wh)]
             for s, fr, wh in zip(c.speeds, c.frequencies, c.whirl)]
-    for line in table(["speed rad/s"] + [f"mode {j} Hz" for j in range(m)], rows):
+    p("frequencies: damped f_d = ω_d/2π (Hz) of each tracked mode (the glossary's ω_d = |Im λ|)")
+    for line in table(["speed rad/s"] + [f"mode {j} f_d Hz" for j in range(m)], rows):
         p(line)
     p("whirl: f forward, b backward (relative to the spin); 0 Hz: rigid, cyclic or overdamped")
     for o in orders:
