@@ -2,15 +2,20 @@
 
 Layers, lowest first (a module imports only from its own layer or below):
 
-0 base        vibdyn.errors, vibdyn._check, vibdyn._format, vibdyn.defaults
+0 base        vibdyn.errors, vibdyn._check, vibdyn._format, vibdyn.defaults, vibdyn.results
 1 description vibdyn.description.*   what a user writes (scene, joints, elements, laws, loops, ...)
 2 model       vibdyn.model.*         the compiled System, its workspaces, dynamics, forces, derivatives
-3 analysis    vibdyn.analysis.*      equilibrium, linearize, modal, response, statespace, identify, ...
-4 time        vibdyn.simulation.*    simulate and its integrators
+3 time        vibdyn.simulation.*    simulate, its integrators, events and variational equations
+4 analysis    vibdyn.analysis.*      equilibrium, linearize, modal, response, statespace, identify, ...
 5 studies     vibdyn.studies.*       sweeps, example builders
-6 io          vibdyn.io.*            scene files, robots
+6 io          vibdyn.io.*            scene files, robots (the description only: see the test below)
 7 faces       vibdyn.faces.*         cli, plots, viewer
 8 façade      vibdyn (its __init__)  the public names, loaded lazily
+
+Analyses may call the time layer; the time layer never calls an analysis. The element kinds and joint
+types of the description are plugins: each carries its compiled evaluation, built on the machinery the
+model layer defines (vibdyn.model.points, vibdyn.model.groups): the one sanctioned import of the model by
+the description besides the entry points.
 
 The one sanctioned way up is an *entry point*: a method of a lower-layer class that forwards to a higher
 layer on call (``Scene.build`` compiles, ``System.linearize`` runs the analysis, ``Modes.plot`` draws), the
@@ -25,14 +30,19 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "vibdyn"
-LAYERS = {"errors": 0, "_check": 0, "_format": 0, "defaults": 0, "description": 1, "model": 2, "analysis": 3,
-          "simulation": 4, "studies": 5, "io": 6, "faces": 7}
+LAYERS = {"errors": 0, "_check": 0, "_format": 0, "defaults": 0, "results": 0, "description": 1, "model": 2,
+          "simulation": 3, "analysis": 4, "studies": 5, "io": 6, "faces": 7}
+# the model layer's machinery that the description's plugins (element kinds) build on
+PLUGIN_MACHINERY = {"vibdyn.model.points", "vibdyn.model.groups"}
+PURE_DESCRIPTION = ("vibdyn.description.scene", "vibdyn.description.inertia", "vibdyn.description.laws",
+                    "vibdyn.description.shapes", "vibdyn.description.loops")
+MAX_LINES = 700
 
 # (importing module, function or method) -> the higher-layer modules it may import on call
 ENTRY_POINTS = {
     ("vibdyn.description.scene", "Scene.build"): {"vibdyn.model.system"},
-    ("vibdyn.description.scene", "Scene.to_dict"): {"vibdyn.io.scenefile"},
-    ("vibdyn.description.scene", "Scene.save"): {"vibdyn.io.scenefile"},
+    ("vibdyn.description.scene", "Scene.to_dict"): {"vibdyn.io.scenewrite"},
+    ("vibdyn.description.scene", "Scene.save"): {"vibdyn.io.scenewrite"},
     ("vibdyn.model.system", "System.equilibrium"): {"vibdyn.analysis.equilibrium", "vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.equilibria"): {"vibdyn.analysis.equilibrium"},
     ("vibdyn.model.system", "System.steady_motion"): {"vibdyn.analysis.equilibrium", "vibdyn.analysis.constrained"},
@@ -48,7 +58,7 @@ ENTRY_POINTS = {
     ("vibdyn.analysis.linearize", "LinearModel.modes"): {"vibdyn.analysis.modal"},
     ("vibdyn.analysis.linearize", "LinearModel.with_rayleigh"): {"vibdyn.analysis.modal"},
     ("vibdyn.analysis.campbell_diagram", "Campbell.plot"): {"vibdyn.faces.plots"},
-    ("vibdyn.analysis.timeresult", "TimeResult.plot"): {"vibdyn.faces.plots"},
+    ("vibdyn.results", "TimeResult.plot"): {"vibdyn.faces.plots"},
 }
 
 
@@ -111,6 +121,8 @@ def test_every_module_is_in_a_layer():
 def test_imports_go_down_except_named_entry_points():
     up = []
     for importer, target, scope in imports():
+        if importer.startswith("vibdyn.description.elements") and target in PLUGIN_MACHINERY:
+            continue
         if layer(target) > layer(importer) and target not in ENTRY_POINTS.get((importer, scope), ()):
             up.append(f"{importer} ({scope or 'module level'}) imports {target}")
     assert not up, "imports from a lower layer to a higher one:\n  " + "\n  ".join(sorted(set(up)))
@@ -215,3 +227,63 @@ def test_the_private_import_checker_sees_one():
     assert private_imports("import scipy._lib") == ["scipy._lib"]
     assert private_imports("from scipy.integrate import Radau\nfrom . import _private\nfrom __future__ import "
                            "annotations") == []
+
+
+def all_imports(path):
+    """Every module a file imports, at module level or inside functions (lazy imports included), by name."""
+    out = []
+    package = module_name(path) if path.name == "__init__.py" else module_name(path).rsplit(".", 1)[0]
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            out += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                out.append(".".join(base[:len(base) - node.level + 1] + ([node.module] if node.module else [])))
+            else:
+                out.append(node.module or "")
+    return out
+
+
+def test_the_time_layer_imports_no_analysis_study_or_face():
+    """simulation never calls an analysis (lazy imports included): analyses may integrate, not the reverse."""
+    bad = [(n, t) for n, p in MODULES.items() if n.startswith("vibdyn.simulation") for t in all_imports(p)
+           if t.startswith(("vibdyn.analysis", "vibdyn.studies", "vibdyn.faces"))]
+    assert not bad, bad
+
+
+def test_pure_description_modules_import_neither_pinocchio_nor_model_nor_io():
+    """Scene, inertia, laws, shapes and loops are plain data; Scene.build and Scene.save forward lazily."""
+    lazy = {("vibdyn.description.scene", "vibdyn.model.system"), ("vibdyn.description.scene", "vibdyn.io.scenewrite")}
+    bad = []
+    for name in PURE_DESCRIPTION:
+        for target, scope in [(t, s) for i, t, s in imports() if i == name]:
+            if target.startswith(("vibdyn.model", "vibdyn.io")) and not ((name, target) in lazy and scope):
+                bad.append((name, target))
+        bad += [(name, t) for t in all_imports(MODULES[name]) if t.split(".")[0] == "pinocchio"]
+    assert not bad, bad
+
+
+def test_io_needs_the_description_only():
+    bad = [(n, t) for n, p in MODULES.items() if n.startswith("vibdyn.io") for t in all_imports(p)
+           if t.startswith(("vibdyn.model", "vibdyn.analysis"))]
+    assert not bad, bad
+
+
+def test_no_module_is_longer_than_700_lines():
+    long = {n: len(p.read_text().splitlines()) for n, p in MODULES.items()}
+    assert not {n: k for n, k in long.items() if k > MAX_LINES}
+
+
+def test_the_shared_force_machinery_is_defined_in_the_model_layer():
+    """Kinematics, the point sets and the group bases live in the model; the description's element kinds
+    build on them (and the model's dynamics no longer reaches into the description for its own machinery)."""
+    import vibdyn.description.elements as elements
+    import vibdyn.model.groups as groups
+    import vibdyn.model.points as points
+
+    for cls in (points.Kinematics, points.PointSet, points.ScatteredPoints, groups.Group, groups.TwoPoint):
+        assert cls.__module__ in ("vibdyn.model.points", "vibdyn.model.groups"), cls
+    assert elements.Kinematics is points.Kinematics and elements.Group is groups.Group
+    assert "Kinematics" not in MODULES["vibdyn.description.elements.base"].read_text()
+    assert not [t for t in all_imports(MODULES["vibdyn.model.dynamics"]) if t.startswith("vibdyn.description")]

@@ -18,7 +18,7 @@ import scipy.linalg as sl
 from conftest import MODELS
 
 import vibdyn as vd
-from vibdyn.io.scenefile import save_scene, scene_to_dict
+from vibdyn.io.scenewrite import save_scene, scene_to_dict
 
 FILES = sorted(MODELS.glob("*.toml"))
 RTOL = 1e-6

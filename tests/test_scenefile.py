@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 
 import vibdyn as vd
 import vibdyn.io
-from vibdyn.io.scenefile import dumps, load_scene, save_scene, scene_from_dict, scene_to_dict
+from vibdyn.io.scenefile import load_scene, scene_from_dict
+from vibdyn.io.scenewrite import dumps, save_scene, scene_to_dict
 
 
 def write(tmp_path, text, name="scene.toml"):

@@ -38,7 +38,7 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
                           "transmissibility"),
     "analysis.identify": ("fit_rayleigh", "log_decrement", "HalfPower", "LogDecrement", "RayleighFit"),
     "analysis.statespace": ("StateSpace",),
-    "analysis.timeresult": ("TimeResult",),
+    "results": ("TimeResult",),
     "analysis.campbell_diagram": ("campbell", "Campbell", "CriticalSpeed"),
     "simulation.simulate": ("Trajectory", "SimulationError"),
     "studies.sweeps": ("sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked"),

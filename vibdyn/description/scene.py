@@ -277,6 +277,41 @@ class Scene:
     #: tables of immutable entries (frozen bodies, elements, loops): a copy shares their entries
     _IMMUTABLE_ENTRIES = ("bodies", "elements", "loops")
 
+    def tree_order(self) -> list[Body]:
+        """The bodies depth-first from the world (Pinocchio's CRBA needs each subtree's coordinates
+        contiguous); a cycle or an unknown parent is a ModelError naming the body."""
+        rooted = {WORLD}  # bodies known to reach the world
+        for b in self.bodies.values():
+            path, on_path, p = [b.name], {b.name}, b.parent
+            while p not in rooted:
+                if p not in self.bodies:
+                    raise self.unknown_body(p, f"body '{path[-1]}'", noun="parent", extra=(WORLD,))
+                if p in on_path:
+                    raise ModelError(f"body '{b.name}': cycle in the parent links ({' -> '.join(path + [p])})")
+                path.append(p)
+                on_path.add(p)
+                p = self.bodies[p].parent
+            rooted.update(path)
+        children = {}
+        for b in self.bodies.values():
+            children.setdefault(b.parent, []).append(b)
+        order, stack = [], list(reversed(children.get(WORLD, [])))
+        while stack:
+            b = stack.pop()
+            order.append(b)
+            stack.extend(reversed(children.get(b.name, [])))
+        return order
+
+    def massless_leaves(self, order: list[Body] | None = None) -> list[str]:
+        """Names of the bodies with coordinates and zero mass that carry no mass below them (their motion is
+        undefined); ``order``: :meth:`tree_order`, if already made."""
+        order = self.tree_order() if order is None else order
+        carried = {b.name: b.mass for b in order}
+        for b in reversed(order):
+            if b.parent in carried:
+                carried[b.parent] += carried[b.name]
+        return [b.name for b in order if b.joint.nv > 0 and carried[b.name] == 0.0]
+
     def copy(self) -> Scene:
         """An independent copy: new tables sharing their immutable entries, the rest copied deeply (linear in
         the number of bodies, where a deep copy of every body was not)."""
@@ -296,13 +331,13 @@ class Scene:
         return System(self)
 
     def to_dict(self) -> dict:
-        from ..io.scenefile import scene_to_dict
+        from ..io.scenewrite import scene_to_dict
 
         return scene_to_dict(self)
 
     def save(self, path: str | os.PathLike) -> None:
         """Write the scene as a TOML scene file."""
-        from ..io.scenefile import save_scene
+        from ..io.scenewrite import save_scene
 
         save_scene(self, path)
 

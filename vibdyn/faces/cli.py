@@ -510,7 +510,7 @@ def _main(argv=None):
                     if path:
                         print(f"saved {path}")
         elif args.command == "simulate":
-            from ..simulation.simulate import command
+            from .simulate_command import command
 
             command(load(args.scene).build(), args)
         elif args.command == "campbell":

@@ -12,7 +12,7 @@ import numpy as np
 from ..errors import ModelError
 
 if TYPE_CHECKING:
-    from ..analysis.timeresult import TimeResult
+    from ..results import TimeResult
 
 
 def figure(nrows=1, ncols=1, size=(7.0, 5.0), **kwargs):
@@ -131,7 +131,7 @@ def mode_shapes(modes, which=None, *, points=None, direction=None, path=None, dp
 
 def time_history(response: "TimeResult", outputs=None, *, direction=None, quantity: str = "displacement", path=None,
                  dpi: int = 100):
-    """Time histories of a time result (:class:`vibdyn.analysis.timeresult.TimeResult`: a linear
+    """Time histories of a time result (:class:`vibdyn.results.TimeResult`: a linear
     :class:`~vibdyn.analysis.response.TimeResponse` or a simulated :class:`~vibdyn.simulation.simulate.Trajectory`):
     displacement, velocity or acceleration of its outputs (one curve per output; see the result's ``series``)."""
     labels, units, y = response.series(quantity, outputs, direction)

@@ -12,7 +12,7 @@ import pinocchio as pin
 
 from .._check import call_user, finite_array
 from ..errors import ModelError
-from ..description.elements import Kinematics
+from .points import Kinematics
 
 
 def forces(system, ws, q, v, t, shift=None):

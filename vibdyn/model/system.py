@@ -154,8 +154,8 @@ class System:
     def __init__(self, scene):
         self.scene = scene.copy()
         self.name = scene.name
-        order = _topological(self.scene)
-        leaves = _massless_leaves(order)
+        order = self.scene.tree_order()
+        leaves = self.scene.massless_leaves(order)
         if leaves:
             raise ModelError(f"body '{leaves[0]}' has zero mass and carries no mass: its motion is undefined "
                              "(give it a mass or weld it with Fixed; for a loaded robot: weld_massless=True)")
@@ -479,12 +479,15 @@ class System:
 
     def simulate(self, t_end: float, q0: ArrayLike | None = None, v0: ArrayLike | None = None,
                  method: str = "dop853", rtol: float = RTOL, atol: float | None = None, dt: float | None = None,
-                 t_eval: ArrayLike | None = None, **options: Any) -> Trajectory:
-        """Nonlinear motion from (q0, v0) at t = 0 to ``t_end`` (s): a Trajectory with energies, error
-        estimate and elapsed time (see :func:`vibdyn.simulation.simulate.simulate`)."""
+                 t_eval: ArrayLike | None = None, *, t0: float = 0.0, events: Any = None, variational: bool = False,
+                 **options: Any) -> Trajectory:
+        """Nonlinear motion from (q0, v0) at ``t0`` to the absolute time ``t_end`` (s): a Trajectory with
+        energies, error estimate and elapsed time; ``events`` (zero crossings of f(t, q, v)) and
+        ``variational`` (the state transition) as :func:`vibdyn.simulation.simulate.simulate` says."""
         from ..simulation.simulate import simulate
 
-        return simulate(self, t_end, q0, v0, method, rtol, atol, dt, t_eval, **options)
+        return simulate(self, t_end, q0, v0, method, rtol, atol, dt, t_eval, t0=t0, events=events,
+                        variational=variational, **options)
 
     def momentum_matrix(self, q: ArrayLike, point: ArrayLike = (0.0, 0.0, 0.0)) -> tuple[Matrix, Matrix]:
         """(A_lin, A_ang) (3 × nv each): the linear momentum p = A_lin v (kg·m/s) and the angular momentum
@@ -647,21 +650,6 @@ def _state(x, n, what, expected):
         raise ModelError(f"{what}: expected {expected()}, got {got}") from None
 
 
-def massless_leaves(scene):
-    """Names of the bodies with coordinates and zero mass that carry no mass below them."""
-    return _massless_leaves(_topological(scene))
-
-
-def _massless_leaves(order):
-    """Bodies with coordinates and zero mass that carry no mass below them (their motion is undefined);
-    ``order`` is parents-first."""
-    carried = {b.name: b.mass for b in order}
-    for b in reversed(order):
-        if b.parent in carried:
-            carried[b.parent] += carried[b.name]
-    return [b.name for b in order if b.joint.nv > 0 and carried[b.name] == 0.0]
-
-
 def _compile(scene, order):
     """The Pinocchio model of a scene (bodies in ``order``) and, per body, where it lives in it."""
     model = pin.Model()
@@ -705,29 +693,3 @@ def _append_body(model, jid, inertia):
     else:  # massless: the rotational inertia about the joint only
         I = np.array([[p[4], p[5], p[7]], [p[5], p[6], p[8]], [p[7], p[8], p[9]]])
         model.inertias[jid] = pin.Inertia(0.0, np.zeros(3), I)
-
-
-def _topological(scene):
-    """Bodies depth-first from the world (Pinocchio's CRBA needs each subtree's coordinates contiguous);
-    a cycle or an unknown parent is a ModelError."""
-    rooted = {WORLD}  # bodies known to reach the world
-    for b in scene.bodies.values():
-        path, on_path, p = [b.name], {b.name}, b.parent
-        while p not in rooted:
-            if p not in scene.bodies:
-                raise scene.unknown_body(p, f"body '{path[-1]}'", noun="parent", extra=(WORLD,))
-            if p in on_path:
-                raise ModelError(f"body '{b.name}': cycle in the parent links ({' -> '.join(path + [p])})")
-            path.append(p)
-            on_path.add(p)
-            p = scene.bodies[p].parent
-        rooted.update(path)
-    children = {}
-    for b in scene.bodies.values():
-        children.setdefault(b.parent, []).append(b)
-    order, stack = [], list(reversed(children.get(WORLD, [])))
-    while stack:
-        b = stack.pop()
-        order.append(b)
-        stack.extend(reversed(children.get(b.name, [])))
-    return order

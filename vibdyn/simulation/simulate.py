@@ -35,20 +35,16 @@ integrates nothing extra (W_nc = 0).
 import math
 import sys
 import time
-from dataclasses import dataclass, field
-from functools import cached_property
-from pathlib import Path
-from typing import Any
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .._check import finite_array, scalar
-from .._format import number, table
-from ..analysis.timeresult import TimeResult, check_quantity
-from ..errors import ConvergenceError, ModelError, VibdynError
-from ..description.elements import Group
+from ..errors import ModelError, VibdynError
+from ..model.groups import Group
 from ..model.system import Energy
 from .integrators import ALIASES, METHODS, StepError, method_class
+from .trajectory import SimulationError, Trajectory, q_names  # noqa: F401  (the module's public names)
 
 __all__ = ["ALIASES", "METHODS", "SimulationError", "Trajectory", "simulate"]
 RERUN_FACTOR = 100.0  # the "rerun" error estimate tightens rtol and atol by this factor
@@ -58,246 +54,11 @@ PROGRESS_DELAY = 2.0  # s of wall time before a progress bar appears
 SINGULAR_NOTE = 1e-4  # a failed run of a mechanism whose loops are this near a singular position says so
 
 
-class SimulationError(ConvergenceError):
-    """A simulation that could not go on. ``t``: the time reached; ``trajectory``: the motion up to it
-    (status "failed"); the message says why."""
-
-    def __init__(self, message, trajectory, t):
-        super().__init__(message, best=trajectory)
-        self.trajectory = trajectory
-        self.t = float(t)
-
-
-@dataclass(frozen=True, eq=False)
-class Trajectory(TimeResult):
-    """A simulated motion (a :class:`~vibdyn.analysis.timeresult.TimeResult`). Arrays have one row per
-    output time ``t`` (s).
-
-    ``q`` (n × nq) and ``v`` (n × nv) in the system's coordinates, ``a`` (n × nv, m/s² or rad/s²) the
-    accelerations there (computed on first use); ``coordinates`` and ``units`` the system's; ``kinetic``,
-    ``gravity``, ``elastic`` (J) from :meth:`System.energy`; ``work`` (J) the work of the non-conservative
-    forces since t = 0; ``q_error``/``v_error`` (arrays) the estimated global error at each output (tangent
-    space, largest over the coordinates: m or rad, m/s or rad/s) by ``error_method``, and ``error``/``error_v``
-    (numbers) their largest values over the outputs; ``nfev`` dynamics evaluations, ``njev`` Jacobians
-    (implicit and symplectic methods), ``nlu`` LU factorisations (or inverses), ``accepted``/``rejected`` steps
-    (rejected is None for scipy's implicit solvers, which do not report it), all of the run itself;
-    ``error_nfev`` the evaluations spent on the error estimate (its second run, if any); ``elapsed`` (s) the
-    whole call, of which ``error_elapsed`` (s) went to the error estimate's second run; ``status`` "finished", "interrupted" (Ctrl-C) or "failed", with ``message``.
-    """
-
-    system: Any = field(repr=False)
-    method: str
-    t: np.ndarray
-    q: np.ndarray
-    v: np.ndarray
-    kinetic: np.ndarray
-    gravity: np.ndarray
-    elastic: np.ndarray
-    work: np.ndarray
-    q_error: np.ndarray
-    v_error: np.ndarray
-    error_method: str
-    nfev: int
-    njev: int
-    nlu: int
-    accepted: int
-    rejected: object
-    error_nfev: int
-    elapsed: float
-    status: str
-    message: str
-    rtol: float
-    atol: np.ndarray = field(repr=False)
-    dt: object
-    energy0: Any = None  # Energy at t = 0 (the outputs need not include t = 0)
-    error_elapsed: float = 0.0
-
-    @property
-    def coordinates(self) -> tuple:
-        return tuple(self.system.coordinates)
-
-    @property
-    def units(self) -> tuple:
-        return tuple(self.system.units)
-
-    @cached_property
-    def a(self) -> np.ndarray:
-        """Accelerations (m/s², rad/s²) at each output (n × nv), from the equations of motion; NaN rows
-        where they are not finite (a failed run's last state)."""
-        out = np.full((len(self), self.system.nv), np.nan)
-        for i, (q, v, t) in enumerate(zip(self.q, self.v, self.t)):
-            try:
-                out[i] = self.system.accelerations(q, v, t)
-            except ModelError:
-                pass
-        return out
-
-    def series(self, quantity: str = "displacement", outputs: Any = None,
-               direction: Any = None) -> tuple[list, list, np.ndarray]:
-        """(labels, units, values n_t × k) of coordinates (a name, a list of names, or None: all):
-        displacement = offset from the neutral configuration (tangent space, m or rad), velocity or
-        acceleration. Body points: see :meth:`point_positions`."""
-        rate = check_quantity(quantity, "trajectory")
-        names = list(self.coordinates) if outputs is None else [outputs] if isinstance(outputs, str) else outputs
-        try:
-            names = list(names)
-        except TypeError:
-            names = [None]
-        if not names or direction is not None or not all(isinstance(n, str) for n in names):
-            raise ModelError(f"trajectory outputs: give coordinate names ({', '.join(self.coordinates)}) or None, "
-                             f"got {outputs!r}; for body points use point_positions(body, point)")
-        idx = [self.system.coordinate_index(n) for n in names]
-        if quantity == "displacement":
-            neutral = self.system.neutral()
-            full = np.array([self.system.difference(neutral, q) for q in self.q]).reshape(len(self), -1)
-        else:
-            full = self.v if quantity == "velocity" else self.a
-        return list(names), [self.units[i] + rate for i in idx], full[:, idx]
-
-    @property
-    def error(self) -> float:
-        """Estimated global error of the configuration (m or rad), largest over the outputs."""
-        return float(self.q_error.max()) if len(self) else 0.0
-
-    @property
-    def error_kind(self) -> str:
-        """What :attr:`error` is: "local (not a global bound)" for DOP853's accumulated local error estimates
-        (measured up to ~30× too low on long chaotic or light-bodied runs: use error="rerun" for a global
-        estimate), else "global estimate (rerun)" or "global estimate (richardson)"; "none" without one."""
-        if self.error_method == "local":
-            return "local (not a global bound)"
-        return "none" if self.error_method == "none" else f"global estimate ({self.error_method})"
-
-    @property
-    def error_v(self) -> float:
-        """Estimated global error of the velocities (m/s or rad/s), largest over the outputs."""
-        return float(self.v_error.max()) if len(self) else 0.0
-
-    @property
-    def constraint_residual(self) -> np.ndarray:
-        """Largest |Φ| of the loops at each output (m for positions, rad for orientations; zeros for a
-        tree): how well the motion keeps the loops closed (see :mod:`vibdyn.analysis.constrained`)."""
-        if getattr(self.system, "constraints", None) is None:
-            return np.zeros(len(self.t))
-        return np.array([np.abs(self.system.constraint_residual(q)).max(initial=0.0) for q in self.q])
-
-    @property
-    def energy(self) -> np.ndarray:
-        """Total mechanical energy T + V_gravity + V_elastic (J) at each output."""
-        return self.kinetic + self.gravity + self.elastic
-
-    @property
-    def energy_balance(self) -> np.ndarray:
-        """E − E(0) − W_nc (J): zero for the exact motion."""
-        return self.energy - self.energy0.total - self.work
-
-    @property
-    def drift(self) -> float:
-        """Largest |energy_balance| (J)."""
-        return float(np.abs(self.energy_balance).max()) if len(self) else 0.0
-
-    @property
-    def energy_scale(self) -> float:
-        """The energy that moves (J): largest kinetic energy, change of a potential, or work."""
-        if not len(self):
-            return 0.0
-        e0 = self.energy0
-        return float(max(e0.kinetic, self.kinetic.max(), np.abs(self.gravity - e0.gravity).max(),
-                         np.abs(self.elastic - e0.elastic).max(), np.abs(self.work).max()))
-
-    @property
-    def drift_relative(self) -> float:
-        """drift / energy_scale (0 when nothing moves)."""
-        scale = self.energy_scale
-        return self.drift / scale if scale > 0 else 0.0
-
-    def point_positions(self, body: str, point: Any = (0.0, 0.0, 0.0)) -> np.ndarray:
-        """World positions (m) of a point given in a body's frame at every output (n × 3)."""
-        return np.array([self.system.point_position(body, point, q) for q in self.q]).reshape(-1, 3)
-
-    def summary(self) -> str:
-        steps = f"{self.accepted} steps" + ("" if self.rejected is None else f" ({self.rejected} rejected)")
-        return (f"{self.method}: t = {self.t[-1] if len(self) else 0.0:.6g} s ({self.status}), {steps}, "
-                f"{self.nfev} evaluations, error ≈ {self.error:.1e} ({self.error_kind}), energy drift "
-                f"{self.drift:.2e} J ({self.drift_relative:.1e} relative), {self.elapsed:.3g} s")
-
-    def __repr__(self):
-        return f"Trajectory({self.summary()})"
-
-    def _repr_html_(self):
-        from .._format import html_table, number
-
-        sysm = self.system
-        rows = []
-        if len(self):
-            dq = sysm.difference(sysm.neutral(), self.q[-1])
-            rows = [[n, u, number(x), number(v)] for n, u, x, v in zip(sysm.coordinates, sysm.units, dq, self.v[-1])]
-        return html_table(self.summary(), ["coordinate", "unit", "final offset", "final speed"], rows)
-
-    # ------------------------------------------------------------------ export
-    def columns(self) -> tuple[list[str], np.ndarray]:
-        """(names, table): one column per time, q and v component, energy, work, balance and error."""
-        qn, vn = q_names(self.system), self.system.coordinates
-        names = (["t"] + [f"q:{n}" for n in qn] + [f"v:{n}" for n in vn]
-                 + ["kinetic", "gravity", "elastic", "work", "energy_balance", "q_error", "v_error"])
-        table = np.column_stack([self.t, self.q, self.v, self.kinetic, self.gravity, self.elastic, self.work,
-                                 self.energy_balance, self.q_error, self.v_error])
-        return names, table
-
-    def _meta(self):
-        return {"scene": self.system.name, "method": self.method, "status": self.status, "message": self.message,
-                "error_method": self.error_method, "error_kind": self.error_kind, "error": self.error,
-                "error_v": self.error_v,
-                "drift_J": self.drift, "drift_relative": self.drift_relative, "nfev": self.nfev,
-                "njev": self.njev, "nlu": self.nlu, "accepted": self.accepted,
-                "rejected": -1 if self.rejected is None else self.rejected, "error_nfev": self.error_nfev,
-                "elapsed_s": self.elapsed, "error_elapsed_s": self.error_elapsed,
-                "rtol": self.rtol, "dt": float("nan") if self.dt is None else self.dt}
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready: the time-result protocol's fields (q in the system's nq components, named by
-        ``q_names``), the energies, work and errors per output, and the run's figures."""
-        return {**self.time_dict(), "q_names": q_names(self.system), "kinetic": self.kinetic.tolist(),
-                "gravity": self.gravity.tolist(), "elastic": self.elastic.tolist(), "work": self.work.tolist(),
-                "q_error": self.q_error.tolist(), "v_error": self.v_error.tolist(),
-                **{k: v for k, v in self._meta().items() if k not in ("method", "error", "elapsed_s")},
-                "rejected": self.rejected, "dt": self.dt}  # None where not applicable (the files write -1, nan)
-
-    def to_csv(self, path: str | Path) -> Path:
-        """Write a CSV file: '#' header lines with the run's figures, then one row per output time."""
-        names, table = self.columns()
-        header = "\n".join([f"{k} = {v}" for k, v in self._meta().items()] + [",".join(names)])
-        np.savetxt(Path(path), table, delimiter=",", header=header, comments="# ", fmt="%.17g")
-        return Path(path)
-
-    def to_npz(self, path: str | Path) -> Path:
-        """Write a NumPy .npz archive: the arrays (t, q, v, energies, work, errors, atol), the coordinate
-        names and the run's figures."""
-        arrays: dict[str, Any] = dict(
-            t=self.t, q=self.q, v=self.v, kinetic=self.kinetic, gravity=self.gravity, elastic=self.elastic,
-            work=self.work, energy_balance=self.energy_balance, q_error=self.q_error, v_error=self.v_error,
-            atol=self.atol, q_names=np.array(q_names(self.system)), coordinates=np.array(self.system.coordinates),
-            **{k: np.array(v) for k, v in self._meta().items()})
-        np.savez(Path(path), **arrays)
-        return Path(path)
-
-
-def q_names(system):
-    """A name for each configuration component: the coordinate for vector joints; x, y, z, qx, qy, qz,
-    qw (free), qx … qw (ball), x, y, cos, sin (planar)."""
-    parts = {"ball": ("qx", "qy", "qz", "qw"), "free": ("x", "y", "z", "qx", "qy", "qz", "qw"),
-             "planar": ("x", "y", "cos", "sin")}
-    names = []
-    for b in system.body_infos.values():
-        names += [f"{b.name}.{p}" for p in parts[b.joint.kind]] if b.joint.kind in parts else list(b.coordinates)
-    return names
-
-
-# ---------------------------------------------------------------------------------------------- entry point
 def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rtol: float = 1e-8, atol=None,
              dt: float | None = None, t_eval=None, *, error: str | None = None, max_step: float | None = None,
-             progress: bool | None = None) -> Trajectory:
-    """Integrate the nonlinear motion of ``system`` from (q0, v0) at t = 0 to ``t_end`` (s).
+             progress: bool | None = None, t0: float = 0.0, events=None, variational: bool = False) -> Trajectory:
+    """Integrate the nonlinear motion of ``system`` from (q0, v0) at ``t0`` (s, default 0) to the absolute
+    time ``t_end`` (s): a time-dependent force sees the true t.
 
     q0: configuration (default neutral; for a mechanism with loops, whose neutral configuration need not close
     them, the scene's declared start if it has one: :meth:`System.start_configuration`), or an
@@ -309,18 +70,27 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
     velocities alike) or 2·nv numbers (positions then velocities); default rtol × (1 rad, or the scene's
     length scale for m coordinates). ``dt``: the step of fixed-step methods (required; each interval between
     output times gets an even number of equal steps ≤ dt), the first step of adaptive ones. ``t_eval``:
-    output times in [0, t_end] (default: every step, and t = 0). ``error``: how the error is estimated
+    output times in [t0, t_end] (default: every step, and t0). ``error``: how the error is estimated
     (default "rerun" for dop853, radau and bdf, "richardson" for fixed-step methods; "local" for dop853 is
     cheaper but not a global bound).
     ``max_step``: largest step of adaptive methods. ``progress``: a tqdm bar for runs longer than a few
     seconds (None: only on a terminal).
+
+    ``events``: a callable ``f(t, q, v) → float`` or a list of them (attributes ``direction`` ∈ {−1, 0, 1}
+    and ``terminal`` allowed, as in scipy): each zero crossing is located on the step's interpolant, to the
+    step's accuracy (:mod:`vibdyn.simulation.events`): ``traj.events`` (an array of times per function),
+    ``traj.event_q``, ``traj.event_v`` (the states there); a terminal one ends the run there.
+    ``variational``: integrate the tangent-space variational equations with the state (dop853, rk4; not
+    with loops): ``traj.state_transition`` (2nv × 2nv) is ∂(q, v)(t_end)/∂(q0, v0) in the tangent spaces,
+    ``traj.state_transition_error`` its estimated error (from the error estimate's second run).
 
     Returns a :class:`Trajectory`; Ctrl-C returns the motion so far with status "interrupted". Bad input is
     a :class:`ModelError`; a run that cannot go on (step-size underflow, non-finite state, an element that
     fails) raises :class:`SimulationError` carrying the time reached and the trajectory so far.
     """
     start = time.perf_counter()
-    cfg = _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress)
+    cfg = _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress, t0, events,
+                    variational)
     main = _integrate(system, cfg, "simulate")
     runs = [main]
     q_err = v_err = None
@@ -331,7 +101,8 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
             q_err, v_err = main.local
         else:
             t_check = time.perf_counter()
-            check = _integrate(system, cfg, "error estimate", reference=main)
+            check = _integrate(system, replace(cfg, t_end=main.t[-1], events=None) if main.t else cfg,
+                               "error estimate", reference=main)
             runs.append(check)
             error_elapsed = time.perf_counter() - t_check
             q_err, v_err = _compare(system, main, check, cfg)
@@ -344,6 +115,11 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
         q_err = v_err = np.full(len(main.t), np.inf)
     traj = _trajectory(system, cfg, main, runs, q_err, v_err, time.perf_counter() - start, error_elapsed,
                        error_method)
+    if cfg.variational and main.transition is not None:
+        other = runs[1].transition if len(runs) > 1 else None
+        err = np.inf if other is None else float(np.abs(main.transition - other).max()) / (
+            1.0 if cfg.error == "rerun" else 2.0 ** METHODS[cfg.method].order - 1.0)
+        traj = replace(traj, state_transition=main.transition, state_transition_error=err)
     if main.status == "finished" and not np.all(np.isfinite(traj.energy)):
         raise SimulationError("the energies of the motion overflow (state too large for double precision)",
                               traj, cfg.t_end)
@@ -383,17 +159,36 @@ class _Settings:
     max_step: float
     progress: object
     work: bool
+    t0: float = 0.0
+    events: tuple | None = None  # the event functions
+    variational: bool = False
 
 
-def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress):
+def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress, t0=0.0,
+              events=None, variational=False):
     what = "simulate"
     if system.nv == 0:
         raise ModelError(f"{what}: the scene has no coordinates: nothing moves")
-    t_end = scalar(t_end, f"{what}: t_end (s)", positive=True)
+    t0 = scalar(t0, f"{what}: t0 (s)")
+    t_end = scalar(t_end, f"{what}: t_end (s)")
+    if not t_end > t0:
+        raise ModelError(f"{what}: t_end = {t_end:g} s must be after t0 = {t0:g} s (t_end is an absolute time)")
     stepper = method_class(method)
     if stepper is None:
         raise ModelError(f"{what}: unknown method {method!r} (use one of {', '.join(METHODS)})")
     method = stepper.name
+    variational = bool(variational)
+    if variational and not stepper.supports_variational:
+        raise ModelError(f"{what}: method '{method}' does not integrate the variational equations (use "
+                         f"{', '.join(m for m, c in METHODS.items() if c.supports_variational)})")
+    if events is not None:
+        from .events import Events
+
+        Events(events)  # checked now: a bad one is refused before the run
+        events = tuple([events] if callable(events) else events)
+        if not stepper.supports_events:
+            raise ModelError(f"{what}: method '{method}' does not locate events (use "
+                             f"{', '.join(m for m, c in METHODS.items() if c.supports_events)})")
     if hasattr(q0, "q") and hasattr(q0, "v"):  # an equilibrium or a steady motion
         q0, v0 = q0.q, q0.v if v0 is None else v0
     if system.constraints is not None and not stepper.supports_loops:
@@ -425,11 +220,11 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
         atol_q, atol_v = np.array(atol_q, dtype=float), np.array(atol_v, dtype=float)
     if dt is not None:
         dt = scalar(dt, f"{what}: dt (s)", positive=True)
-        if dt > t_end:
-            raise ModelError(f"{what}: dt = {dt:g} s is longer than t_end = {t_end:g} s")
-        if not stepper.adaptive and t_end / dt > MAX_FIXED_STEPS:
-            raise ModelError(f"{what}: t_end / dt = {t_end / dt:.3g} steps is more than {MAX_FIXED_STEPS:.0e}: "
-                             "take a larger dt or a shorter t_end")
+        if dt > t_end - t0:
+            raise ModelError(f"{what}: dt = {dt:g} s is longer than the run (t_end − t0 = {t_end - t0:g} s)")
+        if not stepper.adaptive and (t_end - t0) / dt > MAX_FIXED_STEPS:
+            raise ModelError(f"{what}: (t_end − t0) / dt = {(t_end - t0) / dt:.3g} steps is more than "
+                             f"{MAX_FIXED_STEPS:.0e}: take a larger dt or a shorter run")
     elif not stepper.adaptive:
         raise ModelError(f"{what}: method '{method}' takes fixed steps: give dt (s)")
     if t_eval is not None:
@@ -438,8 +233,8 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
             raise ModelError(f"{what}: t_eval must be a non-empty list of times (s)")
         if np.any(np.diff(t_eval) <= 0):
             raise ModelError(f"{what}: t_eval must be strictly increasing")
-        if t_eval[0] < 0 or t_eval[-1] > t_end:
-            raise ModelError(f"{what}: t_eval must lie in [0, t_end = {t_end:g}] s, got [{t_eval[0]:g}, "
+        if t_eval[0] < t0 or t_eval[-1] > t_end:
+            raise ModelError(f"{what}: t_eval must lie in [t0 = {t0:g}, t_end = {t_end:g}] s, got [{t_eval[0]:g}, "
                              f"{t_eval[-1]:g}]")
     error = stepper.error_methods[0] if error is None else error
     if error not in stepper.error_methods:
@@ -450,7 +245,8 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
         raise ModelError(f"{what}: progress must be None, True or False, got {progress!r}")
     work = bool(system.supports) or any(type(g).potential is Group.potential or g.time_dependent
                                          for g in system.groups)
-    return _Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work)
+    return _Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work, t0,
+                     events, variational)
 
 
 # ---------------------------------------------------------------------------------------------- one run
@@ -465,6 +261,9 @@ class _Run:
     status: str = "finished"
     message: str = ""
     failure: BaseException | None = None
+    events: object = None  # vibdyn.simulation.events.Events
+    transition: np.ndarray | None = None  # the state transition at the end (variational runs)
+    system: object = None
 
     @property
     def local(self):
@@ -483,15 +282,24 @@ def _integrate(system, cfg, label, reference=None):
         atol_q, atol_v = atol_q / RERUN_FACTOR, atol_v / RERUN_FACTOR
     outputs = reference.t if reference is not None else cfg.t_eval
     run = _Run([], [], [], [], [])
+    run.system = system
     progress = _Progress(t_end, cfg.progress, label)
     try:
         run.stepper = METHODS[cfg.method](system, cfg.q0, cfg.v0, t_end, rtol=rtol, atol_q=atol_q, atol_v=atol_v,
                                           first_step=cfg.dt if adaptive else None, max_step=cfg.max_step,
-                                          work=cfg.work)
+                                          work=cfg.work, t0=cfg.t0, variational=cfg.variational)
+        if cfg.events:
+            from .events import Events
+
+            run.events = Events(cfg.events)
+            run.events.start(cfg.t0, cfg.q0, cfg.v0)
         if adaptive:
             _adaptive(cfg, run, outputs, progress)
         else:
             _fixed(cfg, run, outputs, coarse=reference is not None, progress=progress)
+        if cfg.variational:  # (a run a terminal event stopped inside its last step has none at its end)
+            stopped = run.events is not None and run.events.stop is not None
+            run.transition = None if stopped else run.stepper.state_transition
     except KeyboardInterrupt:
         run.status, run.message = "interrupted", f"interrupted (Ctrl-C) at t = {_t_reached(run):.6g} s"
     except (StepError, VibdynError, FloatingPointError, np.linalg.LinAlgError) as e:
@@ -518,21 +326,34 @@ def _record(run, t, q, v, w, local=None):
 
 
 def _adaptive(cfg, run, outputs, progress):
-    stepper = run.stepper
+    stepper, events = run.stepper, run.events
     k = 0
-    if outputs is None or outputs[0] == 0.0:
-        _record(run, 0.0, *stepper.state, _zero_local(stepper))
+    if outputs is None or outputs[0] == cfg.t0:
+        _record(run, cfg.t0, *stepper.state, _zero_local(stepper))
         k = 1 if outputs is not None else 0
     while stepper.t < cfg.t_end:
-        stepper.step(outputs[k] if outputs is not None and k < len(outputs) else None)
+        t_start = stepper.t
+        # (with events every step keeps its interpolant: asking for an output at its start does that)
+        stepper.step(t_start if events else outputs[k] if outputs is not None and k < len(outputs) else None)
         t = stepper.t
+        stop = None
+        if events is not None:
+            dense = stepper.dense
+            stop = events.step(t, *stepper.state[:2], lambda s: dense(s)[:2] if s < t else stepper.state[:2])
+        end = t if stop is None else stop
         if outputs is None:
-            _record(run, t, *stepper.state, stepper.local_error)
+            if stop is None:
+                _record(run, t, *stepper.state, stepper.local_error)
         else:
-            while k < len(outputs) and outputs[k] <= t:
+            while k < len(outputs) and outputs[k] <= end:
                 state = stepper.state if outputs[k] == t else stepper.dense(float(outputs[k]))
                 _record(run, float(outputs[k]), *state, stepper.local_error)
                 k += 1
+        if stop is not None:  # a terminal event: the run ends there
+            if not run.t or run.t[-1] < stop:
+                _record(run, stop, *stepper.dense(stop), stepper.local_error)
+            run.message = f"stopped by a terminal event at t = {stop:.10g} s"
+            return
         progress.update(t)
 
 
@@ -543,10 +364,10 @@ def _zero_local(stepper):
 def _grid(cfg, coarse):
     """Step end times of a fixed-step run: each interval between output times (and t_end) gets an even
     number of equal steps ≤ dt; the coarse run (Richardson) takes every other one."""
-    stops = [] if cfg.t_eval is None else [float(t) for t in cfg.t_eval if t > 0.0]
+    stops = [] if cfg.t_eval is None else [float(t) for t in cfg.t_eval if t > cfg.t0]
     if not stops or stops[-1] < cfg.t_end:
         stops.append(cfg.t_end)
-    a = 0.0
+    a = cfg.t0
     for b in stops:  # lazily: a long run must not allocate its whole grid
         n = max(2, 2 * math.ceil((b - a) / (2 * cfg.dt) * (1 - 1e-12)))
         for i in range(2 if coarse else 1, n + 1, 2 if coarse else 1):
@@ -555,15 +376,34 @@ def _grid(cfg, coarse):
 
 
 def _fixed(cfg, run, outputs, coarse, progress):
-    stepper = run.stepper
+    stepper, events = run.stepper, run.events
     record = None if outputs is None else set(np.asarray(outputs, dtype=float).tolist())
-    if record is None or 0.0 in record:
-        _record(run, 0.0, *stepper.state)
+    if record is None or cfg.t0 in record:
+        _record(run, cfg.t0, *stepper.state)
+    ends = None
     for t_new in _grid(cfg, coarse):
+        if events is not None:
+            ends = (stepper.t, _with_acceleration(run.system, stepper))
         stepper.step_to(float(t_new))
+        if events is not None:  # (a fixed-step method keeps no interpolant: a cubic Hermite of the ends)
+            from .events import hermite
+
+            at = hermite(run.system, ends[0], ends[1], stepper.t, _with_acceleration(run.system, stepper))
+            stop = events.step(stepper.t, *stepper.state[:2], at)
+            if stop is not None:
+                q, v = at(stop)
+                _record(run, stop, q, v, stepper.state[2])
+                run.message = f"stopped by a terminal event at t = {stop:.10g} s"
+                return
         if record is None or t_new in record:
             _record(run, float(t_new), *stepper.state)
         progress.update(t_new)
+
+
+def _with_acceleration(system, stepper):
+    """(q, v, a) of a stepper's state now."""
+    q, v, _ = stepper.state
+    return q, v, system.accelerations(q, v, stepper.t)
 
 
 # ---------------------------------------------------------------------------------------------- error estimate
@@ -598,7 +438,7 @@ def _trajectory(system, cfg, main, runs, q_err, v_err, elapsed, error_elapsed, e
     v = np.array(main.v).reshape(n, system.nv)
     t = np.array(main.t, dtype=float)
     energies = np.array([_energy(system, qi, vi, ti) for qi, vi, ti in zip(q, v, t)]).reshape(n, 3)
-    e0 = Energy(*_energy(system, cfg.q0, cfg.v0, 0.0))
+    e0 = Energy(*_energy(system, cfg.q0, cfg.v0, cfg.t0))
     w = np.array(main.w, dtype=float)
     work = (w + energies[:, 2] - e0.elastic) if cfg.work and n else np.zeros(n)
     nfev, njev, nlu, accepted, rejected = main.stepper.counters if main.stepper is not None else (0, 0, 0, 0, 0)
@@ -609,7 +449,8 @@ def _trajectory(system, cfg, main, runs, q_err, v_err, elapsed, error_elapsed, e
         energies[:, 2].copy(), work, np.asarray(q_err, dtype=float), np.asarray(v_err, dtype=float), error_method,
         nfev, njev, nlu, accepted, rejected, error_nfev, elapsed,
         main.status, main.message or f"reached t_end = {cfg.t_end:g} s", cfg.rtol,
-        np.concatenate([cfg.atol_q, cfg.atol_v]), cfg.dt, e0, error_elapsed)
+        np.concatenate([cfg.atol_q, cfg.atol_v]), cfg.dt, e0, error_elapsed, cfg.t0,
+        *(main.events.result(system.nq, system.nv) if main.events is not None else ((), (), ())))
 
 
 def _energy(system, q, v, t):
@@ -652,48 +493,3 @@ class _Progress:
     def close(self):
         if self.bar is not None:
             self.bar.close()
-
-
-# ---------------------------------------------------------------------------------------------- command line
-def command(system, args, out=None):
-    """``vibdyn simulate``: run, print a summary, write ``--out`` (.npz or .csv) — the partial trajectory
-    too if the run fails (the error is then raised for the command's exit status)."""
-    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
-    if args.out is not None and Path(args.out).suffix.lower() not in (".npz", ".csv"):
-        raise ModelError(f"--out {args.out}: the file must end in .npz or .csv")
-    if args.out is not None and not Path(args.out).parent.is_dir():  # found before the run, not after it
-        raise ModelError(f"--out {args.out}: no such directory '{Path(args.out).parent}'")
-    if args.samples is not None and args.samples < 2:
-        raise ModelError(f"--samples must be at least 2 (the start and the end), got {args.samples}")
-    origin = system.start_configuration()[0] if system.constraints is not None else system.neutral()
-    q0 = None if args.offset is None else system.integrate(origin, system.check_velocity(args.offset, "--offset"))
-    t_eval = None if args.samples is None else np.linspace(0.0, args.t_end, args.samples) if args.t_end > 0 else None
-    try:
-        traj = simulate(system, args.t_end, q0, args.v0, args.method, args.rtol, args.atol, args.dt, t_eval,
-                        error=args.error, progress=False if args.no_progress else None)
-        failure = None
-    except SimulationError as e:
-        traj, failure = e.trajectory, e
-    p(f"scene      {system.name} (nq = {system.nq}, nv = {system.nv})")
-    p(f"run        {traj.summary()}")
-    if len(traj):
-        dq = system.difference(system.neutral(), traj.q[-1])
-        qe, ve = traj.q_error[-1], traj.v_error[-1]  # values below the run's error estimate print as 0
-        rows = [[c, number(x, u, qe), number(y, f"{u}/s", ve)]
-                for c, u, x, y in zip(system.coordinates, system.units, dq, traj.v[-1])]
-        p(f"final      t = {number(traj.t[-1], 's')} (offsets from neutral; error ≈ {qe:.1e} in q, {ve:.1e} in v)")
-        for line in table(["coordinate", "offset", "velocity"], rows, ["<", ">", ">"]):
-            p("  " + line)
-        de = abs(traj.drift)  # the energy balance: the run's error estimate on energies
-        p(f"energy     {number(traj.energy[0], 'J', de)} → {number(traj.energy[-1], 'J', de)}, work of "
-          f"non-conservative forces {number(traj.work[-1], 'J', de)}, balance {traj.drift:.2e} J")
-    if args.out is not None:
-        try:
-            path = traj.to_npz(args.out) if Path(args.out).suffix.lower() == ".npz" else traj.to_csv(args.out)
-        except OSError as e:
-            raise ModelError(f"--out {args.out}: cannot write: {e.strerror or e}") from None
-        p(f"written    {path} ({len(traj)} rows)")
-    if failure is not None:
-        raise failure
-    return traj
-

@@ -14,7 +14,7 @@ Why these do not use the steppers of :mod:`vibdyn.simulation` (its ``METHODS`` r
   which builds on the analyses (implicit Jacobians from the linearisation), not the reverse.
 
 Results are :class:`TimeResponse` objects, which follow the time-result protocol shared with the simulation's
-``Trajectory`` (:mod:`vibdyn.analysis.timeresult`)."""
+``Trajectory`` (:mod:`vibdyn.results`)."""
 
 import time
 from dataclasses import dataclass, field
@@ -24,7 +24,7 @@ import scipy.linalg as sla
 
 from ..._check import count, finite_array, scalar, unit_axis
 from ...errors import ModelError
-from ..timeresult import TimeResult, check_quantity
+from ...results import TimeResult, check_quantity
 from .base import reduced, support_input_of
 from .channels import channels
 from .damping import damped_model
@@ -34,7 +34,7 @@ from .frf import EPS
 # ====================================================================== time responses
 @dataclass(frozen=True, eq=False)
 class TimeResponse(TimeResult):
-    """A response in time (a :class:`~vibdyn.analysis.timeresult.TimeResult`): δq, δv, δa (n_t × nv, m or
+    """A response in time (a :class:`~vibdyn.results.TimeResult`): δq, δv, δa (n_t × nv, m or
     rad and their rates) at times ``t`` (s), measured
     from the operating point. ``error``: estimated error relative to max|δq| (quadrature, eigenvector
     conditioning or the integrator's tolerance, plus the linear model's error drifting the phase over the

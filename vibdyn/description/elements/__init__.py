@@ -5,7 +5,9 @@ are compiled and scene files are read and written: supports first (springs and d
 A new kind is one new module here plus its import line below.
 """
 
-from .base import KINDS, WORLD, ElementKind, Group, Kinematics, attachment, cross, point_set
+from ...model.groups import Group
+from ...model.points import Kinematics, cross, point_set
+from .base import KINDS, WORLD, ElementKind, attachment
 from .support import Support
 from .spring import Spring
 from .damper import Damper

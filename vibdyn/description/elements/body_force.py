@@ -10,7 +10,9 @@ import pinocchio as pin
 from ..._check import call_user, user_callable, value_string, value_vec3, vector3
 from ..._format import vector
 from ...errors import ModelError
-from .base import ElementKind, Group, numbers, point_set
+from ...model.groups import Group
+from ...model.points import point_set
+from .base import ElementKind, numbers
 
 
 class BodyForces(Group):

@@ -13,7 +13,8 @@ import numpy as np
 from ..._check import stiffness_like, value_nonnegative_number_or_list, value_number_or_list, value_string
 from ..._format import with_units
 from ...errors import ModelError
-from .base import ElementKind, Group, scalar_or_list
+from ...model.groups import Group
+from .base import ElementKind, scalar_or_list
 from .joint_spring import per_coordinate
 
 

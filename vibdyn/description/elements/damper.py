@@ -8,7 +8,8 @@ import numpy as np
 
 from ..._check import scalar, value_attachment, value_nonnegative, value_string
 from ..._format import number
-from .base import ElementKind, TwoPoint, att_list, end_label, file_attachment
+from ...model.groups import TwoPoint
+from .base import ElementKind, att_list, end_label, file_attachment
 
 
 class Dampers(TwoPoint):

@@ -11,7 +11,8 @@ from ..._check import (call_user, count, finite_array, user_callable, value_numb
 from ..._format import with_units
 from ...errors import ModelError
 from .. import laws
-from .base import ElementKind, Group, numbers, scalar_or_list
+from ...model.groups import Group
+from .base import ElementKind, numbers, scalar_or_list
 
 _LAW_PARAMS = tuple(dict.fromkeys(k for name in laws.FORCE_LAWS for k in laws.law_keys(name)[0]))
 

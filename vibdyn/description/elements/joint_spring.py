@@ -12,7 +12,8 @@ from ..._check import (finite_array, one_or_each, stiffness_like, value_nonnegat
                        value_number_or_list, value_string)
 from ..._format import with_units
 from ...errors import ModelError
-from .base import ElementKind, Group, as_slice, scalar_or_list, tangent
+from ...model.groups import Group, as_slice, tangent
+from .base import ElementKind, scalar_or_list
 
 
 class JointSprings(Group):

@@ -9,7 +9,8 @@ import numpy as np
 from ..._check import scalar, value_attachment, value_nonnegative, value_string
 from ..._format import number
 from ...errors import ModelError
-from .base import WORLD, ElementKind, TwoPoint, att_list, end_label, file_attachment
+from ...model.groups import TwoPoint
+from .base import WORLD, ElementKind, att_list, end_label, file_attachment
 
 
 class Springs(TwoPoint):

@@ -27,9 +27,11 @@ class Stepper:
     or ``step_to`` (fixed step).
 
     Constructor, shared by all: ``(system, q0, v0, t_end, *, rtol, atol_q, atol_v, first_step, max_step,
-    work)`` — rtol and atol_q/atol_v (arrays, tangent units) bound the local error per step of adaptive
-    methods, first_step and max_step (s) bound their steps; ``work`` integrates the power of the force
-    elements alongside (the energy balance)."""
+    work, t0, variational)`` — rtol and atol_q/atol_v (arrays, tangent units) bound the local error per step
+    of adaptive methods, first_step and max_step (s) bound their steps; ``work`` integrates the power of the
+    force elements alongside (the energy balance); ``t0`` (s) the start time (t_end is absolute);
+    ``variational`` integrates the tangent-space variational equations with the state (methods that declare
+    ``supports_variational``: :attr:`state_transition`)."""
 
     name: str = ""
     order: int = 0
@@ -37,11 +39,14 @@ class Stepper:
     dense_output: bool = False
     error_methods: tuple = ()
     supports_loops: bool = False  # integrates a mechanism with closed loops on its loops (projected ODE)
+    supports_variational: bool = False  # integrates the variational equations with the state
+    supports_events: bool = False  # its steps can be interpolated (dense output, or the ends' Hermite)
     nfev: int = 0  # counters (instance values; see the module docstring)
 
     def __init__(self, system, q0, v0, t_end, *, rtol=None, atol_q=None, atol_v=None, first_step=None,
-                 max_step=math.inf, work=False):
-        self.system, self.t_end, self.t = system, float(t_end), 0.0
+                 max_step=math.inf, work=False, t0=0.0, variational=False):
+        self.system, self.t_end, self.t = system, float(t_end), float(t0)
+        self.variational = variational
         self.rtol, self.atol_q, self.atol_v = rtol, atol_q, atol_v
         self.first_step, self.max_step, self.work = first_step, max_step, work
         self.accepted, self.rejected = 0, 0
@@ -68,6 +73,11 @@ class Stepper:
         """One step to ``t_new`` (s) (fixed-step methods)."""
         raise NotImplementedError(f"{self.name} chooses its own steps: use step")
 
+    @property
+    def state_transition(self):
+        """∂(q, v)(t)/∂(q0, v0) (2nv × 2nv, tangent space at q(t) and q0) when integrated (``variational``)."""
+        raise NotImplementedError(f"{self.name} does not integrate the variational equations")
+
 
 class Interpolant:
     """A step's dense output ``sol`` (a callable y(t) in the chart of that step) as (q, v, w) at a time."""
@@ -84,13 +94,18 @@ class Interpolant:
 class ODEStepper(Stepper):
     """A stepper of the first-order ODE y' = f(t, y) of :mod:`.chart` (y = chart coordinates, v[, w]);
     ``ode``, ``y``; ``nfev`` is the ODE's count. Closed loops: the ODE is projected (see
-    :func:`vibdyn.analysis.constrained.projected_ode`)."""
+    :func:`vibdyn.simulation.integrators.projected.projected_ode`)."""
 
     supports_loops = True
+    supports_events = True
 
     def __init__(self, system, q0, v0, t_end, **kwargs):
         super().__init__(system, q0, v0, t_end, **kwargs)
-        self.ode, self.y = make_ode(system, q0, v0, self.work)
+        self.ode, self.y = make_ode(system, q0, v0, self.work, self.variational)
+
+    @property
+    def state_transition(self):
+        return self.ode.transition(self.y)
 
     @property
     def nfev(self):

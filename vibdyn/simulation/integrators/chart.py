@@ -30,14 +30,17 @@ ARG1 = pin.ArgumentPosition.ARG1
 _ROTATIONS = {"ball": (0, 1, 2), "free": (3, 4, 5), "planar": (2,)}
 
 
-def make_ode(system, q0, v0, work=False):
-    """The ODE of a system (a chart if it has curved joints) and its initial state y0."""
+def make_ode(system, q0, v0, work=False, variational=False):
+    """The ODE of a system (a chart if it has curved joints) and its initial state y0; with
+    ``variational``, augmented with the variational equations (:class:`Variational`)."""
     cls = ChartODE if system.nq != system.nv else VectorODE
     if getattr(system, "constraints", None) is not None:  # closed loops: projected after each step
-        from ...analysis.constrained import projected_ode
+        from .projected import projected_ode
 
         cls = projected_ode(cls)
     ode = cls(system, work)
+    if variational:
+        ode = Variational(ode)
     return ode, ode.initial(q0, v0)
 
 
@@ -186,3 +189,97 @@ class ChartODE(VectorODE):
             dm = pin.dDifference(model, c, pin.integrate(model, c, xi - e), ARG1)
             J[:nv, k] = (dp - dm) @ v / (2 * eps)
         return J
+
+
+class Variational:
+    """An ODE augmented with its variational equations: y = (ξ, v, Y, [w]) with Y (2nv × 2nv, row-major) the
+    derivative of (ξ, v) with respect to their initial values, Ẏ = J(t, ξ, v) Y, J the ODE's Jacobian
+    (:meth:`VectorODE.jacobian`: the analytic −M⁻¹K and −M⁻¹C, mapped to the chart). The chart re-centres
+    carry Y with them (δξ_new = dIntegrate(ξ) δξ_old), so :meth:`transition` is the state transition in the
+    tangent spaces at q(t) and q0. The Y components are integrated with the state's steps, not controlled by
+    them (their absolute tolerance is infinite). Not for mechanisms with loops (their projection has no
+    variational counterpart here)."""
+
+    def __init__(self, base):
+        if getattr(base.system, "constraints", None) is not None:
+            from ...errors import ModelError
+
+            raise ModelError("variational equations: not available for a mechanism with closed loops (the "
+                             "projection onto the loops has no variational counterpart here)")
+        self.base, self.nv, self.work, self.system = base, base.nv, base.work, base.system
+        self.m = 2 * base.nv
+        self.n = base.n + self.m * self.m
+        self.curved = base.curved
+        self._t = 0.0
+
+    def __getattr__(self, name):  # nfev, model, centre, rotations ...: the base ODE's
+        return getattr(self.base, name)
+
+    def _split(self, y):
+        """(the base ODE's state, Y as an m × m view): y = (ξ, v, Y, [w])."""
+        m = self.m
+        base = y[:m] if not self.work else np.concatenate([y[:m], y[-1:]])
+        return base, y[m:m + m * m].reshape(m, m)
+
+    def __call__(self, t, y):
+        out = np.empty(self.n)
+        self.into(t, y, out)
+        return out
+
+    def into(self, t, y, out):
+        self._t = t
+        m = self.m
+        base, Y = self._split(y)
+        f = np.empty(self.base.n)
+        self.base.into(t, base, f)
+        out[:m] = f[:m]
+        if self.work:
+            out[-1] = f[-1]
+        out[m:m + m * m] = (self.base.jacobian(t, base)[:m, :m] @ Y).ravel()
+
+    def initial(self, q0, v0, w0=0.0):
+        b = self.base.initial(q0, v0, w0)
+        y = np.zeros(self.n)
+        y[:self.m] = b[:self.m]
+        y[self.m:self.m + self.m * self.m] = np.eye(self.m).ravel()
+        if self.work:
+            y[-1] = b[-1]
+        return y
+
+    def configuration(self, y):
+        return self.base.configuration(y[:self.nv] if not self.curved else y)
+
+    def displacement(self, y0, y1):
+        return self.base.displacement(y0, y1)
+
+    def drift(self, y):
+        return 0.0
+
+    def extent(self, y):
+        return self.base.extent(y)
+
+    def recentre(self, y, f=None):
+        """Re-centre the base chart; Y's configuration rows follow it (δξ_new = dIntegrate(ξ_old) δξ_old at
+        the new centre), and its derivative in ``f`` is evaluated again there."""
+        m, nv = self.m, self.nv
+        base, Y = self._split(y)
+        if self.curved:
+            Y[:nv] = pin.dIntegrate(self.base.model, self.base.centre, y[:nv], ARG1) @ Y[:nv]
+        self.base.recentre(y, None if f is None else f)
+        if f is not None:
+            base, Y = self._split(y)
+            f[m:m + m * m] = (self.base.jacobian(self._t, base)[:m, :m] @ Y).ravel()
+
+    def frozen(self):
+        c = object.__new__(Variational)
+        c.__dict__.update(self.__dict__)
+        c.base = self.base.frozen()
+        return c
+
+    def transition(self, y):
+        """The state transition (2nv × 2nv) in the tangent spaces at q(t) and q0."""
+        Y = self._split(y)[1].copy()
+        if self.curved:
+            nv = self.nv
+            Y[:nv] = pin.dIntegrate(self.base.model, self.base.centre, y[:nv], ARG1) @ Y[:nv]
+        return Y

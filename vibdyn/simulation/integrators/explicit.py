@@ -36,6 +36,7 @@ class RungeKutta(ODEStepper):
     [1, h a_s] · YK.
     """
 
+    supports_variational = True  # (the stage loop integrates whatever the ODE's state holds)
     A: np.ndarray
     B: np.ndarray
     C: np.ndarray

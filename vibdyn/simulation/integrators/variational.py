@@ -25,7 +25,7 @@ import pinocchio as pin
 
 from ...model import dynamics
 from ...model.derivatives import linear_terms
-from ...description.elements import cross
+from ...model.points import cross
 from .base import Stepper, StepError
 
 ARG0, ARG1 = pin.ArgumentPosition.ARG0, pin.ArgumentPosition.ARG1

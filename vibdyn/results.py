@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ModelError
+from .errors import ModelError
 
 QUANTITIES = {"displacement": "", "velocity": "/s", "acceleration": "/s²"}  # name -> rate suffix of the unit
 
@@ -60,7 +60,7 @@ class TimeResult:
     def plot(self, outputs: Any = None, *, direction: Any = None, quantity: str = "displacement", path: Any = None,
              dpi: int = 100) -> Any:
         """Time histories of the outputs (:func:`vibdyn.faces.plots.time_history`): a matplotlib Figure."""
-        from ..faces.plots import time_history
+        from .faces.plots import time_history
 
         return time_history(self, outputs, direction=direction, quantity=quantity, path=path, dpi=dpi)
 

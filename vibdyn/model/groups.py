@@ -1,0 +1,99 @@
+"""The compiled force group every element kind builds (:class:`Group`: all members of a kind at once) and the
+two-point groups springs and dampers share (:class:`TwoPoint`), with their small helpers."""
+
+import numpy as np
+
+from ..errors import ModelError
+from .points import ONES3, point_set
+
+class Group:
+    """One kind of force element, all members at once: adds its generalized force to ``Q`` (joint space,
+    length nv) and, for point elements, spatial forces to ``F`` (one row (force, moment) per Pinocchio
+    joint, in that joint's frame) that the system hands to ABA/RNEA as external forces."""
+
+    uses_points = False  # needs joint poses (point elements)
+    uses_point_velocities = False
+    needs_velocity_derivatives = False  # its derivatives need ∂(point velocities)/∂q
+    velocity_dependent = False
+    time_dependent = False
+    joints: tuple = ()  # Pinocchio joints it applies forces to
+
+    def apply(self, t, q, v, kin, Q, F):
+        raise NotImplementedError
+
+    def apply_rows(self, t, q, v, Q):
+        """A joint-space group's generalized forces at many states at once: rows of q (B × nq) and v (B × nv,
+        or one nv-vector for every row) add into the rows of Q (B × nv). A group whose force is plain numpy
+        over coordinates overrides this with one evaluation of all rows; this default calls :meth:`apply`
+        row by row."""
+        for c in range(len(q)):
+            self.apply(t, q[c], v[c] if v.ndim == 2 else v, None, Q[c], None)
+
+    def potential(self, q, kin):
+        return 0.0
+
+    def derivatives(self, d):
+        """Analytic derivatives (see :mod:`vibdyn.model.derivatives`, whose ``d`` gives the point Jacobians,
+        force accumulators and finite differences of user callables): a point group adds its forces'
+        derivatives through ``d.add_force``; a joint group returns (∂Q/∂q, ∂Q/∂v), each None for zero."""
+        raise NotImplementedError
+
+
+class TwoPoint(Group):
+    """Elements between two points: ends a and b of each member (the ends' arrays: a's then b's)."""
+
+    uses_points = True
+    tiny: np.ndarray  # lengths at or below these are zero (negative: the member may reach zero length)
+
+    def __init__(self, system, elements):
+        self.names = [e.name for e in elements]
+        self.ja, self.pa = system.attachments([e.a for e in elements])
+        self.jb, self.pb = system.attachments([e.b for e in elements])
+        self.sa = system.support_indices([e.a for e in elements])
+        self.sb = system.support_indices([e.b for e in elements])
+        self.joints = tuple(sorted(set(self.ja) | set(self.jb)))
+        self.j_ends = np.concatenate([self.ja, self.jb])
+        self.on_supports = bool(np.any(self.sa >= 0) or np.any(self.sb >= 0))
+        n = len(elements)
+        self.ends = point_set(self.j_ends, np.concatenate([self.pa, self.pb]), system.model.njoints,
+                             np.hstack([-np.eye(n), np.eye(n)]))  # combined: xb − xa
+
+    def end_velocities(self, kin):
+        """World velocities (m/s) of the two ends, supports' motion included."""
+        return (kin.velocities(self.ja, self.pa) + kin.sv[self.sa],
+                kin.velocities(self.jb, self.pb) + kin.sv[self.sb])
+
+    def geometry(self, kin):
+        """(d, L): d = xb − xa between the world ends (m) and the lengths L (m); a length at or below ``tiny``
+        is a ModelError naming the element."""
+        d = self.ends.positions(kin)
+        if self.on_supports:
+            d += kin.sp[self.sb] - kin.sp[self.sa]
+        L = np.sqrt((d * d) @ ONES3)
+        zero = (L <= self.tiny).tolist()  # a list: faster than a numpy reduction on a few elements
+        if True in zero:
+            i = zero.index(True)
+            xa = kin.points(self.ja[i:i + 1], self.pa[i:i + 1])[0] + kin.sp[self.sa[i]]
+            raise ModelError(f"{self.kind} '{self.names[i]}' reached zero length at the configuration q = "
+                             f"{np.round(kin.q, 9).tolist()} (its two ends coincide at {np.round(xa, 12).tolist()} m):"
+                             " its direction, and so its force, is undefined there; start the analysis or the "
+                             "motion away from it (q0=, or Scene.set_operating_point(start=...))")
+        return d, L
+
+    kind = "element"
+
+
+def as_slice(index):
+    """An index array as the equal slice when its entries are consecutive and increasing (a view, not a
+    gather), else the array itself."""
+    index = np.asarray(index, dtype=int)
+    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+        return slice(int(index[0]), int(index[0]) + index.size)
+    return index
+
+
+def tangent(model, body, rest):
+    """A tangent vector of the model with ``rest`` on ``body``'s coordinates and zeros elsewhere."""
+    dv = np.zeros(model.nv)
+    dv[body.idx_v:body.idx_v + body.nv] = rest
+    return dv
