@@ -10,7 +10,7 @@ import pytest
 
 import vibdyn as vd
 
-HEAVY = ("scipy.integrate", "scipy.signal", "matplotlib", "meshcat", "tqdm", "mujoco", "dask", "distributed",
+HEAVY = ("scipy.linalg", "scipy.integrate", "scipy.signal", "matplotlib", "meshcat", "tqdm", "mujoco", "dask", "distributed",
          "pandas")
 LAZY_MODULES = ("vibdyn.simulation.simulate", "vibdyn.simulation.integrators", "vibdyn.analysis.response", "vibdyn.analysis.identify", "vibdyn.faces.plots",
                 "vibdyn.studies.sweeps", "vibdyn.analysis.campbell_diagram")

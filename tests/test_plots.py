@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import vibdyn as vd
-from vibdyn.analysis.timeresult import TimeResult
+from vibdyn.results import TimeResult
 from vibdyn.faces.cli import main
 
 from conftest import MODELS

@@ -18,7 +18,7 @@ from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
 from ..model.fd import differences, displaced_vectors, steps, tangent_derivative, vector_derivative
 from .equilibrium import Equilibrium
-from .linearize import LinearModel, fd_error, reference_state
+from .linearize import LinearModel, fd_error, reference_state, tree_linearize
 from .modal import modes as _modes
 
 
@@ -291,8 +291,6 @@ def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_ST
     independent coordinates z, a_γ the acceleration of the dependent ones that keeps Φ_q v̇ + γ = 0) are
     differenced in z and ż (:func:`moving`): their K holds the constraint curvature, the centrifugal and
     the gyroscopic terms together, C the gyroscopic coupling and the dampers."""
-    from .linearize import linearize as tree_linearize
-
     start = time.perf_counter()
     c = _constraints(system)
     q0, v0, t0 = reference_state(system, at, v, t)

@@ -106,7 +106,12 @@ class Equilibrium:
 
 def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
     """Static equilibrium near ``q0`` (neutral if None): Newton with line search; least-squares steps where
-    K is singular (free or cyclic coordinates). Raises ConvergenceError with the best point."""
+    K is singular (free or cyclic coordinates). Raises ConvergenceError with the best point. A mechanism with
+    loops: :func:`vibdyn.analysis.constrained.equilibrium` (q0 need not close them)."""
+    if system.constraints is not None:
+        from .constrained import equilibrium
+
+        return equilibrium(system, q0, t, tol, max_iter)
     return _solve(system, q0, t, {}, tol, max_iter)
 
 
@@ -116,6 +121,10 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
 
     Example (a rotor driven by τ = 10 − ω² carrying a sprung slider): ``steady_motion({"rotor": None})``.
     """
+    if system.constraints is not None:  # a mechanism with loops: speeds given (constrained.steady_motion)
+        from .constrained import steady_motion as constrained_steady_motion
+
+        return constrained_steady_motion(system, v_cyclic, q0, t, tol, max_iter)
     if not isinstance(v_cyclic, dict) or not v_cyclic:
         raise ModelError("steady_motion: v_cyclic must be a dict {coordinate: speed or None}")
     cyclic = {}
@@ -143,8 +152,12 @@ def equilibria(system, starts, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
 def held(system, q=None, v=None, t=0.0):
     """The configuration ``q`` (neutral if None) moving at the constant velocity ``v`` (0 if None), held by
     drives on every coordinate: ``drive`` is the generalized force (N or N·m) they add to balance gravity,
-    the elastic and the other forces, M·0 + b(q, v) − Q(q, v, t). Linearised with a = 0, its K is
+    the elastic and the other forces, M·0 + b(q, v) − Q(q, v, t) (not for a mechanism with loops, whose
+    drives could not all act). Linearised with a = 0, its K is
     ∂(g − Q)/∂q at q: the drives are taken as constant forces (no stiffness of their own)."""
+    if system.constraints is not None:
+        raise ModelError("held: not available for a mechanism with closed loops (loops: "
+                         f"{', '.join(lp.name for lp in system.constraints.loops)}); use equilibrium()")
     start = time.perf_counter()
     q = system.neutral() if q is None else system.check_configuration(np.array(q, dtype=float), "held q").copy()
     v = np.zeros(system.nv) if v is None else system.check_velocity(np.array(v, dtype=float), "held v").copy()

@@ -234,7 +234,7 @@ class LinearModel:
 
     def relinearize(self, method: str) -> LinearModel:
         """The same operating point linearised again with ``method`` ("fd" or "analytic")."""
-        return linearize(self.system, self.q0, v=self.v0, t=self.t0, a=self.a0, method=method)
+        return tree_linearize(self.system, self.q0, v=self.v0, t=self.t0, a=self.a0, method=method)
 
     def summary(self) -> str:
         return (f"LinearModel({self.method}, nv={self.nv}, error ≈ {self.error:.1e}, "
@@ -272,8 +272,20 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     (a given speed is held by its drive), else the free acceleration at (q, v, t).
     ``method``: "fd" (central differences with steps ``step`` × scale, scale 1 rad or the scene's length
     scale; error estimated from a second step 2h) or "analytic" (Pinocchio's RNEA derivatives plus the
-    force elements' derivatives).
+    force elements' derivatives). A mechanism with loops is linearised in its independent motions
+    (:func:`vibdyn.analysis.constrained.linearize`).
     """
+    if system.constraints is not None:  # a mechanism with loops: in its independent motions
+        from .constrained import linearize as constrained_linearize
+
+        return constrained_linearize(system, at, v=v, t=t, a=a, method=method, step=step)
+    return tree_linearize(system, at, v=v, t=t, a=a, method=method, step=step)
+
+
+def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: float = 0.0,
+                   a: ArrayLike | None = None, method: str = "fd", step: float = FD_STEP) -> LinearModel:
+    """:func:`linearize` of the tree itself (a mechanism's loops left open: its constrained linearisation
+    builds on this one)."""
     start = time.perf_counter()
     step = scalar(step, "linearize step", positive=True)
     if method not in ("fd", "analytic"):

@@ -292,7 +292,7 @@ class Scene:
                 on_path.add(p)
                 p = self.bodies[p].parent
             rooted.update(path)
-        children = {}
+        children: dict[str, list[Body]] = {}
         for b in self.bodies.values():
             children.setdefault(b.parent, []).append(b)
         order, stack = [], list(reversed(children.get(WORLD, [])))

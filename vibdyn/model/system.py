@@ -14,7 +14,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg import lapack
 
 from .._check import all_finite, count, finite_array, finite_result, scalar, unknown_name, vector3
 from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER, RTOL
@@ -409,10 +408,6 @@ class System:
                     max_iter: int = MAX_ITER) -> Equilibrium:
         """Static equilibrium near q0 (see :func:`vibdyn.analysis.equilibrium.static_equilibrium`; with loops
         :func:`vibdyn.analysis.constrained.equilibrium`, q0 need not be consistent)."""
-        if self.constraints is not None:
-            from ..analysis.constrained import equilibrium
-
-            return equilibrium(self, q0, t, tol, max_iter)
         from ..analysis.equilibrium import static_equilibrium
 
         return static_equilibrium(self, q0, t, tol, max_iter)
@@ -429,10 +424,6 @@ class System:
         """Steady motion with the coordinates of ``v_cyclic`` turning at constant speed (given, or None
         for found) (see :func:`vibdyn.analysis.equilibrium.steady_motion`; with loops
         :func:`vibdyn.analysis.constrained.steady_motion`, speeds given)."""
-        if self.constraints is not None:
-            from ..analysis.constrained import steady_motion as constrained_steady_motion
-
-            return constrained_steady_motion(self, v_cyclic, q0, t, tol, max_iter)
         from ..analysis.equilibrium import steady_motion
 
         return steady_motion(self, v_cyclic, q0, t, tol, max_iter, guess)
@@ -444,13 +435,7 @@ class System:
         there (see :func:`vibdyn.analysis.equilibrium.held`). Linearise it with ``.linearize()``."""
         from ..analysis.equilibrium import held
 
-        self._no_loops("held")
         return held(self, q, v, t)
-
-    def _no_loops(self, what):
-        if self.constraints is not None:
-            raise ModelError(f"{what}: not available for a mechanism with closed loops (loops: "
-                             f"{', '.join(lp.name for lp in self.constraints.loops)}); use equilibrium()")
 
     def operating_point(self, tol: float = EQUILIBRIUM_TOL, max_iter: int = MAX_ITER) -> Equilibrium:
         """The scene's declared operating point (:meth:`Scene.set_operating_point`): the configuration held
@@ -469,10 +454,6 @@ class System:
                   method: str = "fd", step: float = FD_STEP) -> LinearModel:
         """Linear model (M, C, K, error estimate) about ``at`` (see :func:`vibdyn.analysis.linearize.linearize`; with
         loops :func:`vibdyn.analysis.constrained.linearize`, in the mechanism's independent motions)."""
-        if self.constraints is not None:
-            from ..analysis.constrained import linearize as constrained_linearize
-
-            return constrained_linearize(self, at, v=v, t=t, a=a, method=method, step=step)
         from ..analysis.linearize import linearize
 
         return linearize(self, at, v=v, t=t, a=a, method=method, step=step)
@@ -594,6 +575,8 @@ class System:
         # fast sufficient test: Ms = LLᵀ gives λ_min(Ms) = 1/‖L⁻¹‖₂² ≥ 1/‖L⁻¹‖_F² (at most nv times too
         # cautious; a NaN or inf anywhere fails it); only where that bound is not enough do the eigenvalues
         # decide (LAPACK directly: the wrappers of numpy and scipy cost more than these solves on small models)
+        from scipy.linalg import lapack  # (on first use: not at `import vibdyn`)
+
         L, info = lapack.dpotrf(Ms, lower=1)
         if info == 0:
             Linv, info = lapack.dtrtrs(L, self._eye, lower=1)  # (the triangular solve modes() uses too)

@@ -178,6 +178,9 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
         raise ModelError(f"{what}: unknown method {method!r} (use one of {', '.join(METHODS)})")
     method = stepper.name
     variational = bool(variational)
+    if variational and system.constraints is not None:
+        raise ModelError(f"{what}: variational equations: not available for a mechanism with closed loops (the "
+                         "projection onto the loops has no variational counterpart here)")
     if variational and not stepper.supports_variational:
         raise ModelError(f"{what}: method '{method}' does not integrate the variational equations (use "
                          f"{', '.join(m for m, c in METHODS.items() if c.supports_variational)})")
