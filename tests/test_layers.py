@@ -48,6 +48,10 @@ ENTRY_POINTS = {
     ("vibdyn.model.system", "System.steady_motion"): {"vibdyn.analysis.equilibrium"},
     ("vibdyn.model.system", "System.held"): {"vibdyn.analysis.equilibrium"},
     ("vibdyn.model.system", "System.linearize"): {"vibdyn.analysis.linearize"},
+    # a mechanism with loops is dispatched, on call, to its constrained analyses (which build on these)
+    ("vibdyn.analysis.linearize", "linearize"): {"vibdyn.analysis.constrained"},
+    ("vibdyn.analysis.equilibrium", "static_equilibrium"): {"vibdyn.analysis.constrained"},
+    ("vibdyn.analysis.equilibrium", "steady_motion"): {"vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.simulate"): {"vibdyn.simulation.simulate"},
     ("vibdyn.analysis.modal", "Modes.plot"): {"vibdyn.faces.viewer.pictures"},
     # the linear model's methods are entry points to the analyses built on it (same layer, above it)
