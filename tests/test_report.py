@@ -346,3 +346,17 @@ def test_the_page_frames_a_whole_replay_and_sets_dampers_beside_their_springs():
     d = content(vd.load_scene(MODELS / "quarter_car.toml").build()).drawing
     damper = next(i for i in d.items if i.node == "links/shock_absorber")
     assert abs(damper.matrix[0, 3]) > 0.03 * d.size  # beside the suspension spring's coil, not inside it
+
+
+def test_pictures_and_pages_refuse_bad_paths_and_amplitudes_clearly(tmp_path):
+    pytest.importorskip("matplotlib")
+    m = vd.load_scene(MODELS / "double_pendulum.toml").build().operating_point().linearize().modes()
+    with pytest.raises(vd.ModelError, match="no such directory"):
+        m.plot(str(tmp_path / "missing" / "m.png"))
+    with pytest.raises(vd.ModelError, match="is a directory"):
+        m.plot(str(tmp_path))
+    for bad in ("big", 1e308, -1.0, float("nan")):
+        with pytest.raises(vd.ModelError, match="amplitude"):
+            m.plot(amplitude=bad)
+        with pytest.raises(vd.ModelError, match="amplitude"):
+            vd.export_html(m, tmp_path / "m.html", amplitude=bad)

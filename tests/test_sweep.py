@@ -69,7 +69,7 @@ def test_store_resumes_without_recomputing(tmp_path):
     first = vd.sweep(examples.chain, {"k1": [800.0, 1000.0]}, store=store, progress=False)
     full = vd.sweep(examples.chain, {"k1": [800.0, 1000.0, 1200.0]}, store=store, progress=False)
     assert full.results[:2] == first.results  # elapsed too: read back, not recomputed
-    assert len(store.read_text().splitlines()) == 3
+    assert len(store.read_text().splitlines()) == 1 + 3  # the header (which sweep made it), then the points
     again = vd.sweep(examples.chain, {"k1": [800.0, 1000.0, 1200.0]}, store=store, progress=False)
     assert again.results == full.results
 
@@ -108,7 +108,7 @@ def test_ctrl_c_of_a_process_sweep_leaves_no_worker_and_resumes(tmp_path):
     alive = [w for w in workers if os.path.exists(f"/proc/{w}") and open(f"/proc/{w}/stat").read().split()[2] != "Z"]
     assert not alive, f"workers left behind: {alive}"
     done = {json.loads(line)["key"]: json.loads(line)["result"] for line in store.read_text().splitlines()
-            if line.strip().endswith("}")}
+            if line.strip().endswith("}") and '"key"' in line}
     assert 6 <= len(done) < 400
     sw = vd.sweep(examples.chain, {"k1": list(np.linspace(500, 1500, 400)), "n": [12.0]}, store=store,
                   progress=False)
@@ -189,3 +189,66 @@ def test_campbell_sweep_over_the_polar_inertia():
     crit = [r["outputs"]["critical_speeds"] for r in sw.results]
     for Ip, c in zip([0.12, 0.16], crit):
         assert c == pytest.approx([np.sqrt(300.0 / (0.08 + Ip))], rel=1e-8)
+
+
+
+def _fails_with_a_type_error(k1):
+    """A user's build that raises what vibdyn does not (here for one value)."""
+    if k1 > 900.0:
+        raise TypeError("unknown parameter")
+    return examples.chain(k1=k1)
+
+
+def _raises_runtime_error(k1):
+    raise RuntimeError("the user's own failure")
+
+
+def test_a_sweep_records_every_failure_of_a_point_and_goes_on(tmp_path):
+    """A build raising anything (a TypeError, a user's RuntimeError) is that point's failure, recorded with
+    its type and message; the other points run (on a million-point Dask sweep nothing is lost)."""
+    sw = vd.sweep(_fails_with_a_type_error, {"k1": [800.0, 1000.0]}, progress=False)
+    assert sw.ok.tolist() == [True, False]
+    assert sw.results[1]["status"] == "failed: TypeError: unknown parameter"
+    sw = vd.sweep(_raises_runtime_error, {"k1": [800.0]}, progress=False)
+    assert sw.results[0]["status"] == "failed: RuntimeError: the user's own failure"
+
+
+def test_sweep_stores_are_checked_before_any_work_and_never_mixed(tmp_path):
+    with pytest.raises(vd.ModelError, match="no such directory"):
+        vd.sweep(examples.chain, {"k1": [800.0]}, store=tmp_path / "missing" / "s.jsonl", progress=False)
+    store = tmp_path / "s.jsonl"
+    vd.sweep(examples.chain, {"k1": [800.0, 1000.0]}, store=store, progress=False)
+    # another analysis on the same store is refused, not answered with the old outputs
+    with pytest.raises(vd.ModelError, match="made by another sweep"):
+        vd.sweep(examples.chain, {"k1": [800.0, 1000.0]}, analysis="equilibrium", store=store, progress=False)
+    # a run cut mid-line: the next resume drops the cut line and appends cleanly after it
+    text = store.read_text()
+    store.write_text(text + '{"key": "{\\"k1\\": 1200.0}", "resu')
+    sw = vd.sweep(examples.chain, {"k1": [800.0, 1000.0, 1200.0]}, store=store, progress=False)
+    assert sw.ok.all()
+    again = vd.sweep(examples.chain, {"k1": [800.0, 1000.0, 1200.0]}, store=store, progress=False)
+    assert again.results == sw.results
+    # a record whose result is not one is named by its line
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text(store.read_text().splitlines()[0] + '\n{"key": "{}", "result": null}\n{"key": "x", "result": {}}\n')
+    with pytest.raises(vd.ModelError, match="line 2 is not a sweep record"):
+        vd.sweep(examples.chain, {"k1": [800.0]}, store=bad, progress=False)
+
+
+def test_a_lambda_build_for_processes_is_refused_with_the_reason():
+    with pytest.raises(vd.ModelError, match="cannot be sent to worker processes.*module level"):
+        vd.sweep(lambda k1: examples.chain(k1=k1), {"k1": [800.0]}, executor="processes", progress=False)
+
+
+def test_systems_and_modes_pickle_for_workers():
+    """A built System (and its results) goes to a process pool or a Dask worker: pickled and back, it computes
+    the same modes (its workspaces are made anew)."""
+    import pickle
+
+    system = examples.chain(k1=900.0).build()
+    m = system.linearize(system.neutral()).modes()
+    copy = pickle.loads(pickle.dumps(system))
+    assert np.array_equal(copy.linearize(copy.neutral()).modes().omega, m.omega)
+    assert np.array_equal(pickle.loads(pickle.dumps(m)).omega, m.omega)
+    with pytest.raises(AttributeError, match="immutable"):
+        copy.nv = 3

@@ -239,21 +239,24 @@ GLOSSARY = {
 }
 
 
-def modes(lin: Any, tolerance: float | None = None, *, rigid_only: bool = False) -> Modes:
+def modes(lin: Any, tolerance: float | None = None) -> Modes:
     """Modes of a :class:`vibdyn.analysis.linearize.LinearModel`.
 
     A mode is rigid (ω² cleaned to exactly 0) when |ω²| ≤ 10 × its own uncertainty δω² — the eigen
     residual ‖Kφ − ω²Mφ‖_M⁻¹ plus φᵀ(K's error estimate + n·ε·|K|)φ — so stiff spectra keep their genuine
     low modes. ``tolerance`` (relative to max|ω²|) overrides this with a fixed threshold.
 
-    ``rigid_only`` returns the rigid flags alone (the undamped problem solved, nothing else: what the check
-    below compares).
-
     A finite-difference model cannot tell a rigid mode from a soft one whose ω² is below its round-off
     (stiffness ratios ~1e12): when the "fd" model flags a rigid mode, the analytic model at the same point
     checks it; if that one resolves the mode, its modes are returned (``linear`` is then the analytic model)
     and ``note`` says so.
     """
+    return _modes(lin, tolerance)
+
+
+def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -> Any:
+    """:func:`modes`; with ``rigid_only``, the rigid flags alone (the undamped problem solved, nothing else:
+    what the check of a finite-difference model's rigid modes compares)."""
     start = time.perf_counter()
     if tolerance is not None:
         tolerance = scalar(tolerance, "modes tolerance", nonnegative=True)
@@ -300,9 +303,9 @@ def modes(lin: Any, tolerance: float | None = None, *, rigid_only: bool = False)
         rigid = abs_w2 <= 10 * uncertainty
         if lin.method == "fd" and np.count_nonzero(rigid):
             analytic = lin.relinearize("analytic")
-            exact_rigid = modes(analytic, rigid_only=True)  # (its undamped part only, to compare)
+            exact_rigid = _modes(analytic, rigid_only=True)  # (its undamped part only, to compare)
             if exact_rigid.sum() != rigid.sum():  # the analytic model resolves what FD could not
-                exact = modes(analytic)
+                exact = _modes(analytic)
                 why = (f"{int(rigid.sum() - exact.rigid.sum())} mode(s) unresolved by finite differences (ω² "
                        "within their round-off): modes from the analytic linear model")
                 return replace(exact, note="; ".join(x for x in (why, exact.note) if x))

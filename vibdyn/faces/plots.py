@@ -28,8 +28,22 @@ def figure(nrows=1, ncols=1, size=(7.0, 5.0), **kwargs):
 
 
 def save(fig, path, dpi=100):
+    """The figure, written as a PNG file at ``path`` first if given: a path that cannot be written (a missing
+    folder, a folder itself) is a ModelError naming it, found before matplotlib draws anything."""
     if path is not None:
-        fig.savefig(path, dpi=dpi, format="png")
+        from pathlib import Path
+
+        from ..errors import ModelError
+
+        p = Path(path)
+        if p.is_dir():
+            raise ModelError(f"picture {path}: is a directory, not a file name (give e.g. {p / 'modes.png'})")
+        if not p.parent.is_dir():
+            raise ModelError(f"picture {path}: no such directory '{p.parent}'")
+        try:
+            fig.savefig(p, dpi=dpi, format="png")
+        except OSError as e:
+            raise ModelError(f"picture {path}: cannot write: {e.strerror or e}") from None
     return fig
 
 

@@ -126,11 +126,18 @@ class System:
         object.__setattr__(self, name, value)
 
     def __getstate__(self):
+        """What a pickle keeps (a System goes to a process pool or a Dask worker): everything but the
+        workspaces (scratch: a copy makes its own); read-only tables as plain dicts."""
         state = dict(self.__dict__)
-        del state["_per_thread"]  # workspaces are scratch: a copy makes its own
+        del state["_per_thread"]
+        proxies = [key for key, value in state.items() if isinstance(value, MappingProxyType)]
+        state.update({key: dict(state[key]) for key in proxies}, _proxies=proxies)
         return state
 
     def __setstate__(self, state):
+        state = dict(state)
+        for key in state.pop("_proxies", ()):
+            state[key] = MappingProxyType(state[key])
         self.__dict__.update(state, _per_thread=PerThread())
 
     def workspace(self) -> Workspace:

@@ -23,7 +23,7 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import ModelError, VibdynError
+from ..errors import ModelError
 
 ANALYSES = ("modes", "equilibrium", "campbell")
 
@@ -90,7 +90,7 @@ def evaluate(build: Callable, point: dict, analysis, options: dict | None = None
             raise ModelError(f"sweep: build(**point) returned {type(obj).__name__}, not a Scene or System")
         out = _analyse(system, analysis, options or {})
         status = "ok"
-    except (VibdynError, ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
+    except Exception as e:  # noqa: BLE001 — any failure of one point (a user's build too) is that point's record
         out, status = {}, f"failed: {type(e).__name__}: {e}"
     return {"outputs": out, "elapsed": time.perf_counter() - start, "status": status}
 
@@ -344,8 +344,14 @@ def sweep(build: Callable, parameters: Any, analysis: Any = "modes", executor: A
         raise ModelError("sweep: build must be a callable(**parameters) -> Scene or System")
     if not callable(analysis) and analysis not in ANALYSES:
         raise ModelError(f"sweep: analysis must be one of {ANALYSES} or a callable(system) -> dict, got {analysis!r}")
+    if store is not None and not Path(store).parent.is_dir():  # found before any work, not after it
+        raise ModelError(f"sweep store {store}: no such directory '{Path(store).parent}'")
+    if executor == "processes":
+        _check_sendable(build, analysis)
     points, names = _grid(parameters)
-    done = _load_store(store)
+    header = {"sweep": {"analysis": analysis if isinstance(analysis, str) else _name(analysis),
+                        "build": _name(build), "options": _key(options or {})}}
+    done = _load_store(store, header)
     todo = [i for i, p in enumerate(points) if _key(p) not in done]
     results: dict[int, dict] = {i: done[_key(p)] for i, p in enumerate(points) if _key(p) in done}
     kind, run = _runner(executor, options)
@@ -354,7 +360,7 @@ def sweep(build: Callable, parameters: Any, analysis: Any = "modes", executor: A
     size = chunksize or max(1, min(64, len(todo) // (4 * _workers(executor)) or 1))
     chunks = [todo[k:k + size] for k in range(0, len(todo), size)]
     bar = _bar(progress, len(points), len(results))
-    sink = open(store, "a") if store is not None else None
+    sink = _open_store(store, header) if store is not None else None
     try:
         for idx, res in run(build, analysis, [[points[i] for i in c] for c in chunks], chunks):
             for i, r in zip(idx, res):
@@ -375,7 +381,29 @@ def sweep(build: Callable, parameters: Any, analysis: Any = "modes", executor: A
                  kind, time.perf_counter() - start, names)
 
 
-def _load_store(store) -> dict:
+def _name(fn) -> str:
+    """A callable's module-qualified name: what a store records of the build function and the analysis."""
+    return f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', type(fn).__name__)}"
+
+
+def _check_sendable(build, analysis):
+    """A process pool sends the build function (and a callable analysis) to its workers by pickle: refuse,
+    naming it, what cannot go (a lambda, a function defined inside another)."""
+    import pickle
+
+    for what, fn in (("build", build), ("analysis", analysis)):
+        if callable(fn):
+            try:
+                pickle.dumps(fn)
+            except Exception as e:  # noqa: BLE001 — pickling fails in many ways; each means the same here
+                raise ModelError(f"sweep: {what} {_name(fn)} cannot be sent to worker processes ({type(e).__name__}): "
+                                 "use a function defined at module level (not a lambda or a local function)") \
+                    from None
+
+
+def _load_store(store, header) -> dict:
+    """The finished points of a store (key -> result). Its first line says which sweep made it (analysis,
+    build function, options): another sweep's store is refused rather than silently reused."""
     if store is None:
         return {}
     path = Path(store)
@@ -388,12 +416,35 @@ def _load_store(store) -> dict:
             continue
         try:
             rec = json.loads(line)
-            done[rec["key"]] = rec["result"]
+            if "sweep" in rec:
+                if rec != header:
+                    raise ModelError(f"sweep store {path}: made by another sweep ({rec['sweep']}, this one is "
+                                     f"{header['sweep']}): give another file")
+                continue
+            result = rec["result"]
+            if not isinstance(result, dict) or not isinstance(result.get("status"), str):
+                raise TypeError("no result")
+            done[rec["key"]] = result
         except (json.JSONDecodeError, KeyError, TypeError):
-            if n == len(lines):  # a last line cut by an interruption: recompute it
+            if n == len(lines) and not path.read_text().endswith("\n"):  # cut by an interruption: recompute it
                 continue
             raise ModelError(f"sweep store {path}: line {n} is not a sweep record") from None
     return done
+
+
+def _open_store(store, header):
+    """The store for appending: a last line cut by an interruption is dropped first (its point is computed
+    again), and a new store starts with its header."""
+    path = Path(store)
+    if path.exists():
+        text = path.read_text()
+        if text and not text.endswith("\n"):
+            path.write_text(text[:text.rfind("\n") + 1])
+    new = not path.exists() or path.stat().st_size == 0
+    sink = open(path, "a")
+    if new:
+        sink.write(json.dumps(header) + "\n")
+    return sink
 
 
 def _workers(executor) -> int:

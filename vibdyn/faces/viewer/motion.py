@@ -107,9 +107,15 @@ def _phases(view, n=FRAMES):
 def scale(drawing, linear, view, amplitude=None, J=None):
     """The factor a: largest probe displacement = ``amplitude`` m (default 10 % of the scene size), joints
     turning at most 0.6 rad. ``J``: the probes' point Jacobian at the operating point, if known."""
-    target = 0.1 * drawing.size if amplitude is None else float(amplitude)
+    try:
+        target = 0.1 * drawing.size if amplitude is None else float(amplitude)
+    except (TypeError, ValueError):
+        raise ModelError(f"amplitude must be a positive length in m, got {amplitude!r}") from None
     if not np.isfinite(target) or target <= 0:
         raise ModelError(f"amplitude must be a positive length in m, got {amplitude!r}")
+    if target > 100 * drawing.size:  # a mode is a small motion: shown a hundred times the scene, it is noise
+        raise ModelError(f"amplitude {target:g} m is more than 100 times the scene's size ({drawing.size:.3g} m): "
+                         "give a displacement of the order of the scene")
     if J is None:
         J = linear.point_jacobian(drawing.probes) if drawing.probes else np.zeros((0, linear.nv))
     ph = np.exp(2j * np.pi * np.arange(8) / 8)
