@@ -33,7 +33,8 @@ __version__ = "0.1.0"
 _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.equilibrium": ("Equilibrium",),
     "analysis.linearize": ("LinearModel",),
-    "analysis.modal": ("Modes", "mac", "rayleigh"),
+    "analysis.modal": ("Modes", "rayleigh"),
+    "solvers.tracking": ("mac",),
     "analysis.response": ("FRF", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation", "Hysteretic",
                           "transmissibility"),
     "analysis.identify": ("fit_rayleigh", "log_decrement", "HalfPower", "LogDecrement", "RayleighFit"),

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike
 from .._check import finite_array
 from .._format import number
 from ..errors import ConvergenceError, ModelError
-from .modal import mac
+from ..solvers.tracking import mac, match
 
 
 @dataclass(frozen=True)
@@ -178,17 +178,9 @@ def campbell(system: Any, spin: str, speeds: ArrayLike, orders: ArrayLike = (1,)
 
 
 def _match(a: SpeedModes, b: SpeedModes, cols_a: np.ndarray) -> np.ndarray:
-    """Columns of b in the order of a's tracked columns: the assignment of largest total MAC (frequencies
-    break ties between degenerate shapes)."""
-    from scipy.optimize import linear_sum_assignment
-
-    A = a.shapes[:, cols_a]
-    score = np.reshape(mac(A, b.shapes), (A.shape[1], b.shapes.shape[1]))
-    fa, fb = a.frequencies[cols_a], b.frequencies
-    scale = max(np.abs(fa).max(initial=0.0), np.abs(fb).max(initial=0.0), 1e-300)
-    score = score - 1e-3 * np.abs(fa[:, None] - fb[None, :]) / scale
-    _, cols = linear_sum_assignment(-score)
-    return cols
+    """Columns of b in the order of a's tracked columns (:func:`vibdyn.solvers.tracking.match`: largest total
+    MAC, frequencies breaking ties between degenerate shapes)."""
+    return match(a.shapes[:, cols_a], b.shapes, a.frequencies[cols_a], b.frequencies)
 
 
 def _pick(refs, sm: SpeedModes) -> int:

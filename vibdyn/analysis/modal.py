@@ -19,6 +19,7 @@ from scipy.linalg import lapack
 from numpy.typing import ArrayLike
 
 from .._check import all_finite, scalar, vector3
+from ..solvers.tracking import mac  # noqa: F401  (vd.mac, and the modes' own use)
 from ..defaults import EPS
 from ..errors import ModelError
 
@@ -374,24 +375,6 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
 
 _NO_REAL, _NO_COMPLEX, _NO_BOOL = np.zeros(0), np.zeros(0, complex), np.zeros(0, bool)  # undamped: no state form
 _NO_REAL.flags.writeable = _NO_COMPLEX.flags.writeable = _NO_BOOL.flags.writeable = False
-
-
-def mac(a: ArrayLike, b: ArrayLike | None = None) -> np.ndarray | float:
-    """Modal assurance criterion MAC_ij = |a_iᴴ b_j|² / (a_iᴴ a_i · b_jᴴ b_j) between columns of a and b."""
-    from .._check import finite_array
-
-    a = finite_array(a, None, "mac: first shapes") if not np.iscomplexobj(a) else np.asarray(a)
-    b = a if b is None else (finite_array(b, None, "mac: second shapes") if not np.iscomplexobj(b) else np.asarray(b))
-    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
-        raise ModelError("mac: shapes contain NaN or inf")
-    a = a.reshape(a.shape[0], -1)
-    b = b.reshape(b.shape[0], -1)
-    if a.shape[0] != b.shape[0]:
-        raise ModelError(f"mac: shapes have {a.shape[0]} and {b.shape[0]} components")
-    num = np.abs(a.conj().T @ b) ** 2
-    den = np.outer(np.einsum("ij,ij->j", a.conj(), a).real, np.einsum("ij,ij->j", b.conj(), b).real)
-    out = num / np.where(den > 0, den, 1.0)
-    return out if out.size > 1 else float(out[0, 0])
 
 
 def rayleigh(zeta: ArrayLike, omega: ArrayLike) -> tuple[float, float]:

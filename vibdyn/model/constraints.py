@@ -5,7 +5,7 @@
 import numpy as np
 import pinocchio as pin
 
-from ..defaults import ASSEMBLY_TOL, RANK_RTOL
+from ..defaults import ASSEMBLY_TOL, EPS, RANK_RTOL
 from ..description.elements import WORLD
 from ..errors import ConvergenceError, ModelError
 
@@ -268,17 +268,21 @@ class Constraints:
 
     def close(self, q, dep, max_iter=20):
         """q on the loops by Gauss–Newton steps of the ``dep`` coordinates only (the others held): the chart
-        of the mechanism in its independent coordinates. Iterates while the residual falls (to round-off)."""
-        model = self.system.model
-        phi, J = self.evaluate(q)
-        res = np.abs(self.scaled_phi(phi)).max(initial=0.0)
-        for _ in range(max_iter):
-            q_new = pin.integrate(model, q, self.dependent_solution(J, -phi, dep))
-            phi_new, J_new = self.evaluate(q_new)
-            res_new = np.abs(self.scaled_phi(phi_new)).max(initial=0.0)
-            if not res_new < res:
-                break
-            q, phi, J, res = q_new, phi_new, J_new, res_new
+        of the mechanism in its independent coordinates, to round-off (:func:`vibdyn.solvers.newton.newton`
+        in the dimensionless metric, configurations moved by ``integrate``)."""
+        from ..solvers.newton import newton
+
+        model, nv, scale = self.system.model, self.system.nv, self.col_scale[dep]
+
+        def retract(qq, dx):
+            step = np.zeros(nv)
+            step[dep] = scale * dx
+            return pin.integrate(model, qq, step)
+
+        r = newton(lambda qq: self.scaled_phi(self.phi(qq)), q,
+                   lambda qq: self.row_scale[:, None] * self.jacobian(qq)[:, dep] * scale[None, :], retract,
+                   tol=16 * EPS, max_iter=max_iter, rcond=RANK_RTOL)
+        q, res = r.x, r.residual
         if res > ASSEMBLY_TOL:
             raise ConvergenceError(f"the loops cannot be closed by their dependent coordinates here (residual "
                                    f"{res:.3e}): the mechanism is at or near a singular position", residual=res,

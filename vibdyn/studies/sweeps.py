@@ -271,18 +271,14 @@ def track(values, shapes) -> Tracked:
     """Order each point's modes to follow the previous point's by largest total MAC (Hungarian assignment),
     then flag crossings (tracked curves swap their frequency order) and veerings (neighbouring curves come
     close, then exchange shapes without crossing)."""
-    from scipy.optimize import linear_sum_assignment
-
-    from ..analysis.modal import mac
+    from ..solvers.tracking import mac, match
 
     values = np.asarray(values, dtype=float)
     n, m = values.shape
     order = np.empty((n, m), dtype=int)
     order[0] = np.arange(m)
     for i in range(1, n):
-        prev = shapes[i - 1][:, order[i - 1]]
-        _, cols = linear_sum_assignment(-np.asarray(mac(prev, shapes[i])).reshape(m, m))
-        order[i] = cols
+        order[i] = match(shapes[i - 1][:, order[i - 1]], shapes[i])
     tv = np.take_along_axis(values, order, axis=1)
     ts = [s[:, o] for s, o in zip(shapes, order)]
     crossings, veerings = [], []

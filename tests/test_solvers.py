@@ -1,0 +1,72 @@
+"""The solver kit (issue 23): Newton on a manifold, pseudo-arclength continuation through folds, mode
+tracking by MAC — against closed forms."""
+
+import math
+
+import numpy as np
+import pytest
+
+import vibdyn as vd
+from vibdyn.solvers.continuation import continuation
+from vibdyn.solvers.newton import newton
+from vibdyn.solvers.tracking import mac, match
+
+
+def test_newton_solves_square_singular_and_manifold_problems():
+    # a square system (a circle of radius 2 and the diagonal) from afar, its steps capped and searched
+    r = newton(lambda x: np.array([x[0] ** 2 + x[1] ** 2 - 4.0, x[0] - x[1]]), [10.0, 0.1], max_step=1.0,
+               tol=1e-12)
+    assert r.converged and np.allclose(r.x, [math.sqrt(2)] * 2, atol=1e-12) and r.iterations < 20
+    # under-determined: the minimum-norm step lands on the closest solution, (1, 1) of x + y = 2 from 0
+    r = newton(lambda x: np.array([x[0] + x[1] - 2.0]), [0.0, 0.0])
+    assert r.converged and np.allclose(r.x, [1.0, 1.0])
+    # on a manifold: the angle θ on the unit circle where (cos θ, sin θ) is closest to (1, 1) (a tangent
+    # step on S¹ retracted by rotation), from (1, 0)
+    def retract(p, d):
+        c, s = math.cos(d[0]), math.sin(d[0])
+        return np.array([c * p[0] - s * p[1], s * p[0] + c * p[1]])
+
+    r = newton(lambda p: np.array([p[0] - p[1]]), np.array([1.0, 0.0]),
+               lambda p: np.array([[-p[1] - p[0]]]), retract)
+    assert r.converged and np.allclose(r.x, [math.sqrt(0.5)] * 2) and abs(np.linalg.norm(r.x) - 1) < 1e-15
+    with pytest.raises(vd.ConvergenceError, match="Newton"):
+        newton(lambda x: np.array([x[0] ** 2 + 1.0]), [1.0], raise_on_failure=True)
+
+
+def test_continuation_follows_an_s_curve_through_both_folds():
+    """x³ − x − λ = 0 from λ = −1 (x ≈ −1.32) to λ = 1: the branch turns at the folds x = ±1/√3,
+    λ = ∓2/(3√3), located exactly; every point is on the curve; the end is at λ = 1 exactly."""
+    br = continuation(lambda x, lam: np.array([x[0] ** 3 - x[0] - lam]), [-1.3], -1.0, 1.0, step=0.05,
+                      jacobian=lambda x, lam: np.array([[3 * x[0] ** 2 - 1.0, -1.0]]))
+    assert br.status == "finished" and br.lam[-1] == 1.0
+    assert np.abs(br.x[:, 0] ** 3 - br.x[:, 0] - br.lam).max() <= 1e-10
+    assert len(br.folds) == 2
+    f = sorted(br.folds, key=lambda f: f.lam)
+    c = 2 / (3 * math.sqrt(3))
+    assert f[0].lam == pytest.approx(-c, abs=1e-10) and f[0].x[0] == pytest.approx(1 / math.sqrt(3), abs=1e-8)
+    assert f[1].lam == pytest.approx(c, abs=1e-10) and f[1].x[0] == pytest.approx(-1 / math.sqrt(3), abs=1e-8)
+    assert br.x[-1, 0] == pytest.approx(1.3247179572447460, abs=1e-10)  # the real root of x³ − x − 1
+    # without a Jacobian (central differences) and with a stop request
+    br = continuation(lambda x, lam: np.array([x[0] ** 3 - x[0] - lam]), [-1.3], -1.0, 1.0, step=0.05,
+                      stop=lambda x, lam: x[0] > 0.0)
+    assert br.status == "stopped" and br.x[-1, 0] > 0 and len(br.folds) == 1
+
+
+def test_continuation_round_a_circle_finds_its_two_folds():
+    """x² + λ² = 1 from (0, −1) towards λ = 2 (never reached): it goes round through the folds at λ = ±1."""
+    br = continuation(lambda x, lam: np.array([x[0] ** 2 + lam ** 2 - 1.0]), [0.99], 0.0, 2.0, step=0.1,
+                      max_steps=80)
+    assert br.status == "stopped"
+    lams = sorted(f.lam for f in br.folds)
+    assert lams[0] == pytest.approx(-1.0, abs=1e-10) and lams[-1] == pytest.approx(1.0, abs=1e-10)
+
+
+def test_mode_tracking_recovers_a_permutation_and_breaks_ties_by_frequency():
+    rng = np.random.default_rng(1)
+    shapes = np.linalg.qr(rng.standard_normal((6, 6)))[0]
+    perm = np.array([3, 0, 5, 1, 4, 2])
+    assert np.array_equal(match(shapes, shapes[:, perm] * (1 + 0.01 * rng.standard_normal(6))), np.argsort(perm))
+    # two identical shapes (a degenerate pair): the frequencies decide
+    a = np.array([[1.0, 1.0], [0.0, 0.0]])
+    assert list(match(a, a[:, ::-1], [1.0, 2.0], [2.0, 1.0])) == [1, 0]
+    assert mac(np.array([1.0, 0.0]), np.array([0.0, 1.0])) == 0.0 and vd.mac is mac

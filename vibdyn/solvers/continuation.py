@@ -1,0 +1,154 @@
+"""Pseudo-arclength continuation of a branch of solutions of F(x, λ) = 0 (x ∈ ℝⁿ, λ a parameter), through its
+folds: predictor along the tangent, Newton corrector on the bordered system [F; tᵀ(y − y_pred)] = 0
+(:mod:`.newton`), step control by the corrector's iterations, and each fold (λ extremal along the branch:
+the tangent's λ component changes sign) located by Newton on its defining system F = 0, F_x v = 0, v·v₀ = 1.
+What follows branches — Campbell's critical speeds, backbones, forced-response curves — uses this one.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ModelError
+from .newton import fd_jacobian, newton
+
+
+@dataclass(frozen=True)
+class Fold:
+    """A fold (turning point) of a branch: ``x``, ``lam`` there, ``index`` the branch point after which it
+    lies, ``residual`` of its defining system."""
+
+    x: np.ndarray
+    lam: float
+    index: int
+    residual: float
+
+
+@dataclass(frozen=True)
+class Branch:
+    """A continued branch: points ``x`` (k × n) and ``lam`` (k), the arclength ``s`` at each (in the scaled
+    variables), ``folds``, ``status`` ("finished": λ reached ``lam_end``; "stopped": a ``stop`` condition
+    or the step limit; "failed": the corrector could not go on), ``message``, ``steps``, ``rejected``,
+    ``elapsed`` (s), and ``residual`` the largest ‖F‖_∞ over its points."""
+
+    x: np.ndarray
+    lam: np.ndarray
+    s: np.ndarray
+    folds: list = field(default_factory=list)
+    status: str = "finished"
+    message: str = ""
+    steps: int = 0
+    rejected: int = 0
+    elapsed: float = 0.0
+    residual: float = 0.0
+
+
+def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, step: float = 0.05,
+                 jacobian: Callable | None = None, tol: float = 1e-10, max_steps: int = 2000,
+                 min_step: float = 1e-9, max_step: float | None = None, scale: np.ndarray | None = None,
+                 stop: Callable | None = None) -> Branch:
+    """Follow the branch of F(x, λ) = 0 from (x0, lam0) (x0 corrected first at λ = lam0) towards λ = lam_end.
+
+    ``fun(x, lam)`` → ℝⁿ; ``jacobian(x, lam)`` → n × (n + 1) = [F_x, F_λ] (central differences if None);
+    ``step``: the first arclength step, in the variables scaled by ``scale`` (n + 1 positive numbers, default
+    1: what "one unit" of each means), grown ×1.5 after an easy correction, halved after a failed one, at
+    most ``max_step``; ``stop(x, lam)`` → True ends the branch there (a request reached). The point where λ
+    crosses lam_end is solved exactly (its last point has λ = lam_end)."""
+    start = time.perf_counter()
+    x0 = np.asarray(x0, dtype=float)
+    n = x0.size
+    w = np.ones(n + 1) if scale is None else np.asarray(scale, dtype=float)
+    if w.shape != (n + 1,) or not np.all(w > 0):
+        raise ModelError(f"continuation: scale must be {n + 1} positive numbers (x then λ)")
+    lam0, lam_end = float(lam0), float(lam_end)
+    if lam_end == lam0:
+        raise ModelError("continuation: lam_end must differ from lam0")
+    max_step = max_step or 20 * step
+
+    def F(y):  # in scaled variables
+        return np.asarray(fun(y[:n] * w[:n], y[n] * w[n]), float)
+
+    def J(y):
+        if jacobian is not None:
+            return np.asarray(jacobian(y[:n] * w[:n], y[n] * w[n]), float).reshape(n, n + 1) * w[None, :]
+        return fd_jacobian(F, y)
+
+    first = newton(lambda x: F(np.append(x, lam0 / w[n])), x0 / w[:n],
+                   lambda x: J(np.append(x, lam0 / w[n]))[:, :n], tol=tol)
+    if not first.converged:
+        return Branch(np.zeros((0, n)), np.zeros(0), np.zeros(0), [], "failed",
+                      f"no solution at λ = {lam0:g} near x0: {first.message}", 0, 0, time.perf_counter() - start,
+                      first.residual)
+    y = np.append(first.x, lam0 / w[n])
+    t = _tangent(J(y), None, np.sign(lam_end - lam0))
+    ys, ss, folds = [y.copy()], [0.0], []
+    h, steps, rejected, status, message = step, 0, 0, "finished", f"reached λ = {lam_end:g}"
+    residual = first.residual
+    while True:
+        if steps >= max_steps:
+            status, message = "stopped", f"{max_steps} steps taken before λ = {lam_end:g}"
+            break
+        yp = y + h * t
+        corr = newton(lambda z: np.append(F(z), t @ (z - yp)), yp,
+                      lambda z: np.vstack([J(z), t]), tol=tol, max_iter=8)
+        if not corr.converged:
+            h *= 0.5
+            rejected += 1
+            if h < min_step:
+                status, message = "failed", (f"the corrector could not go on at λ = {y[n] * w[n]:.10g} (step "
+                                             f"{h:.1e}): a branch point, or a singular Jacobian")
+                break
+            continue
+        y_new = corr.x
+        t_new = _tangent(J(y_new), t, None)
+        steps += 1
+        lam_old, lam_new = y[n] * w[n], y_new[n] * w[n]
+        if t[n] * t_new[n] < 0:  # λ turned back: a fold between the two points
+            folds.append(_fold(F, J, y, y_new, t, w, n, len(ys) - 1, tol))
+        crossed = (lam_new - lam_end) * (lam_old - lam_end) <= 0 and lam_new != lam_old
+        if crossed:  # solve the end point exactly: λ = lam_end, x on the branch between
+            end = newton(lambda x: F(np.append(x, lam_end / w[n])), y_new[:n],
+                         lambda x: J(np.append(x, lam_end / w[n]))[:, :n], tol=tol)
+            y_new = np.append(end.x, lam_end / w[n])
+        ys.append(y_new.copy())
+        ss.append(ss[-1] + float(np.linalg.norm(y_new - y)))
+        residual = max(residual, corr.residual)
+        y, t = y_new, t_new
+        if crossed:
+            break
+        if stop is not None and stop(y[:n] * w[:n], y[n] * w[n]):
+            status, message = "stopped", f"stopped on request at λ = {y[n] * w[n]:.10g}"
+            break
+        if corr.iterations <= 3:
+            h = min(1.5 * h, max_step)
+    Y = np.array(ys)
+    return Branch(Y[:, :n] * w[:n], Y[:, n] * w[n], np.array(ss), folds, status, message, steps, rejected,
+                  time.perf_counter() - start, residual)
+
+
+def _tangent(Jy, previous, lam_sign):
+    """The unit null vector of the n × (n + 1) Jacobian, oriented along the previous tangent (or with the
+    sign of λ's direction at the start)."""
+    t = np.linalg.svd(Jy)[2][-1]
+    if previous is not None:
+        return t if t @ previous >= 0 else -t
+    return t if t[-1] * lam_sign >= 0 else -t
+
+
+def _fold(F, J, ya, yb, t, w, n, index, tol):
+    """The fold between branch points ya and yb: Newton on F(x, λ) = 0, F_x v = 0, v·v₀ = 1 (v₀ the tangent's x
+    part, a good approximation of the null vector near the fold), from their midpoint."""
+    v0 = t[:n] / max(np.linalg.norm(t[:n]), 1e-300)
+    z0 = np.concatenate([0.5 * (ya + yb), v0])
+
+    def G(z):
+        y, v = z[:n + 1], z[n + 1:]
+        return np.concatenate([F(y), J(y)[:, :n] @ v, [v @ v0 - 1.0]])
+
+    res = newton(G, z0, tol=tol, max_iter=30)
+    y = res.x[:n + 1]
+    return Fold(y[:n] * w[:n], float(y[n] * w[n]), index, res.residual)
