@@ -54,6 +54,17 @@ class Joint:
     units: ClassVar[tuple[str, ...]] = ()  # "m" or "rad" per coordinate
     #: per coordinate: an angle whose q is the angle itself, so that q and q ± 2π are the same pose
     periodic: ClassVar[tuple[bool, ...]] = ()
+    # What the rest of vibdyn asks of a joint type, declared here (a new type is this module's class alone):
+    #: names of the components of q (default: the coordinates' suffixes, nq = nv)
+    q_names: ClassVar[tuple[str, ...] | None] = None
+    #: (offset, size) within the joint's q of a block kept at unit norm (a quaternion, a (cos, sin) pair)
+    unit_block: ClassVar[tuple[int, int] | None] = None
+    #: tangent components that are rotations of a curved (Lie-group) joint, whose chart holds only so far
+    chart_rotations: ClassVar[tuple[int, ...]] = ()
+    #: the Lie group of a curved joint ("SO3", "SE3", "SE2": the symplectic integrator's coadjoint), or None
+    group: ClassVar[str | None] = None
+    #: a joint spring with one stiffness gives the torque −kφ exactly (no Jacobian of the difference)
+    isotropic_spring: ClassVar[bool] = False
     problem = None  # what is wrong with the parameters (str), reported when the joint joins a scene
 
     def __post_init__(self):
@@ -104,6 +115,21 @@ class Joint:
     @property
     def nv(self):
         return len(self.suffixes)
+
+    @property
+    def nq(self):
+        return self.nv if self.q_names is None else len(self.q_names)
+
+    @property
+    def scalar(self):
+        """One coordinate, q the coordinate itself (pivot, slider, helical): what a servo, a cubic spring or a
+        drive acts on."""
+        return self.nv == 1 and self.nq == 1
+
+    def markers(self):
+        """How a viewer marks the joint: [(shape, axis)] with shape "cylinder" (a turning axis), "box" (a
+        sliding one) or "sphere" (axis None); default a sphere."""
+        return [("sphere", None)]
 
     def pin_model(self):
         raise NotImplementedError
@@ -177,6 +203,9 @@ class Pivot(_AxisJoint):
     periodic = (True,)
     _positional = ("axis",)
 
+    def markers(self):
+        return [("cylinder", self.axis)]
+
     def pin_model(self):
         return self._specialised((pin.JointModelRX, pin.JointModelRY, pin.JointModelRZ,
                                   pin.JointModelRevoluteUnaligned))
@@ -193,6 +222,9 @@ class Slider(_AxisJoint):
     suffixes = ("",)
     units = ("m",)
     _positional = ("axis",)
+
+    def markers(self):
+        return [("box", self.axis)]
 
     def pin_model(self):
         return self._specialised((pin.JointModelPX, pin.JointModelPY, pin.JointModelPZ,
@@ -214,6 +246,9 @@ class Helical(_AxisJoint):
     suffixes = ("",)
     units = ("rad",)
     _positional = ("axis", "pitch")
+
+    def markers(self):
+        return [("cylinder", self.axis)]
 
     def _check(self):
         super()._check()
@@ -256,6 +291,9 @@ class Cylindrical(_AxisJoint):
     suffixes = (".s", ".theta")
     units = ("m", "rad")
     periodic = (False, True)
+
+    def markers(self):
+        return [("cylinder", self.axis)]
     _positional = ("axis",)
 
     def pin_model(self):
@@ -278,6 +316,9 @@ class Universal(Joint):
     suffixes = (".theta1", ".theta2")
     units = ("rad", "rad")
     periodic = (True, True)
+
+    def markers(self):
+        return [("cylinder", self.axis1), ("cylinder", self.axis2)]
     _positional = ("axis1", "axis2")
 
     def _check(self):
@@ -310,6 +351,10 @@ class Planar(Joint):
     file_required = ("normal",)
     suffixes = (".x", ".y", ".theta")
     units = ("m", "m", "rad")
+    q_names = ("x", "y", "cos", "sin")
+    unit_block = (2, 2)
+    chart_rotations = (2,)
+    group = "SE2"
     _positional = ("normal",)
 
     def _check(self):
@@ -339,6 +384,11 @@ class Ball(Joint):
     kind = "ball"
     suffixes = (".rx", ".ry", ".rz")
     units = ("rad", "rad", "rad")
+    q_names = ("qx", "qy", "qz", "qw")
+    unit_block = (0, 4)
+    chart_rotations = (0, 1, 2)
+    group = "SO3"
+    isotropic_spring = True
     _positional = ()
 
     def pin_model(self):
@@ -353,6 +403,10 @@ class Free(Joint):
     kind = "free"
     suffixes = (".x", ".y", ".z", ".rx", ".ry", ".rz")
     units = ("m", "m", "m", "rad", "rad", "rad")
+    q_names = ("x", "y", "z", "qx", "qy", "qz", "qw")
+    unit_block = (3, 4)
+    chart_rotations = (3, 4, 5)
+    group = "SE3"
     _positional = ()
 
     def pin_model(self):
@@ -373,6 +427,14 @@ class Fixed(Joint):
 
 
 KINDS = {cls.kind: cls for cls in (Pivot, Slider, Helical, Cylindrical, Universal, Planar, Ball, Free, Fixed)}
+
+
+def joint_type(cls):
+    """Declare a joint type (a subclass of :class:`Joint`, frozen dataclass): positional arguments as
+    ``_positional`` says, and its ``kind`` known to scene files. A new type is its class, here or anywhere."""
+    cls = _ordered(cls)
+    KINDS[cls.kind] = cls
+    return cls
 
 
 def from_dict(d, what="joint"):

@@ -268,7 +268,7 @@ def add_servo(scene, stiffness, damping=0.0):
     if not isinstance(start, dict):
         start = dict(zip((n for b in scene.bodies.values() for n in b.coordinates), start))
     for body in list(scene.bodies.values()):
-        if body.joint.nv != 1 or body.joint.kind not in ("pivot", "slider", "helical"):
+        if not body.joint.scalar:
             continue
         (coordinate,) = body.coordinates
         scene.add_joint_spring(body.name, k, rest=start.get(coordinate, 0.0), name=f"{coordinate}.servo_spring")

@@ -176,9 +176,8 @@ class System:
         self.workspace()  # the first workspace now: a scene too large for memory is refused at build time
         self.nq, self.nv = self.model.nq, self.model.nv
         # unit quaternions (ball, free) and unit (cos, sin) pairs (planar) that q must hold
-        self._unit_blocks = tuple((b.name, b.idx_q + b.nq - n, n) for b in self.body_infos.values()
-                                  if b.joint.kind in ("ball", "free", "planar")
-                                  for n in [2 if b.joint.kind == "planar" else 4])
+        self._unit_blocks = tuple((b.name, b.idx_q + b.joint.unit_block[0], b.joint.unit_block[1])
+                                  for b in self.body_infos.values() if b.joint.unit_block is not None)
         self.coordinates = tuple(c for b in self.body_infos.values() for c in b.coordinates)
         self.units = tuple(u for b in self.body_infos.values() for u in b.joint.units)  # "m" or "rad"
         self.bodies = tuple(self.body_infos)

@@ -246,13 +246,11 @@ class Trajectory(TimeResult):
 
 
 def q_names(system):
-    """A name for each configuration component: the coordinate for vector joints; x, y, z, qx, qy, qz,
-    qw (free), qx … qw (ball), x, y, cos, sin (planar)."""
-    parts = {"ball": ("qx", "qy", "qz", "qw"), "free": ("x", "y", "z", "qx", "qy", "qz", "qw"),
-             "planar": ("x", "y", "cos", "sin")}
+    """A name for each configuration component: the coordinate for vector joints; the joint type's own
+    ``q_names`` otherwise (x, y, z, qx, qy, qz, qw for a free joint; qx … qw a ball; x, y, cos, sin planar)."""
     names = []
     for b in system.body_infos.values():
-        names += [f"{b.name}.{p}" for p in parts[b.joint.kind]] if b.joint.kind in parts else list(b.coordinates)
+        names += list(b.coordinates) if b.joint.q_names is None else [f"{b.name}.{p}" for p in b.joint.q_names]
     return names
 
 

@@ -68,7 +68,7 @@ class CubicJointSpring(ElementKind):
         b = scene.joint_body(body, "cubic joint spring")
         name = name or f"{b.name}.cubic_spring"
         what = f"cubic joint spring '{name}'"
-        if b.joint.nv != 1 or b.joint.kind not in ("pivot", "slider", "helical"):
+        if not b.joint.scalar:
             raise ModelError(f"{what}: acts on one-coordinate joints (pivot, slider, helical); '{b.name}' has a "
                              f"{b.joint.kind} joint")
         scene.check_new_name(name, "element")

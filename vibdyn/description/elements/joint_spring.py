@@ -65,7 +65,7 @@ class _Layer(Group):
             iv += list(range(b.idx_v, b.idx_v + b.nv))
             k += list(e.stiffness)
             # SE(2)/SE(3) joints and anisotropic ball springs need the Jacobian of the difference
-            if b.nq != b.nv and (b.joint.kind != "ball" or len(set(e.stiffness)) > 1):
+            if b.nq != b.nv and (not b.joint.isotropic_spring or len(set(e.stiffness)) > 1):
                 curved.append(len(iv) - b.nv + np.arange(b.nv))
         self.iv, self.k = np.array(iv), np.array(k)
         self.model = model

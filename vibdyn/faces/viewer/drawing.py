@@ -340,19 +340,20 @@ def _shape_items(node, name, sh, com, color):
 
 
 def _joint_items(node, joint, r):
-    kind = joint.kind
-    M = np.eye(4)
-    if kind in ("pivot", "helical", "cylindrical"):
-        A = _placement(rotation_z_to(np.asarray(joint.axis)), np.zeros(3))
-        return [Item(node, "joint", cylinder_geometry(r, 4 * r), phong(JOINT_COLOR), A @ Y_TO_Z)]
-    if kind == "slider":
-        A = _placement(rotation_z_to(np.asarray(joint.axis)), np.zeros(3))
-        return [Item(node, "joint", box_geometry((0.6 * r, 0.6 * r, 8 * r)), phong(JOINT_COLOR), A)]
-    if kind == "universal":
-        return [Item(node, f"joint{k}", cylinder_geometry(0.7 * r, 4 * r), phong(JOINT_COLOR),
-                     _placement(rotation_z_to(np.asarray(a)), np.zeros(3)) @ Y_TO_Z)
-                for k, a in enumerate((joint.axis1, joint.axis2))]
-    return [Item(node, "joint", sphere_geometry(1.3 * r), phong(JOINT_COLOR), M)]
+    """The joint's markers (its type says which: :meth:`vibdyn.description.joints.Joint.markers`)."""
+    markers = joint.markers()
+    items = []
+    for k, (shape, axis) in enumerate(markers):
+        name = "joint" if len(markers) == 1 else f"joint{k}"
+        A = np.eye(4) if axis is None else _placement(rotation_z_to(np.asarray(axis, float)), np.zeros(3))
+        if shape == "cylinder":
+            width = r if len(markers) == 1 else 0.7 * r
+            items.append(Item(node, name, cylinder_geometry(width, 4 * r), phong(JOINT_COLOR), A @ Y_TO_Z))
+        elif shape == "box":
+            items.append(Item(node, name, box_geometry((0.6 * r, 0.6 * r, 8 * r)), phong(JOINT_COLOR), A))
+        else:
+            items.append(Item(node, name, sphere_geometry(1.3 * r), phong(JOINT_COLOR), A))
+    return items
 
 
 def mesh_geometry(path):

@@ -26,8 +26,6 @@ from ...model.derivatives import linear_terms
 
 ARG1 = pin.ArgumentPosition.ARG1
 
-# rotational tangent components of the curved joints (where a chart's validity is limited)
-_ROTATIONS = {"ball": (0, 1, 2), "free": (3, 4, 5), "planar": (2,)}
 
 
 def make_ode(system, q0, v0, work=False, variational=False):
@@ -130,8 +128,9 @@ class ChartODE(VectorODE):
 
     def __init__(self, system, work=False):
         super().__init__(system, work)
-        curved = [b for b in system.body_infos.values() if b.joint.kind in _ROTATIONS]
-        self.rotations = np.array([b.idx_v + i for b in curved for i in _ROTATIONS[b.joint.kind]], dtype=int)
+        # rotational tangent components of the curved joints (where a chart's validity is limited)
+        curved = [b for b in system.body_infos.values() if b.joint.chart_rotations]
+        self.rotations = np.array([b.idx_v + i for b in curved for i in b.joint.chart_rotations], dtype=int)
         self.curved_columns = np.array([b.idx_v + i for b in curved for i in range(b.nv)], dtype=int)
         self.centre = None
 

@@ -44,12 +44,12 @@ class AdStar:
     μ = (f, n): (f × ω, f × v + n × ω); on SE(2) the same restricted to the plane."""
 
     def __init__(self, system):
-        def blocks(kind, width):
-            return np.array([b.idx_v + np.arange(width) for b in system.body_infos.values() if b.joint.kind == kind],
+        def blocks(group, width):
+            return np.array([b.idx_v + np.arange(width) for b in system.body_infos.values() if b.joint.group == group],
                             dtype=int).reshape(-1, width)
 
         self.nv = system.nv
-        self.ball, self.free, self.planar = blocks("ball", 3), blocks("free", 6), blocks("planar", 3)
+        self.ball, self.free, self.planar = blocks("SO3", 3), blocks("SE3", 6), blocks("SE2", 3)
 
     def __call__(self, u, mu):
         out = np.zeros(self.nv)
