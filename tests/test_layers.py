@@ -286,8 +286,8 @@ def test_the_shared_force_machinery_is_defined_in_the_model_layer():
     import vibdyn.model.groups as groups
     import vibdyn.model.points as points
 
-    for cls in (points.Kinematics, points.PointSet, points.ScatteredPoints, groups.Group, groups.TwoPoint):
+    for cls in (points.Kinematics, points.PointSet, points.ScatteredPoints, groups.ForceGroup, groups.TwoPoint):
         assert cls.__module__ in ("vibdyn.model.points", "vibdyn.model.groups"), cls
-    assert elements.Kinematics is points.Kinematics and elements.Group is groups.Group
+    assert elements.Kinematics is points.Kinematics and elements.ForceGroup is groups.ForceGroup
     assert "Kinematics" not in MODULES["vibdyn.description.elements.base"].read_text()
     assert not [t for t in all_imports(MODULES["vibdyn.model.dynamics"]) if t.startswith("vibdyn.description")]

@@ -31,7 +31,7 @@ __version__ = "0.1.0"
 
 # public names loaded on first use (the user's third rule: a scene pays only for what it uses)
 _WHERE = {  # module (relative to vibdyn) -> the public names it defines
-    "analysis.equilibrium": ("Equilibrium",),
+    "analysis.equilibrium": ("OperatingPoint", "Equilibrium"),
     "analysis.linearize": ("LinearModel",),
     "analysis.modal": ("Modes", "rayleigh"),
     "solvers.tracking": ("mac",),
@@ -125,7 +125,7 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "ConvergenceError", "SceneFileError", "VibdynError", "load_scene", "load_robot", "load_urdf",
            "load_mjcf", "add_servo", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
            "transmissibility", "fit_rayleigh", "log_decrement", "Trajectory", "SimulationError",
-           "LinearModel", "Modes", "Equilibrium", "TimeResult", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",
+           "LinearModel", "Modes", "OperatingPoint", "Equilibrium", "TimeResult", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",
            "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html",
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples"]

@@ -203,7 +203,7 @@ def _speed_modes(system, spin: str, speed: float, q0, method: str) -> SpeedModes
         lam, shapes, lam_err = m.damped_eigenvalues, m.complex_shapes, m.eigenvalue_error
     else:  # undamped and not gyroscopic: real modes, λ = ±iω (or ±ω when unstable)
         lam = np.where(m.unstable, m.omega + 0j, 1j * m.omega)
-        shapes, lam_err = m.shapes.astype(complex), m.residual
+        shapes, lam_err = m.shapes.astype(complex), m.omega_error
     # a cyclic coordinate's double zero is a Jordan block: round-off δ in M⁻¹K splits it by ±√δ, with
     # δ ≈ ε·max|λ|², so frequencies below 10·√ε·max|λ| are that split, not an oscillation
     zero = max(m.zero_threshold, 10 * np.sqrt(np.finfo(float).eps) * np.abs(lam).max(initial=0.0))

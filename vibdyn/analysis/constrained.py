@@ -17,7 +17,7 @@ from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
 from ..model.fd import differences, displaced_vectors, steps, tangent_derivative, vector_derivative
-from .equilibrium import Equilibrium
+from .equilibrium import OperatingPoint
 from .linearize import LinearModel, fd_error, reference_state, tree_linearize
 from .modal import modes as _modes
 
@@ -29,7 +29,7 @@ def _constraints(system):
 
 
 @dataclass(frozen=True, eq=False)
-class LoopEquilibrium(Equilibrium):
+class LoopEquilibrium(OperatingPoint):
     """An equilibrium of a mechanism with loops: also its loop forces.
 
     ``multipliers``: λ per loop equation (N or N·m, see :mod:`vibdyn.analysis.constrained`); ``loop_forces``: the same

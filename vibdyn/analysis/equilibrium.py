@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 
 
 @dataclass(frozen=True, eq=False)
-class Equilibrium:
+class OperatingPoint:
     """An equilibrium (``kind`` "static"), steady motion ("steady") or configuration held by drives
     ("held", :func:`held`) of a system.
 
@@ -62,7 +62,7 @@ class Equilibrium:
     def __repr__(self):
         from .._format import duration, number, summary
 
-        return summary("Equilibrium", self.kind, self.stability, f"residual {number(self.residual, digits=2)}",
+        return summary("OperatingPoint", self.kind, self.stability, f"residual {number(self.residual, digits=2)}",
                        f"{self.iterations} iterations" if self.kind != "held" else "",
                        f"speeds {self.speeds}" if self.speeds else "", duration(self.elapsed))
 
@@ -103,6 +103,9 @@ class Equilibrium:
             rows.append(row)
         return "\n".join([head] + ["  " + line for line in table(cols, rows)])
 
+
+
+Equilibrium = OperatingPoint  # (the former name: a static equilibrium is one kind of operating point)
 
 def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
     """Static equilibrium near ``q0`` (neutral if None): Newton with line search; least-squares steps where
@@ -263,7 +266,7 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
 
 def _finish(system, q, v, t, kind, residual, tolerance, iterations, ignore_zeros, speeds, drive, start,
             travel=0.0):
-    """The Equilibrium at (q, v): its stability from the modes of the linear model (a = 0), and the error
+    """The OperatingPoint at (q, v): its stability from the modes of the linear model (a = 0), and the error
     of its offsets: |K⁺| × the remaining forces, and along rigid (neutral) directions, where any offset is an
     equilibrium, the drift of a search that travelled ``travel`` (m or rad) with a Jacobian differenced to a
     relative √eps."""
@@ -277,7 +280,7 @@ def _finish(system, q, v, t, kind, residual, tolerance, iterations, ignore_zeros
         if m.rigid.any():
             P = np.abs(m.shapes[:, m.rigid] @ (m.shapes[:, m.rigid].T @ lin.M))  # M-projector on rigid modes
             q_error = q_error + np.sqrt(np.finfo(float).eps) * travel * P.sum(axis=1)
-    return Equilibrium(system, q, v, float(t), kind, residual, tolerance, iterations, stability, speeds, drive,
+    return OperatingPoint(system, q, v, float(t), kind, residual, tolerance, iterations, stability, speeds, drive,
                        time.perf_counter() - start, m, q_error)
 
 

@@ -48,7 +48,7 @@ class Modes:
     shapes: np.ndarray  # nv × n, φᵀ M φ = 1
     rigid: np.ndarray
     unstable: np.ndarray
-    residual: np.ndarray  # estimated relative error of ω per mode (eigen residual + K's error)
+    omega_error: np.ndarray  # estimated relative error of ω per mode (eigen residual + K's error)
     zero_threshold: float  # 1/s: state eigenvalues this small count as rigid/cyclic
     # damped / non-symmetric part (state form); empty when the model is undamped and symmetric
     eigenvalues: np.ndarray  # all 2nv state eigenvalues (1/s), sorted by |Im|, then Re
@@ -99,6 +99,11 @@ class Modes:
         return self._products[2]
 
     @property
+    def residual(self) -> np.ndarray:
+        """The former name of :attr:`omega_error` (a relative error of ω, not a residual): kept for old code."""
+        return self.omega_error
+
+    @property
     def frequency_hz(self):
         return self.omega / (2 * np.pi)
 
@@ -113,8 +118,8 @@ class Modes:
     @property
     def error(self):
         """Largest estimated relative error of the frequencies and damped eigenvalues (per mode:
-        ``residual`` and ``eigenvalue_error``)."""
-        return float(max(self.residual.max(initial=0.0), self.eigenvalue_error.max(initial=0.0)))
+        ``omega_error`` and ``eigenvalue_error``)."""
+        return float(max(self.omega_error.max(initial=0.0), self.eigenvalue_error.max(initial=0.0)))
 
     def participation(self, direction: ArrayLike, rotation: bool = False,
                       point: ArrayLike = (0.0, 0.0, 0.0)) -> np.ndarray:
@@ -179,7 +184,7 @@ class Modes:
              "omega2": self.omega2.tolist(), "rigid": self.rigid.tolist(), "unstable": self.unstable.tolist(),
              "shapes": self.shapes.tolist(), "coordinates": list(self.linear.coordinates),
              "stability": self.stability, "orthogonality_residual": self.orthogonality,
-             "error_per_mode": self.residual.tolist(), "error_estimate": self.error,
+             "error_per_mode": self.omega_error.tolist(), "error_estimate": self.error,
              "elapsed_s": self.elapsed}
         if self.note:
             d["note"] = self.note
@@ -207,7 +212,7 @@ class Modes:
 
         rows = [[i + 1, number(w), number(f), "rigid" if r else "unstable" if u else "", number(e, digits=2)]
                 for i, (w, f, r, u, e) in enumerate(zip(self.omega, self.frequency_hz, self.rigid, self.unstable,
-                                                        self.residual))]
+                                                        self.omega_error))]
         return html_table(f"{self.n} modes, {self.stability}", ["mode", "ω rad/s", "f Hz", "", "rel. error"], rows)
 
     def __str__(self):

@@ -426,14 +426,16 @@ class Fixed(Joint):
         return None
 
 
-KINDS = {cls.kind: cls for cls in (Pivot, Slider, Helical, Cylindrical, Universal, Planar, Ball, Free, Fixed)}
+#: joint type name (a scene file's ``type``) -> class
+JOINT_TYPES = {cls.kind: cls for cls in (Pivot, Slider, Helical, Cylindrical, Universal, Planar, Ball, Free, Fixed)}
+KINDS = JOINT_TYPES  # (the former name: one registry, two names)
 
 
 def joint_type(cls):
     """Declare a joint type (a subclass of :class:`Joint`, frozen dataclass): positional arguments as
     ``_positional`` says, and its ``kind`` known to scene files. A new type is its class, here or anywhere."""
     cls = _ordered(cls)
-    KINDS[cls.kind] = cls
+    JOINT_TYPES[cls.kind] = cls
     return cls
 
 

@@ -242,7 +242,7 @@ def modes_text(lin, m, per_block=8):
         else:
             w, f = number(m.omega[j], digits=8), number(m.frequency_hz[j], digits=6)
             note = "rigid" if m.rigid[j] else ""
-        rows.append([str(j + 1), number(m.omega2[j], digits=6), w, f, number(m.residual[j], digits=1), note])
+        rows.append([str(j + 1), number(m.omega2[j], digits=6), w, f, number(m.omega_error[j], digits=1), note])
     lines += ["  " + x for x in table(["mode", "ω² 1/s²", "ω rad/s", "f Hz", "error", "note"], rows,
                                       ["<", ">", ">", ">", ">", "<"])]
     if m.n:

@@ -6,7 +6,7 @@ import numpy as np
 from ..errors import ModelError
 from .points import ONES3, point_set
 
-class Group:
+class ForceGroup:
     """One kind of force element, all members at once: adds its generalized force to ``Q`` (joint space,
     length nv) and, for point elements, spatial forces to ``F`` (one row (force, moment) per Pinocchio
     joint, in that joint's frame) that the system hands to ABA/RNEA as external forces."""
@@ -39,7 +39,10 @@ class Group:
         raise NotImplementedError
 
 
-class TwoPoint(Group):
+Group = ForceGroup  # (the former name, beside the Lie groups of the joints)
+
+
+class TwoPoint(ForceGroup):
     """Elements between two points: ends a and b of each member (the ends' arrays: a's then b's)."""
 
     uses_points = True

@@ -23,7 +23,7 @@ from ..errors import ModelError
 if TYPE_CHECKING:  # the analyses' result types, for the entry points' hints only (no import at run time)
     from numpy.typing import ArrayLike
 
-    from ..analysis.equilibrium import Equilibrium
+    from ..analysis.equilibrium import OperatingPoint
     from ..analysis.linearize import LinearModel
     from ..simulation.simulate import Trajectory
 
@@ -112,7 +112,7 @@ class System:
     :mod:`vibdyn.model.dynamics` take the workspace explicitly. The protocol analyses use: the checked
     inputs :meth:`check_configuration`, :meth:`check_velocity`, :meth:`check_time`,
     :meth:`check_mass_matrix`; the compiled tables ``body_infos`` (name -> :class:`BodyInfo`),
-    ``support_index`` (support name -> index in ``supports``), ``groups`` (force-element groups),
+    ``support_index`` (support name -> index in ``supports``), ``force_groups`` (force-element groups),
     ``point_groups``/``point_joints``/``uses_point_velocities`` (what point elements need), ``joint_groups``
     (the others); ``coordinate_scales`` (1 for rad, the length scale for m), ``additive_coordinates`` and
     ``curved_coordinates`` (which tangent coordinates move by a sum, which by ``integrate``);
@@ -189,13 +189,13 @@ class System:
         self.has_gravity = bool(np.any(self.scene.gravity))
         self.supports = tuple(self.scene.elements_of(Support))
         self.support_index = MappingProxyType({s.name: i for i, s in enumerate(self.supports)})
-        self.groups = tuple(_forces.compile_groups(self, self.scene))
-        self.point_groups = tuple(g for g in self.groups if g.uses_points)
-        self.joint_groups = tuple(g for g in self.groups if not g.uses_points)
+        self.force_groups = tuple(_forces.compile_groups(self, self.scene))
+        self.point_groups = tuple(g for g in self.force_groups if g.uses_points)
+        self.joint_groups = tuple(g for g in self.force_groups if not g.uses_points)
         self.point_joints = tuple(sorted({int(j) for g in self.point_groups for j in g.joints} - {0}))
-        self.uses_point_velocities = any(g.uses_point_velocities for g in self.groups)
-        self.depends_on_velocity = any(g.velocity_dependent for g in self.groups)
-        self.depends_on_time = any(g.time_dependent for g in self.groups) or bool(self.supports)
+        self.uses_point_velocities = any(g.uses_point_velocities for g in self.force_groups)
+        self.depends_on_velocity = any(g.velocity_dependent for g in self.force_groups)
+        self.depends_on_time = any(g.time_dependent for g in self.force_groups) or bool(self.supports)
         self._lower.flags.writeable = self._upper.flags.writeable = False
         self.length_scale = self._length_scale()
         # finite-difference scale per tangent coordinate: 1 rad, or the length scale for a length (m)
@@ -223,6 +223,11 @@ class System:
         # the loops' equations (vibdyn.model.constraints.Constraints), None for a tree
         self.constraints = compile_loops(self) if self.scene.loops else None
         self._built = True
+
+    @property
+    def groups(self) -> tuple:
+        """The former name of :attr:`force_groups`."""
+        return self.force_groups
 
     # ------------------------------------------------------------- configuration space
     def neutral(self) -> Vector:
@@ -375,7 +380,7 @@ class System:
         kinetic = pin.computeKineticEnergy(self.model, self.data, q, v)
         gravity = pin.computePotentialEnergy(self.model, self.data, q) if self.has_gravity else 0.0
         kin = dynamics.kinematics(self, self.workspace(), q, None, t) if self.point_groups else None
-        elastic = sum(g.potential(q, kin) for g in self.groups)
+        elastic = sum(g.potential(q, kin) for g in self.force_groups)
         finite_result([kinetic, gravity, elastic], f"energy at t = {t}")
         return Energy(float(kinetic), float(gravity), float(elastic))
 
@@ -411,7 +416,7 @@ class System:
 
     # ------------------------------------------------------------- analyses
     def equilibrium(self, q0: ArrayLike | None = None, t: float = 0.0, tol: float = EQUILIBRIUM_TOL,
-                    max_iter: int = MAX_ITER) -> Equilibrium:
+                    max_iter: int = MAX_ITER) -> OperatingPoint:
         """Static equilibrium near q0 (see :func:`vibdyn.analysis.equilibrium.static_equilibrium`; with loops
         :func:`vibdyn.analysis.constrained.equilibrium`, q0 need not be consistent)."""
         from ..analysis.equilibrium import static_equilibrium
@@ -419,14 +424,14 @@ class System:
         return static_equilibrium(self, q0, t, tol, max_iter)
 
     def equilibria(self, starts: Iterable[ArrayLike], t: float = 0.0, tol: float = EQUILIBRIUM_TOL,
-                   max_iter: int = MAX_ITER) -> list[Equilibrium]:
+                   max_iter: int = MAX_ITER) -> list[OperatingPoint]:
         """Distinct static equilibria from several starts (see :func:`vibdyn.analysis.equilibrium.equilibria`)."""
         from ..analysis.equilibrium import equilibria
 
         return equilibria(self, starts, t, tol, max_iter)
 
     def steady_motion(self, v_cyclic: Mapping[str, float | None], q0: ArrayLike | None = None, t: float = 0.0,
-                      tol: float = EQUILIBRIUM_TOL, max_iter: int = MAX_ITER, guess: float = 1.0) -> Equilibrium:
+                      tol: float = EQUILIBRIUM_TOL, max_iter: int = MAX_ITER, guess: float = 1.0) -> OperatingPoint:
         """Steady motion with the coordinates of ``v_cyclic`` turning at constant speed (given, or None
         for found) (see :func:`vibdyn.analysis.equilibrium.steady_motion`; with loops
         :func:`vibdyn.analysis.constrained.steady_motion`, speeds given)."""
@@ -434,7 +439,7 @@ class System:
 
         return steady_motion(self, v_cyclic, q0, t, tol, max_iter, guess)
 
-    def held(self, q: ArrayLike | None = None, v: ArrayLike | None = None, t: float = 0.0) -> Equilibrium:
+    def held(self, q: ArrayLike | None = None, v: ArrayLike | None = None, t: float = 0.0) -> OperatingPoint:
         """The configuration ``q`` (neutral if None), moving at constant velocity ``v`` (0 if None), held by
         drives on every coordinate: an operating point (like :meth:`steady_motion`'s) whose ``drive`` is the
         generalized force (N or N·m per coordinate) that balances gravity, the elastic and the other forces
@@ -443,7 +448,7 @@ class System:
 
         return held(self, q, v, t)
 
-    def operating_point(self, tol: float = EQUILIBRIUM_TOL, max_iter: int = MAX_ITER) -> Equilibrium:
+    def operating_point(self, tol: float = EQUILIBRIUM_TOL, max_iter: int = MAX_ITER) -> OperatingPoint:
         """The scene's declared operating point (:meth:`Scene.set_operating_point`): the configuration held
         by drives (:meth:`held`) if it says so (robots' default), a steady motion if it names cyclic
         coordinates, else the static equilibrium nearest its start (neutral by default)."""
@@ -544,7 +549,7 @@ class System:
         return np.array([self.support_index.get(body, -1) for body, _ in atts], dtype=int)
 
     def __repr__(self):
-        return f"System({self.name!r}, nq={self.nq}, nv={self.nv}, {len(self.groups)} force groups)"
+        return f"System({self.name!r}, nq={self.nq}, nv={self.nv}, {len(self.force_groups)} force groups)"
 
     def _inertia_scales(self):
         """Per coordinate, the scene's scale of M's diagonal: its total mass (kg, for m) or total mass ×

@@ -41,7 +41,7 @@ import numpy as np
 
 from .._check import finite_array, scalar
 from ..errors import ModelError, VibdynError
-from ..model.groups import Group
+from ..model.groups import ForceGroup
 from ..model.system import Energy
 from .integrators import ALIASES, METHODS, StepError, method_class
 from .trajectory import SimulationError, Trajectory, q_names  # noqa: F401  (the module's public names)
@@ -246,8 +246,8 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
     max_step = np.inf if max_step is None else scalar(max_step, f"{what}: max_step (s)", positive=True)
     if progress not in (None, True, False):
         raise ModelError(f"{what}: progress must be None, True or False, got {progress!r}")
-    work = bool(system.supports) or any(type(g).potential is Group.potential or g.time_dependent
-                                         for g in system.groups)
+    work = bool(system.supports) or any(type(g).potential is ForceGroup.potential or g.time_dependent
+                                         for g in system.force_groups)
     return _Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work, t0,
                      events, variational)
 

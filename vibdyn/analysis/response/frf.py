@@ -347,7 +347,7 @@ def _transfer(model, omega, Bfun, out, method, n_modes=None, offset=None):
         Phi, w2, c, d, _ = model.modal
         keep = slice(None) if n_modes is None else slice(0, _n_modes(n_modes, w2.size))
         Phi, w2, c, d = Phi[:, keep], w2[keep], c[keep], d[keep]
-        dw2 = 2 * np.abs(w2) * model.modes.residual[keep]  # each ω²'s uncertainty (residual: relative, of ω)
+        dw2 = 2 * np.abs(w2) * model.modes.omega_error[keep]  # each ω²'s uncertainty (residual: relative, of ω)
     H = None
     residual = condition = amplification = 0.0
     for i, w in enumerate(omega):

@@ -195,7 +195,7 @@ def free_response(lin, t, x0, v0=None, *, method="auto"):
         a = (-k * qm - c * vm) @ Phi.T
         recon = max(np.linalg.norm(Phi @ q0 - x0) / max(np.linalg.norm(x0), 1e-300) if np.any(x0) else 0.0,
                     np.linalg.norm(Phi @ qd0 - v0) / max(np.linalg.norm(v0), 1e-300) if np.any(v0) else 0.0)
-        growth = m.residual.max(initial=0.0) * (1 + m.omega.max(initial=0.0) * np.abs(t).max())
+        growth = m.omega_error.max(initial=0.0) * (1 + m.omega.max(initial=0.0) * np.abs(t).max())
         error = recon + growth + m.orthogonality
     elif method == "ivp":
         return _free_by_ivp(lin, model, t, x0, v0, start)

@@ -5,7 +5,7 @@ are compiled and scene files are read and written: supports first (springs and d
 A new kind is one new module here plus its import line below.
 """
 
-from ...model.groups import Group
+from ...model.groups import ForceGroup, Group
 from ...model.points import Kinematics, cross, point_set
 from .base import KINDS, WORLD, ElementKind, attachment
 from .support import Support
@@ -17,6 +17,6 @@ from .joint_damper import JointDamper
 from .joint_force import JointForce, joint_force_value
 from .cubic_joint_spring import CubicJointSpring
 
-__all__ = ["KINDS", "WORLD", "ElementKind", "Group", "Kinematics", "attachment", "cross", "point_set",
+__all__ = ["KINDS", "WORLD", "ElementKind", "ForceGroup", "Group", "Kinematics", "attachment", "cross", "point_set",
            "Support", "Spring", "Damper", "BodyForce", "JointSpring", "JointDamper", "JointForce",
            "CubicJointSpring", "vector_or_callable", "joint_force_value"]

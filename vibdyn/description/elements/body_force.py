@@ -10,12 +10,12 @@ import pinocchio as pin
 from ..._check import call_user, user_callable, value_string, value_vec3, vector3
 from ..._format import vector
 from ...errors import ModelError
-from ...model.groups import Group
+from ...model.groups import ForceGroup
 from ...model.points import point_set
 from .base import ElementKind, numbers
 
 
-class BodyForces(Group):
+class BodyForces(ForceGroup):
     """External forces and torques on body points, constant or callables of (t, q, v)."""
 
     uses_points = True

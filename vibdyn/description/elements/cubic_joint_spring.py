@@ -13,12 +13,12 @@ import numpy as np
 from ..._check import stiffness_like, value_nonnegative_number_or_list, value_number_or_list, value_string
 from ..._format import with_units
 from ...errors import ModelError
-from ...model.groups import Group
+from ...model.groups import ForceGroup
 from .base import ElementKind, scalar_or_list
 from .joint_spring import per_coordinate
 
 
-class CubicJointSprings(Group):
+class CubicJointSprings(ForceGroup):
     """Q_i = −k₃ᵢ xᵢ³ on one-coordinate joints (pivots, sliders, helical), x = q − q_rest (m or rad);
     potential k₃ x⁴/4; ∂Q/∂q = −3 k₃ x²."""
 

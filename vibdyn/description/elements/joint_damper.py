@@ -8,11 +8,11 @@ import numpy as np
 
 from ..._check import stiffness_like, value_nonnegative_number_or_list, value_string
 from ..._format import with_units
-from ...model.groups import Group
+from ...model.groups import ForceGroup
 from .base import ElementKind, scalar_or_list
 
 
-class JointDampers(Group):
+class JointDampers(ForceGroup):
     """Viscous dampers on joint coordinates: Q = −c v."""
 
     velocity_dependent = True

@@ -11,13 +11,13 @@ from ..._check import (call_user, count, finite_array, user_callable, value_numb
 from ..._format import with_units
 from ...errors import ModelError
 from .. import laws
-from ...model.groups import Group
+from ...model.groups import ForceGroup
 from .base import ElementKind, numbers, scalar_or_list
 
 _LAW_PARAMS = tuple(dict.fromkeys(k for name in laws.FORCE_LAWS for k in laws.law_keys(name)[0]))
 
 
-class JointForces(Group):
+class JointForces(ForceGroup):
     """Forces/torques along joint coordinates: constants summed once, laws and callables per call."""
 
     def __init__(self, system, elements):

@@ -12,11 +12,11 @@ from ..._check import (finite_array, one_or_each, stiffness_like, value_nonnegat
                        value_number_or_list, value_string)
 from ..._format import with_units
 from ...errors import ModelError
-from ...model.groups import Group, as_slice, tangent
+from ...model.groups import ForceGroup, as_slice, tangent
 from .base import ElementKind, scalar_or_list
 
 
-class JointSprings(Group):
+class JointSprings(ForceGroup):
     """Springs on joint coordinates: Q = −Σ Jᵀ K (q ⊖ q_rest), J = ∂(q ⊖ q_rest)/∂q (identity for vector
     joints; for an isotropic ball spring Jᵀφ = φ, so the torque is −k φ exactly). Springs that share a joint
     (each with its own rest) are evaluated in layers of at most one spring per joint."""
@@ -50,7 +50,7 @@ class JointSprings(Group):
         return dQ, None
 
 
-class _Layer(Group):
+class _Layer(ForceGroup):
     """Springs on distinct joints, one q_rest for all."""
 
     def __init__(self, system, elements):
