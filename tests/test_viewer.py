@@ -346,3 +346,36 @@ def test_live_trajectory_replay_shows_its_time():
         with pytest.raises(vd.ModelError, match="no motion 2"):
             v.show(1)
     assert _gone(before)
+
+
+def test_live_viewer_refuses_a_bad_amplitude_and_keeps_a_valid_state():
+    """A NaN or negative amplitude sent to the live viewer is refused (a 400 on the page) and not kept: the
+    next request still works and the state is valid JSON."""
+    import json
+    import urllib.error
+    import urllib.request
+
+    m = vd.load_scene(MODELS / "double_pendulum.toml").build().operating_point().linearize().modes()
+    before = _servers()
+    with vd.view(m) as v:
+        for bad in ("nan", "-1", "big"):
+            with pytest.raises(urllib.error.HTTPError) as e:
+                urllib.request.urlopen(f"{v.url.rstrip('/')}/show?n=0&amplitude={bad}", timeout=10)
+            assert e.value.code == 400
+        state = json.loads(urllib.request.urlopen(f"{v.url.rstrip('/')}/state", timeout=10).read(),
+                           parse_constant=lambda c: pytest.fail(f"invalid JSON constant {c}"))
+        assert state["amplitude"] is None
+        assert v.show(1, 0.05)["current"] == 1
+    assert _gone(before)
+
+
+def test_a_mesh_deleted_after_its_body_was_described_is_named(tmp_path):
+    mesh = tmp_path / "part.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    s = vd.Scene("meshed")
+    s.add_body("part", joint=vd.Pivot((0, 0, 1)), mass=1.0, com=(0.1, 0, 0),
+               shape=[{"type": "mesh", "path": str(mesh)}])
+    system = s.build()
+    mesh.unlink()
+    with pytest.raises(vd.ModelError, match=r"part shape .*mesh file .*part.obj: cannot read it"):
+        vd.export_html(system, tmp_path / "m.html")

@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from ...description.elements import WORLD, Damper, Spring, Support
+from ...errors import ModelError
 
 ROOT = "/meshcat/vibdyn"
 PALETTE = (0x1f77b4, 0xff7f0e, 0x2ca02c, 0xd62728, 0x9467bd, 0x8c564b, 0xe377c2, 0x17becf, 0xbcbd22, 0x7f7f7f)
@@ -329,7 +330,8 @@ def _shape_items(node, name, sh, com, color):
     if sh.kind == "sphere":
         return [Item(node, name, sphere_geometry(sh.size[0]), mat, M)]
     if sh.kind == "mesh":
-        return [Item(node, name, mesh_geometry(sh.path), mat, M @ np.diag([*sh.size, 1.0]))]
+        return [Item(node, name, mesh_geometry(sh.path, f"{node.split('/')[-1]} shape {name}"), mat,
+                     M @ np.diag([*sh.size, 1.0]))]
     r, L = sh.size
     A = M @ _placement(rotation_z_to(np.asarray(sh.axis)), np.zeros(3))
     out = [Item(node, name, cylinder_geometry(r, L), mat, A @ Y_TO_Z)] if L > 0 else []
@@ -356,15 +358,19 @@ def _joint_items(node, joint, r):
     return items
 
 
-def mesh_geometry(path):
-    """A mesh file as a meshcat geometry: text for .obj/.dae, bytes for .stl."""
+def mesh_geometry(path, what="mesh"):
+    """A mesh file as a meshcat geometry: text for .obj/.dae, bytes for .stl. A file that cannot be read (moved
+    or deleted since its body was described) is a ModelError naming ``what`` and the path."""
     fmt = path.rsplit(".", 1)[-1].lower()
-    if fmt == "stl":
-        with open(path, "rb") as f:
-            data = f.read()
-    else:
-        with open(path, encoding="utf-8", errors="replace") as f:
-            data = f.read()
+    try:
+        if fmt == "stl":
+            with open(path, "rb") as f:
+                data = f.read()
+        else:
+            with open(path, encoding="utf-8", errors="replace") as f:
+                data = f.read()
+    except OSError as e:
+        raise ModelError(f"{what}: mesh file {path}: cannot read it ({e.strerror or e})") from None
     return {"type": "_meshfile_geometry", "format": fmt, "data": data}
 
 

@@ -138,9 +138,9 @@ class LiveViewer:
         """Animate motion k (0-based: a mode, or the trajectory first when there is one)."""
         if not 0 <= k < self.content.n:
             raise ModelError(f"no motion {k + 1}: choose 1 to {self.content.n}")
-        if amplitude is not None:
-            self.amplitude = amplitude
-        anim = self.content.animation(k, self.amplitude)
+        amplitude = self.amplitude if amplitude is None else amplitude
+        anim = self.content.animation(k, amplitude)  # a bad amplitude is refused here: the state keeps its own
+        self.amplitude = amplitude
         self._send({"type": "set_animation", "path": "", "animations": anim,
                     "options": {"play": True, "repetitions": 1_000_000_000}})
         self.current, self.playing, self._started = k, True, time.monotonic()
