@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._format import json_ready, number, table, vector
+from .._format import number, table, vector
 from ..errors import ModelError, VibdynError
 
 
@@ -383,20 +383,22 @@ def main(argv=None):
         return 1
 
 
-def _main(argv=None):
-    argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["bench"]:  # forwarded whole to the suite's own parser (vibdyn bench --help)
-        try:
-            return bench(argv[1:])
-        except VibdynError as e:
-            print(f"vibdyn: error: {e}", file=sys.stderr)
-            return 2
-    parser = argparse.ArgumentParser(prog="vibdyn", description="Vibration analysis of sets of rigid solids.")
-    sub = parser.add_subparsers(dest="command", required=True)
-    info = sub.add_parser("info", help="print a scene's bodies, joints, coordinates and elements")
-    info.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+SCENE_HELP = "scene file, bundled model name, or robot:NAME"
+
+
+def _add_info(sub):
+    sub.add_parser("info", help="print a scene's bodies, joints, coordinates and elements").add_argument(
+        "scene", help=SCENE_HELP)
+
+
+def _run_info(args):
+    scene = load(args.scene)
+    describe(scene, scene.build())
+
+
+def _add_modes(sub):
     modes = sub.add_parser("modes", help="equilibrium, natural frequencies, damping ratios and stability")
-    modes.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    modes.add_argument("scene", help=SCENE_HELP)
     modes.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     modes.add_argument("--method", choices=("fd", "analytic"), default="fd", help="linearisation method")
     modes.add_argument("--start", nargs="+", metavar="NAME=VALUE",
@@ -406,9 +408,39 @@ def _main(argv=None):
     modes.add_argument("--servo", type=servo_pair, metavar="K,C",
                        help="hold every pivot and slider by a position servo: stiffness K (N·m/rad or N/m) and "
                             "damping C (N·m·s/rad or N·s/m) about the start (a held robot's vibration modes)")
+
+
+def _run_modes(args):
+    scene = with_start(load(args.scene), start_offsets(args.start))
+    if args.servo:
+        from ..io.robots import add_servo
+
+        add_servo(scene, *args.servo)
+    system = scene.build()
+    report = modal_report(system, args.method)
+    if args.json:
+        import json
+
+        print(json.dumps(report[3], indent=1))
+    else:
+        print_modes(system, args.method, report=report)
+    if args.png:
+        report[2].plot(args.png)
+        if not args.json:
+            print(f"saved {args.png}")
+
+
+def _add_demo(sub):
     sub.add_parser("demo", help="run the main job on the bundled trailer model")
+
+
+def _run_demo(args):
+    demo()
+
+
+def _add_frf(sub):
     frf = sub.add_parser("frf", help="frequency response between two channels: peaks, half-power damping, plots")
-    frf.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    frf.add_argument("scene", help=SCENE_HELP)
     frf.add_argument("--input", required=True, help="coordinate name, BODY:X,Y,Z:DX,DY,DZ (point force), or "
                      "support:NAME[:DX,DY,DZ] (base motion: transmissibility)")
     frf.add_argument("--output", required=True, help="coordinate name or BODY:X,Y,Z:DX,DY,DZ (point displacement)")
@@ -421,9 +453,38 @@ def _main(argv=None):
     frf.add_argument("--json", action="store_true", help="print a JSON object instead of text")
     frf.add_argument("--start", nargs="+", metavar="NAME=VALUE",
                      help="where the operating point's search starts (offsets from neutral by coordinate)")
+
+
+def _run_frf(args):
+    system = with_start(load(args.scene), start_offsets(args.start)).build()
+    from .frf_command import frf_report, print_frf
+
+    frf, peaks, hp, data = frf_report(system, args.input, args.output, args.w0, args.w1, args.points, args.method)
+    if args.png or args.nyquist:
+        from . import plots
+
+        if args.png:
+            plots.bode(frf, path=args.png)
+        if args.nyquist:
+            plots.nyquist(frf, path=args.nyquist)
+    if args.json:
+        import json
+
+        print(json.dumps(data, indent=1))
+    else:
+        print_frf(frf, peaks, hp, notes=data["notes"])
+        for path in (args.png, args.nyquist):
+            if path:
+                print(f"saved {path}")
+
+
+def _add_bench(sub):
     sub.add_parser("bench", help="the regression benchmarks (vibdyn bench --help; needs a source checkout)")
+
+
+def _add_simulate(sub):
     sim = sub.add_parser("simulate", help="nonlinear time simulation: error estimate, energy balance, export")
-    sim.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    sim.add_argument("scene", help=SCENE_HELP)
     sim.add_argument("--t-end", type=float, required=True, help="simulated time, s")
     from ..simulation.integrators import ALIASES, METHODS  # the registry only: no scipy until a method runs
 
@@ -440,137 +501,78 @@ def _main(argv=None):
     sim.add_argument("--v0", type=float, nargs="+", help="initial velocities (m/s, rad/s)")
     sim.add_argument("--out", help="write the trajectory to this .npz or .csv file")
     sim.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def _run_simulate(args):
+    from .simulate_command import command
+
+    command(load(args.scene).build(), args)
+
+
+def _add_view(sub):
     view = sub.add_parser("view", help="browser viewer of the modes (live, on 127.0.0.1) or an offline HTML page",
                           description="Show the modes (or a trajectory) in the browser: a live meshcat server on "
                           "127.0.0.1 (Ctrl-C stops it), or with --html a self-contained page.")
-    view.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    view.add_argument("scene", help=SCENE_HELP)
     view.add_argument("--mode", type=int, default=1, help="motion shown first (1-based; default 1)")
     view.add_argument("--amplitude", type=float, help="largest point displacement shown, m (default 10%% of the "
                       "scene's size)")
-    view.add_argument("--trajectory", help="replay this .npz trajectory (vibdyn simulate --out) instead of the modes")
+    view.add_argument("--trajectory", help="replay this .npz or .csv trajectory (vibdyn simulate --out) instead of "
+                      "the modes")
     view.add_argument("--speed", type=float, default=1.0, help="replay speed, × real time (default 1)")
     view.add_argument("--html", help="write a self-contained HTML page (every mode) to this file and exit")
     view.add_argument("--no-browser", action="store_true", help="live: print the URL, do not open a browser")
     view.add_argument("--duration", type=float, help="live: stop after this many seconds (default: until Ctrl-C)")
+
+
+def _run_view(args):
+    from .viewer.cli import command as view_command
+
+    view_command(load(args.scene), args)
+
+
+def _add_campbell(sub):
     cam = sub.add_parser("campbell", help="Campbell diagram: modes against spin speed, whirl, critical speeds")
-    cam.add_argument("scene", help="scene file, bundled model name, or robot:NAME")
+    cam.add_argument("scene", help=SCENE_HELP)
     cam.add_argument("--spin", required=True, help="the spinning coordinate (held at each speed by its drive)")
     cam.add_argument("--speeds", required=True, help="FROM:TO:N (N equally spaced speeds, rad/s) or a comma list")
     cam.add_argument("--orders", default="1", help="engine orders, comma separated (default 1)")
     cam.add_argument("--method", choices=("fd", "analytic"), default="analytic", help="linearisation method")
     cam.add_argument("--png", help="save the diagram to this PNG file")
     cam.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+
+
+def _run_campbell(args):
+    from .campbell_command import command
+
+    command(load(args.scene).build(), args)
+
+
+#: the subcommands, in the order ``vibdyn --help`` lists them: name -> (add its parser, run it)
+COMMANDS = {"info": (_add_info, _run_info), "modes": (_add_modes, _run_modes), "demo": (_add_demo, _run_demo),
+            "frf": (_add_frf, _run_frf), "bench": (_add_bench, None), "simulate": (_add_simulate, _run_simulate),
+            "view": (_add_view, _run_view), "campbell": (_add_campbell, _run_campbell)}
+
+
+def _main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"]:  # forwarded whole to the suite's own parser (vibdyn bench --help)
+        try:
+            return bench(argv[1:])
+        except VibdynError as e:
+            print(f"vibdyn: error: {e}", file=sys.stderr)
+            return 2
+    parser = argparse.ArgumentParser(prog="vibdyn", description="Vibration analysis of sets of rigid solids.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for add, _ in COMMANDS.values():
+        add(sub)
     args = parser.parse_args(argv)
     try:
-        if args.command == "info":
-            scene = load(args.scene)
-            describe(scene, scene.build())
-        elif args.command == "modes":
-            scene = with_start(load(args.scene), start_offsets(args.start))
-            if args.servo:
-                from ..io.robots import add_servo
-
-                add_servo(scene, *args.servo)
-            system = scene.build()
-            report = modal_report(system, args.method)
-            if args.json:
-                import json
-
-                print(json.dumps(report[3], indent=1))
-            else:
-                print_modes(system, args.method, report=report)
-            if args.png:
-                report[2].plot(args.png)
-                if not args.json:
-                    print(f"saved {args.png}")
-        elif args.command == "demo":
-            demo()
-        elif args.command == "view":
-            from .viewer.cli import command as view_command
-
-            view_command(load(args.scene), args)
-        elif args.command == "frf":
-            system = with_start(load(args.scene), start_offsets(args.start)).build()
-            frf, peaks, hp, data = frf_report(system, args.input, args.output, args.w0, args.w1, args.points,
-                                              args.method)
-            if args.png or args.nyquist:
-                from . import plots
-
-                if args.png:
-                    plots.bode(frf, path=args.png)
-                if args.nyquist:
-                    plots.nyquist(frf, path=args.nyquist)
-            if args.json:
-                import json
-
-                print(json.dumps(data, indent=1))
-            else:
-                print_frf(frf, peaks, hp, notes=data["notes"])
-                for path in (args.png, args.nyquist):
-                    if path:
-                        print(f"saved {path}")
-        elif args.command == "simulate":
-            from .simulate_command import command
-
-            command(load(args.scene).build(), args)
-        elif args.command == "campbell":
-            campbell_command(load(args.scene).build(), args)
+        COMMANDS[args.command][1](args)
     except VibdynError as e:
         print(f"vibdyn: error: {e}", file=sys.stderr)
         return 2
     return 0
-
-
-def speed_list(text):
-    """Speeds (rad/s) from ``FROM:TO:N`` (N equally spaced, ends included) or ``a,b,c``."""
-    try:
-        if ":" in text:
-            a, b, n = text.split(":")
-            if int(n) < 2:
-                raise ValueError
-            return np.linspace(float(a), float(b), int(n))
-        return np.array([float(x) for x in text.split(",")])
-    except ValueError:
-        raise ModelError(f"--speeds: expected FROM:TO:N (N ≥ 2) or a comma list of speeds in rad/s, got "
-                         f"'{text}'") from None
-
-
-def campbell_command(system, args, out=None):
-    """``vibdyn campbell``: the diagram as a table (Hz, whirl) and its critical speeds, or JSON."""
-    from ..analysis.campbell_diagram import campbell
-
-    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
-    try:
-        orders = tuple(float(x) for x in args.orders.split(","))
-    except ValueError:
-        raise ModelError(f"--orders: expected numbers separated by commas, got '{args.orders}'") from None
-    c = campbell(system, args.spin, speed_list(args.speeds), orders, method=args.method)
-    if args.png:
-        c.plot(args.png)
-    if args.json:
-        import json
-
-        p(json.dumps(c.to_dict(), indent=1))
-        return c
-    m = c.frequencies.shape[1]
-    p(f"Campbell diagram of {system.name}: {len(c.speeds)} speeds of '{c.spin}', {m} modes tracked by MAC "
-      f"({c.method} linearisation, {c.elapsed:.2f} s)")
-    rows = [[number(s)] + [f"{number(f / (2 * np.pi), digits=6)} {w[:1]}".rstrip() for f, w in zip(fr, wh)]
-            for s, fr, wh in zip(c.speeds, c.frequencies, c.whirl)]
-    p("frequencies: damped f_d = ω_d/2π (Hz) of each tracked mode (the glossary's ω_d = |Im λ|)")
-    for line in table(["speed rad/s"] + [f"mode {j} f_d Hz" for j in range(m)], rows):
-        p(line)
-    p("whirl: f forward, b backward (relative to the spin); 0 Hz: rigid, cyclic or overdamped")
-    for o in orders:
-        crit = c.critical_speeds(o)
-        if not crit:
-            p(f"order {o:g}: no critical speed in {number(c.speeds[0])}…{number(c.speeds[-1])} rad/s")
-        for k in crit:
-            p(f"order {o:g}: critical speed {k.speed:.10g} rad/s ({k.speed_rpm:.6g} rpm), mode {k.mode}, "
-              f"{k.whirl or 'no'} whirl, ± {k.error:.1e} rad/s")
-    if args.png:
-        p(f"saved {args.png}")
-    return c
 
 
 def _rotation(R):
@@ -590,92 +592,6 @@ def _inertia(I):
 def _limits(system, coordinate):
     lim = system.limits.get(coordinate)
     return "" if lim is None else f", limits {number(lim[0])} … {number(lim[1])}"
-
-
-# ------------------------------------------------------------- vibdyn frf
-def parse_channel(spec):
-    """A CLI channel: a coordinate name, or BODY:X,Y,Z:DX,DY,DZ (a body point, in the body frame, m, and a
-    direction in world axes)."""
-    parts = spec.split(":")
-    if len(parts) == 1:
-        return spec
-    if len(parts) != 3:
-        raise ModelError(f"channel '{spec}': expected a coordinate name or BODY:X,Y,Z:DX,DY,DZ")
-    return parts[0], _numbers(parts[1], spec), _numbers(parts[2], spec)
-
-
-def frf_report(system, input_spec, output_spec, w0=None, w1=None, points=400, method="direct"):
-    """The receptance (or, for ``support:NAME:DX,DY,DZ`` inputs, the transmissibility) between two channels
-    at the scene's operating point: (FRF, peaks, half power, plain-data dict)."""
-    lin = system.operating_point().linearize()
-    m = lin.modes()
-    notes = []
-    if m.stability == "unstable":
-        notes.append("the operating point is unstable: no steady harmonic response exists; this is the transfer "
-                     "function H(iω) of the linear model (as used in control design)")
-    if w0 is None or w1 is None:
-        w = m.omega[(~m.rigid) & (m.omega > 0)]  # unstable directions give their growth rate as the scale
-        if w.size:
-            lo, hi = 0.1 * w.min(), 2.0 * w.max()
-        else:
-            lo, hi = 0.1, 100.0
-            notes.append("no natural frequency (every mode is rigid): default range 0.1 … 100 rad/s; "
-                         "give --from and --to")
-        w0 = lo if w0 is None else w0
-        w1 = hi if w1 is None else w1
-    if not (0 <= w0 < w1) or points < 3:
-        raise ModelError(f"frf: need 0 ≤ --from < --to and --points ≥ 3, got {w0}, {w1}, {points}")
-    omega = np.geomspace(w0, w1, points) if w0 > 0 else np.linspace(w0, w1, points)
-    out = parse_channel(output_spec)
-    if input_spec.startswith("support:"):
-        parts = input_spec.split(":")
-        if len(parts) not in (2, 3):
-            raise ModelError(f"input '{input_spec}': expected support:NAME or support:NAME:DX,DY,DZ")
-        d = _numbers(parts[2], input_spec) if len(parts) == 3 else (0.0, 0.0, 1.0)
-        frf = lin.base_response(omega, parts[1], direction=d, outputs=[out], method=method)
-    else:
-        frf = lin.receptance(omega, [parse_channel(input_spec)], [out], method=method)
-    peaks, hp = frf.peaks(), frf.half_power()
-    data = json_ready({"scene": system.name, **frf.to_dict(), "peaks": peaks.to_dict(), "half_power": hp.to_dict(),
-                       "units": frf.units(), "notes": notes})
-    return frf, peaks, hp, data
-
-
-def print_frf(frf, peaks, hp, out=None, notes=()):
-    """Print a frequency response's summary: resonances with half-power ζ (undamped ones: unbounded, no
-    band), anti-resonances, and ``notes``."""
-    import sys
-
-    p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
-    p(f"{frf.kind} {frf.outputs[0]} / {frf.inputs[0]} ({frf.units()}), {frf.omega.size} frequencies "
-      f"{frf.omega[0]:.6g} … {frf.omega[-1]:.6g} rad/s")
-    p(f"method {frf.method}, damping {frf.damping}; residual {frf.residual:.1e}, error ≈ {frf.error:.1e}, "
-      f"{frf.elapsed * 1e3:.1f} ms")
-    for n in notes:
-        p(f"note: {n}")
-    p(f"{'':<16} {'omega rad/s':>14} {'f Hz':>12} {'|H|':>12} {'zeta (half power)':>18}")
-    for w, a in zip(peaks.resonances, peaks.amplitudes):
-        if not np.isfinite(a):  # undamped, or damped less than the linear model's own error resolves
-            zeta = "0 (undamped)" if frf.damping.startswith("undamped") else "within the error"
-            p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {'unbounded':>12} {zeta:>18}")
-            continue
-        i = np.flatnonzero(np.isclose(hp.omega_peak, w, rtol=1e-9))
-        z = f"{hp.zeta[i[0]]:.6g}" if i.size else "-"
-        p(f"{'resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {a:>12.6g} {z:>18}")
-    undamped = peaks.unbounded is not None and peaks.unbounded.any()
-    for w, a in zip(peaks.antiresonances, peaks.antiresonance_amplitudes):
-        # undamped: an anti-resonance is a zero of H; what Brent leaves of it is round-off
-        p(f"{'anti-resonance':<16} {w:>14.8g} {w / (2 * np.pi):>12.6g} {'0' if undamped else f'{a:.6g}':>12}")
-
-
-def _numbers(text, spec):
-    try:
-        x = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        x = ()
-    if len(x) != 3:
-        raise ModelError(f"channel '{spec}': '{text}' is not three comma-separated numbers")
-    return x
 
 
 if __name__ == "__main__":
