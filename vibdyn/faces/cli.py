@@ -1,7 +1,8 @@
-"""The ``vibdyn`` command: ``vibdyn info SCENE``, ``vibdyn modes SCENE [--json]``, ``vibdyn demo``,
-``vibdyn bench [--quick] [--smoke] [--check] [--only NAME]`` (the repository's benchmark suite).
+"""The ``vibdyn`` command: ``info``, ``modes``, ``demo``, ``frf``, ``bench``, ``simulate``, ``view`` and
+``campbell`` (``vibdyn COMMAND --help``; ``COMMANDS`` below lists each one's parser and runner).
 
-SCENE is a TOML scene file, or ``robot:NAME`` for a robot of example-robot-data (e.g. ``robot:ur5``).
+SCENE is a TOML scene file, a bundled model name, or ``robot:NAME`` for a robot of example-robot-data (e.g.
+``robot:ur5``).
 """
 
 import argparse
