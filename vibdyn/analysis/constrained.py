@@ -99,7 +99,7 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
                          "coordinates (give a coordinate the loops leave free)")
     rows = np.array([k for k, i in enumerate(ind) if i not in speeds], dtype=int)  # equations at rest
     r = residual(q, J)
-    unit = np.where(np.array(system.units) == "m", system.length_scale, 1.0)[ind]
+    unit = system.coordinate_scales[ind]
     Kr = vector_derivative(lambda x: reduced(q, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
     force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(Kr[:, rows])) * unit[rows]).max(initial=0.0),
                       1e-300)
@@ -133,7 +133,7 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
             break
         if np.abs(alpha * step).max() <= 1e-15 and np.abs(rho).max() <= 1e3 * target:
             break
-        unit = np.where(np.array(system.units) == "m", system.length_scale, 1.0)[ind]
+        unit = system.coordinate_scales[ind]
         Kr = vector_derivative(lambda x: reduced(q, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
     cyclic = [k for k, i in enumerate(ind) if i in speeds]
     drive = dict(zip((system.coordinates[ind[k]] for k in cyclic), (float(x) for x in (N.T @ r)[cyclic])))

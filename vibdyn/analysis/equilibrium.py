@@ -194,7 +194,7 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
     rows = rest + unknown  # equations: no acceleration of these
     a0 = np.zeros(nv)
     h = steps(system, 1e-6)
-    unit = np.where(np.array(system.units) == "m", system.length_scale, 1.0)
+    unit = system.coordinate_scales
     what = "steady motion" if cyclic else "static equilibrium"
 
     def residual(q, v):
@@ -348,7 +348,7 @@ def _not_converged(system, what, max_iter, best, target, rest, residual):
     units = system.units
     parts = [f"'{system.coordinates[i]}' (unbalanced {number(-r[i], 'N' if units[i] == 'm' else 'N·m')} at "
              f"{number(x[i], units[i])})" for i in bad]
-    unit = np.where(np.array(units) == "m", system.length_scale, 1.0)
+    unit = system.coordinate_scales
     hint = " ".join(f"{system.coordinates[i]}={number(x[i] - 0.5 * unit[i] * np.sign(r[i]), digits=3)}"
                     for i in bad)
     return (f"{what} search did not converge in {max_iter} iterations: residual {res:.3e} (target "

@@ -85,7 +85,7 @@ class Constraints:
         # dimensionless scaling: position rows / L, translation columns × L
         self.row_scale = np.concatenate([self._row_units(lp) for lp in self.loops]) if self.loops else np.zeros(0)
         self.row_scale = np.where(self.row_scale == 1, 1.0 / L, 1.0)
-        self.col_scale = np.array([L if u == "m" else 1.0 for u in system.units])
+        self.col_scale = system.coordinate_scales
 
     @staticmethod
     def _row_units(lp):

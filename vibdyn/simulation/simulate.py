@@ -208,7 +208,7 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
     rtol = scalar(rtol, f"{what}: rtol")
     if not MIN_RTOL <= rtol < 1.0:
         raise ModelError(f"{what}: rtol must be in [{MIN_RTOL:.2g}, 1) (relative error per step), got {rtol:g}")
-    scale = np.array([system.length_scale if u == "m" else 1.0 for u in system.units])
+    scale = system.coordinate_scales
     if atol is None:
         atol_q = atol_v = rtol * scale
     else:

@@ -71,7 +71,7 @@ def projected_ode(base):
 
         def jacobian(self, t, y):
             """∂f/∂y by central differences (steps 1e-6 × (1 rad or the length scale), per unit speed)."""
-            unit = np.where(np.array(self.system.units) == "m", self.system.length_scale, 1.0)
+            unit = self.system.coordinate_scales
             h = 1e-6 * np.concatenate([unit, unit, [1.0] * (self.n - 2 * self.nv)])
             J = np.zeros((self.n, self.n))
             for k in range(self.n):
