@@ -18,6 +18,7 @@ from ..defaults import EQUILIBRIUM_TOL, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
 from ..model.fd import steps
+from ..solvers.newton import newton
 from .linearize import LinearModel, jacobian_q, jacobian_v, linearize
 
 if TYPE_CHECKING:
@@ -213,48 +214,53 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
     force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(J)[: len(rest)]) * unit[rest]).max(initial=0.0),
                       1e-300)
     target = tol * force_scale
-    best = (np.abs(r[rows]).max(initial=0.0), q.copy(), v.copy())
-    it = 0
     max_step = np.concatenate([0.5 * unit[rest], [max(1.0, abs(v[i])) for i in unknown]])
-    while best[0] > target:
-        if it >= max_iter:
-            raise ConvergenceError(_not_converged(system, what, max_iter, best, target, rest, residual),
-                                   residual=best[0], best=best[1])
-        it += 1
-        rr = r[rows]
-        step = np.linalg.lstsq(J, -rr, rcond=1e-12)[0]
-        left = rr + J @ step  # what the linear model cannot remove (K = 0 along it here)
-        if np.linalg.norm(left) > 0.5 * np.linalg.norm(rr):
-            _refuse_constant(system, what, q, v, r, residual, rest, np.abs(left[: len(rest)]) > 0.5 * target,
+    nq = system.nq
+
+    def split(x):  # the unknowns: the configuration, then the unknown speeds
+        vv = v.copy()
+        vv[unknown] = x[nq:]
+        return x[:nq], vv
+
+    def retract(x, step):
+        dq = np.zeros(nv)
+        dq[rest] = step[: len(rest)]
+        return np.concatenate([pin.integrate(model, x[:nq], dq), x[nq:] + step[len(rest):]])
+
+    seen = {}  # the full residual of the last point the iteration evaluated (the step's hook needs it)
+
+    def rows_of(x):
+        seen["x"], seen["r"] = x, residual(*split(x))
+        return seen["r"][rows]
+
+    def full(x):
+        return seen["r"] if seen.get("x") is x else residual(*split(x))
+
+    def shape_step(x, f, J, step):
+        qq, vv = split(x)
+        left = f + J @ step  # what the linear model cannot remove (K = 0 along it here)
+        if np.linalg.norm(left) > 0.5 * np.linalg.norm(f):
+            _refuse_constant(system, what, qq, vv, full(x), residual, rest, np.abs(left[: len(rest)]) > 0.5 * target,
                              force_scale, unit)
             # a gradient step: move along the unbalanced force, as far as a step may go
             step = step - left / (np.abs(left) / max_step).max()
-        over = np.abs(step) / max_step
-        if over.max() > 1:
-            step /= over.max()
-        step = _within_limits(system, what, q, step.copy(), rest, r, unit, target)
-        alpha, norm0 = 1.0, np.linalg.norm(rr)
-        while True:
-            dq = np.zeros(nv)
-            dq[rest] = alpha * step[: len(rest)]
-            q_new = pin.integrate(model, q, dq)
-            v_new = v.copy()
-            v_new[unknown] += alpha * step[len(rest):]
-            r_new = residual(q_new, v_new)
-            if np.linalg.norm(r_new[rows]) <= (1 - 1e-4 * alpha) * norm0 or alpha < 1e-3:
-                break
-            alpha *= 0.5
-        q, v, r = q_new, v_new, r_new
-        res = np.abs(r[rows]).max(initial=0.0)
-        if res < best[0]:
-            best = (res, q.copy(), v.copy())
-        if not np.all(np.isfinite(r)):
-            raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=best[0], best=best[1])
-        if res <= target:
-            break
-        if np.abs(step * alpha).max() <= 1e-15 * max(1.0, np.abs(max_step).max()) and res <= 1e3 * target:
-            break  # stagnated at round-off
-        J = jacobian(q, v)
+        over = (np.abs(step) / max_step).max(initial=0.0)
+        if over > 1:
+            step = step / over
+        return _within_limits(system, what, qq, step.copy(), rest, full(x), unit, target)
+
+    x0 = np.concatenate([q, v[unknown]])
+    out = newton(rows_of, x0, lambda x: jacobian(*split(x)), retract, tol=target,
+                 max_iter=max_iter, max_step=max_step, shape_step=shape_step, on_no_decrease="accept",
+                 min_alpha=1e-3, stall=1e3, f0=r[rows], jacobian0=J)
+    if out.status == "diverged":
+        raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=out.residual,
+                               best=split(out.x)[0])
+    if out.status not in ("converged", "stagnated"):
+        raise ConvergenceError(_not_converged(system, what, max_iter, (out.residual, *split(out.x)), target, rest,
+                                              residual), residual=out.residual, best=split(out.x)[0])
+    it = out.iterations
+    best = (out.residual, *split(out.x))
     travel = float(np.abs(system.difference(q_start, best[1])).max(initial=0.0))
     q, v = best[1], best[2]
     r = residual(q, v)

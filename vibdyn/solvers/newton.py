@@ -17,8 +17,10 @@ from ..errors import ConvergenceError
 
 @dataclass(frozen=True)
 class NewtonResult:
-    """``x`` the point reached, ``residual`` ‖F(x)‖_∞ there, ``iterations``, ``converged`` (residual ≤ tol),
-    ``message`` (why it stopped), ``elapsed`` (s)."""
+    """``x`` the best point reached (least ‖F‖_∞), ``residual`` ‖F(x)‖_∞ there, ``iterations``, ``converged``
+    (residual ≤ tol), ``status`` ("converged"; "stagnated": steps at round-off with the residual within the
+    caller's ``stall`` factor of tol; "max_iter"; "no_decrease": no step reduces ‖F‖; "diverged": F became
+    non-finite), ``message`` (why it stopped), ``elapsed`` (s)."""
 
     x: np.ndarray
     residual: float
@@ -26,6 +28,7 @@ class NewtonResult:
     converged: bool
     message: str
     elapsed: float
+    status: str = "converged"
 
 
 def fd_jacobian(fun: Callable, x: np.ndarray, f0: np.ndarray | None = None, h: float = 1e-7) -> np.ndarray:
@@ -40,47 +43,75 @@ def fd_jacobian(fun: Callable, x: np.ndarray, f0: np.ndarray | None = None, h: f
 
 
 def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retract: Callable | None = None, *,
-           tol: float = 1e-10, max_iter: int = 50, max_step: float | None = None, rcond: float = 1e-12,
-           raise_on_failure: bool = False) -> NewtonResult:
+           tol: float = 1e-10, max_iter: int = 50, max_step: float | np.ndarray | None = None, rcond: float = 1e-12,
+           raise_on_failure: bool = False, shape_step: Callable | None = None, on_no_decrease: str = "stop",
+           min_alpha: float = 1e-4, stall: float | None = None, f0: np.ndarray | None = None,
+           jacobian0: np.ndarray | None = None) -> NewtonResult:
     """Solve F(x) = 0 from x0 (F: ℝⁿ or a manifold → ℝᵐ, tangent steps of n components).
 
     ``jacobian(x)``: m × n (central differences if None); ``retract(x, dx)``: the point reached from x by
-    the tangent step dx (x + dx if None); ``max_step``: the largest |dx| component of one step (a trust
-    region); the line search halves a step until ‖F‖ decreases (Armijo, down to 1e-4 of it). Stops when
-    ‖F‖_∞ ≤ tol, or when a step no longer decreases it (``converged`` False, ``message`` says why; with
-    ``raise_on_failure`` a ConvergenceError carrying the residual and the best point)."""
+    the tangent step dx (x + dx if None); ``max_step``: the largest |dx| component of one step, a number or
+    one per component (a trust region); ``shape_step(x, f, J, dx)`` → dx: the caller's own say on each
+    least-squares step before the cap (a fallback where the linear model fails, joint limits; it may raise);
+    the line search halves a step until ‖F‖ decreases (Armijo), down to ``min_alpha``; there
+    ``on_no_decrease`` "stop" ends the search, "accept" takes the shortest step tried and goes on (the best
+    point is kept either way). ``stall``: a factor s; steps that no longer move x (round-off) end the
+    search as "stagnated" once ‖F‖_∞ ≤ s·tol. Stops when ‖F‖_∞ ≤ tol (``converged``); otherwise
+    ``message`` says why, and with ``raise_on_failure`` a ConvergenceError carries the residual and the best
+    point. ``f0``, ``jacobian0``: F and J at x0 if the caller has them already."""
     start = time.perf_counter()
     retract = retract or (lambda x, dx: x + dx)
     x = np.array(x0, dtype=float)
-    f = np.asarray(fun(x), float)
+    f = np.asarray(fun(x) if f0 is None else f0, float)
     res = float(np.abs(f).max(initial=0.0))
-    it, message = 0, "converged"
+    best = (res, x)
+    it, status, message = 0, "converged", "converged"
+    J = jacobian0
     while res > tol:
         if it >= max_iter:
-            message = f"no convergence in {max_iter} iterations (residual {res:.3e}, tolerance {tol:.1e})"
+            status, message = "max_iter", f"no convergence in {max_iter} iterations (residual {best[0]:.3e}, " \
+                f"tolerance {tol:.1e})"
             break
         it += 1
-        J = jacobian(x) if jacobian is not None else fd_jacobian(fun, x, f)
+        if J is None:
+            J = jacobian(x) if jacobian is not None else fd_jacobian(fun, x, f)
         dx = np.linalg.lstsq(J, -f, rcond=rcond)[0]
+        if shape_step is not None:
+            dx = np.asarray(shape_step(x, f, J, dx), float)
         if max_step is not None:
-            over = np.abs(dx).max(initial=0.0) / max_step
+            over = (np.abs(dx) / max_step).max(initial=0.0)
             if over > 1:
-                dx /= over
+                dx = dx / over
         norm0, alpha = float(np.linalg.norm(f)), 1.0
         while True:
             x_new = retract(x, alpha * dx)
             f_new = np.asarray(fun(x_new), float)
-            if np.all(np.isfinite(f_new)) and np.linalg.norm(f_new) <= (1 - 1e-4 * alpha) * norm0:
+            finite = bool(np.all(np.isfinite(f_new)))
+            if finite and np.linalg.norm(f_new) <= (1 - 1e-4 * alpha) * norm0:
+                break
+            if alpha * 0.5 < min_alpha:
                 break
             alpha *= 0.5
-            if alpha < 1e-4:
-                break
-        if alpha < 1e-4:
-            message = f"no step decreases the residual further (residual {res:.3e}, tolerance {tol:.1e})"
+        decreased = finite and np.linalg.norm(f_new) <= (1 - 1e-4 * alpha) * norm0
+        if not decreased and (on_no_decrease == "stop" or not finite):
+            status = "no_decrease" if finite or on_no_decrease == "stop" else "diverged"
+            message = (f"no step decreases the residual further (residual {best[0]:.3e}, tolerance {tol:.1e})"
+                       if status == "no_decrease" else "the residual became non-finite (diverged)")
             break
-        x, f = x_new, f_new
+        x, f, J = x_new, f_new, None
         res = float(np.abs(f).max(initial=0.0))
-    out = NewtonResult(x, res, it, res <= tol, message, time.perf_counter() - start)
+        if res < best[0]:
+            best = (res, x)
+        if res <= tol:
+            break
+        if stall is not None and res <= stall * tol and \
+                np.abs(alpha * dx).max(initial=0.0) <= 1e-15 * max(1.0, float(np.max(max_step, initial=1.0))
+                                                                    if max_step is not None else 1.0):
+            status, message = "stagnated", f"stagnated at round-off (residual {res:.3e}, tolerance {tol:.1e})"
+            break
+    res, x = best
+    out = NewtonResult(x, res, it, res <= tol, "converged" if res <= tol else message, time.perf_counter() - start,
+                       "converged" if res <= tol else status)
     if raise_on_failure and not out.converged:
-        raise ConvergenceError(f"Newton: {message}", residual=res, best=x)
+        raise ConvergenceError(f"Newton: {out.message}", residual=res, best=x)
     return out
