@@ -17,6 +17,7 @@ from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
 from ..model.fd import differences, displaced_vectors, steps, tangent_derivative, vector_derivative
+from ..solvers.newton import newton
 from .equilibrium import OperatingPoint
 from .linearize import LinearModel, fd_error, reference_state, tree_linearize
 from .modal import modes as _modes
@@ -83,7 +84,7 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
         a = c.dependent_solution(J, -c.bias(qq, v), np.setdiff1d(np.arange(nv), ind))  # (zero for a rotor)
         return dynamics.inverse_dynamics(system, system.workspace(), qq, v, a, t)
 
-    def reduced(qq, N, xi):
+    def reduced(qq, ind, N, xi):
         """N₁ᵀ r(q₁) at q₁ = assemble(qq ⊕ N ξ), N₁ the basis there with the same independent coordinates."""
         if not np.any(xi):
             return (N.T @ residual(qq))[rows], qq
@@ -100,41 +101,51 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
     rows = np.array([k for k, i in enumerate(ind) if i not in speeds], dtype=int)  # equations at rest
     r = residual(q, J)
     unit = system.coordinate_scales[ind]
-    Kr = vector_derivative(lambda x: reduced(q, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
+    Kr = vector_derivative(lambda x: reduced(q, ind, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
     force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(Kr[:, rows])) * unit[rows]).max(initial=0.0),
                       1e-300)
     target = tol * force_scale
+    basis = {"q": q, "ind": ind, "N": N, "J": J, "r": r}
+
+    def at(qq):
+        """The basis, loop Jacobian and residual at qq (a steady motion keeps its cyclic coordinates)."""
+        if basis["q"] is not qq:
+            J1 = c.jacobian(qq)
+            ind1, N1 = c.partition(J1, ind0 if speeds else None)
+            basis.update(q=qq, ind=ind1, N=N1, J=J1, r=residual(qq, J1))
+        return basis
+
+    def rho_of(qq):
+        b = at(qq)
+        return (b["N"].T @ b["r"])[rows]
+
+    def retract(qq, xi):
+        b = at(qq)
+        return reduced(qq, b["ind"], b["N"], xi)[1]
+
+    def jacobian(qq):
+        b = at(qq)
+        unit = system.coordinate_scales[b["ind"]]
+        return vector_derivative(lambda x: reduced(qq, b["ind"], b["N"], x)[0], np.zeros(b["ind"].size),
+                                 1e-6 * unit)
+
+    def cap(qq, f, J, xi):  # a trust region: half a unit of each independent coordinate
+        over = (np.abs(xi) / (0.5 * system.coordinate_scales[at(qq)["ind"]])).max(initial=0.0)
+        return xi / over if over > 1 else xi
+
+    ind0 = ind
+    out = newton(rho_of, q, jacobian, retract, tol=target, max_iter=max_iter, shape_step=cap,
+                 on_no_decrease="accept", min_alpha=1e-3, stall=1e3, f0=(N.T @ r)[rows], jacobian0=Kr)
+    if out.status == "diverged":
+        raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=None, best=out.x)
+    if out.status not in ("converged", "stagnated"):
+        raise ConvergenceError(f"{what} of the mechanism with loops did not converge in {max_iter} "
+                               f"iterations: reduced residual {out.residual:.3e} (target {target:.3e}); "
+                               "start nearer an equilibrium (q0=)", residual=out.residual, best=out.x)
+    q, it = out.x, out.iterations
+    b = at(q)
+    ind, N, J, r = b["ind"], b["N"], b["J"], b["r"]
     rho = (N.T @ r)[rows]
-    it = 0
-    while np.abs(rho).max(initial=0.0) > target:
-        if it >= max_iter:
-            raise ConvergenceError(f"{what} of the mechanism with loops did not converge in {max_iter} "
-                                   f"iterations: reduced residual {np.abs(rho).max():.3e} (target {target:.3e}); "
-                                   "start nearer an equilibrium (q0=)", residual=float(np.abs(rho).max()), best=q)
-        it += 1
-        step = np.linalg.lstsq(Kr, -rho, rcond=1e-12)[0]
-        over = (np.abs(step) / (0.5 * unit)).max(initial=0.0)
-        if over > 1:
-            step /= over
-        alpha, norm0 = 1.0, np.linalg.norm(rho)
-        while True:
-            rho_new, q_new = reduced(q, N, alpha * step)
-            if np.linalg.norm(rho_new) <= (1 - 1e-4 * alpha) * norm0 or alpha < 1e-3:
-                break
-            alpha *= 0.5
-        q = q_new
-        J = c.jacobian(q)
-        ind, N = c.partition(J, ind if speeds else None)  # (a steady motion keeps its cyclic coordinates)
-        r = residual(q, J)
-        rho = (N.T @ r)[rows]
-        if not np.all(np.isfinite(rho)):
-            raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=None, best=q)
-        if np.abs(rho).max() <= target:
-            break
-        if np.abs(alpha * step).max() <= 1e-15 and np.abs(rho).max() <= 1e3 * target:
-            break
-        unit = system.coordinate_scales[ind]
-        Kr = vector_derivative(lambda x: reduced(q, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
     cyclic = [k for k, i in enumerate(ind) if i in speeds]
     drive = dict(zip((system.coordinates[ind[k]] for k in cyclic), (float(x) for x in (N.T @ r)[cyclic])))
     lam = c.multipliers(J, r - N[:, cyclic] @ ((N.T @ r)[cyclic]) if cyclic else r)

@@ -335,42 +335,35 @@ class Constraints:
         return self._assemble(q0, tol, max_iter, start)[0]
 
     def _assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0"):
-        """(q, Φ(q), Φ_q(q)) of :meth:`assemble`; Φ and Φ_q are None where q is not the last one evaluated."""
-        model = self.system.model
+        """(q, Φ(q), Φ_q(q)) of :meth:`assemble`; Φ_q is None where it was not evaluated at q. The solver
+        kit's Newton (:func:`vibdyn.solvers.newton.newton`) in the dimensionless metric: minimum-norm
+        least-squares steps on the rank of Φ_q, each at most MAX_STEP, moved by ``pin.integrate``."""
+        from ..solvers.newton import newton
+
+        model, cs = self.system.model, self.col_scale
         q0 = np.array(q0, dtype=float)
-        q = q0.copy()
-        phi, J = self.evaluate(q)
-        res = np.abs(self.scaled_phi(phi)).max(initial=0.0)
-        best = (res, q.copy())
+        last = {}
+
+        def fun(q):
+            last["q"], last["phi"], last["J"] = q, self.phi(q), None
+            return self.scaled_phi(last["phi"])
+
+        def jacobian(q):
+            J = self.jacobian(q)
+            if last.get("q") is q:
+                last["J"] = J
+            return self.row_scale[:, None] * J * cs[None, :]
+
         # trial points far off (a step through a near-singular Jacobian) may overflow: such a step is
-        # rejected below like any step that does not reduce the residual, so numpy's warnings are not news
+        # rejected by the line search like any step that does not reduce the residual, so numpy's warnings
+        # are not news
         with np.errstate(over="ignore", invalid="ignore"):
-            for _ in range(max_iter):
-                if res <= tol:
-                    return self._closed_at(q, q0, start), phi, J
-                dq = self.correction(phi, J)
-                over = np.abs(dq / self.col_scale).max(initial=0.0) / MAX_STEP
-                if over > 1:  # a trust region: the linearisation holds only so far
-                    dq /= over
-                alpha = 1.0
-                while True:
-                    q_new = pin.integrate(model, q, alpha * dq)
-                    phi_new = self.phi(q_new)
-                    res_new = np.abs(self.scaled_phi(phi_new)).max(initial=0.0)
-                    if res_new < res or alpha < 1e-4:
-                        break
-                    alpha *= 0.5
-                if not np.isfinite(res_new):
-                    break
-                q = q_new
-                phi, J = self.evaluate(q)
-                res = res_new
-                if res < best[0]:
-                    best = (res, q.copy())
-                if alpha < 1e-4 and res_new >= best[0] and res > tol:
-                    break
+            out = newton(fun, q0, jacobian, lambda q, dx: pin.integrate(model, q, cs * dx), tol=tol,
+                         max_iter=max_iter, max_step=MAX_STEP, rcond=RANK_RTOL)
+        best = (out.residual, out.x)
         if best[0] <= tol:
-            return self._closed_at(best[1], q0, start), None, None
+            phi, J = (last["phi"], last["J"]) if last.get("q") is out.x else (None, None)
+            return self._closed_at(best[1], q0, start), phi, J
         phi = self.scaled_phi(self.phi(best[1]))
         worst = self.loop_of_row(int(np.argmax(np.abs(phi))))
         raise ConvergenceError(f"assembly from {start}: the loops cannot be closed near it: loop '{worst}' "
