@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike
 from .._check import finite_array
 from .._format import number
 from ..errors import ConvergenceError, ModelError
+from ..solvers.continuation import continuation
 from ..solvers.tracking import mac, match
 
 
@@ -86,13 +87,14 @@ class Campbell:
         return self.frequencies / (2 * np.pi)
 
     def critical_speeds(self, order: float = 1) -> list[CriticalSpeed]:
-        """Speeds in the diagram's range where a mode's frequency equals ``order`` × |Ω|, refined by root
-        finding on the linearisation itself (Brent, to 1e-10 relative); zero-frequency modes never count."""
+        """Speeds in the diagram's range where a mode's frequency equals ``order`` × |Ω|, refined on the
+        linearisation itself: the crossing of the engine-order line μ|Ω| with the mode's line is continued in μ
+        (the solver kit's pseudo-arclength, :func:`vibdyn.solvers.continuation.continuation`) from the
+        bracket's end, where μ = ω/|Ω|, to μ = ``order``, solved there to 1e-12 relative (a fold on the way, a
+        mode line tangent to an order line, is located, not stepped over); zero-frequency modes never count."""
         order = finite_array(order, None, "critical_speeds order").item()
         if order <= 0:
             raise ModelError(f"critical_speeds: order must be positive, got {order}")
-        from scipy.optimize import brentq
-
         found = []
         for j in range(self.frequencies.shape[1]):
             f = self.frequencies[:, j]
@@ -104,22 +106,52 @@ class Campbell:
                 refs = (self._shapes[i][:, j], self._shapes[i + 1][:, j])
                 q0 = self._q[i]
 
-                def h(s, refs=refs, q0=q0):
-                    sm = _speed_modes(self.system, self.spin, s, q0, self.method)
-                    return sm.frequencies[_pick(refs, sm)] - order * abs(s)
-
                 if g[i] == 0:
                     s = a
                 elif g[i + 1] == 0:
                     s = b
                 else:
-                    s = brentq(h, a, b, xtol=1e-12 * max(abs(a), abs(b)), rtol=1e-12)
+                    s = self._crossing(refs, q0, a, b, f[i], f[i + 1], order,
+                                       max(self.error[i, j], self.error[i + 1, j]))
                 sm = _speed_modes(self.system, self.spin, s, q0, self.method)
                 k = _pick(refs, sm)
                 slope = abs(order - (f[i + 1] - f[i]) / (b - a) * np.sign(s)) or 1.0
                 found.append(CriticalSpeed(float(s), j, str(sm.whirl[k]), order, float(order * abs(s)),
                                            float(sm.error[k] / slope + 1e-12 * abs(s))))
         return sorted(found, key=lambda c: c.speed)
+
+    def _crossing(self, refs, q0, a, b, fa, fb, order, error) -> float:
+        """The speed in (a, b) where the mode most like ``refs`` has ω = order·|Ω|: F(Ω, μ) = (ω(Ω) − μ|Ω|)/ω₀
+        continued in μ from the end with Ω ≠ 0 (ω₀ = ω there) to μ = order, solved to 1e-12 or, where ω itself
+        is less accurate, to its ``error`` (rad/s)."""
+        seen = [(a, fa), (b, fb)]  # (Ω, ω) evaluated so far: the Jacobian is the secant of the last two
+
+        cache = {a: fa, b: fb}
+
+        def omega(speed):
+            if speed in cache:  # the continuation's end solve starts where its corrector stopped
+                return cache[speed]
+            sm = _speed_modes(self.system, self.spin, speed, q0, self.method)
+            w = cache[speed] = sm.frequencies[_pick(refs, sm)]
+            if all(abs(speed - x) > 1e-9 * abs(b - a) for x, _ in seen[-2:]):
+                seen.append((speed, w))
+            return w
+
+        s0, f0 = (a, fa) if a != 0 else (b, fb)
+        mu0 = f0 / abs(s0)
+        scale = np.array([abs(b - a), max(abs(order - mu0), 1e-12 * order)])
+        tol = max(1e-13, 1e-3 * error / f0)
+        def jacobian(x, mu):  # the secant method's slope (superlinear), no eigen-solves of its own
+            (x1, w1), (x2, w2) = seen[-2:]
+            return np.array([[((w2 - w1) / (x2 - x1) - mu * np.sign(x[0])) / f0, -abs(x[0]) / f0]])
+
+        branch = continuation(lambda x, mu: np.array([(omega(x[0]) - mu * abs(x[0])) / f0]), np.array([s0]), mu0,
+                              order, step=2.0, tol=tol, scale=scale, max_steps=50, jacobian=jacobian)
+        if branch.status != "finished":
+            raise ConvergenceError(f"campbell: the crossing of a mode with engine order {order:g} in "
+                                   f"[{a:g}, {b:g}] rad/s could not be followed: {branch.message}",
+                                   residual=branch.residual, best=None)
+        return float(branch.x[-1, 0])
 
     def plot(self, path: str | None = None, dpi: int = 100) -> Any:
         """The Campbell diagram (matplotlib): frequencies in Hz against speed in rad/s, forward whirl solid,
