@@ -76,3 +76,38 @@ def test_the_declarations_the_library_reads_are_on_the_joint_classes():
     assert [j.scalar for j in (vd.Pivot(), vd.Slider(), vd.Helical(), vd.Cylindrical(), vd.Ball())] == \
         [True, True, True, False, False]
     assert TurnZ().scalar and TurnZ().nq == 1
+
+
+@joint_type
+@dataclass(frozen=True, eq=False)
+class HingeZ(TurnZ):
+    """TurnZ that can also close a loop: its rows, declared here alone, are the points' coincidence and the
+    two alignments of z axes."""
+
+    kind = "hinge_z"
+    loop_rows = ("position", "aligned")
+
+    def loop_alignments(self):
+        z = np.array([0.0, 0.0, 1.0])
+        return [(np.array([1.0, 0.0, 0.0]), z), (np.array([0.0, 1.0, 0.0]), z)]
+
+
+def test_a_joint_type_defined_here_closes_a_loop():
+    """A parallelogram (two arms of length l hinged 1 m apart, point masses m at their tips, a coupler of mass
+    M joining the tips, closed by the new type): the coupler translates on a circle of radius l, so the kinetic
+    energy is ½(2m + M) l² θ̇² and the potential −(2m + M) g l cos θ: ω = √(g/l) whatever m and M."""
+    l, m, M = 0.8, 0.5, 3.0
+    s = vd.Scene("parallelogram", gravity=(0, -G, 0))
+    s.add_body("arm1", joint=TurnZ(), mass=m, com=(0.0, -l, 0.0))
+    s.add_body("arm2", joint=TurnZ(at=(1.0, 0.0, 0.0)), mass=m, com=(0.0, -l, 0.0))
+    s.add_body("coupler", parent="arm1", joint=TurnZ(at=(0.0, -l, 0.0)), mass=M, com=(0.5, 0.0, 0.0),
+               inertia=vd.inertia.rod(M, 1.0, axis=(1, 0, 0)))
+    s.add_loop("tip", ("coupler", (1.0, 0.0, 0.0)), ("arm2", (0.0, -l, 0.0)), joint=HingeZ())
+    assert HingeZ().loop_equations == 5 and TurnZ().loop_rows is None
+    system = s.build()
+    assert system.dof == 1
+    eq = system.operating_point()
+    modes = eq.linearize().modes()
+    assert modes.omega[0] == pytest.approx(math.sqrt(G / l), rel=10 * modes.error + 1e-8)
+    with pytest.raises(vd.ModelError, match="turn_z joint cannot close a loop"):
+        s.add_loop("again", ("coupler", (1.0, 0.0, 0.0)), ("arm2", (0.0, -l, 0.0)), joint=TurnZ())

@@ -65,6 +65,12 @@ class Joint:
     group: ClassVar[str | None] = None
     #: a joint spring with one stiffness gives the torque −kφ exactly (no Jacobian of the difference)
     isotropic_spring: ClassVar[bool] = False
+    #: the rows a loop closed by this joint makes (None: it cannot close a loop): "position" p_b − p_a (3),
+    #: "normal" (R_a n)·(p_b − p_a) per :meth:`loop_normals`, "aligned" (R_a n)·(R_b u) per
+    #: :meth:`loop_alignments`, "locked" log(R_aᵀ R_b) (3)
+    loop_rows: ClassVar[tuple[str, ...] | None] = None
+    #: Pinocchio joint models (``shortname()``) this type stands for when a robot file is read
+    pinocchio_models: ClassVar[frozenset[str]] = frozenset()
     problem = None  # what is wrong with the parameters (str), reported when the joint joins a scene
 
     def __post_init__(self):
@@ -134,6 +140,27 @@ class Joint:
     def pin_model(self):
         raise NotImplementedError
 
+    @classmethod
+    def from_pinocchio(cls, jm, S, **placement) -> "Joint":
+        """The joint for Pinocchio joint model ``jm`` (one of :attr:`pinocchio_models`) with motion subspace S
+        (6 × nv, linear rows first, in its own frame); ``placement``: at, rotation, name."""
+        return cls(**placement)
+
+    def loop_normals(self) -> tuple:
+        """Unit vectors n (body a's axes) of the loop's "normal" rows."""
+        return ()
+
+    def loop_alignments(self) -> list:
+        """Pairs (n in body a's axes, u in body b's) of the loop's "aligned" rows."""
+        return []
+
+    @property
+    def loop_equations(self) -> int:
+        """How many equations a loop closed by this joint makes (0 if it cannot close one)."""
+        rows = self.loop_rows or ()
+        return 3 * ("position" in rows) + len(self.loop_normals()) + len(self.loop_alignments()) \
+            + 3 * ("locked" in rows)
+
     def params(self):
         """The joint's own parameters as plain data (for scene files)."""
         return {}
@@ -158,6 +185,13 @@ class _AxisJoint(Joint):
     def params(self):
         return {"axis": list(self.axis)}
 
+    def loop_normals(self):
+        return perpendicular(np.array(self.axis)) if "normal" in (self.loop_rows or ()) else ()
+
+    def loop_alignments(self):
+        u = np.array(self.axis)
+        return [(n, u) for n in perpendicular(u)] if "aligned" in (self.loop_rows or ()) else []
+
     def _specialised(self, models, *args):
         """Pinocchio's joint model for this axis: the one specialised to x, y or z when the axis is one of
         them (cheaper in every algorithm), else ``models[3]``, the one for any axis."""
@@ -166,6 +200,14 @@ class _AxisJoint(Joint):
 
 
 _CANONICAL = {(1.0, 0.0, 0.0): 0, (0.0, 1.0, 0.0): 1, (0.0, 0.0, 1.0): 2}
+
+
+def perpendicular(u):
+    """Two unit vectors orthogonal to the unit vector u and to each other."""
+    t = np.array([1.0, 0, 0]) if abs(u[0]) < 0.9 else np.array([0, 1.0, 0])
+    n1 = np.cross(u, t)
+    n1 /= np.linalg.norm(n1)
+    return n1, np.cross(u, n1)
 
 
 def _ordered(cls):
@@ -201,10 +243,18 @@ class Pivot(_AxisJoint):
     suffixes = ("",)
     units = ("rad",)
     periodic = (True,)
+    loop_rows = ("position", "aligned")
+    pinocchio_models = frozenset({"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned",
+                                  "JointModelRUBX", "JointModelRUBY", "JointModelRUBZ",
+                                  "JointModelRevoluteUnboundedUnaligned"})
     _positional = ("axis",)
 
     def markers(self):
         return [("cylinder", self.axis)]
+
+    @classmethod
+    def from_pinocchio(cls, jm, S, **placement):
+        return cls(axis=S[3:, 0], **placement)
 
     def pin_model(self):
         return self._specialised((pin.JointModelRX, pin.JointModelRY, pin.JointModelRZ,
@@ -221,10 +271,16 @@ class Slider(_AxisJoint):
     file_required = ("axis",)
     suffixes = ("",)
     units = ("m",)
+    loop_rows = ("normal", "locked")
+    pinocchio_models = frozenset({"JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned"})
     _positional = ("axis",)
 
     def markers(self):
         return [("box", self.axis)]
+
+    @classmethod
+    def from_pinocchio(cls, jm, S, **placement):
+        return cls(axis=S[:3, 0], **placement)
 
     def pin_model(self):
         return self._specialised((pin.JointModelPX, pin.JointModelPY, pin.JointModelPZ,
@@ -245,7 +301,15 @@ class Helical(_AxisJoint):
     file_required = ("axis",)
     suffixes = ("",)
     units = ("rad",)
+    pinocchio_models = frozenset({"JointModelHX", "JointModelHY", "JointModelHZ", "JointModelHelicalUnaligned"})
     _positional = ("axis", "pitch")
+
+    @classmethod
+    def from_pinocchio(cls, jm, S, **placement):
+        """A helical joint of zero pitch is a pivot."""
+        axis = S[3:, 0]
+        pitch = float(S[:3, 0] @ axis)
+        return cls(axis=axis, pitch=pitch, **placement) if pitch != 0.0 else Pivot(axis=axis, **placement)
 
     def markers(self):
         return [("cylinder", self.axis)]
@@ -291,6 +355,7 @@ class Cylindrical(_AxisJoint):
     suffixes = (".s", ".theta")
     units = ("m", "rad")
     periodic = (False, True)
+    loop_rows = ("normal", "aligned")
 
     def markers(self):
         return [("cylinder", self.axis)]
@@ -316,10 +381,20 @@ class Universal(Joint):
     suffixes = (".theta1", ".theta2")
     units = ("rad", "rad")
     periodic = (True, True)
+    loop_rows = ("position", "aligned")
+    pinocchio_models = frozenset({"JointModelUniversal"})
+    _positional = ("axis1", "axis2")
 
     def markers(self):
         return [("cylinder", self.axis1), ("cylinder", self.axis2)]
-    _positional = ("axis1", "axis2")
+
+    @classmethod
+    def from_pinocchio(cls, jm, S, **placement):
+        u = jm.extract()
+        return cls(axis1=u.axis1, axis2=u.axis2, **placement)
+
+    def loop_alignments(self):
+        return [(np.array(self.axis1), np.array(self.axis2))]
 
     def _check(self):
         super()._check()
@@ -355,6 +430,7 @@ class Planar(Joint):
     unit_block = (2, 2)
     chart_rotations = (2,)
     group = "SE2"
+    pinocchio_models = frozenset({"JointModelPlanar"})
     _positional = ("normal",)
 
     def _check(self):
@@ -389,6 +465,8 @@ class Ball(Joint):
     chart_rotations = (0, 1, 2)
     group = "SO3"
     isotropic_spring = True
+    loop_rows = ("position",)
+    pinocchio_models = frozenset({"JointModelSpherical"})
     _positional = ()
 
     def pin_model(self):
@@ -407,6 +485,7 @@ class Free(Joint):
     unit_block = (3, 4)
     chart_rotations = (3, 4, 5)
     group = "SE3"
+    pinocchio_models = frozenset({"JointModelFreeFlyer"})
     _positional = ()
 
     def pin_model(self):
@@ -420,6 +499,7 @@ class Fixed(Joint):
 
     kind = "fixed"
     suffixes = ()
+    loop_rows = ("position", "locked")
     _positional = ()
 
     def pin_model(self):

@@ -28,8 +28,6 @@ from ..errors import ModelError
 from . import joints as _joints
 from .elements import WORLD, attachment
 
-KINDS = (_joints.Ball, _joints.Pivot, _joints.Slider, _joints.Cylindrical, _joints.Universal, _joints.Fixed)
-EQUATIONS = {"ball": 3, "pivot": 5, "slider": 5, "cylindrical": 4, "universal": 4, "fixed": 6}
 
 
 @dataclass(frozen=True)
@@ -43,7 +41,7 @@ class Loop:
 
     @property
     def equations(self):
-        return EQUATIONS[self.joint.kind]
+        return self.joint.loop_equations
 
     def to_dict(self):
         j = self.joint.to_dict()
@@ -59,9 +57,9 @@ def make_loop(scene, name, a, b, joint):
     if not isinstance(joint, _joints.Joint):
         raise ModelError(f"{what}: joint must be a vibdyn joint (Ball, Pivot, Slider, Cylindrical, Universal, "
                          f"Fixed), got {joint!r}")
-    if not isinstance(joint, KINDS):
-        raise ModelError(f"{what}: a {joint.kind} joint cannot close a loop (use Ball, Pivot, Slider, "
-                         "Cylindrical, Universal or Fixed)")
+    if joint.loop_rows is None:
+        able = ", ".join(cls.__name__ for cls in _joints.JOINT_TYPES.values() if cls.loop_rows is not None)
+        raise ModelError(f"{what}: a {joint.kind} joint cannot close a loop (use one of {able})")
     if any(joint.at) or joint.rotation is not None:
         raise ModelError(f"{what}: the joint's 'at'/'rotation' are not used by a loop: the loop frames are at "
                          "point_a and point_b, with their bodies' axes")

@@ -285,23 +285,12 @@ def _joint_plan(model, i, composite_names):
     return plan
 
 
-_REVOLUTE = {"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned", "JointModelRUBX",
-             "JointModelRUBY", "JointModelRUBZ", "JointModelRevoluteUnboundedUnaligned"}
-_PRISMATIC = {"JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned"}
-_HELICAL = {"JointModelHX", "JointModelHY", "JointModelHZ", "JointModelHelicalUnaligned"}
-_OTHER = {"JointModelSpherical": "ball", "JointModelFreeFlyer": "free", "JointModelPlanar": "planar",
-          "JointModelUniversal": "universal"}
-
-
 def _joint_kind(shortname, jname):
-    if shortname in _REVOLUTE:
-        return "pivot"
-    if shortname in _PRISMATIC:
-        return "slider"
-    if shortname in _HELICAL:
-        return "helical"
-    if shortname in _OTHER:
-        return _OTHER[shortname]
+    """The vibdyn joint type standing for Pinocchio joint model ``shortname`` (each type declares its
+    ``pinocchio_models``), or a ModelError naming the joint."""
+    for cls in _joints.JOINT_TYPES.values():
+        if shortname in cls.pinocchio_models:
+            return cls
     what = {"JointModelMimic": "a mimic joint (load without mimic joints)",
             "JointModelSphericalZYX": "a spherical ZYX joint",
             "JointModelTranslation": "a 3-D translation joint",
@@ -318,25 +307,9 @@ def _vibdyn_joint(jm, placement, jname, weld, scene_name):
     rotation = None if _is_identity_R(R) else R.copy()
     if weld:
         return _joints.Fixed(at=at, rotation=rotation, name=None)
-    kind = _joint_kind(jm.shortname(), jname)
+    cls = _joint_kind(jm.shortname(), jname)
     try:
-        if kind in ("pivot", "slider", "helical"):
-            S = _motion_subspace(jm)[:, 0]
-            if kind == "slider":
-                return _joints.Slider(axis=S[:3], at=at, rotation=rotation, name=jname)
-            axis = S[3:]
-            pitch = float(S[:3] @ axis)
-            if kind == "pivot" or pitch == 0.0:
-                return _joints.Pivot(axis=axis, at=at, rotation=rotation, name=jname)
-            return _joints.Helical(axis=axis, pitch=pitch, at=at, rotation=rotation, name=jname)
-        if kind == "ball":
-            return _joints.Ball(at=at, rotation=rotation, name=jname)
-        if kind == "free":
-            return _joints.Free(at=at, rotation=rotation, name=jname)
-        if kind == "planar":
-            return _joints.Planar(at=at, rotation=rotation, name=jname)
-        u = jm.extract()
-        return _joints.Universal(axis1=u.axis1, axis2=u.axis2, at=at, rotation=rotation, name=jname)
+        return cls.from_pinocchio(jm, _motion_subspace(jm), at=at, rotation=rotation, name=jname)
     except ModelError as e:
         raise ModelError(f"{_where(scene_name)}joint '{jname}': {e}") from None
 

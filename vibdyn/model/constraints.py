@@ -10,24 +10,12 @@ from ..description.elements import WORLD
 from ..errors import ConvergenceError, ModelError
 
 
-def _perpendicular(u):
-    """Two unit vectors orthogonal to the unit vector u and to each other."""
-    t = np.array([1.0, 0, 0]) if abs(u[0]) < 0.9 else np.array([0, 1.0, 0])
-    n1 = _cross(u, t)
-    n1 /= np.linalg.norm(n1)
-    return n1, _cross(u, n1)
-
-
 def _cross(a, b):
     """a × b of two 3-vectors (np.cross costs ~20 µs a call on 3-vectors)."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 _EYE, _ZERO = np.eye(3), np.zeros((3, 3))
-_POSITION = ("ball", "pivot", "universal", "fixed")  # kinds whose first rows are p_b − p_a
-_NORMAL = ("slider", "cylindrical")  # kinds with rows (R_a n_i)·(p_b − p_a)
-_ALIGNED = ("pivot", "cylindrical", "universal")  # kinds with rows (R_a n)·(R_b u)
-_LOCKED = ("slider", "fixed")  # kinds with rows log(R_aᵀ R_b)
 
 
 class _End:
@@ -58,7 +46,7 @@ class Constraints:
         self.dof_closed = None
         self.loops = tuple(loops)
         self._ends = []
-        self._axes = []  # per loop: (normals n_i for _NORMAL rows, (n, u) pairs for _ALIGNED rows)
+        self._axes = []  # per loop: (normals n_i of "normal" rows, (n, u) pairs of "aligned" ones)
         for lp in self.loops:
             ends = []
             for body, point in (lp.a, lp.b):
@@ -69,16 +57,7 @@ class Constraints:
                     B = info.body_in_joint
                     ends.append((info.joint_id, B.act(np.array(point)), B.rotation.copy()))
             self._ends.append(ends)
-            k = lp.joint.kind
-            normals = _perpendicular(np.array(lp.joint.axis, dtype=float)) if k in _NORMAL else ()
-            if k == "universal":
-                pairs = [(np.array(lp.joint.axis1, dtype=float), np.array(lp.joint.axis2, dtype=float))]
-            elif k in _ALIGNED:
-                u = np.array(lp.joint.axis, dtype=float)
-                pairs = [(n, u) for n in _perpendicular(u)]
-            else:
-                pairs = []
-            self._axes.append((normals, pairs))
+            self._axes.append((lp.joint.loop_normals(), lp.joint.loop_alignments()))
         self.sizes = tuple(lp.equations for lp in self.loops)
         self.m = sum(self.sizes)
         L = system.length_scale
@@ -90,8 +69,7 @@ class Constraints:
     @staticmethod
     def _row_units(lp):
         """1 for a position equation (m), 0 for an orientation one (rad)."""
-        k = lp.joint.kind
-        pos = {"ball": 3, "pivot": 3, "universal": 3, "fixed": 3, "slider": 2, "cylindrical": 2}[k]
+        pos = 3 * ("position" in lp.joint.loop_rows) + len(lp.joint.loop_normals())
         return np.array([1] * pos + [0] * (lp.equations - pos))
 
     # ----------------------------------------------------------------- equations
@@ -140,10 +118,10 @@ class Constraints:
         world axes, at the loop point) that multipliers λ exert on end a is C_aᵀ λ, on end b C_bᵀ λ."""
         phis, jacs, coeffs = [], [], []
         for lp, (normals, pairs), (a, b) in zip(self.loops, self._axes, self._frames(q, jacobian)):
-            k = lp.joint.kind
+            kinds = lp.joint.loop_rows
             e = b.p - a.p
             rows, Ca, Cb = [], [], []
-            if k in _POSITION:
+            if "position" in kinds:
                 rows.append(e)
                 Ca.append(np.hstack([-_EYE, _ZERO]))
                 Cb.append(np.hstack([_EYE, _ZERO]))
@@ -158,7 +136,7 @@ class Constraints:
                 c = _cross(wa, wb)
                 Ca.append(np.concatenate([np.zeros(3), c])[None, :])
                 Cb.append(np.concatenate([np.zeros(3), -c])[None, :])
-            if k in _LOCKED:
+            if "locked" in kinds:
                 R = a.R.T @ b.R
                 rows.append(pin.log3(R))
                 L = pin.Jlog3(R) @ b.R.T
@@ -402,9 +380,9 @@ class Constraints:
         fourth-order central difference along v (step 1e-4 of the dimensionless speed)."""
         out = []
         for lp, (normals, pairs), (a, b) in zip(self.loops, self._axes, self._frames(q, v=v)):
-            k = lp.joint.kind
+            kinds = lp.joint.loop_rows
             e, de, dde = b.p - a.p, b.dp - a.dp, b.ddp - a.ddp
-            if k in _POSITION:
+            if "position" in kinds:
                 out.append(dde)
             for n in normals:
                 w, dw, ddw = a.turn(n)
@@ -413,7 +391,7 @@ class Constraints:
                 wa, dwa, ddwa = a.turn(n)
                 wb, dwb, ddwb = b.turn(u)
                 out.append([ddwa @ wb + 2 * dwa @ dwb + wa @ ddwb])
-            if k in _LOCKED:
+            if "locked" in kinds:
                 out.append(self._log_rate(lp, q, v, b.w - a.w) + pin.Jlog3(a.R.T @ b.R) @ b.R.T @ (b.dw - a.dw))
         return np.concatenate([np.ravel(x) for x in out]) if out else np.zeros(0)
 
