@@ -8,6 +8,7 @@ on first use, as do the viewer, matplotlib and MuJoCo.
 
 import os
 from importlib import import_module
+from importlib import metadata as _metadata
 from typing import Any
 
 from .description import inertia, laws
@@ -27,7 +28,10 @@ from .description.scene import Body, Scene
 from .errors import ConvergenceError, ModelError, SceneFileError, VibdynError
 from .model.system import BodyInfo, Energy, Reactions, System
 
-__version__ = "0.1.0"
+try:  # one source: the version in pyproject.toml, as installed
+    __version__ = _metadata.version("vibdyn")
+except _metadata.PackageNotFoundError:  # pragma: no cover - a source tree on sys.path, never installed
+    __version__ = "0+unknown"
 
 # public names loaded on first use (the user's third rule: a scene pays only for what it uses)
 _WHERE = {  # module (relative to vibdyn) -> the public names it defines
@@ -68,10 +72,19 @@ def __dir__():
 
 
 def load_scene(path: str | os.PathLike) -> Scene:
-    """Read a TOML scene file (see the README for its format) into a :class:`Scene`."""
+    """Read a TOML scene file (see the README for its format) into a :class:`Scene`; a bare name that is no
+    file here ("four_bar" or "four_bar.toml") loads the bundled model of that name (:func:`bundled_models`)."""
     from .io.scenefile import load_scene as _load
 
     return _load(path)
+
+
+def bundled_models() -> tuple[str, ...]:
+    """The names of the scene files bundled with vibdyn ("four_bar", "trailer", ...), sorted: each loads by
+    name, ``vd.load_scene("four_bar")`` or ``vibdyn modes four_bar``."""
+    from .io.bundled import bundled_models as _names
+
+    return _names()
 
 
 def load_robot(name: str, **kwargs: Any) -> Scene:
@@ -122,7 +135,7 @@ def export_html(obj: Any, path: str | os.PathLike, **kwargs: Any) -> Any:
 
 __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot", "Slider", "Helical", "Ball",
            "Cylindrical", "Universal", "Planar", "Free", "Fixed", "inertia", "laws", "WORLD", "ModelError",
-           "ConvergenceError", "SceneFileError", "VibdynError", "load_scene", "load_robot", "load_urdf",
+           "ConvergenceError", "SceneFileError", "VibdynError", "load_scene", "bundled_models", "load_robot", "load_urdf",
            "load_mjcf", "add_servo", "mac", "rayleigh", "response", "identify", "plots", "FRF", "Hysteretic",
            "transmissibility", "fit_rayleigh", "log_decrement", "Trajectory", "SimulationError",
            "LinearModel", "Modes", "OperatingPoint", "Equilibrium", "TimeResult", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",

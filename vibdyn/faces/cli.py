@@ -17,11 +17,6 @@ from .._format import number, table, vector
 from ..errors import ModelError, VibdynError
 
 
-def models_dir():
-    """The bundled ``models/`` folder (override with the VIBDYN_MODELS environment variable)."""
-    return Path(os.environ.get("VIBDYN_MODELS", Path(__file__).resolve().parents[2] / "models"))
-
-
 def benchmarks_dir():
     """The repository's ``benchmarks/`` folder (override with the VIBDYN_BENCHMARKS environment variable).
     It is not part of the installed package: it exists in a source checkout (an editable install)."""
@@ -45,17 +40,14 @@ def bench(argv):
 
 
 def load(spec):
-    """A Scene from a scene file path, a bundled model name, or ``robot:NAME``."""
+    """A Scene from a scene file path, a bundled model name (``four_bar``), or ``robot:NAME``."""
     if spec.startswith("robot:"):
         from ..io.robots import load_robot
 
         return load_robot(spec[len("robot:"):])
     from ..io.scenefile import load_scene
 
-    path = Path(spec)
-    if not path.exists() and (models_dir() / f"{spec}.toml").exists():
-        path = models_dir() / f"{spec}.toml"
-    return load_scene(path)
+    return load_scene(spec)
 
 
 def describe(scene, system, out=None):
@@ -343,7 +335,7 @@ def demo(out=None):
     """The main job on the bundled trailer model: the scene, its equilibrium, linear model and modes,
     and its nonlinear dynamics at a displaced state."""
     p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
-    scene = load(str(models_dir() / "trailer.toml"))
+    scene = load("trailer")
     system = scene.build()
     describe(scene, system, out)
     p("")

@@ -92,6 +92,8 @@ import copy
 import math
 import os
 import stat
+from difflib import get_close_matches
+from importlib import resources
 from pathlib import Path
 
 
@@ -117,6 +119,7 @@ from .._check import (
     value_vec3,
 )
 from ..errors import ModelError, SceneFileError
+from .bundled import bundled_model, bundled_models, is_model_name
 
 try:  # Python ≥ 3.11
     import tomllib
@@ -129,10 +132,21 @@ __all__ = ["load_scene", "scene_from_dict", "check_values"]
 
 
 def load_scene(path):
-    """Read a TOML scene file into a :class:`vibdyn.Scene` (see the module docstring for the format)."""
+    """Read a TOML scene file into a :class:`vibdyn.Scene` (see the module docstring for the format). A bare
+    name that is no file here ("four_bar" or "four_bar.toml") is a bundled model (:func:`bundled_models`)."""
     if not isinstance(path, (str, os.PathLike)) or not str(path):
         raise SceneFileError(f"expected a file path (str or Path), got {path!r}")
     p = Path(path)
+    if is_model_name(path) and not p.exists():
+        found = bundled_model(path)
+        if found is None:
+            names = bundled_models()
+            near = get_close_matches(path.removesuffix(".toml"), names, n=1)
+            raise SceneFileError(("no such scene file, nor a bundled model of that name"
+                                  + (f" (did you mean {near[0]}?)" if near else "")
+                                  + "; the bundled models are " + ", ".join(names)), path=str(p))
+        with resources.as_file(found) as real:
+            return load_scene(real)
     try:
         st = p.stat()
         if stat.S_ISDIR(st.st_mode):
