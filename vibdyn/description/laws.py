@@ -75,6 +75,19 @@ class Harmonic:
     def __call__(self, t, q, v):
         return self.offset + self.amplitude * math.sin(self.omega * t + self.phase)
 
+    # as the motion of a drive (Scene.add_drive): the coordinate itself (m or rad) and its derivatives
+    def position(self, t):
+        """offset + amplitude·sin(ωt + phase) (m or rad)."""
+        return self.offset + self.amplitude * math.sin(self.omega * t + self.phase)
+
+    def velocity(self, t):
+        """amplitude·ω·cos(ωt + phase) (m/s or rad/s)."""
+        return self.amplitude * self.omega * math.cos(self.omega * t + self.phase)
+
+    def acceleration(self, t):
+        """−amplitude·ω²·sin(ωt + phase) (m/s² or rad/s²)."""
+        return -self.amplitude * self.omega**2 * math.sin(self.omega * t + self.phase)
+
     def to_dict(self):
         return {"law": "harmonic", "amplitude": self.amplitude, "omega": self.omega, "phase": self.phase,
                 "offset": self.offset}
@@ -128,20 +141,26 @@ def road(amplitude, wavelength, speed, direction=(0.0, 0.0, 1.0), phase=0.0):
 
 @dataclass(frozen=True)
 class Motion:
-    """Support motion from two callables of t: ``position(t)`` (m) and ``velocity(t)`` (m/s), 3-vectors."""
+    """A motion from callables of t: ``position(t)``, ``velocity(t)`` and, for a drive, ``acceleration(t)``.
+
+    A support's motion (:meth:`vibdyn.Scene.add_support`): 3-vectors in m and m/s (world axes), no
+    acceleration needed. A drive's (:meth:`vibdyn.Scene.add_drive`): the driven coordinate itself, numbers in
+    m, m/s, m/s² (slider) or rad, rad/s, rad/s² (pivot, helical), checked finite where first evaluated."""
 
     position: object
     velocity: object
+    acceleration: object = None
 
     def __post_init__(self):
-        if not (callable(self.position) and callable(self.velocity)):
-            raise ModelError("support motion: position and velocity must both be callables of t")
-        user_callable(self.position, 1, "support motion: position (a callable of t)")
-        user_callable(self.velocity, 1, "support motion: velocity (a callable of t)")
+        parts = ("position", "velocity") + (() if self.acceleration is None else ("acceleration",))
+        for part in parts:
+            if not callable(getattr(self, part)):
+                raise ModelError(f"motion: {part} must be a callable of t, got {getattr(self, part)!r}")
+            user_callable(getattr(self, part), 1, f"motion: {part} (a callable of t)")
 
     def to_dict(self):
-        raise ModelError("support motion given as Python callables cannot be written to a scene file "
-                         "(use vibdyn.description.laws.HarmonicMotion)")
+        raise ModelError("a motion given as Python callables cannot be written to a scene file "
+                         "(use vibdyn.laws.HarmonicMotion for a support, vibdyn.laws.Harmonic for a drive)")
 
 
 LAWS = {"polynomial": Polynomial, "harmonic": Harmonic, "harmonic_motion": HarmonicMotion}

@@ -185,6 +185,13 @@ class Scene:
         """
         return BodyForce.add(self, name, body, force, at, torque, frame)
 
+    def add_drive(self, body: str, motion: Any, name: str | None = None) -> Any:
+        """Prescribe the coordinate of ``body``'s joint (pivot, slider or helical) in time: ``motion`` is
+        :class:`vibdyn.laws.Harmonic` or :class:`vibdyn.laws.Motion` (position, velocity, acceleration: m or
+        rad, per s, per s²). Analyses and simulations take it as given (see
+        :mod:`vibdyn.description.elements.drive`)."""
+        return KINDS["drive"].add(self, body, motion, name)
+
     def __getattr__(self, name):
         # every other element kind: Scene.add_<table>(...) is its ``add`` (one declaration per kind)
         if name.startswith("add_") and name[4:] in KINDS:

@@ -122,7 +122,10 @@ def inverse_dynamics(system, ws, q, v, a, t, shift=None):
 
 def accelerations(system, ws, q, v, t):
     """dv/dt (m/s², rad/s²) by ABA with gravity and every force element (with closed loops, the loops'
-    constrained accelerations). May share memory with the workspace."""
+    constrained accelerations; with drives, a_d from the laws at t and a_f from the free rows, q and v as
+    given: :meth:`vibdyn.model.drives.Drives.accelerations`). May share memory with the workspace."""
+    if system.drives is not None:
+        return system.drives.accelerations(system, ws, q, v, t)
     Q, fext = forces(system, ws, q, v, t)
     model, data = system.model, ws.data
     a = pin.aba(model, data, q, v, Q) if fext is None else pin.aba(model, data, q, v, Q, fext)

@@ -8,7 +8,7 @@ q and v in m and rad (per coordinate), forces in N and N·m, energies in J.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
@@ -32,6 +32,7 @@ Matrix = np.ndarray  # shape (n, m), float
 from . import dynamics
 from . import forces as _forces
 from .constraints import compile_loops
+from .drives import compile_drives
 from .workspace import PerThread, Workspace
 
 
@@ -77,7 +78,8 @@ class Reactions:
 
     ``force`` (N) and ``moment`` (N·m, about the joint origin) per body with coordinates, in world axes;
     ``force_local``/``moment_local`` in the joint's own axes; ``joint_force[name]`` the part along the
-    joint's coordinates (what its springs, dampers and motors carry), the rest being the ideal reaction.
+    joint's coordinates (what its springs, dampers, motors and drive carry), the rest being the ideal reaction;
+    ``drive[name]`` the force (N or N·m) each drive exerts along its coordinate, τ_d = (M a + b + g − Q)_d.
     """
 
     bodies: tuple
@@ -86,6 +88,7 @@ class Reactions:
     force_local: np.ndarray
     moment_local: np.ndarray
     joint_force: dict
+    drive: dict = field(default_factory=dict)
 
     def __repr__(self):
         from .._format import summary
@@ -195,7 +198,9 @@ class System:
         self.point_joints = tuple(sorted({int(j) for g in self.point_groups for j in g.joints} - {0}))
         self.uses_point_velocities = any(g.uses_point_velocities for g in self.force_groups)
         self.depends_on_velocity = any(g.velocity_dependent for g in self.force_groups)
-        self.depends_on_time = any(g.time_dependent for g in self.force_groups) or bool(self.supports)
+        # drives (vibdyn.model.drives.Drives, None without): prescribed coordinates; the others are free
+        self.drives = compile_drives(self)
+        self.depends_on_time = any(g.time_dependent for g in self.force_groups) or bool(self.supports or self.drives)
         self._lower.flags.writeable = self._upper.flags.writeable = False
         self.length_scale = self._length_scale()
         # finite-difference scale per tangent coordinate: 1 rad, or the length scale for a length (m)
@@ -346,7 +351,8 @@ class System:
         return finite_result(dynamics.mass_matrix(self.model, self.data, self.check_configuration(q)), "mass matrix")
 
     def accelerations(self, q: ArrayLike, v: ArrayLike, t: float = 0.0) -> Vector:
-        """dv/dt (m/s², rad/s²) by ABA with gravity and every force element of the scene."""
+        """dv/dt (m/s², rad/s²) by ABA with gravity and every force element of the scene; with drives, a_d is
+        the laws' at t and the free ones solve the free rows, q and v taken as given (:mod:`vibdyn.model.drives`)."""
         q, v, t = self.check_configuration(q), self.check_velocity(v), self.check_time(t)
         a = dynamics.accelerations(self, self.workspace(), q, v, t)
         if not all_finite(a):
@@ -390,13 +396,10 @@ class System:
         ``loop_forces``: the loops' multipliers λ (an equilibrium's ``multipliers``), applied to the bodies
         they join (see :mod:`vibdyn.description.loops`)."""
         q, v, a = self.check_configuration(q), self.check_velocity(v), self.check_velocity(a, "a")
-        _, fext = dynamics.forces(self, self.workspace(), q, v, t)
+        Q, fext = dynamics.forces(self, self.workspace(), q, v, t)
         if loop_forces is not None and self.constraints is not None:
             fext = self.constraints.add_to(q, np.asarray(loop_forces, dtype=float), fext)
-        if fext is None:
-            pin.rnea(self.model, self.data, q, v, a)
-        else:
-            pin.rnea(self.model, self.data, q, v, a, fext)
+        tau = pin.rnea(self.model, self.data, q, v, a) if fext is None else pin.rnea(self.model, self.data, q, v, a, fext)
         pin.updateGlobalPlacements(self.model, self.data)  # RNEA leaves oMi as the last call set it
         names, fl, ml, fw, mw, jf = [], [], [], [], [], {}
         for b in self.body_infos.values():
@@ -412,7 +415,8 @@ class System:
             S = self.data.joints[b.joint_id].S
             jf[b.name] = np.asarray(S).reshape(6, -1).T @ f.vector
         return Reactions(tuple(names), np.array(fw).reshape(-1, 3), np.array(mw).reshape(-1, 3),
-                         np.array(fl).reshape(-1, 3), np.array(ml).reshape(-1, 3), jf)
+                         np.array(fl).reshape(-1, 3), np.array(ml).reshape(-1, 3), jf,
+                         {} if self.drives is None else self.drives.of(tau - Q))
 
     # ------------------------------------------------------------- analyses
     def equilibrium(self, q0: ArrayLike | None = None, t: float = 0.0, tol: float = EQUILIBRIUM_TOL,

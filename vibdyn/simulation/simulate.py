@@ -44,6 +44,7 @@ from ..errors import ModelError, VibdynError
 from ..model.groups import ForceGroup
 from ..model.system import Energy
 from .integrators import ALIASES, METHODS, StepError, method_class
+from .integrators.driven import free_block
 from .trajectory import SimulationError, Trajectory, q_names  # noqa: F401  (the module's public names)
 
 __all__ = ["ALIASES", "METHODS", "SimulationError", "Trajectory", "simulate"]
@@ -83,6 +84,12 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
     ``variational``: integrate the tangent-space variational equations with the state (dop853, rk4; not
     with loops): ``traj.state_transition`` (2nv × 2nv) is ∂(q, v)(t_end)/∂(q0, v0) in the tangent spaces,
     ``traj.state_transition_error`` its estimated error (from the error estimate's second run).
+
+    Drives (:meth:`vibdyn.Scene.add_drive`; every method but "symplectic"): the free coordinates alone are
+    integrated; the driven entries of q0 and v0 are replaced by the laws' values at t0 and those of every
+    output are the laws' (to round-off); ``traj.work`` includes the drives' work (the energy balance closes
+    with it); ``state_transition`` is 2nf × 2nf over the free coordinates, ordered (δq_f, δv_f) as
+    ``system.drives.free``.
 
     Returns a :class:`Trajectory`; Ctrl-C returns the motion so far with status "interrupted". Bad input is
     a :class:`ModelError`; a run that cannot go on (step-size underflow, non-finite state, an element that
@@ -200,6 +207,11 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
     q0, start = system.start_configuration() if q0 is None and system.constraints is not None else (
         system.neutral() if q0 is None else system.check_configuration(q0, f"{what}: q0"), "q0")
     v0 = np.zeros(system.nv) if v0 is None else system.check_velocity(v0, f"{what}: v0")
+    if system.drives is not None:  # the driven entries of q0 and v0 are the laws' at t0
+        if not stepper.supports_drives:
+            raise ModelError(f"{what}: method '{method}' does not integrate a scene with drives (use "
+                             f"{', '.join(m for m, c in METHODS.items() if c.supports_drives)})")
+        q0, v0 = system.drives.impose(q0, v0, t0)
     if system.constraints is not None:  # the run starts on the loops: its energies and errors are of that state
         c = system.constraints
         q0 = c.assemble(q0, start=start)
@@ -246,7 +258,7 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
     max_step = np.inf if max_step is None else scalar(max_step, f"{what}: max_step (s)", positive=True)
     if progress not in (None, True, False):
         raise ModelError(f"{what}: progress must be None, True or False, got {progress!r}")
-    work = bool(system.supports) or any(type(g).potential is ForceGroup.potential or g.time_dependent
+    work = bool(system.supports or system.drives) or any(type(g).potential is ForceGroup.potential or g.time_dependent
                                          for g in system.force_groups)
     return _Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work, t0,
                      events, variational)
@@ -302,7 +314,7 @@ def _integrate(system, cfg, label, reference=None):
             _fixed(cfg, run, outputs, coarse=reference is not None, progress=progress)
         if cfg.variational:  # (a run a terminal event stopped inside its last step has none at its end)
             stopped = run.events is not None and run.events.stop is not None
-            run.transition = None if stopped else run.stepper.state_transition
+            run.transition = None if stopped else free_block(system, run.stepper.state_transition)
     except KeyboardInterrupt:
         run.status, run.message = "interrupted", f"interrupted (Ctrl-C) at t = {_t_reached(run):.6g} s"
     except (StepError, VibdynError, FloatingPointError, np.linalg.LinAlgError) as e:

@@ -16,7 +16,8 @@ from .joint_spring import JointSpring
 from .joint_damper import JointDamper
 from .joint_force import JointForce, joint_force_value
 from .cubic_joint_spring import CubicJointSpring
+from .drive import Drive
 
 __all__ = ["KINDS", "WORLD", "ElementKind", "ForceGroup", "Group", "Kinematics", "attachment", "cross", "point_set",
            "Support", "Spring", "Damper", "BodyForce", "JointSpring", "JointDamper", "JointForce",
-           "CubicJointSpring", "vector_or_callable", "joint_force_value"]
+           "CubicJointSpring", "Drive", "vector_or_callable", "joint_force_value"]

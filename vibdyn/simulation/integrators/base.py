@@ -41,6 +41,7 @@ class Stepper:
     supports_loops: bool = False  # integrates a mechanism with closed loops on its loops (projected ODE)
     supports_variational: bool = False  # integrates the variational equations with the state
     supports_events: bool = False  # its steps can be interpolated (dense output, or the ends' Hermite)
+    supports_drives: bool = False  # integrates the free coordinates of a scene with drives (driven ODE)
     nfev: int = 0  # counters (instance values; see the module docstring)
 
     def __init__(self, system, q0, v0, t_end, *, rtol=None, atol_q=None, atol_v=None, first_step=None,
@@ -88,7 +89,10 @@ class Interpolant:
     def __call__(self, t):
         y, chart = self.sol(t), self.chart
         nv = chart.nv
-        return chart.configuration(y), y[nv:2 * nv].copy(), (y[-1] if chart.work else 0.0)
+        q, v = chart.configuration(y), y[nv:2 * nv].copy()
+        if chart.system.drives is not None:  # the driven entries: the laws' at t, exactly
+            q, v = chart.system.drives.impose(q, v, t)
+        return q, v, (y[-1] if chart.work else 0.0)
 
 
 class ODEStepper(Stepper):
@@ -98,6 +102,7 @@ class ODEStepper(Stepper):
 
     supports_loops = True
     supports_events = True
+    supports_drives = True
 
     def __init__(self, system, q0, v0, t_end, **kwargs):
         super().__init__(system, q0, v0, t_end, **kwargs)
@@ -114,7 +119,10 @@ class ODEStepper(Stepper):
     @property
     def state(self):
         ode, y = self.ode, self.y
-        return ode.configuration(y), y[ode.nv:2 * ode.nv].copy(), (y[-1] if ode.work else 0.0)
+        q, v = ode.configuration(y), y[ode.nv:2 * ode.nv].copy()
+        if self.system.drives is not None:  # the driven entries: the laws' at t, exactly
+            q, v = self.system.drives.impose(q, v, self.t)
+        return q, v, (y[-1] if ode.work else 0.0)
 
     def atol_vector(self):
         """Absolute tolerances of every ODE component (the work component is not controlled: inf)."""

@@ -36,6 +36,10 @@ def make_ode(system, q0, v0, work=False, variational=False):
         from .projected import projected_ode
 
         cls = projected_ode(cls)
+    if getattr(system, "drives", None) is not None:  # drives: the free coordinates only
+        from .driven import driven_ode
+
+        cls = driven_ode(cls)
     ode = cls(system, work)
     if variational:
         ode = Variational(ode)
