@@ -1,0 +1,98 @@
+"""The package as installed: the bundled models load by name (Python and CLI, from any working directory), a
+path stays a path, an unknown name is refused listing the bundled ones; the packaging metadata (package list,
+version, license, changelog) agrees with the source tree. The wheel itself is checked by .ci/wheel-check."""
+
+import contextlib
+import io
+import shutil
+from importlib import metadata
+
+import pytest
+from conftest import MODELS, ROOT
+
+import vibdyn as vd
+from vibdyn.faces.cli import main
+
+try:  # Python ≥ 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover
+    import tomli as tomllib
+
+PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+
+
+def run(argv):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(argv)
+    return code, out.getvalue(), err.getvalue()
+
+
+def test_bundled_models_are_the_models_folder():
+    assert vd.bundled_models() == tuple(sorted(p.stem for p in MODELS.glob("*.toml")))
+
+
+@pytest.mark.parametrize("name", ["four_bar", "four_bar.toml"])
+def test_a_bare_name_loads_the_bundled_model_from_any_folder(name, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    scene = vd.load_scene(name)
+    assert scene.to_dict() == vd.load_scene(MODELS / "four_bar.toml").to_dict()
+
+
+def test_a_file_here_wins_over_the_bundled_model_of_its_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    text = (MODELS / "trailer.toml").read_text(encoding="utf-8")
+    assert 'name = "trailer"' in text
+    (tmp_path / "trailer.toml").write_text(text.replace('name = "trailer"', 'name = "my_trailer"', 1), encoding="utf-8")
+    assert vd.load_scene("trailer.toml").name == "my_trailer"
+    assert vd.load_scene("trailer").name == "trailer"  # no file "trailer" here: the bundled one
+
+
+def test_a_path_is_a_path(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for path in (tmp_path / "four_bar.toml", "./four_bar.toml", "sub/four_bar"):
+        with pytest.raises(vd.SceneFileError, match="no such scene file$"):
+            vd.load_scene(path)
+    shutil.copy(MODELS / "helical.toml", tmp_path / "four_bar.toml")
+    assert vd.load_scene(tmp_path / "four_bar.toml").to_dict() == vd.load_scene("helical").to_dict()
+
+
+def test_an_unknown_name_lists_the_bundled_models(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(vd.SceneFileError) as e:
+        vd.load_scene("four_barr")
+    assert isinstance(e.value, ValueError)
+    message = str(e.value)
+    assert message.startswith("file four_barr: no such scene file, nor a bundled model")
+    assert "did you mean four_bar?" in message
+    assert all(name in message for name in vd.bundled_models())
+
+
+def test_the_cli_loads_bundled_models_by_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(["info", "four_bar"])
+    assert code == 0 and out.startswith("scene      four_bar"), err
+    code, out, err = run(["modes", "no_such_model"])
+    assert code == 2 and not out
+    assert err.startswith("vibdyn: error: file no_such_model: no such scene file") and "trailer" in err, err
+
+
+def test_the_package_list_is_every_package_of_the_source_tree():
+    """pyproject lists its packages (vibdyn.models comes from models/): a new subpackage must be listed there,
+    or the wheel ships without it."""
+    tool = PYPROJECT["tool"]["setuptools"]
+    assert tool["package-dir"] == {"vibdyn.models": "models"}
+    found = {".".join(p.parent.relative_to(ROOT).parts) for p in (ROOT / "vibdyn").rglob("__init__.py")}
+    assert set(tool["packages"]) == found | {"vibdyn.models"}
+    assert (MODELS / "__init__.py").is_file()
+    assert "*.toml" in tool["package-data"]["vibdyn.models"]
+
+
+def test_version_license_and_changelog_agree():
+    project = PYPROJECT["project"]
+    assert vd.__version__ == metadata.version("vibdyn") == project["version"]
+    assert project["license"] == "BSD-3-Clause"
+    assert (ROOT / "LICENSE").read_text(encoding="utf-8").startswith("BSD 3-Clause License")
+    changelog = (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
+    assert "## [Unreleased]" in changelog and f"## [{project['version']}]" in changelog
+    assert "pytest-xdist" in " ".join(project["optional-dependencies"]["test"])
