@@ -26,17 +26,7 @@ import scipy.linalg
 import vibdyn as vd
 
 
-def load(name):
-    """A bundled scene by name (falls back to the source checkout's ``models/`` until names are bundled)."""
-    try:
-        return vd.load_scene(name)
-    except Exception:  # noqa: BLE001 - interim, until vibdyn bundles its models
-        from pathlib import Path
-
-        return vd.load_scene(Path(vd.__file__).resolve().parents[1] / "models" / f"{name}.toml")
-
-
-scene = load("three_storey_building")
+scene = vd.load_scene("three_storey_building")
 system = scene.build()
 # analytic linearisation (RNEA derivatives + the springs' own): the storeys' 10 m springs make the finite
 # differences' round-off ε·L/h in each elongation, which their error estimate does not see

@@ -24,17 +24,7 @@ import numpy as np
 import vibdyn as vd
 
 
-def load(name):
-    """A bundled scene by name (falls back to the source checkout's ``models/`` until names are bundled)."""
-    try:
-        return vd.load_scene(name)
-    except Exception:  # noqa: BLE001 - interim, until vibdyn bundles its models
-        from pathlib import Path
-
-        return vd.load_scene(Path(vd.__file__).resolve().parents[1] / "models" / f"{name}.toml")
-
-
-scene = load("trailer")
+scene = vd.load_scene("trailer")
 book = scene.references
 system = scene.build()
 print(system.coordinates, "nv =", system.nv)

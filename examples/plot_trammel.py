@@ -28,17 +28,7 @@ from scipy.optimize import brentq
 import vibdyn as vd
 
 
-def load(name):
-    """A bundled scene by name (falls back to the source checkout's ``models/`` until names are bundled)."""
-    try:
-        return vd.load_scene(name)
-    except Exception:  # noqa: BLE001 - interim, until vibdyn bundles its models
-        from pathlib import Path
-
-        return vd.load_scene(Path(vd.__file__).resolve().parents[1] / "models" / f"{name}.toml")
-
-
-scene = load("trammel")
+scene = vd.load_scene("trammel")
 book = scene.references
 system = scene.build()
 print(system.coordinates, "tree coordinates; mobility", system.dof)

@@ -112,6 +112,7 @@ def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX
     """Static equilibrium near ``q0`` (neutral if None): Newton with line search; least-squares steps where
     K is singular (free or cyclic coordinates). Raises ConvergenceError with the best point. A mechanism with
     loops: :func:`vibdyn.analysis.constrained.equilibrium` (q0 need not close them)."""
+    _refuse_drives(system, "equilibrium")
     if system.constraints is not None:
         from .constrained import equilibrium
 
@@ -125,6 +126,7 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
 
     Example (a rotor driven by τ = 10 − ω² carrying a sprung slider): ``steady_motion({"rotor": None})``.
     """
+    _refuse_drives(system, "steady_motion")
     if system.constraints is not None:  # a mechanism with loops: speeds given (constrained.steady_motion)
         from .constrained import steady_motion as constrained_steady_motion
 
@@ -159,6 +161,7 @@ def held(system, q=None, v=None, t=0.0):
     the elastic and the other forces, M·0 + b(q, v) − Q(q, v, t) (not for a mechanism with loops, whose
     drives could not all act). Linearised with a = 0, its K is
     ∂(g − Q)/∂q at q: the drives are taken as constant forces (no stiffness of their own)."""
+    _refuse_drives(system, "held")
     if system.constraints is not None:
         raise ModelError("held: not available for a mechanism with closed loops (loops: "
                          f"{', '.join(lp.name for lp in system.constraints.loops)}); use equilibrium()")
@@ -174,6 +177,14 @@ def held(system, q=None, v=None, t=0.0):
     weight = sum(I.mass for I in system.model.inertias) * np.linalg.norm(system.scene.gravity) * system.length_scale
     tolerance = 100 * system.nv * np.finfo(float).eps * max(np.abs(r).max(initial=0.0), weight, 1e-300)
     return _finish(system, q, v, t, "held", 0.0, tolerance, 0, 0, speeds, drive, start)
+
+
+def _refuse_drives(system, what):
+    """A ModelError for a scene with drives (rheonomic joints): not supported here yet."""
+    if getattr(system, "drives", None) is not None:
+        raise ModelError(f"{what}: scene '{system.name}' has drives ({', '.join(system.drives.names)}) whose "
+                         "coordinates move with time: not supported yet; linearise it about a state of its motion "
+                         "(system.linearize(q, v=v, t=t), free coordinates) or simulate it")
 
 
 def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
