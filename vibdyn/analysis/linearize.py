@@ -273,12 +273,17 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     ``method``: "fd" (central differences with steps ``step`` × scale, scale 1 rad or the scene's length
     scale; error estimated from a second step 2h) or "analytic" (Pinocchio's RNEA derivatives plus the
     force elements' derivatives). A mechanism with loops is linearised in its independent motions
-    (:func:`vibdyn.analysis.constrained.linearize`).
+    (:func:`vibdyn.analysis.constrained.linearize`), a scene with drives in its free coordinates
+    (:func:`vibdyn.analysis.driven.linearize`).
     """
     if system.constraints is not None:  # a mechanism with loops: in its independent motions
         from .constrained import linearize as constrained_linearize
 
         return constrained_linearize(system, at, v=v, t=t, a=a, method=method, step=step)
+    if system.drives is not None:  # drives: in the free coordinates, about a state of the prescribed motion
+        from .driven import linearize as driven_linearize
+
+        return driven_linearize(system, at, v=v, t=t, a=a, method=method, step=step)
     return tree_linearize(system, at, v=v, t=t, a=a, method=method, step=step)
 
 
