@@ -47,6 +47,8 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.campbell_diagram": ("campbell", "Campbell", "CriticalSpeed"),
     "simulation.simulate": ("Trajectory", "SimulationError"),
     "studies.sweeps": ("sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked"),
+    "analysis.nonlinear.harmonic_balance": ("forced_response_curve", "ForcedResponseCurve", "PointForce",
+                                            "SupportMotion"),
 }
 # the modules themselves, under their short public names (vd.response, vd.simulate, ...)
 _MODULES = {"equilibrium": "analysis.equilibrium", "linearize": "analysis.linearize", "modal": "analysis.modal",
@@ -141,4 +143,4 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "LinearModel", "Modes", "OperatingPoint", "Equilibrium", "TimeResult", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",
            "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html",
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
-           "examples"]
+           "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion"]
