@@ -98,7 +98,7 @@ def test_R5_frequencies_and_damping_ratios():
 
 def test_R6_steady_motion_matrices_and_state_eigenvalues():
     ref, system, op, modes = solve("rotor_slider")
-    assert op.kind == "steady" and op.stability == "stable"
+    assert op.regime == "steady" and op.stability == "stable"
     assert op.speeds["rotor"] == pytest.approx(ref["omega_star"], rel=1e-9)
     assert op.coordinate("slider") == pytest.approx(ref["s_rel_star"], rel=RTOL)
     lin = modes.linear

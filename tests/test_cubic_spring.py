@@ -75,7 +75,7 @@ def test_energy_is_conserved_within_the_trajectory_error_estimate():
     tr = s.build().simulate(2.0, q0=[0.1], rtol=1e-10, error="rerun")
     E = tr.energy
     assert abs(E[0] - (0.25 * k3 * 0.1**4)) <= 1e-15 * E[0]
-    bound = k3 * 0.1**3 * tr.error + m * np.abs(tr.v).max() * tr.error_v
+    bound = k3 * 0.1**3 * tr.error + m * np.abs(tr.v).max() * tr.velocity_error
     assert np.abs(E - E[0]).max() <= 10 * bound
     # and it oscillates: the period of x'' = −(k₃/m) x³ from rest at A is 7.4163 / (A √(k₃/m))
     period = 7.416298709205487 / (0.1 * np.sqrt(k3 / m))

@@ -23,7 +23,7 @@ def inverted_bar(kt, m=2.0, L=1.0):
 
 def test_inverted_bar_stable_with_stiff_spring():
     eq = inverted_bar(50.0).equilibrium()
-    assert eq.kind == "static" and eq.stability == "stable"
+    assert eq.regime == "static" and eq.stability == "stable"
     assert eq.modes.omega[0] == pytest.approx(7.764342, rel=1e-6)
 
 
@@ -97,7 +97,7 @@ def test_steady_motion_of_rotor_R6():
     system = rotor()
     st = system.steady_motion({"rotor": None})
     s_star = 100 * 0.5 / (100 - 10)
-    assert st.kind == "steady" and st.speeds["rotor"] == pytest.approx(np.sqrt(10), rel=1e-9)
+    assert st.regime == "steady" and st.speeds["rotor"] == pytest.approx(np.sqrt(10), rel=1e-9)
     assert 0.5 + st.coordinate("slider") == pytest.approx(s_star, rel=1e-9)
     lin = st.linearize()
     np.testing.assert_allclose(np.diag(lin.M), [0.4096420, 1.0], rtol=1e-6)

@@ -68,7 +68,7 @@ def test_close_and_overlapping_modes():
 def test_log_decrement_of_a_free_decay(zeta):
     lin = sdof(zeta)
     t = np.linspace(0, 3, 3001)
-    x = lin.free_response(t, [0.01], [0.0]).q[:, 0]
+    x = lin.free_response(t, [0.01], [0.0]).x[:, 0]
     ld = identify.log_decrement(t, x)
     assert ld.zeta == pytest.approx(zeta, rel=1e-8)
     assert abs(ld.zeta - zeta) <= ld.error + 1e-15

@@ -60,7 +60,7 @@ def test_registry_declares_every_method():
 def within_estimate(traj, q_err, v_err):
     """The errors (at every output) within the run's own estimate (see the module docstring)."""
     if traj.error_method == "local":
-        return q_err.max() <= traj.error + roundoff(traj) and v_err.max() <= traj.error_v + OMEGA * roundoff(traj)
+        return q_err.max() <= traj.error + roundoff(traj) and v_err.max() <= traj.velocity_error + OMEGA * roundoff(traj)
     so_far = np.maximum.accumulate
     return (np.all(q_err <= ESTIMATE_SLACK * so_far(traj.q_error) + roundoff(traj))
             and np.all(v_err <= ESTIMATE_SLACK * so_far(traj.v_error) + OMEGA * roundoff(traj)))
@@ -114,7 +114,7 @@ def test_dense_output_agrees_with_a_second_run(name):
     q_err = np.abs(second.q[~at_steps, 0] - exact(t_mid))
     v_err = np.abs(second.v[~at_steps, 0] + OMEGA * X0 * np.sin(OMEGA * t_mid))
     assert q_err.max() <= ESTIMATE_SLACK * second.error + roundoff(second)
-    assert v_err.max() <= ESTIMATE_SLACK * second.error_v + OMEGA * roundoff(second)
+    assert v_err.max() <= ESTIMATE_SLACK * second.velocity_error + OMEGA * roundoff(second)
 
 
 @pytest.mark.parametrize("name", sorted(METHODS))

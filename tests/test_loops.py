@@ -341,7 +341,7 @@ def test_trammel_receptance_and_free_response_in_the_independent_motion():
     # free response from an offset of the independent coordinate: a cosine at ω_n
     t = np.linspace(0, 1, 5)
     r = lin.free_response(t, [1e-3])
-    assert r.q[:, 0] == pytest.approx(1e-3 * np.cos(wn * t), abs=1e-12)
+    assert r.x[:, 0] == pytest.approx(1e-3 * np.cos(wn * t), abs=1e-12)
 
 
 def squeezer_angles(system, ref, q):

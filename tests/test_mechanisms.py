@@ -296,7 +296,7 @@ def test_steady_spin_linearisation_of_a_looped_rotor_equals_its_hand_reduction()
     assert oscillating == pytest.approx([omega_n], rel=1e-7)
     # the steady motion found from another start, and its drive (none needed: nothing resists the spin)
     st = system.steady_motion({"rotor": spin}, q0=system.configuration({"A": 0.56, "disk": 0.6, "B": 0.83}))
-    assert st.kind == "steady" and st.speeds == {"rotor": spin}
+    assert st.regime == "steady" and st.speeds == {"rotor": spin}
     assert np.abs(points(system, st.q) - points(system, q0)).max() <= 1e-8 * system.length_scale
     assert abs(st.drive["rotor"]) <= 1e-8 * np.abs(K).max()
     assert st.linearize().modes().omega == pytest.approx(m.omega, rel=1e-7)

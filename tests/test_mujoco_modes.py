@@ -118,7 +118,7 @@ def case(request):
 def test_natural_frequencies_equal_mujoco(case, method):
     n, scene, system, eq, rests, oracle = case
     # the operating point: a converged, stable and asymmetric equilibrium
-    assert eq.kind == "static" and eq.residual <= eq.tolerance and eq.stability == "stable"
+    assert eq.regime == "static" and eq.residual <= eq.tolerance and eq.stability == "stable"
     dq = system.difference(system.neutral(), eq.q)
     assert np.abs(dq).max() > 0.1 and np.abs(dq - rests).max() > 1e-2  # gravity moved it off the rests
     lin = eq.linearize() if method == "fd" else eq.linearize(method="analytic")

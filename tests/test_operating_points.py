@@ -33,7 +33,7 @@ def test_search_from_a_start_where_k_is_zero_finds_the_hanging_equilibrium():
     assert abs(eq.coordinate("pendulum") + np.pi / 2) <= eq.q_error[0] + 1e-12
     assert eq.stability == "stable"
     m = eq.linearize().modes()
-    assert m.omega[0] == pytest.approx(np.sqrt(G / 1.0), rel=10 * m.residual[0] + 1e-12)
+    assert m.omega[0] == pytest.approx(np.sqrt(G / 1.0), rel=10 * m.omega_error[0] + 1e-12)
 
 
 def test_a_constant_generalized_force_is_refused_as_having_no_stationary_point():
@@ -46,7 +46,7 @@ def test_a_constant_generalized_force_is_refused_as_having_no_stationary_point()
 def test_bundled_helical_is_held_by_the_torque_m_g_p(capsys):
     system = vd.load_scene(MODELS / "helical.toml").build()
     op = system.operating_point()
-    assert op.kind == "held"
+    assert op.regime == "held"
     assert abs(op.drive["screw"] - 2.0 * G * 0.1) <= op.tolerance  # m g p, N·m
     m = op.linearize().modes()
     assert m.rigid.tolist() == [True]  # gravity's torque does not depend on the angle: K = 0
@@ -106,7 +106,7 @@ def test_modes_of_panda_keep_the_fingers_within_their_limits(capsys):
     code, out, _ = run(capsys, "modes", "robot:panda", "--json")
     assert code == 0
     d = json.loads(out)
-    assert d["operating_point"]["kind"] == "held"
+    assert d["operating_point"]["regime"] == "held"
     offsets = dict(zip(d["coordinates"], d["operating_point"]["offsets"]))
     for finger in ("panda_finger_joint1", "panda_finger_joint2"):
         assert 0.0 <= offsets[finger] <= 0.04

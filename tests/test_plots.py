@@ -104,15 +104,16 @@ def test_time_history_takes_a_time_response_and_a_trajectory(tmp_path):
             np.testing.assert_array_equal(lines[0].get_xdata(), t)
             curves[name, quantity] = np.column_stack([line.get_ydata() for line in lines])
         assert_png(tmp_path / f"{name}.png")
-        assert set(result.to_dict()) >= {"t_s", "coordinates", "units", "q", "v", "a", "method", "error_estimate",
-                                         "elapsed_s"}
+        assert set(result.to_dict()) >= {"t_s", "coordinates", "units", result.position_name, "v", "a", "method",
+                                         "error_estimate", "elapsed_s"}
+        assert result.position_name == ("x" if name == "response" else "q")
     np.testing.assert_array_equal(curves["response", "velocity"], r.v[:, ::-1])
     np.testing.assert_array_equal(curves["trajectory", "velocity"], traj.v[:, ::-1])
     # the same motion: the linear model's error is relative to max|δq|, the simulation's absolute
-    tol_q = r.error * np.abs(r.q).max() + traj.error
+    tol_q = r.error * np.abs(r.x).max() + traj.error
     assert np.abs(curves["trajectory", "displacement"] - curves["response", "displacement"]).max() <= tol_q
     assert np.abs(curves["trajectory", "velocity"] - curves["response", "velocity"]).max() <= (
-        r.error * np.abs(r.v).max() + traj.error_v)
+        r.error * np.abs(r.v).max() + traj.velocity_error)
     # accelerations from the equations of motion: a = −M⁻¹K δq for this linear scene, at the simulated states
     lin = system.linearize()
     np.testing.assert_allclose(traj.a, -np.linalg.solve(lin.M, lin.K @ (traj.q - system.neutral()).T).T,

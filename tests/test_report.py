@@ -137,7 +137,7 @@ def test_the_held_ur5_is_unstable_only_where_its_growth_is_resolved():
     by 2e-10): a verdict of instability is given only with its growth rate above that rate's uncertainty;
     with servo stiffness every mode oscillates."""
     m = vd.load_robot("ur5").build().operating_point().linearize().modes()
-    sigma, err = m.omega[m.unstable], 2 * m.residual[m.unstable] * m.omega[m.unstable]
+    sigma, err = m.omega[m.unstable], 2 * m.omega_error[m.unstable] * m.omega[m.unstable]
     assert np.all(sigma > 10 * err)
     stiff = vd.load_robot("ur5", servo=(1000.0, 10.0)).build().operating_point().linearize().modes()
     assert stiff.stability == "stable" and not stiff.rigid.any() and not stiff.unstable.any()

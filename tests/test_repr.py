@@ -34,7 +34,7 @@ def test_reprs_are_short_and_carry_the_key_numbers(damped):
     system, eq, lin, m = damped
     short(m, "Modes", "2 modes", "rad/s", f"{m.omega[0]:.4g}", m.stability)
     short(lin, "LinearModel", "nv = 2", "fd", "damped")
-    short(eq, "OperatingPoint", eq.kind, eq.stability)  # (an equilibrium is one kind of operating point)
+    short(eq, "OperatingPoint", eq.regime, eq.stability)  # (an equilibrium is one kind of operating point)
     frf = lin.receptance(np.geomspace(0.1, 7, 400), inputs=["m1"], outputs=["m1", "m2"])
     short(frf, "FRF", "400 frequencies", "receptance")
     short(frf.peaks("m1", "m1"), "Peaks", "0.945274", "3.35271", "1.47667")

@@ -411,7 +411,7 @@ def test_planar_body_moves_uniformly():
     assert np.abs(angle - v0[2] * t).max() <= tol
     c, s_ = np.cos(v0[2] * t), np.sin(v0[2] * t)
     body_v = np.stack([c * v0[0] + s_ * v0[1], -s_ * v0[0] + c * v0[1]], axis=-1)
-    assert np.abs(traj.v[:, :2] - body_v).max() <= max(traj.error_v, 1e-10)
+    assert np.abs(traj.v[:, :2] - body_v).max() <= max(traj.velocity_error, 1e-10)
     assert np.abs(np.linalg.norm(traj.q[:, 2:4], axis=1) - 1).max() <= 1e-14  # re-normalised: round-off
 
 

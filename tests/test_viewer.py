@@ -159,7 +159,7 @@ def test_springs_stretch_with_the_motion():
 
 def test_damped_gyroscopic_and_unstable_modes_are_labelled():
     rotor = content(vd.load_scene(MODELS / "rotor_slider.toml"))
-    kinds = [v.kind for v in rotor.views]
+    kinds = [v.behaviour for v in rotor.views]
     assert "rigid" in kinds
     assert all(np.isfinite(v.zeta) for v in rotor.views)
     assert any("ζ" in m["label"] for m in rotor.motions())
@@ -168,11 +168,11 @@ def test_damped_gyroscopic_and_unstable_modes_are_labelled():
     z = motion._phases(rigid)
     assert z[0].real == -1 and z[-1].real == 1 and np.all(np.diff(z.real) > 0)
     bar = content(vd.load_scene(MODELS / "inverted_bar_unstable.toml"))
-    assert any(v.kind == "unstable" for v in bar.views)
+    assert any(v.behaviour == "unstable" for v in bar.views)
     assert any(m["unstable"] and "UNSTABLE" in m["label"] for m in bar.motions())
     # a complex shape animates its phase: mode frames at θ and θ + π are mirror images
     damped = content(vd.load_scene(MODELS / "receptance_damped.toml"))
-    v = next(v for v in damped.views if v.kind == "oscillating")
+    v = next(v for v in damped.views if v.behaviour == "oscillating")
     assert np.iscomplexobj(v.shape) and np.any(v.shape.imag != 0)
     fr = motion.mode_frames(damped.system, damped.q0, v, 1e-3)
     half = len(fr) // 2

@@ -1,8 +1,9 @@
 """The one protocol of results in time: the linear model's :class:`~vibdyn.analysis.response.TimeResponse`
 and the simulation's :class:`~vibdyn.simulation.simulate.Trajectory` both derive from :class:`TimeResult`.
 
-A time result has ``t`` (s, n_t), ``q``, ``v``, ``a`` (one row per time: configurations or displacements in
-m or rad, velocities in m/s or rad/s, accelerations in m/s² or rad/s²), ``coordinates`` and ``units`` (one
+A time result has ``t`` (s, n_t), its positions — ``q`` (configurations) in a Trajectory, ``x``
+(displacements from the operating point) in a TimeResponse, named by ``position_name`` — and ``v``, ``a``
+(one row per time: m or rad, velocities in m/s or rad/s, accelerations in m/s² or rad/s²), ``coordinates`` and ``units`` (one
 per velocity component), ``method``, ``error`` (the result's own error estimate: see each class for its
 unit), ``elapsed`` (s), :meth:`~TimeResult.to_dict` (JSON-ready) and :meth:`~TimeResult.series` (the curves
 of chosen outputs, which :func:`vibdyn.faces.plots.time_history` and :meth:`~TimeResult.plot` draw).
@@ -22,10 +23,10 @@ class TimeResult:
     :meth:`series`; this class gives ``len``, :meth:`to_dict`'s common part and :meth:`plot`."""
 
     t: np.ndarray
-    q: np.ndarray
     v: np.ndarray
     method: str
     elapsed: float
+    position_name = "q"  # "q": configurations (Trajectory); "x": displacements (TimeResponse)
     if TYPE_CHECKING:  # fields of one subclass, computed properties of the other
         @property
         def a(self) -> np.ndarray: ...
@@ -48,10 +49,10 @@ class TimeResult:
         raise NotImplementedError
 
     def time_dict(self) -> dict[str, Any]:
-        """The protocol's part of :meth:`to_dict`: times (s), coordinates, units, q, v, a, method, error
-        estimate and elapsed time (s)."""
+        """The protocol's part of :meth:`to_dict`: times (s), coordinates, units, the positions (q or x), v, a,
+        method, error estimate and elapsed time (s)."""
         return {"t_s": self.t.tolist(), "coordinates": list(self.coordinates), "units": list(self.units),
-                "q": self.q.tolist(), "v": self.v.tolist(), "a": self.a.tolist(), "method": self.method,
+                self.position_name: getattr(self, self.position_name).tolist(), "v": self.v.tolist(), "a": self.a.tolist(), "method": self.method,
                 "error_estimate": self.error, "elapsed_s": self.elapsed}
 
     def to_dict(self) -> dict[str, Any]:

@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True, eq=False)
 class OperatingPoint:
-    """An equilibrium (``kind`` "static"), steady motion ("steady") or configuration held by drives
+    """An equilibrium (``regime`` "static"), steady motion ("steady") or configuration held by drives
     ("held", :func:`held`) of a system.
 
     ``residual``: largest remaining generalized force (N or N·m); ``speeds``: the cyclic coordinates'
@@ -41,7 +41,7 @@ class OperatingPoint:
     q: np.ndarray
     v: np.ndarray
     t: float
-    kind: str
+    regime: str
     residual: float
     tolerance: float
     iterations: int
@@ -63,8 +63,8 @@ class OperatingPoint:
     def __repr__(self):
         from .._format import duration, number, summary
 
-        return summary("OperatingPoint", self.kind, self.stability, f"residual {number(self.residual, digits=2)}",
-                       f"{self.iterations} iterations" if self.kind != "held" else "",
+        return summary("OperatingPoint", self.regime, self.stability, f"residual {number(self.residual, digits=2)}",
+                       f"{self.iterations} iterations" if self.regime != "held" else "",
                        f"speeds {self.speeds}" if self.speeds else "", duration(self.elapsed))
 
     def _repr_html_(self):
@@ -74,7 +74,7 @@ class OperatingPoint:
         dq = sysm.difference(sysm.neutral(), self.q)
         rows = [[n, u, number(x), number(self.v[i]), number(self.drive[n]) if n in self.drive else ""]
                 for i, (n, u, x) in enumerate(zip(sysm.coordinates, sysm.units, dq))]
-        return html_table(f"{self.kind} ({self.stability}), residual {number(self.residual, digits=2)}",
+        return html_table(f"{self.regime} ({self.stability}), residual {number(self.residual, digits=2)}",
                           ["coordinate", "unit", "offset", "speed", "drive"], rows)
 
     def __str__(self):
@@ -82,11 +82,11 @@ class OperatingPoint:
         dq = sysm.difference(sysm.neutral(), self.q)
         err = np.zeros(sysm.nv) if self.q_error is None else self.q_error
         ms = f"{self.elapsed * 1e3:.1f} ms"
-        if self.kind == "held":
+        if self.regime == "held":
             head = (f"held configuration ({self.stability} without its drives' stiffness): the drives hold every "
                     f"coordinate, {ms}")
         else:
-            head = (f"{self.kind} equilibrium: {self.stability}, residual {self.residual:.1e} after "
+            head = (f"{self.regime} equilibrium: {self.stability}, residual {self.residual:.1e} after "
                     f"{self.iterations} iterations, {ms}")
         cols = ["coordinate", "offset"]
         if self.speeds:
@@ -281,7 +281,7 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
                    len(cyclic), {names[i]: float(v[i]) for i in cyclic}, drive, start, travel)
 
 
-def _finish(system, q, v, t, kind, residual, tolerance, iterations, ignore_zeros, speeds, drive, start,
+def _finish(system, q, v, t, regime, residual, tolerance, iterations, ignore_zeros, speeds, drive, start,
             travel=0.0):
     """The OperatingPoint at (q, v): its stability from the modes of the linear model (a = 0), and the error
     of its offsets: |K⁺| × the remaining forces, and along rigid (neutral) directions, where any offset is an
@@ -297,7 +297,7 @@ def _finish(system, q, v, t, kind, residual, tolerance, iterations, ignore_zeros
         if m.rigid.any():
             P = np.abs(m.shapes[:, m.rigid] @ (m.shapes[:, m.rigid].T @ lin.M))  # M-projector on rigid modes
             q_error = q_error + np.sqrt(np.finfo(float).eps) * travel * P.sum(axis=1)
-    return OperatingPoint(system, q, v, float(t), kind, residual, tolerance, iterations, stability, speeds, drive,
+    return OperatingPoint(system, q, v, float(t), regime, residual, tolerance, iterations, stability, speeds, drive,
                        time.perf_counter() - start, m, q_error)
 
 

@@ -91,8 +91,8 @@ class HalfPower:
                 "quantity": self.quantity, "elapsed_s": self.elapsed}
 
 
-def extrema(omega, values, function=None, kind="max"):
-    """Local maxima (``kind`` "max") or minima ("min") of sampled values, refined between the neighbouring
+def extrema(omega, values, function=None, which="max"):
+    """Local maxima (``which`` "max") or minima ("min") of sampled values, refined between the neighbouring
     samples: by bounded Brent search on ``function`` (ω ↦ value) if given, else on a cubic spline through
     the samples. Returns (positions, values, errors): the errors estimate the positions' absolute error
     (Brent's tolerance, or the spline's difference from a three-point parabola). End samples are no
@@ -100,9 +100,9 @@ def extrema(omega, values, function=None, kind="max"):
     from scipy.optimize import minimize_scalar
 
     w, a = _curve(omega, values, "extrema")
-    if kind not in ("max", "min"):
-        raise ModelError(f"extrema: kind must be 'max' or 'min', got {kind!r}")
-    sign = -1.0 if kind == "max" else 1.0
+    if which not in ("max", "min"):
+        raise ModelError(f"extrema: which must be 'max' or 'min', got {which!r}")
+    sign = -1.0 if which == "max" else 1.0
     f = _function(w, a, function)
     i = np.arange(1, w.size - 1)
     s = sign * a

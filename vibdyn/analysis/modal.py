@@ -39,7 +39,7 @@ class Modes:
     ``modal_mass`` = diag(ΦᵀMΦ) (1: mass-normalised shapes, to the eigensolver's round-off),
     ``modal_stiffness`` = diag(ΦᵀK_sΦ) = ω² (per unit modal mass) and ``orthogonality`` (the largest of
     |ΦᵀMΦ − 1| and |ΦᵀK_sΦ − Λ| / max|ω²|) are computed on first use, from the eigenproblem that was
-    solved (kept in ``basis``).
+    solved (kept in ``eigenproblem``).
     """
 
     linear: LinearModel = field(repr=False)
@@ -62,7 +62,7 @@ class Modes:
     stability: str  # "stable", "unstable" or "neutral"
     elapsed: float  # s
     note: str = ""  # e.g. that an unresolved finite-difference model was replaced by the analytic one
-    basis: tuple = field(default=(), repr=False)  # (M, K_s, Φ, ω², scale) of the solved eigenproblem
+    eigenproblem: tuple = field(default=(), repr=False)  # (M, K_s, Φ, ω², scale) of the solved eigenproblem
     zero: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)  # per state eigenvalue: rigid/cyclic
     damped_zero: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)  # per damped mode: rigid/cyclic
     eigenvalue_uncertainty: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)  # 1/s, per state eigenvalue
@@ -75,7 +75,7 @@ class Modes:
     @cached_property
     def _products(self):
         """(diag ΦᵀMΦ, diag ΦᵀK_sΦ, orthogonality residual) of the solved eigenproblem."""
-        M, Ks, Phi, w2, scale = self.basis
+        M, Ks, Phi, w2, scale = self.eigenproblem
         n = len(w2)
         Mm, Km = Phi.T @ (M @ Phi), Phi.T @ (Ks @ Phi)
         modal_m, modal_k = Mm.diagonal().copy(), Km.diagonal().copy()
@@ -97,11 +97,6 @@ class Modes:
     def orthogonality(self) -> float:
         """The largest of |ΦᵀMΦ − 1| and |ΦᵀK_sΦ − Λ| / max|ω²| (relative)."""
         return self._products[2]
-
-    @property
-    def residual(self) -> np.ndarray:
-        """The former name of :attr:`omega_error` (a relative error of ω, not a residual): kept for old code."""
-        return self.omega_error
 
     @property
     def frequency_hz(self):
@@ -375,7 +370,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
                 "error, not unstable")
     return Modes(lin, w2, omega, Phi, rigid, unstable, rel, zero_threshold, lam, lam_modes, zeta, mag, omega_d,
                  lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start, note,
-                 basis=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes, eigenvalue_uncertainty=lam_abs)
+                 eigenproblem=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes, eigenvalue_uncertainty=lam_abs)
 
 
 _NO_REAL, _NO_COMPLEX, _NO_BOOL = np.zeros(0), np.zeros(0, complex), np.zeros(0, bool)  # undamped: no state form

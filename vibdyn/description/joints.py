@@ -508,7 +508,6 @@ class Fixed(Joint):
 
 #: joint type name (a scene file's ``type``) -> class
 JOINT_TYPES = {cls.kind: cls for cls in (Pivot, Slider, Helical, Cylindrical, Universal, Planar, Ball, Free, Fixed)}
-KINDS = JOINT_TYPES  # (the former name: one registry, two names)
 
 
 def joint_type(cls):
@@ -521,5 +520,5 @@ def joint_type(cls):
 
 def from_dict(d, what="joint"):
     """A joint from its plain-data form (``{"type": "pivot", "axis": [...], ...}``)."""
-    cls, params = kind_of(d, "type", KINDS, what, "{'type': 'pivot', ...}", "joint type")
+    cls, params = kind_of(d, "type", JOINT_TYPES, what, "{'type': 'pivot', ...}", "joint type")
     return cls(**params).checked()

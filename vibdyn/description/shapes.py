@@ -25,7 +25,7 @@ import numpy as np
 from .._check import finite_array, rotation_matrix, scalar, unit_axis, vector3
 from ..errors import ModelError
 
-KINDS = {  # kind: (required, optional)
+SHAPE_TYPES = {  # a scene file's type: (required, optional)
     "box": (("size",), ()),
     "cylinder": (("radius", "length"), ("axis",)),
     "sphere": (("radius",), ()),
@@ -87,9 +87,9 @@ def _one(v, what, base):
     if not isinstance(v, dict):
         raise ModelError(f"{what}: expected a table such as {{type = \"box\", size = [0.1, 0.1, 0.1]}}, got {v!r}")
     kind = v.get("type")
-    if kind not in KINDS:
-        raise ModelError(f"{what}: unknown shape type {kind!r} (one of {', '.join(KINDS)})")
-    required, optional = KINDS[kind]
+    if kind not in SHAPE_TYPES:
+        raise ModelError(f"{what}: unknown shape type {kind!r} (one of {', '.join(SHAPE_TYPES)})")
+    required, optional = SHAPE_TYPES[kind]
     for k in v:
         if k not in required + optional + COMMON:
             raise ModelError(f"{what}: unknown key '{k}' for a {kind} (allowed: {', '.join(required + optional + COMMON)})")

@@ -121,7 +121,7 @@ def modal_report(system, method="fd"):
         "coordinates": list(system.coordinates),
         "units": list(system.units),
         "operating_point": {
-            "kind": op.kind, "stability": op.stability, "residual": op.residual, "iterations": op.iterations,
+            "regime": op.regime, "stability": op.stability, "residual": op.residual, "iterations": op.iterations,
             "q": op.q.tolist(), "v": op.v.tolist(),
             "offsets": system.difference(system.neutral(), op.q).tolist(),
             "speeds": op.speeds, "drive": op.drive, "elapsed_s": op.elapsed},
@@ -213,7 +213,7 @@ def print_modes(system, method="fd", out=None, report=None):
     if text:
         print("", file=out)
         print(text, file=out)
-    if op.kind == "held" and (m.rigid.any() or m.unstable.any()):
+    if op.regime == "held" and (m.rigid.any() or m.unstable.any()):
         n = int(m.rigid.sum() + m.unstable.sum())
         print(f"note: held by drives with no servo stiffness: only gravity stiffens it, so {n} mode(s) come out "
               "rigid or unstable; give the joints servo stiffness (--servo K,C, or vd.load_robot(name, servo=(K, "

@@ -60,7 +60,7 @@ def print_frf(frf, peaks, hp, out=None, notes=()):
     """Print a frequency response's summary: resonances with half-power ζ (undamped ones: unbounded, no
     band), anti-resonances, and ``notes``."""
     p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
-    p(f"{frf.kind} {frf.outputs[0]} / {frf.inputs[0]} ({frf.units()}), {frf.omega.size} frequencies "
+    p(f"{frf.frf_type} {frf.outputs[0]} / {frf.inputs[0]} ({frf.units()}), {frf.omega.size} frequencies "
       f"{frf.omega[0]:.6g} … {frf.omega[-1]:.6g} rad/s")
     p(f"method {frf.method}, damping {frf.damping}; residual {frf.residual:.1e}, error ≈ {frf.error:.1e}, "
       f"{frf.elapsed * 1e3:.1f} ms")

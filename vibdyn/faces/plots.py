@@ -48,8 +48,8 @@ def save(fig, path, dpi=100):
 
 
 def _what(frf, quantity):
-    """What a plot of ``frf`` shows: its kind (receptance, transmissibility) or the quantity derived from it."""
-    return frf.kind if quantity == "receptance" else f"{quantity} (of the {frf.kind})"
+    """What a plot of ``frf`` shows: its type (receptance, transmissibility) or the quantity derived from it."""
+    return frf.frf_type if quantity == "receptance" else f"{quantity} (of the {frf.frf_type})"
 
 
 def bode(frf, output=0, input=0, *, quantity="receptance", hz=False, db=False, peaks=True, path=None, dpi=100):

@@ -509,8 +509,8 @@ class _Reader:
         return kind
 
     def joint(self, d, key, what):
-        kind = self.kind(d, "type", _joints.KINDS, key, what, "joint type")
-        cls = _joints.KINDS[kind]
+        kind = self.kind(d, "type", _joints.JOINT_TYPES, key, what, "joint type")
+        cls = _joints.JOINT_TYPES[kind]
         j = self.fields(d, key, {**cls.common_file_keys, **cls.file_keys}, cls.file_required, f"{what} {kind} joint")
         j.pop("type")
         try:

@@ -34,8 +34,8 @@ class Trajectory(TimeResult):
     accelerations there (computed on first use); ``coordinates`` and ``units`` the system's; ``kinetic``,
     ``gravity``, ``elastic`` (J) from :meth:`System.energy`; ``work`` (J) the work of the non-conservative
     forces since t0; ``q_error``/``v_error`` (arrays) the estimated global error at each output (tangent
-    space, largest over the coordinates: m or rad, m/s or rad/s) by ``error_method``, and ``error``/``error_v``
-    (numbers) their largest values over the outputs; ``nfev`` dynamics evaluations, ``njev`` Jacobians
+    space, largest over the coordinates: m or rad, m/s or rad/s) by ``error_method``, and ``error`` /
+    ``velocity_error`` (numbers) their largest values over the outputs; ``nfev`` dynamics evaluations, ``njev`` Jacobians
     (implicit and symplectic methods), ``nlu`` LU factorisations (or inverses), ``accepted``/``rejected`` steps
     (rejected is None for scipy's implicit solvers, which do not report it), all of the run itself;
     ``error_nfev`` the evaluations spent on the error estimate (its second run, if any); ``elapsed`` (s) the
@@ -132,8 +132,9 @@ class Trajectory(TimeResult):
         return "none" if self.error_method == "none" else f"global estimate ({self.error_method})"
 
     @property
-    def error_v(self) -> float:
-        """Estimated global error of the velocities (m/s or rad/s), largest over the outputs."""
+    def velocity_error(self) -> float:
+        """Estimated global error of the velocities (m/s or rad/s), largest over the outputs (the largest of
+        :attr:`v_error`, as :attr:`error` is of :attr:`q_error`)."""
         return float(self.v_error.max()) if len(self) else 0.0
 
     @property
@@ -210,7 +211,7 @@ class Trajectory(TimeResult):
     def _meta(self):
         return {"scene": self.system.name, "method": self.method, "status": self.status, "message": self.message,
                 "error_method": self.error_method, "error_kind": self.error_kind, "error": self.error,
-                "error_v": self.error_v,
+                "velocity_error": self.velocity_error,
                 "drift_J": self.drift, "drift_relative": self.drift_relative, "nfev": self.nfev,
                 "njev": self.njev, "nlu": self.nlu, "accepted": self.accepted,
                 "rejected": -1 if self.rejected is None else self.rejected, "error_nfev": self.error_nfev,

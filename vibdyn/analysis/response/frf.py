@@ -27,7 +27,7 @@ QUANTITY_UNIT = {"receptance": "", "mobility": "/s", "accelerance": "/s²"}
 class FRF:
     """A frequency response H(ω) (n_ω × n_out × n_in, complex).
 
-    ``kind`` "receptance": displacement per force (m/N, rad/(N·m), ...); "transmissibility": displacement
+    ``frf_type`` "receptance": displacement per force (m/N, rad/(N·m), ...); "transmissibility": displacement
     per support displacement (m/m). ``mobility`` = iωH and ``accelerance`` = −ω²H. ``residual``: largest
     normwise backward residual of (K − ω²M + iωC + iD) X = B over ω (modal sums included: it measures
     truncation and neglected coupling); ``error``: estimated relative error, condition number × (residual
@@ -41,7 +41,7 @@ class FRF:
     inputs: tuple
     output_units: tuple
     input_units: tuple
-    kind: str
+    frf_type: str
     method: str
     damping: str
     residual: float
@@ -54,7 +54,7 @@ class FRF:
     def __repr__(self):
         from ..._format import duration, number, summary
 
-        return summary("FRF", f"{self.kind} {'/'.join(self.outputs[:2])}{'…' if len(self.outputs) > 2 else ''} per "
+        return summary("FRF", f"{self.frf_type} {'/'.join(self.outputs[:2])}{'…' if len(self.outputs) > 2 else ''} per "
                        f"{'/'.join(self.inputs[:2])}{'…' if len(self.inputs) > 2 else ''}",
                        f"{self.omega.size} frequencies {number(self.omega[0])}…{number(self.omega[-1])} rad/s",
                        self.method, self.damping, f"error {number(self.error, digits=2)}", duration(self.elapsed))
@@ -70,7 +70,7 @@ class FRF:
                              ", ".join("∞ at " + number(w) if not np.isfinite(a) else f"{number(a)} at {number(w)}"
                                        for w, a in zip(p.resonances, p.amplitudes)) or "-",
                              ", ".join(number(w) for w in p.antiresonances) or "-"])
-        return html_table(f"{self.kind}: {self.omega.size} frequencies {number(self.omega[0])} … "
+        return html_table(f"{self.frf_type}: {self.omega.size} frequencies {number(self.omega[0])} … "
                           f"{number(self.omega[-1])} rad/s, error {number(self.error, digits=2)}",
                           ["output / input", "unit", "resonances |H| at ω (rad/s)", "anti-resonances (rad/s)"], rows)
 
@@ -223,7 +223,7 @@ class FRF:
 
     def to_dict(self) -> dict:
         """Plain data (JSON-ready): complex numbers as [re, im], SI units."""
-        return {"kind": self.kind, "omega_rad_s": self.omega.tolist(), "frequency_hz": self.frequency_hz.tolist(),
+        return {"frf_type": self.frf_type, "omega_rad_s": self.omega.tolist(), "frequency_hz": self.frequency_hz.tolist(),
                 "outputs": list(self.outputs), "inputs": list(self.inputs),
                 "output_units": list(self.output_units), "input_units": list(self.input_units),
                 "alpha": [[[[z.real, z.imag] for z in row] for row in m] for m in self.alpha],
@@ -411,13 +411,13 @@ def _natural(model):
     return w[np.concatenate([[True], np.diff(w) > 1e-9 * w[1:]])] if w.size else w  # round-off twins
 
 
-def frf_of(model, omega, Bfun, cout, labels_in, units_in, kind, method, n_modes, start, offset=None):
+def frf_of(model, omega, Bfun, cout, labels_in, units_in, frf_type, method, n_modes, start, offset=None):
     w = _omegas(omega)
     H, res, cond, amp = _transfer(model, w, Bfun, cout.matrix, method, n_modes, offset)
     evaluate = lambda ww: _transfer(model, _omegas(ww), Bfun, cout.matrix, method, n_modes, offset)[0]  # noqa: E731
     # the solve's error, and the linear model's own error amplified by 1/σ_min(Z) (large near a resonance)
     err = min(1.0, cond * max(res, EPS) + amp)
-    return FRF(w, H, cout.labels, tuple(labels_in), cout.units, tuple(units_in), kind, method, model.damping,
+    return FRF(w, H, cout.labels, tuple(labels_in), cout.units, tuple(units_in), frf_type, method, model.damping,
                res, cond, err, time.perf_counter() - start, _natural(model), evaluate)
 
 

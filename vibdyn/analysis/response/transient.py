@@ -34,15 +34,15 @@ from .frf import EPS
 # ====================================================================== time responses
 @dataclass(frozen=True, eq=False)
 class TimeResponse(TimeResult):
-    """A response in time (a :class:`~vibdyn.results.TimeResult`): δq, δv, δa (n_t × nv, m or
-    rad and their rates) at times ``t`` (s), measured
-    from the operating point. ``error``: estimated error relative to max|δq| (quadrature, eigenvector
+    """A response in time (a :class:`~vibdyn.results.TimeResult`): ``x`` = δq, ``v`` = δv, ``a`` = δa (n_t × nv,
+    m or rad and their rates) at times ``t`` (s), measured from the operating point (displacements, not
+    configurations: a :class:`~vibdyn.simulation.trajectory.Trajectory`'s ``q``). ``error``: estimated error relative to max|δq| (quadrature, eigenvector
     conditioning or the integrator's tolerance, plus the linear model's error drifting the phase over the
     time span); ``imaginary``: largest imaginary part left by complex modes
     (relative, round-off). ``displacement(outputs)`` maps to body points or coordinates."""
 
     t: np.ndarray
-    q: np.ndarray
+    x: np.ndarray
     v: np.ndarray
     a: np.ndarray
     coordinates: tuple
@@ -52,6 +52,7 @@ class TimeResponse(TimeResult):
     elapsed: float
     linear: object = field(repr=False)
     imaginary: float = 0.0
+    position_name = "x"  # the protocol's positions: displacements from the operating point
 
     def __repr__(self):
         from ..._format import duration, number, summary
@@ -71,14 +72,14 @@ class TimeResponse(TimeResult):
         return self.series("acceleration", outputs, direction)[2]
 
     def coordinate(self, name):
-        return self.q[:, self.linear.system.coordinate_index(name)]
+        return self.x[:, self.linear.system.coordinate_index(name)]
 
     def series(self, quantity="displacement", outputs=None, direction=None):
         """(labels, units, values n_t × k) of outputs (coordinate names, body points with a direction;
         None: every coordinate): δ displacement (m or rad), velocity or acceleration."""
         rate = check_quantity(quantity, "time response")
         ch = channels(self.linear, outputs, direction)
-        values = {"displacement": self.q, "velocity": self.v, "acceleration": self.a}[quantity] @ ch.matrix.T
+        values = {"displacement": self.x, "velocity": self.v, "acceleration": self.a}[quantity] @ ch.matrix.T
         return list(ch.labels), [u + rate for u in ch.units], values
 
     def to_dict(self):

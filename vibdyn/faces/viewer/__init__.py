@@ -55,10 +55,10 @@ class Content:
             status = {"rigid": "rigid-body mode: drifts (0 Hz)",
                       "unstable": "UNSTABLE: grows (shown as a loop)",
                       "overdamped": "overdamped: decays without oscillating (shown growing, as a loop)",
-                      "oscillating": f"one cycle shown in {_motion.PERIOD:g} s"}[v.kind]
+                      "oscillating": f"one cycle shown in {_motion.PERIOD:g} s"}[v.behaviour]
             a = self.amplitude(v, amplitude)
             out.append({"label": v.label, "status": f"{status}; amplitude factor {a:.3g}",
-                        "unstable": v.kind == "unstable", "clock": False, "speed": 1.0})
+                        "unstable": v.behaviour == "unstable", "clock": False, "speed": 1.0})
         return out
 
     def amplitude(self, view, amplitude=None):

@@ -30,7 +30,7 @@ class ModeView:
     index: int  # 0-based
     omega: float  # rad/s: ω (undamped) or ω_d (damped); 0 for a mode that does not oscillate
     zeta: float  # damping ratio (nan when undamped analysis)
-    kind: str  # "oscillating", "rigid", "unstable" or "overdamped"
+    behaviour: str  # "oscillating", "rigid", "unstable" or "overdamped"
     shape: np.ndarray  # complex, nv
     rate: float = 0.0  # 1/s
     omega_n: float = float("nan")  # rad/s (state form)
@@ -43,10 +43,10 @@ class ModeView:
     @property
     def label(self):
         head = f"mode {self.index + 1}"
-        if self.kind == "rigid":
+        if self.behaviour == "rigid":
             return f"{head}: rigid (ω = 0), drifts"
         if self.omega == 0.0:  # no oscillation: a rate (1/s), not a frequency
-            what = "UNSTABLE, growth rate" if self.kind == "unstable" else "overdamped, decay rate"
+            what = "UNSTABLE, growth rate" if self.behaviour == "unstable" else "overdamped, decay rate"
             z = f", ζ = {self.zeta:.4g}" if self.damped else ""
             return f"{head}: {what} {abs(self.rate):.4g} 1/s (not a frequency){z}"
         if self.damped:
@@ -54,7 +54,7 @@ class ModeView:
                     f"ζ = {self.zeta:.4g}")
         else:
             text = f"ω = {self.omega:.4g} rad/s (f = {self.hz:.4g} Hz), undamped"
-        if self.kind == "unstable":
+        if self.behaviour == "unstable":
             text += f", UNSTABLE: growth rate {self.rate:.4g} 1/s"
         return f"{head}: {text}"
 
@@ -69,22 +69,22 @@ def mode_views(modes):
             phi = modes.complex_shapes[:, i]
             grows = lam.real > err[i]
             if modes.damped_zero[i]:
-                kind, w = "rigid", 0.0
+                behaviour, w = "rigid", 0.0
             elif lam.imag == 0:
-                kind, w = ("unstable" if grows else "overdamped"), 0.0
+                behaviour, w = ("unstable" if grows else "overdamped"), 0.0
                 phi = _real(phi)
             else:
-                kind, w = ("unstable" if grows else "oscillating"), abs(lam.imag)
-            if kind == "rigid":
+                behaviour, w = ("unstable" if grows else "oscillating"), abs(lam.imag)
+            if behaviour == "rigid":
                 phi = _real(phi)
-            out.append(ModeView(i, float(w), float(modes.zeta[i]), kind, phi, float(lam.real),
+            out.append(ModeView(i, float(w), float(modes.zeta[i]), behaviour, phi, float(lam.real),
                                 float(modes.omega_n[i]), True))
     else:
         for i in range(modes.n):
-            kind = "rigid" if modes.rigid[i] else ("unstable" if modes.unstable[i] else "oscillating")
-            w = 0.0 if kind != "oscillating" else float(modes.omega[i])
-            rate = float(modes.omega[i]) if kind == "unstable" else 0.0  # ω² < 0: e^{±√|ω²| t}
-            out.append(ModeView(i, w, float("nan"), kind, modes.shapes[:, i].astype(complex), rate))
+            behaviour = "rigid" if modes.rigid[i] else ("unstable" if modes.unstable[i] else "oscillating")
+            w = 0.0 if behaviour != "oscillating" else float(modes.omega[i])
+            rate = float(modes.omega[i]) if behaviour == "unstable" else 0.0  # ω² < 0: e^{±√|ω²| t}
+            out.append(ModeView(i, w, float("nan"), behaviour, modes.shapes[:, i].astype(complex), rate))
     return out
 
 
@@ -97,9 +97,9 @@ def _real(phi):
 def _phases(view, n=FRAMES):
     """Multipliers of the shape over one loop: e^{iθ} for oscillations, a real sawtooth otherwise."""
     u = np.arange(n + 1) / n
-    if view.kind in ("oscillating",) or (view.kind == "unstable" and np.any(view.shape.imag != 0)):
+    if view.behaviour in ("oscillating",) or (view.behaviour == "unstable" and np.any(view.shape.imag != 0)):
         return np.exp(2j * np.pi * u)
-    if view.kind == "rigid":
+    if view.behaviour == "rigid":
         return (2 * u - 1).astype(complex)
     return (np.expm1(3 * u) / np.expm1(3) * 2 - 1).astype(complex)  # grows (or decays, shown growing)
 

@@ -67,7 +67,7 @@ def plot_modes(modes, path=None, which=None, amplitude=None, dpi=100, columns=3)
         phases = (1.0, 1j) if np.any(v.shape.imag != 0) else (1.0,)
         for k, z in enumerate(phases):
             seg, m = skeleton(system, system.integrate(q0, s * (v.shape * z).real))
-            _draw(a, seg, m, axes3, color="C0" if v.kind != "unstable" else "C3", lw=2.0,
+            _draw(a, seg, m, axes3, color="C0" if v.behaviour != "unstable" else "C3", lw=2.0,
                   ls="-" if k == 0 else "--", label="mode" if k == 0 else "mode, 90° later", shift=shift)
         a.set_aspect("equal", adjustable="datalim")
         a.set_xticks([])
