@@ -50,6 +50,7 @@ def case_lin10(S):
     q0 = system.neutral()
     ref = exact_omega(n)
     fns = {"fd": lambda: lin_modes(system, q0, "fd"), "analytic": lambda: lin_modes(system, q0, "analytic")}
+    fns["raw pinocchio"] = raw_pinocchio(system, q0)
     mjl = MuJoCoLinear(scene, system) if C.mujoco() is not None else None
     if mjl:
         fns.update(transitionFD=mjl.transition, inverseFD=mjl.inverse)
@@ -59,9 +60,14 @@ def case_lin10(S):
         lin, m = fns[method]()
         r = C.run_record(f"vibdyn {method}", "vibdyn", omega_error(m.omega, ref), m.error, best[method],
                          lin.evaluations, method=method)
+        r["ratio_to_raw_pinocchio"] = best[method] / best["raw pinocchio"]
         if mjl:
             r["ratio_to_transitionFD"] = best[method] / best["transitionFD"]
+            r["ratio_to_inverseFD"] = best[method] / best["inverseFD"]
         runs.append(r)
+    runs.append(C.run_record("raw pinocchio (RNEA derivatives + CRBA + eigh)", "pinocchio",
+                             omega_error(np.sqrt(np.abs(fns["raw pinocchio"]())), ref), None, best["raw pinocchio"],
+                             1, verdict_=C.UNCHECKED, note="the floor: no checks, no error estimate"))
     if mjl:
         for k in ("transitionFD", "inverseFD"):
             runs.append(C.run_record(f"mujoco {k}", "mujoco", omega_error(fns[k](), ref), None, best[k], method=k))
@@ -70,8 +76,55 @@ def case_lin10(S):
     if mjl:
         case["ratio_to_mujoco"] = max(r["ratio_to_transitionFD"] for r in runs[:2])
         case["ratio_note"] = (f"worst of FD {runs[0]['ratio_to_transitionFD']:.2f}, analytic "
-                              f"{runs[1]['ratio_to_transitionFD']:.2f} / transitionFD; target ≤ {LIN_TARGET_RATIO:g}")
+                              f"{runs[1]['ratio_to_transitionFD']:.2f} / transitionFD (target ≤ {LIN_TARGET_RATIO:g}); "
+                              f"/ inverseFD FD {runs[0]['ratio_to_inverseFD']:.2f}, analytic "
+                              f"{runs[1]['ratio_to_inverseFD']:.2f} (target ≤ 1.5); / raw Pinocchio FD "
+                              f"{runs[0]['ratio_to_raw_pinocchio']:.2f}, analytic "
+                              f"{runs[1]['ratio_to_raw_pinocchio']:.2f} (target ≤ 2 for analytic)")
         case["target_met"] = case["ratio_to_mujoco"] <= LIN_TARGET_RATIO
+    return case
+
+
+def raw_pinocchio(system, q0, k=10.0):
+    """The floor: Pinocchio's RNEA derivatives and CRBA at rest, the chain's torsion springs k (N·m/rad) on the
+    diagonal, and scipy's eigh, no Python around them; returns ω² (rad²/s²)."""
+    import pinocchio as pin
+    from scipy.linalg import eigh
+
+    model, data, z = system.model, system.model.createData(), np.zeros(system.nv)
+    springs = np.diag(np.full(system.nv, k))
+
+    def run():
+        pin.computeRNEADerivatives(model, data, q0, z, z)
+        M = pin.crba(model, data, q0)
+        return eigh(data.dtau_dq + springs, M, lower=False, eigvals_only=True)
+
+    return run
+
+
+def case_floor(S):
+    """The analytic and FD paths (linearise + all modes) against raw Pinocchio at n = 10, 30, 100: the
+    ratio, interleaved, and what the rest of the time goes to is the checks and estimates named in the note."""
+    runs = []
+    for n in ((10, 30) if S.quick else (10, 30, 100)):
+        system = pendulum_chain(n).build()
+        q0, ref = system.neutral(), exact_omega(n)
+        fns = {"fd": lambda: lin_modes(system, q0, "fd"), "analytic": lambda: lin_modes(system, q0, "analytic"),
+               "raw": raw_pinocchio(system, q0)}
+        best = interleaved(fns, {"smoke": 3, "quick": 50 if n < 100 else 10, "full": 200 if n < 100 else 30}[S.mode])
+        for method in ("analytic", "fd"):
+            lin, m = fns[method]()
+            r = C.run_record(f"vibdyn {method}, n={n}", "vibdyn", omega_error(m.omega, ref), m.error, best[method],
+                             lin.evaluations, method=method)
+            r["ratio_to_raw_pinocchio"] = best[method] / best["raw"]
+            runs.append(r)
+        runs.append(C.run_record(f"raw pinocchio, n={n}", "pinocchio", omega_error(np.sqrt(np.abs(fns["raw"]())), ref),
+                                 None, best["raw"], 1, verdict_=C.UNCHECKED, note="floor"))
+    case = C.case_record("floor: linearise + all modes against raw Pinocchio", "speed", "exact M, K + eigh", runs,
+                         target="analytic ≤ 2× raw Pinocchio at every size")
+    ratios = [r["ratio_to_raw_pinocchio"] for r in runs if r.get("method") == "analytic"]
+    case["ratio_note"] = "analytic / raw: " + ", ".join(f"{x:.2f}" for x in ratios)
+    case["target_met"] = max(ratios) <= 2.0
     return case
 
 
@@ -159,5 +212,5 @@ def case_scale(S):
 
 
 def run(S):
-    cases = [case_lin10(S), case_point_elements(S)]
+    cases = [case_lin10(S), case_floor(S), case_point_elements(S)]
     return cases if S.smoke else cases + [case_scale(S)]
