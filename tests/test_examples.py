@@ -15,7 +15,7 @@ import pytest
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 SCRIPTS = sorted(EXAMPLES.glob("plot_*.py"))
 NEEDS = {"plot_sweep_dask.py": "distributed"}  # optional packages an example needs
-NO_VIEWER = {"plot_base_excitation.py", "plot_campbell.py", "plot_sweep_dask.py"}  # no mode shapes to show
+NO_VIEWER = {"plot_base_excitation.py", "plot_sweep_dask.py"}  # no mode shapes to show
 
 
 def test_the_gallery_is_there():
