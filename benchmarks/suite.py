@@ -174,7 +174,10 @@ def report(results):
         for c in res["cases"]:
             eq = c.get("equal_error", {})
             ratio = (f"{eq['ratio']:.2f} (at error {eq['error']:g}; with the error estimate "
-                     f"{eq['ratio_with_estimate']:.2f})" if eq.get("ratio") and eq.get("ratio_with_estimate") else
+                     f"{eq['ratio_with_estimate']:.2f}"
+                     + (f"; against MuJoCo RK4 with its Richardson estimate {eq['ratio_estimates']:.2f}"
+                        if eq.get("ratio_estimates") else "") + ")"
+                     if eq.get("ratio") and eq.get("ratio_with_estimate") else
                      f"{eq['ratio']:.2f} (at error {eq['error']:g})" if eq.get("ratio") else
                      f"{c['ratio_to_mujoco']:.2f} ({c.get('ratio_note', '')})" if c.get("ratio_to_mujoco") else "")
             lines.append(f"| {name} | {c['name']} | {c['verdict']} | {ratio} |")
