@@ -1,0 +1,342 @@
+"""Forced-response curves by harmonic balance (vd.forced_response_curve) against closed forms and against
+shooting on vibdyn's own time simulation (periodic orbits found by Newton on the state transition of
+``simulate(..., variational=True)``).
+
+Tolerances: the curve's own truncation estimate (``.error``, ``fold.error``, ``peak.error``) plus the
+simulation's error estimate; the H = 1 closed form is checked to the continuation's tolerance (its points
+solve the H = 1 balance to ‖R‖ ≤ 1e-11 of the force), not to the truncation error.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import vibdyn as vd
+
+P, C, K3 = 0.18, 0.05, 0.1  # NLvib's Duffing example: ẍ + 0.05 ẋ + x + 0.1 x³ = 0.18 cos Ωt
+RTOL = 1e-12  # the shooting's simulations
+
+
+def duffing_scene(c=C, k3=K3, k=1.0, m=1.0, forcing=None):
+    """A mass m on a slider, a spring k, a damper c and a cubic spring k3 x³; with ``forcing`` = (P, Ω) the
+    force P cos Ωt as a scene element (for the time simulations)."""
+    s = vd.Scene("duffing")
+    s.add_body("cart", joint=vd.Slider((1, 0, 0)), mass=m)
+    s.add_joint_spring("cart", k)
+    if c:
+        s.add_joint_damper("cart", c)
+    if k3:
+        s.add_cubic_joint_spring("cart", k3)
+    if forcing is not None:
+        amplitude, w = forcing
+        s.add_joint_force("cart", vd.laws.Harmonic(amplitude, w, phase=math.pi / 2))  # sin(Ωt + π/2) = cos Ωt
+    return s
+
+
+@pytest.fixture(scope="module")
+def duffing():
+    return duffing_scene().build()
+
+
+@pytest.fixture(scope="module")
+def curve_h1(duffing):
+    return vd.forced_response_curve(duffing, ("cart", P), (0.5, 1.6), "cart", harmonics=1)
+
+
+@pytest.fixture(scope="module")
+def curve(duffing):
+    return vd.forced_response_curve(duffing, ("cart", P), (0.5, 1.6), "cart")
+
+
+def state_at_zero(curve, i, c=0):
+    """(x(0), ẋ(0)) of point i from its Fourier coefficients (constant, cos kτ, sin kτ)."""
+    X = curve.coefficients[i][:, c]
+    k = np.arange(1, curve.harmonics + 1)
+    return float(X[0] + X[1::2].sum()), float(curve.omega[i] * (k * X[2::2]).sum())
+
+
+def shoot(system, z, T, t0=0.0):
+    """The periodic orbit through z ≈ (x0, v0) of period T by Newton on φ_T(z) − z (Jacobian Φ − I from the
+    variational equations); returns (z, the last trajectory, the residual)."""
+    z = np.array(z, float)
+    for _ in range(12):
+        tr = system.simulate(t0 + T, [z[0]], [z[1]], rtol=RTOL, t0=t0, variational=True)
+        F = np.array([tr.q[-1][0], tr.v[-1][0]]) - z
+        if np.max(np.abs(F)) < 1e-11:
+            return z, tr, float(np.max(np.abs(F)))
+        z = z - np.linalg.solve(tr.state_transition - np.eye(2), F)
+    return z, tr, float(np.max(np.abs(F)))
+
+
+def orbit_maximum(system, z, T, t0=0.0):
+    """max over one period of |x| for the orbit through z, from the maxima and minima of x (zeros of v,
+    located on the integrator's interpolant)."""
+    tr = system.simulate(t0 + T, [z[0]], [z[1]], rtol=RTOL, t0=t0, events=lambda t, q, v: v[0])
+    extremes = np.abs(np.concatenate([np.ravel(tr.event_q[0]), [z[0]]]))
+    return float(extremes.max()), tr
+
+
+def nlvib_closed_form(a, w):
+    """NLvib's H = 1 solution written as F(a, Ω) = 0: Ω² = 1 − ζ²/2 + ¾γa² ± √(P²/a² + ζ⁴/4 − ζ² − ¾ζ²γa²)
+    for ẍ + ζẋ + x + γx³ = P cos Ωt, i.e. here ζ ≡ c = 0.05 (the damping coefficient itself, 2ζ_r ω₀ with the
+    damping ratio ζ_r = 0.025 and ω₀ = 1 rad/s), γ = k3 = 0.1, P = 0.18. Squared out: x = a cos(Ωt − φ)
+    balances (1 − Ω² + ¾γa²) a = P cos φ and cΩa = P sin φ, so (1 − Ω² + ¾γa²)² + c²Ω² = P²/a²; its roots
+    in Ω² are the ± formula (the term under the root: c⁴/4 − c²(1 + ¾γa²) + P²/a²)."""
+    return (1 - w**2 + 0.75 * K3 * a**2) ** 2 + C**2 * w**2 - P**2 / a**2
+
+
+def omega_closed_form(a, sign):
+    root = P**2 / a**2 + C**4 / 4 - C**2 - 0.75 * C**2 * K3 * a**2
+    return np.sqrt(1 - C**2 / 2 + 0.75 * K3 * a**2 + sign * np.sqrt(root))
+
+
+# 1. the Duffing oscillator ---------------------------------------------------------------------------------------
+
+def test_h1_curve_is_nlvib_closed_form_at_every_point(curve_h1):
+    a, w = curve_h1.amplitude, curve_h1.omega
+    assert curve_h1.harmonics == 1 and curve_h1.status == "finished"
+    assert w[0] == 0.5 and w[-1] == 1.6
+    # each point solves the squared-out balance; its ∂/∂Ω at fixed a is of order 1, so ‖R‖ ~ 1e-11 P moves it
+    # by ~1e-11 (1e-9 allows the conditioning near the folds)
+    assert np.max(np.abs(nlvib_closed_form(a, w))) < 1e-9
+    # and equals the ± formula of NLvib, on its + (upper) or − (lower) branch
+    with np.errstate(invalid="ignore"):  # the − branch has no real Ω at small amplitudes
+        gap = np.fmin(np.abs(omega_closed_form(a, 1) - w), np.abs(omega_closed_form(a, -1) - w))
+    assert np.max(gap) < 1e-8
+    # H = 1 truncates the 3rd harmonic: its estimate says so (about γa³/32 ÷ 8Ω² ≈ 1e-2 m at the peak)
+    assert 1e-3 < curve_h1.peak.error < 1e-1
+
+
+def test_h1_folds_and_peak_against_the_closed_form(curve_h1):
+    assert len(curve_h1.folds) == 2
+    upper, lower = sorted(curve_h1.folds, key=lambda f: -f.omega)
+    # both folds lie on the + branch (the − one rises to the peak): the jump-down fold where its Ω(a) is
+    # largest, the jump-up fold where it is smallest, found on the closed form by bounded scalar searches
+    from scipy.optimize import minimize_scalar
+
+    up = minimize_scalar(lambda a: -omega_closed_form(a, 1), bounds=(2.0, 2.85), method="bounded",
+                         options={"xatol": 1e-12})
+    down = minimize_scalar(lambda a: omega_closed_form(a, 1), bounds=(0.6, 2.0), method="bounded",
+                           options={"xatol": 1e-12})
+    assert upper.omega == pytest.approx(-up.fun, abs=1e-9)
+    assert lower.omega == pytest.approx(down.fun, abs=1e-9)
+    # amplitudes at a fold are flat in Ω: compared on the closed form's own Ω(a) instead
+    assert omega_closed_form(upper.amplitude, 1) == pytest.approx(upper.omega, abs=1e-9)
+    assert omega_closed_form(lower.amplitude, 1) == pytest.approx(lower.omega, abs=1e-9)
+    # the peak: where the two branches meet (the root vanishes), Ω² = 1 − c²/2 + ¾γa²
+    peak = curve_h1.peak
+    assert nlvib_closed_form(peak.amplitude, peak.omega) == pytest.approx(0, abs=1e-9)
+    assert peak.omega == pytest.approx(math.sqrt(1 - C**2 / 2 + 0.75 * K3 * peak.amplitude**2), abs=1e-6)
+    assert lower.omega < peak.omega < upper.omega and peak.amplitude > upper.amplitude > lower.amplitude
+
+
+def test_h1_stability_changes_at_the_folds(curve_h1):
+    """The middle branch (between the folds along the curve) is unstable, the others stable; the multipliers'
+    product is exp(−cT) (Liouville: tr A = −c/m)."""
+    f1, f2 = sorted(curve_h1.folds, key=lambda f: f.index)
+    idx = np.arange(len(curve_h1.omega))
+    middle = (idx > f1.index) & (idx <= f2.index)
+    assert np.all(~curve_h1.stable[middle]) and np.all(curve_h1.stable[~middle])
+    T = 2 * np.pi / curve_h1.omega
+    det = np.prod(curve_h1.multipliers, axis=1)
+    np.testing.assert_allclose(det.real, np.exp(-C * T), rtol=1e-8)
+
+
+def test_adaptive_harmonics_reach_the_tolerance(curve):
+    assert curve.status == "finished"
+    assert np.max(curve.error) <= 1e-8 * curve.peak.amplitude
+    H, worst = zip(*curve.history)
+    assert H[-1] == curve.harmonics and worst[-1] <= 1e-8 and all(w > 1e-8 for w in worst[:-1])
+    text = str(curve)
+    assert "fold" in text and "peak" in text and "rad/s" in text and "Hz" in text
+
+
+def test_adaptive_folds_and_peak_agree_with_shooting(curve):
+    """Shooting on the simulation: a fold's Ω from the orbit with x(0) = A_fold, v(0) = 0 (a turning point at
+    the fold's amplitude; the forcing's phase t0 and Ω the unknowns: regular at a fold), to which Ω is
+    insensitive to first order; the peak's amplitude from the orbit at Ω_peak (insensitive to first order in
+    Ω there)."""
+    assert len(curve.folds) == 2
+    for fold in curve.folds:
+        A, w, t0 = fold.amplitude, fold.omega, 0.0
+        # the HB phase at which x is largest: t0 such that the forcing lags the turning point as HB says
+        i = fold.index
+        X = curve.coefficients[i][:, 0]
+        grid = np.linspace(0, 2 * np.pi, 4001)
+        k = np.arange(1, curve.harmonics + 1)
+        x = X[0] + np.cos(np.outer(grid, k)) @ X[1::2] + np.sin(np.outer(grid, k)) @ X[2::2]
+        t0 = grid[np.argmax(x)] / curve.omega[i]
+        y = np.array([w, t0])
+        for _ in range(10):
+            def G(y):
+                system = duffing_scene(forcing=(P, y[0])).build()
+                T = 2 * np.pi / y[0]
+                tr = system.simulate(y[1] + T, [A], [0.0], rtol=RTOL, t0=y[1])
+                return np.array([tr.q[-1][0] - A, tr.v[-1][0]])
+            g = G(y)
+            if np.max(np.abs(g)) < 1e-10:
+                break
+            J = np.column_stack([(G(y + e) - G(y - e)) / (2 * e.max()) for e in np.diag([1e-6, 1e-6])])
+            y = y - np.linalg.solve(J, g)
+        assert np.max(np.abs(G(y))) < 1e-9
+        assert abs(y[0] - fold.omega) <= 1e-6 + fold.error
+    peak = curve.peak
+    system = duffing_scene(forcing=(P, peak.omega)).build()
+    i = int(np.argmin(np.abs(curve.amplitude - peak.amplitude)))
+    T = 2 * np.pi / peak.omega
+    z, tr, res = shoot(system, state_at_zero(curve, i), T)
+    assert res < 1e-11
+    A, _ = orbit_maximum(system, z, T)
+    assert abs(A - peak.amplitude) <= 1e-6 + peak.error
+
+
+def test_stable_point_stays_unstable_point_leaves(curve):
+    """Started 1e-6 off the curve at t = 0 (the HB state moved by 1e-6 m and 1e-6 m/s), a simulation of 60
+    periods comes back to the orbit at a stable point (|μ| ≈ 0.87: 0.87⁶⁰ ≈ 2e-4) and leaves it at an
+    unstable one (μ ≈ 1.3: 1.3⁶⁰ ≈ 7e6); the monodromy of the shot orbit has Hill's multipliers."""
+    unstable = np.flatnonzero(~curve.stable)
+    assert unstable.size
+    i_u = unstable[unstable.size // 2]
+    i_s = int(np.argmin(np.abs(curve.omega - curve.omega[i_u]) + 10 * ~curve.stable))
+    assert curve.stable[i_s]
+    for i, leaves in ((i_u, True), (i_s, False)):
+        w = curve.omega[i]
+        system = duffing_scene(forcing=(P, w)).build()
+        T = 2 * np.pi / w
+        z0 = state_at_zero(curve, i)
+        tr = system.simulate(60 * T, [z0[0] + 1e-6], [z0[1] + 1e-6], rtol=RTOL)
+        drift = max(abs(tr.q[-1][0] - z0[0]), abs(tr.v[-1][0] - z0[1]))
+        if leaves:
+            assert drift > 1e-2
+        else:
+            assert drift < 1e-8
+        z, tr1, res = shoot(system, z0, T)
+        assert res < 1e-11 and abs(z[0] - z0[0]) < 1e-7  # HB and shooting: the same orbit
+        mu = np.sort(np.abs(np.linalg.eigvals(tr1.state_transition)))[::-1]
+        hill = np.abs(curve.multipliers[i])
+        assert np.allclose(mu, hill, atol=1e-6 + 10 * (tr1.state_transition_error or 0))
+        assert (mu[0] > 1) == leaves
+
+
+# 2. the linear oscillator ------------------------------------------------------------------------------------------
+
+def test_linear_oscillator_is_the_receptance_without_folds():
+    m, k, c, F = 2.0, 50.0, 1.5, 3.0
+    system = duffing_scene(c=c, k3=0.0, k=k, m=m).build()
+    crv = vd.forced_response_curve(system, ("cart", F), (1.0, 10.0), "cart")
+    w = crv.omega
+    exact = F / np.sqrt((k - m * w**2) ** 2 + (c * w) ** 2)
+    assert np.all(np.abs(crv.amplitude - exact) <= crv.error + 1e-9 * exact.max())
+    assert not crv.folds and np.all(crv.stable)
+    wn = math.sqrt(k / m)
+    assert crv.peak.omega == pytest.approx(wn * math.sqrt(1 - c**2 / (2 * k * m)), rel=1e-5)
+    assert crv.peak.amplitude == pytest.approx(F / (c * wn * math.sqrt(1 - c**2 / (4 * k * m))), rel=1e-9)
+    # linear: the adaptive loop stops at the first H (the higher harmonics are zero)
+    assert crv.harmonics == 3 and np.max(np.abs(crv.coefficients[:, 3:])) < 1e-12
+
+
+def test_point_force_and_support_motion_are_the_same_excitations():
+    """A point force F along the slider at the cart is the joint force F; a support moving Y cos Ωt through a
+    spring k and damper c excites x with |X| = Y √(k² + c²Ω²) / √((k − mΩ²)² + c²Ω²)."""
+    m, k, c, F, Y = 2.0, 50.0, 1.5, 3.0, 0.01
+    joint = vd.forced_response_curve(duffing_scene(c=c, k3=0.0, k=k, m=m).build(), ("cart", F), (1.0, 10.0),
+                                     "cart", harmonics=3)
+    point = vd.forced_response_curve(duffing_scene(c=c, k3=0.0, k=k, m=m).build(),
+                                     vd.PointForce("cart", (0, 0, 0), (2, 0, 0), F), (1.0, 10.0), "cart",
+                                     harmonics=3)
+    np.testing.assert_allclose(point.peak.amplitude, joint.peak.amplitude, rtol=1e-9)
+    s = vd.Scene("base")
+    s.add_support("ground", vd.laws.HarmonicMotion((0, 0, 0), 0.0))
+    s.add_body("mass", joint=vd.Slider((0, 0, 1), at=(0, 0, 1.0)), mass=m)
+    s.add_spring("k", ("ground", (0, 0, 0)), "mass", stiffness=k)
+    s.add_damper("c", ("ground", (0, 0, 0)), "mass", damping=c)
+    base = vd.forced_response_curve(s.build(), vd.SupportMotion("ground", (0, 0, Y)), (1.0, 10.0), "mass")
+    w = base.omega
+    exact = Y * np.sqrt(k**2 + (c * w) ** 2) / np.sqrt((k - m * w**2) ** 2 + (c * w) ** 2)
+    assert np.all(np.abs(base.amplitude - exact) <= base.error + 1e-8 * exact.max())
+
+
+# 3. a pendulum: gravity and large rotations --------------------------------------------------------------------
+
+def pendulum_scene(forcing=None, m=1.0, length=1.0, c=0.5, g=9.81):
+    """A point mass m on a massless arm of ``length`` about a pivot, gravity g, a joint damper c; with
+    ``forcing`` = (M, Ω) the torque M cos Ωt as a scene element (for the time simulations)."""
+    s = vd.Scene("pendulum", gravity=(0, 0, -g))
+    s.add_body("arm", joint=vd.Pivot((0, 1, 0)), mass=m, com=(0, 0, -length), inertia=np.zeros((3, 3)))
+    s.add_joint_damper("arm", c)
+    if forcing is not None:
+        s.add_joint_force("arm", vd.laws.Harmonic(forcing[0], forcing[1], phase=math.pi / 2))
+    return s
+
+
+def test_forced_pendulum_leans_left_and_matches_shooting():
+    """m l² θ̈ + c θ̇ + m g l sin θ = M cos Ωt (m = l = 1, c = 0.5, M = 1): softening, the peak lies below the
+    linear one ω₀ √(1 − 2ζ²) (ω₀ = √(g/l), ζ = c / (2 m l² ω₀)) by the backbone's first-order shift
+    ω ≈ ω₀ (1 − θ²/16); a point checked against shooting on the simulation."""
+    M, c = 1.0, 0.5
+    system = pendulum_scene().build()
+    w0 = math.sqrt(9.81)
+    zeta = c / (2 * w0)
+    crv = vd.forced_response_curve(system, ("arm", M), (0.7 * w0, 1.2 * w0), "arm")
+    assert crv.status == "finished" and not crv.folds and np.all(crv.stable)
+    linear_peak = w0 * math.sqrt(1 - 2 * zeta**2)
+    assert crv.peak.omega < linear_peak * (1 - 0.02)  # leans left: ~0.66 rad softens it by 2.7 %
+    # first-order backbone and damping: 3e-4 apart here; the next orders (θ⁴ terms) are ~1e-4
+    assert crv.peak.omega == pytest.approx(linear_peak * (1 - crv.peak.amplitude**2 / 16), rel=2e-3)
+    # bent left: above the linear receptance M / √((mgl − ml²Ω²)² + c²Ω²) below ω₀, beneath it above ω₀
+    linear = M / np.sqrt((9.81 - crv.omega**2) ** 2 + (c * crv.omega) ** 2)
+    assert np.all((crv.amplitude > linear)[crv.omega < 0.95 * w0])
+    assert np.all((crv.amplitude < linear)[crv.omega > linear_peak])
+    i = int(np.argmax(crv.amplitude))
+    for j in (max(i - 3, 0), i + 3):  # a point on each side of the peak
+        w = crv.omega[j]
+        forced = pendulum_scene(forcing=(M, w)).build()
+        T = 2 * np.pi / w
+        z, tr, res = shoot(forced, state_at_zero(crv, j), T)
+        assert res < 1e-11
+        A, _ = orbit_maximum(forced, z, T)
+        assert abs(A - crv.amplitude[j]) <= 1e-8 + crv.error[j]
+
+
+# 4. bad input ------------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("omega, match", [
+    ((1.6, 0.5), "increasing pair"), ((0.0, 1.0), "positive"), ((-1.0, 1.0), "positive"),
+    ((0.5, float("inf")), "finite"), ((0.5, float("nan")), "finite"), (1.0, "pair"), ((1, 2, 3), "pair"),
+    (("a", 2.0), "pair")])
+def test_bad_omega(duffing, omega, match):
+    with pytest.raises(vd.ModelError, match=match):
+        vd.forced_response_curve(duffing, ("cart", P), omega, "cart")
+
+
+def test_bad_coordinate_force_and_harmonics(duffing):
+    with pytest.raises(vd.ModelError, match="nope"):
+        vd.forced_response_curve(duffing, ("cart", P), (0.5, 1.6), "nope")
+    with pytest.raises(vd.ModelError, match="nope"):
+        vd.forced_response_curve(duffing, ("nope", P), (0.5, 1.6), "cart")
+    with pytest.raises(vd.ModelError, match="amplitude is zero"):
+        vd.forced_response_curve(duffing, ("cart", 0.0), (0.5, 1.6), "cart")
+    with pytest.raises(vd.ModelError, match="amplitude"):
+        vd.forced_response_curve(duffing, ("cart", float("nan")), (0.5, 1.6), "cart")
+    with pytest.raises(vd.ModelError, match="force"):
+        vd.forced_response_curve(duffing, 0.18, (0.5, 1.6), "cart")
+    with pytest.raises(vd.ModelError, match="unknown body 'nope'"):
+        vd.forced_response_curve(duffing, vd.PointForce("nope", (0, 0, 0), (1, 0, 0), 1.0), (0.5, 1.6), "cart")
+    with pytest.raises(vd.ModelError, match="direction is the zero vector"):
+        vd.forced_response_curve(duffing, vd.PointForce("cart", (0, 0, 0), (0, 0, 0), 1.0), (0.5, 1.6), "cart")
+    with pytest.raises(vd.ModelError, match="unknown support 'ground'"):
+        vd.forced_response_curve(duffing, vd.SupportMotion("ground", (0, 0, 1e-3)), (0.5, 1.6), "cart")
+    for H in (0, -1, 1.5, True):
+        with pytest.raises(vd.ModelError, match="harmonics"):
+            vd.forced_response_curve(duffing, ("cart", P), (0.5, 1.6), "cart", harmonics=H)
+
+
+def test_scenes_harmonic_balance_does_not_handle_are_refused():
+    timed = duffing_scene(forcing=(P, 1.0)).build()
+    with pytest.raises(vd.ModelError, match="depend on time"):
+        vd.forced_response_curve(timed, ("cart", P), (0.5, 1.6), "cart")
+    s = vd.Scene("top")
+    s.add_body("top", joint=vd.Ball(), mass=1.0, com=(0, 0, 0.1), inertia=0.01 * np.eye(3))
+    with pytest.raises(vd.ModelError, match="ball, free or planar"):
+        vd.forced_response_curve(s.build(), ("top.rx", 1.0), (0.5, 1.6), "top.rx")
