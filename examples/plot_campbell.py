@@ -64,7 +64,8 @@ critical = diagram.critical_speeds(1)
 exact_c = np.sqrt(k / (It + Ip))
 for cs in critical:
     print(f"{cs}: {cs.speed:.10f} rad/s ({cs.speed_rpm:.4f} rpm), error estimate {cs.error:.1e}; "
-          f"closed form {exact_c:.10f} rad/s, |Δ| {abs(cs.speed - exact_c):.1e} (book {rotor.scene.references['backward_critical_speed']:.10f})")
+          f"closed form {exact_c:.10f} rad/s, |Δ| {abs(cs.speed - exact_c):.1e} "
+          f"(book {rotor.scene.references['backward_critical_speed']:.10f})")
 assert len(critical) == 1 and critical[0].whirl == "backward"
 assert abs(critical[0].speed - exact_c) <= 10 * critical[0].error + 1e-12 * exact_c
 

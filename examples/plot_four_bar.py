@@ -8,7 +8,7 @@ crank about 1 rad; gravity −y. What is its equilibrium, and at what frequency 
 
 The textbook way to answer (a one-degree-of-freedom system in the crank angle θ): the position analysis in
 closed form gives each link's centre and angle as functions of θ, then the potential V(θ) (gravity and the
-spring) and the generalized mass m(θ) = Σ m_i |dG_i/dθ|² + J_i (dφ_i/dθ)²; the equilibrium is V'(θₑ) = 0 and
+spring) and the generalized mass m(θ) = Σ m_i ‖dG_i/dθ‖² + J_i (dφ_i/dθ)²; the equilibrium is V'(θₑ) = 0 and
 ω² = V''(θₑ) / m(θₑ).
 
 vibdyn is given the mechanism as one would draw it: three bodies joined by pivots, link lengths, and one loop

@@ -11,7 +11,7 @@ road a moving support under the tyre. In the vertical displacements (z_u, z_s),
 
 the undamped frequencies are the roots of (k_s − m_s ω²)(k_s + k_t − m_u ω²) = k_s²: ω = 7.623240 rad/s (the
 body's bounce, 1.2133 Hz) and 70.953912 rad/s (the wheel hop, 11.293 Hz). The road moves the tyre's lower end:
-the input k_t y on the wheel, and the body's transmissibility T(ω) = |z_s/y| → 1 as ω → 0.
+the input k_t y on the wheel, and the body's transmissibility T(ω) = ‖z_s/y‖ → 1 as ω → 0.
 """
 
 # %%

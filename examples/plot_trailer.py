@@ -59,8 +59,8 @@ for r, (w, f, e, ref) in enumerate(zip(modes.omega, modes.frequency_hz, modes.om
 # %%
 # With its dampers
 # ----------------
-# The state form gives the damped modes: natural frequency ω_n = |λ|, damped frequency ω_d = |Im λ| and
-# damping ratio ζ = −Re λ/|λ|. Both dampers act on their own coordinate, so the damping is not classical.
+# The state form gives the damped modes: natural frequency ``ω_n = |λ|``, damped frequency ``ω_d = |Im λ|`` and
+# damping ratio ``ζ = −Re λ/|λ|``. Both dampers act on their own coordinate, so the damping is not classical.
 for r in range(modes.n):
     print(f"mode {r + 1}: ω_n = {modes.omega_n[r]:.6f} rad/s, ω_d = {modes.omega_d[r]:.6f} rad/s "
           f"(f_d = {modes.damped_frequency_hz[r]:.6f} Hz), ζ = {modes.zeta[r]:.5f}")

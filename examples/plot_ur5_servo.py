@@ -45,7 +45,8 @@ bare = vd.load_robot("ur5").build()
 lin_bare = bare.operating_point().linearize()
 gap = np.abs(lin.K - lin_bare.K - k * np.eye(6))
 print(f"gravity's stiffness diag: {np.round(np.diag(lin_bare.K), 6)} N·m/rad; "
-      f"|K_servo − K_gravity − k I| ≤ {gap.max():.1e} (estimates {lin.K_error.max():.1e} + {lin_bare.K_error.max():.1e})")
+      f"|K_servo − K_gravity − k I| ≤ {gap.max():.1e} "
+      f"(estimates {lin.K_error.max():.1e} + {lin_bare.K_error.max():.1e})")
 assert np.all(gap <= 10 * (lin.K_error + lin_bare.K_error))
 assert np.allclose(lin.C, c * np.eye(6), rtol=0, atol=10 * lin.C_error.max() + 1e-12 * c)
 
@@ -53,7 +54,7 @@ assert np.allclose(lin.C, c * np.eye(6), rtol=0, atol=10 * lin.C_error.max() + 1
 # Stiffer servos: ω² → k · eig(M⁻¹)
 # ---------------------------------
 # The undamped modes for servos from 1e2 to 1e6 N·m/rad. ω²/k approaches the eigenvalues of M⁻¹, the gap
-# shrinking like |K_gravity|/k.
+# shrinking like ‖K_gravity‖/k.
 stiffnesses = np.geomspace(1e2, 1e6, 9)
 omegas = np.array([vd.load_robot("ur5", servo=(kk, 0.0)).build().operating_point().linearize().modes().omega
                    for kk in stiffnesses])
