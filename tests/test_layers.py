@@ -48,8 +48,9 @@ ENTRY_POINTS = {
     ("vibdyn.model.system", "System.steady_motion"): {"vibdyn.analysis.equilibrium"},
     ("vibdyn.model.system", "System.held"): {"vibdyn.analysis.equilibrium"},
     ("vibdyn.model.system", "System.linearize"): {"vibdyn.analysis.linearize"},
-    # a mechanism with loops is dispatched, on call, to its constrained analyses (which build on these)
-    ("vibdyn.analysis.linearize", "linearize"): {"vibdyn.analysis.constrained"},
+    # a mechanism with loops (a scene with drives) is dispatched, on call, to its constrained (driven)
+    # analyses, which build on these
+    ("vibdyn.analysis.linearize", "linearize"): {"vibdyn.analysis.constrained", "vibdyn.analysis.driven"},
     ("vibdyn.analysis.equilibrium", "static_equilibrium"): {"vibdyn.analysis.constrained"},
     ("vibdyn.analysis.equilibrium", "steady_motion"): {"vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.simulate"): {"vibdyn.simulation.simulate"},

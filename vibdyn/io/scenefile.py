@@ -55,6 +55,9 @@ Format
     [[force]]         # name, body, force = [fx, fy, fz] (N, default 0), at = [x, y, z] (m, body frame),
                       # torque = [...] (N·m, optional), frame = "world" (default) | "body"
     [[cubic_joint_spring]]  # body, k3 (N/m³ or N·m/rad³), rest (optional), name (optional): Q = −k3 (q − rest)³
+    [[drive]]         # the coordinate of a pivot, slider or helical joint prescribed in time: body, name (optional),
+                      # motion = { law = "harmonic", amplitude = 0.01, omega = 20.0, phase = 0.0, offset = 0.0 }
+                      # (the coordinate itself: offset + amplitude·sin(omega·t + phase), m or rad, omega in rad/s)
                       # (every element kind of vibdyn.description.elements has its table, named after it)
     [[loop]]          # a joint closing a cycle: name, a = [body, [x, y, z]], b = [body or "world", [...]],
                       # joint = { type = "ball" } (default) | pivot | slider | cylindrical {axis}

@@ -91,8 +91,8 @@ class VectorODE:
         """Tangent displacement from y0 to y1 (both in the current chart)."""
         return y1[:self.nv] - y0[:self.nv]
 
-    def recentre(self, y, f=None):
-        """Centre the chart at y's configuration (nothing to do on a vector space)."""
+    def recentre(self, y, f=None, t=None):
+        """Centre the chart at y's configuration (nothing to do on a vector space); ``t`` (s) is y's time."""
 
     def drift(self, y):
         """How far y is off the loops (dimensionless; 0 without loops: see the projected ODE)."""
@@ -155,7 +155,7 @@ class ChartODE(VectorODE):
     def configuration(self, y):
         return pin.integrate(self.model, self.centre, y[:self.nv])
 
-    def recentre(self, y, f=None):
+    def recentre(self, y, f=None, t=None):
         """Move the centre to y's configuration and set ξ = 0 in y (in place); ``f``, the derivative at y
         (in place), becomes the derivative in the new chart: ξ̇ = v there, v̇ and ẇ unchanged."""
         nv = self.nv
@@ -261,17 +261,18 @@ class Variational:
     def extent(self, y):
         return self.base.extent(y)
 
-    def recentre(self, y, f=None):
+    def recentre(self, y, f=None, t=None):
         """Re-centre the base chart; Y's configuration rows follow it (δξ_new = dIntegrate(ξ_old) δξ_old at
-        the new centre), and its derivative in ``f`` is evaluated again there."""
+        the new centre), and its derivative in ``f`` is evaluated again there, at y's time ``t`` (s; None: the
+        last evaluation's, which a dense output's extra stages move: steppers give it)."""
         m, nv = self.m, self.nv
         base, Y = self._split(y)
         if self.curved:
             Y[:nv] = pin.dIntegrate(self.base.model, self.base.centre, y[:nv], ARG1) @ Y[:nv]
-        self.base.recentre(y, None if f is None else f)
+        self.base.recentre(y, None if f is None else f, t)
         if f is not None:
             base, Y = self._split(y)
-            f[m:m + m * m] = (self.base.jacobian(self._t, base)[:m, :m] @ Y).ravel()
+            f[m:m + m * m] = (self.base.jacobian(self._t if t is None else t, base)[:m, :m] @ Y).ravel()
 
     def frozen(self):
         c = object.__new__(Variational)

@@ -68,7 +68,7 @@ class RungeKutta(ODEStepper):
 
     def _accept(self, h, y_new, f_new):
         self.t += h
-        self.ode.recentre(y_new, f_new)
+        self.ode.recentre(y_new, f_new, self.t)
         self.y, self.f = y_new, f_new
         self.accepted += 1
 

@@ -45,7 +45,7 @@ def projected_ode(base):
             self.near = cond < NEAR_SINGULAR
             return super().initial(q, v, w0)
 
-        def recentre(self, y, f=None):
+        def recentre(self, y, f=None, t=None):
             nv, system = self.nv, self.system
             q = self.configuration(y)
             q, v, cond = system.constraints.project(q, y[nv:2 * nv], system.mass_matrix(q), conditioning=True)
@@ -57,7 +57,7 @@ def projected_ode(base):
                 y[:nv] = q
             y[nv:2 * nv] = v
             if f is not None:
-                self.into(self._t, y, f)
+                self.into(self._t if t is None else t, y, f)
 
         def drift(self, y):
             """Largest dimensionless residual of the loops at y: positions (m / length scale, rad) and
