@@ -84,19 +84,35 @@ def _iframe(name: str) -> str:
     )
 
 
-def check_api_reference(app):
-    """Warn (an error under -W) when docs/api.md leaves out a name of ``vibdyn.__all__``."""
-    import re
-
+def api_addition(text: str) -> str:
+    """What docs/api.md gets appended when built: an autosummary of the public names of ``vibdyn.__all__`` its
+    groups leave out (a name added to the package is in the reference at once; give it a group when you can)."""
     import vibdyn
-    from sphinx.util import logging
 
-    text = (Path(app.srcdir) / "api.md").read_text(encoding="utf-8")
     listed = set(re.findall(r"^\s*vibdyn\.(\w+)\s*$", text, re.M))
-    missing = sorted(set(vibdyn.__all__) - listed)
-    if missing:
-        logging.getLogger(__name__).warning("api.md leaves out public names of vibdyn.__all__: %s",
-                                            ", ".join(missing))
+    missing = [n for n in vibdyn.__all__ if n not in listed]
+    if not missing:
+        return ""
+    return "\n".join(["", "## More public names", "", "Names not yet given a group above.", "", "```{eval-rst}",
+                      ".. autosummary::", "   :toctree: generated", "   :nosignatures:", "",
+                      *[f"   vibdyn.{n}" for n in missing], "```", ""])
+
+
+def complete_api(app, docname, source):
+    if docname == "api":
+        source[0] += api_addition(source[0])
+
+
+def api_stubs(app):
+    """The stub pages of the names :func:`api_addition` appends (autosummary scans only files on disk)."""
+    from sphinx.ext.autosummary.generate import generate_autosummary_docs
+
+    more = api_addition((Path(app.srcdir) / "api.md").read_text(encoding="utf-8"))
+    if more:
+        rst = re.sub(r"(?s)^.*```\{eval-rst\}\n(.*)```\n$", r"\1", more)
+        path = Path(app.srcdir) / "_api_more.rst"  # excluded from the documents (conf.py), ignored by git
+        path.write_text(rst, encoding="utf-8")
+        generate_autosummary_docs([str(path)], suffix=".rst", base_path=app.srcdir, app=app)
 
 
 _LITERAL = re.compile(r"(``.*?``|:\w+:`[^`]*`|`[^`]*`_?)")
@@ -116,6 +132,17 @@ def plain_bars(app, what, name, obj, options, lines):
             lines[i] = "".join(p if k % 2 else p.replace("|", "\\|") for k, p in enumerate(parts))
 
 
+_BARS = re.compile(r"(?<![\\\w|`])\|(?=\S)([^|`\n]+?)(?<=\S)\|(?![\w|`])")
+
+
+def gallery_bars(app, docname, source):
+    """The same for the gallery's text (an example's comments are RST): |λ| is an absolute value. Code, indented
+    by four spaces in sphinx-gallery's pages, is left alone."""
+    if docname.startswith("auto_examples/"):
+        source[0] = "\n".join(line if line.startswith("    ") else _BARS.sub(r"\\|\1\\|", line)
+                              for line in source[0].split("\n"))
+
+
 def _public_objects():
     import vibdyn
 
@@ -129,8 +156,80 @@ def skip_public_in_modules(app, what, name, obj, skip, options):
     return None
 
 
+def _models_dir(app) -> Path:
+    return Path(app.srcdir).parent / "models"
+
+
+def _cell(text: str) -> str:
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def reference_tables(app):
+    """RST of two tables: every bundled scene with its source and reference values; and, for the scenes with
+    reference frequencies about a static operating point, vibdyn's ω beside them, computed now."""
+    import time
+    import tomllib
+
+    import numpy as np
+
+    import vibdyn as vd
+    from sphinx.util import logging
+
+    log = logging.getLogger(__name__)
+    files = sorted(_models_dir(app).glob("*.toml"))
+    out = [".. list-table:: The bundled scenes (``models/``) and what each must reproduce", "   :header-rows: 1",
+           "   :widths: 18 52 30", "", "   * - file", "     - source", "     - reference values"]
+    rows = []
+    for f in files:
+        d = tomllib.loads(f.read_text(encoding="utf-8"))
+        ref = d.get("reference", {})
+        out += [f"   * - ``{f.name}``", f"     - {_cell(d.get('scene', {}).get('source', ''))}",
+                f"     - {_cell(', '.join(k for k in ref if k != 'note')) or '—'}"]
+        if "omega" not in ref:
+            continue
+        t = time.perf_counter()
+        op = vd.load_scene(f).build().operating_point()
+        if op.regime != "static":
+            continue
+        modes = op.linearize().modes()
+        elapsed = time.perf_counter() - t
+        want = np.sort(np.asarray(ref["omega"], float))
+        got = np.sort(modes.omega)
+        scale = np.where(want > 0, want, 1.0)
+        diff = np.max(np.abs(got - want) / scale)
+        est = float(np.max(modes.omega_error))
+        if diff > 10 * est + 1e-6:  # the references are printed to 7 significant digits or more
+            log.warning("models/%s: vibdyn's ω %s differ from the reference %s by %.1e (estimate %.1e)",
+                        f.name, got, want, diff, est)
+        rows += [f"   * - ``{f.name}``", f"     - {', '.join(f'{w:.6f}' for w in want)}",
+                 f"     - {', '.join(f'{w:.6f}' for w in got)}", f"     - {diff:.1e}", f"     - {est:.1e}",
+                 f"     - {elapsed * 1e3:.0f} ms"]
+    out += ["", ".. list-table:: Natural frequencies ω (rad/s) of the scenes at rest: reference and vibdyn, computed "
+            "when this page was built (load, build, equilibrium, linearisation, modes)", "   :header-rows: 1", "",
+            "   * - file", "     - reference ω (rad/s)", "     - vibdyn ω (rad/s)", "     - largest relative difference",
+            "     - vibdyn's relative error estimate", "     - time", *rows, ""]
+    return "\n".join(out)
+
+
 def setup(app):
-    app.connect("builder-inited", check_api_reference)
+    from docutils import nodes
+    from docutils.statemachine import StringList
+    from sphinx.util.docutils import SphinxDirective
+    from sphinx.util.nodes import nested_parse_with_titles
+
+    class ReferenceTables(SphinxDirective):
+        """``.. vibdyn-reference-tables::`` (in MyST: a ``{vibdyn-reference-tables}`` fence)."""
+
+        def run(self):
+            node = nodes.section()
+            node.document = self.state.document
+            nested_parse_with_titles(self.state, StringList(reference_tables(self.env.app).splitlines()), node)
+            return node.children
+
+    app.add_directive("vibdyn-reference-tables", ReferenceTables)
+    app.connect("source-read", complete_api)
+    app.connect("builder-inited", api_stubs)
     app.connect("autodoc-process-docstring", plain_bars)
+    app.connect("source-read", gallery_bars)
     app.connect("autodoc-skip-member", skip_public_in_modules)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
