@@ -57,7 +57,9 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     ``step``: the first arclength step, in the variables scaled by ``scale`` (n + 1 positive numbers, default
     1: what "one unit" of each means), grown ×1.5 after an easy correction, halved after a failed one, at
     most ``max_step``; ``stop(x, lam)`` → True ends the branch there (a request reached). The point where λ
-    crosses lam_end is solved exactly (its last point has λ = lam_end)."""
+    crosses lam_end is solved exactly (its last point has λ = lam_end); where lam_end lies within the next step
+    on a branch steep in λ (|t_λ| > 0.5), it is solved there directly from the predictor, kept only if λ did
+    not turn back on the way (no fold stepped over)."""
     start = time.perf_counter()
     x0 = np.asarray(x0, dtype=float)
     n = x0.size
@@ -92,6 +94,21 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         if steps >= max_steps:
             status, message = "stopped", f"{max_steps} steps taken before λ = {lam_end:g}"
             break
+        reach = (lam_end / w[n] - y[n]) / t[n] if t[n] != 0 else np.inf
+        if 0 < reach <= h and abs(t[n]) > 0.5:
+            # lam_end within this step, the branch steep in λ (no fold near): solve there from the predictor
+            end = newton(lambda x: F(np.append(x, lam_end / w[n])), y[:n] + reach * t[:n],
+                         lambda x: J(np.append(x, lam_end / w[n]))[:, :n], tol=tol, max_iter=8)
+            if end.converged:
+                y_end = np.append(end.x, lam_end / w[n])
+                t_end = _tangent(J(y_end), t, None)
+                if t[n] * t_end[n] > 0:  # λ did not turn back on the way: no fold stepped over
+                    ys.append(y_end.copy())
+                    ss.append(ss[-1] + float(np.linalg.norm(y_end - y)))
+                    residual = max(residual, end.residual)
+                    steps += 1
+                    y, t = y_end, t_end
+                    break
         yp = y + h * t
         corr = newton(lambda z: np.append(F(z), t @ (z - yp)), yp,
                       lambda z: np.vstack([J(z), t]), tol=tol, max_iter=8)
