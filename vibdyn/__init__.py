@@ -45,6 +45,7 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.statespace": ("StateSpace",),
     "results": ("TimeResult",),
     "analysis.campbell_diagram": ("campbell", "Campbell", "CriticalSpeed"),
+    "analysis.nonlinear.periodic": ("periodic_orbit", "floquet", "PeriodicOrbit"),
     "simulation.simulate": ("Trajectory", "SimulationError"),
     "studies.sweeps": ("sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked"),
     "analysis.nonlinear.harmonic_balance": ("forced_response_curve", "ForcedResponseCurve", "PointForce",
@@ -143,4 +144,5 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "LinearModel", "Modes", "OperatingPoint", "Equilibrium", "TimeResult", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",
            "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html",
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
-           "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion"]
+           "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
+           "periodic_orbit", "floquet", "PeriodicOrbit"]

@@ -1,0 +1,452 @@
+"""Periodic orbits and their Floquet multipliers: :func:`periodic_orbit`, :func:`floquet` → :class:`PeriodicOrbit`.
+
+The orbit is found by shooting on the configuration Lie group (:mod:`.shooting`: single, or multiple where a
+single one is ill-conditioned); its monodromy Φ(T) comes from the variational equations integrated with the
+state in the tangent space (the time layer's state transition), never from differences of whole flows. The
+Floquet multipliers μ are the eigenvalues of Φ(T), each with an uncertainty from Φ's error estimate (first-
+order eigenvalue perturbation with the condition numbers of the left and right eigenvectors; for clustered or
+defective multipliers, as the double 1 of a conservative orbit, the spread of the eigenvalues of Φ + E over
+perturbations E of the size of Φ's error). Liouville's identity det Φ(T) = exp ∫₀ᵀ tr A dt is reported as a check.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Any, NamedTuple
+
+import numpy as np
+import scipy.linalg as sla
+from scipy.optimize import linear_sum_assignment
+
+from ..._check import integer, scalar
+from ..._format import duration, html_table, number, summary, table
+from ...errors import ConvergenceError, ModelError
+from ...model.derivatives import linear_terms
+from ...simulation.simulate import SimulationError, simulate
+from .shooting import (MAX_SEGMENTS, Shooting, conservative, first_return, free_indices, growth_segments,
+                       motion_scales)
+
+__all__ = ["PeriodicOrbit", "Liouville", "periodic_orbit", "floquet"]
+TOL = 1e-10  # default closing tolerance (scaled residual: rad, length scales, velocities per 2π/T)
+RTOL = 1e-11  # default relative tolerance of the flows (DOP853)
+POINTS = 128  # outputs per period of the orbit's trajectory (equally spaced: the Liouville quadrature)
+STEP_RESOLUTION = 0.5  # steps of the flows at most this / ω (ω: the start's fastest linear frequency or 2π/T)
+SAMPLES = 8  # perturbations of Φ that measure the spread of clustered multipliers
+SPREAD_FACTOR = 3.0  # the spread's safety factor
+
+
+class Liouville(NamedTuple):
+    """Liouville's identity det Φ(T) = exp ∫₀ᵀ tr A dt: ``det`` (of the monodromy), ``expected`` (1 for a
+    conservative scene; else exp(−∫ tr(M⁻¹ C) dt) along the orbit by the trapezoidal rule, spectrally accurate
+    for a periodic integrand), ``error`` (the sum of both sides' estimated errors)."""
+
+    det: float
+    expected: float
+    error: float
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicOrbit:
+    """A periodic orbit and its Floquet multipliers (see :func:`periodic_orbit`).
+
+    ``period`` T (s) and ``period_error`` (s); ``q0``, ``v0`` the state at ``t0`` (s); ``trajectory`` one
+    period (a :class:`~vibdyn.simulation.trajectory.Trajectory`, equally spaced outputs; its
+    ``state_transition`` the whole monodromy in the tree's coordinates); ``coordinates`` the free coordinates
+    (the driven ones are given); ``monodromy`` Φ(T) (2n × 2n, n free coordinates: tangent displacements then
+    velocities, in the tangent space at q0) and ``monodromy_error`` (bound on the 2-norm of its error);
+    ``multipliers`` μ (complex, by decreasing modulus) and ``multiplier_error`` (uncertainty of each μ, hence
+    of each |μ|); ``exponents`` log μ / T (1/s, complex); ``stable``: no |μ| exceeds 1 by more than its
+    uncertainty (bounded in the linear sense); ``stability`` the verdict: "unstable", "stable" (every
+    multiplier but the ``trivial`` one — the flow's own 1 of an autonomous orbit — inside the unit circle
+    beyond its uncertainty: an attracting orbit) or "neutral within the error" (the largest such |μ| equals 1 within its
+    uncertainty: conservative orbits, a parametric oscillator inside its stable region); ``liouville`` (det Φ
+    against exp ∫ tr A dt); ``error`` the largest of the closing residual and the flows' estimated error (m or
+    rad, tangent space), ``velocity_error`` (m/s or rad/s) likewise; ``residual`` the closing residual
+    (scaled: rad, length scales, velocities per 2π/T); ``segments`` (1: single shooting), ``iterations``,
+    ``autonomous`` (the period was an unknown), ``energy_fixed`` (a conservative orbit: the start's energy was
+    kept), ``elapsed`` (s).
+    """
+
+    system: Any = field(repr=False)
+    period: float
+    period_error: float
+    t0: float
+    q0: np.ndarray
+    v0: np.ndarray
+    trajectory: Any = field(repr=False)
+    coordinates: tuple
+    monodromy: np.ndarray = field(repr=False)
+    monodromy_error: float
+    multipliers: np.ndarray
+    multiplier_error: np.ndarray
+    trivial: int
+    liouville: Liouville
+    error: float
+    velocity_error: float
+    residual: float
+    segments: int
+    iterations: int
+    autonomous: bool
+    energy_fixed: bool
+    elapsed: float
+
+    @property
+    def omega(self) -> float:
+        """2π/T (rad/s): the orbit's fundamental angular frequency."""
+        return 2 * math.pi / self.period
+
+    @property
+    def frequency_hz(self) -> float:
+        """1/T (Hz)."""
+        return 1.0 / self.period
+
+    @property
+    def exponents(self) -> np.ndarray:
+        """Floquet exponents log μ / T (1/s, complex; the imaginary part is defined modulo 2π/T)."""
+        return np.log(self.multipliers.astype(complex)) / self.period
+
+    @property
+    def stable(self) -> bool:
+        """No multiplier's modulus exceeds 1 by more than its uncertainty (``multiplier_error``)."""
+        return bool(np.all(np.abs(self.multipliers) - 1.0 <= self.multiplier_error))
+
+    @property
+    def stability(self) -> str:
+        """"unstable", "stable" or "neutral within the error" (see the class docstring)."""
+        if not self.stable:
+            return "unstable"
+        mod, err = np.abs(self.multipliers), self.multiplier_error
+        others = np.argsort(np.abs(self.multipliers - 1.0), kind="stable")[self.trivial:]
+        return "stable" if np.all(mod[others] < 1.0 - err[others]) else "neutral within the error"
+
+    @property
+    def growth(self) -> tuple[float, float]:
+        """(largest |μ| − 1, its uncertainty): how far the orbit is from the stability boundary."""
+        k = int(np.argmax(np.abs(self.multipliers)))
+        return float(abs(self.multipliers[k]) - 1.0), float(self.multiplier_error[k])
+
+    def to_dict(self) -> dict:
+        """Plain data (JSON-ready), SI units, complex numbers as [re, im]."""
+        return {"period_s": self.period, "period_error_s": self.period_error, "omega_rad_s": self.omega,
+                "frequency_hz": self.frequency_hz, "t0_s": self.t0, "q0": self.q0.tolist(), "v0": self.v0.tolist(),
+                "coordinates": list(self.coordinates), "monodromy": self.monodromy.tolist(),
+                "monodromy_error": self.monodromy_error,
+                "multipliers": [[z.real, z.imag] for z in self.multipliers],
+                "multiplier_error": self.multiplier_error.tolist(),
+                "exponents_1_s": [[z.real, z.imag] for z in self.exponents], "stable": self.stable,
+                "stability": self.stability, "liouville": dict(zip(Liouville._fields, self.liouville)), "error_estimate": self.error,
+                "velocity_error": self.velocity_error, "residual": self.residual, "segments": self.segments,
+                "iterations": self.iterations, "autonomous": self.autonomous, "energy_fixed": self.energy_fixed,
+                "elapsed_s": self.elapsed}
+
+    def _head(self):
+        shooting = "single shooting" if self.segments == 1 else f"multiple shooting ({self.segments} segments)"
+        return (f"periodic orbit: T = {number(self.period, 's', digits=10)} ± {self.period_error:.1e} s "
+                f"(ω = 2π/T = {number(self.omega, 'rad/s')}, {number(self.frequency_hz, 'Hz')}), {self.stability}; "
+                f"closing error {self.error:.1e}, {shooting}, {self.iterations} iterations, "
+                f"{duration(self.elapsed)}")
+
+    def _rows(self):
+        return [[str(k + 1), number(abs(mu), digits=10), number(np.angle(mu), "rad", digits=6), f"{e:.1e}",
+                 number(x.real, "1/s", digits=6)]
+                for k, (mu, e, x) in enumerate(zip(self.multipliers, self.multiplier_error, self.exponents))]
+
+    def __str__(self):
+        li = self.liouville
+        lines = [self._head(), "  Floquet multipliers:"]
+        lines += ["    " + line for line in table(["μ", "|μ|", "arg μ", "± (|μ| and μ)", "Re exponent"], self._rows())]
+        lines.append(f"  Liouville: det Φ(T) = {li.det:.10g}, exp ∫ tr A dt = {li.expected:.10g} (± {li.error:.1e})")
+        sysm = self.system
+        dq = sysm.difference(sysm.neutral(), self.q0)
+        rows = [[c, number(dq[i], u, digits=10), number(self.v0[i], f"{u}/s", digits=10)]
+                for i, (c, u) in enumerate(zip(sysm.coordinates, sysm.units))]
+        lines.append(f"  start at t0 = {number(self.t0, 's')}:")
+        lines += ["    " + line for line in table(["coordinate", "offset", "velocity"], rows)]
+        return "\n".join(lines)
+
+    def __repr__(self):
+        g, e = self.growth
+        return summary("PeriodicOrbit", f"T = {number(self.period, 's', digits=10)}", self.stability,
+                       f"max |μ| − 1 = {g:.2e} ± {e:.1e}", f"{self.segments} segment{'s' if self.segments > 1 else ''}",
+                       duration(self.elapsed))
+
+    def _repr_html_(self):
+        return html_table(self._head(), ["μ", "|μ|", "arg μ", "±", "Re exponent"], self._rows())
+
+
+def periodic_orbit(system, q0=None, v0=None, period: float | None = None, t0: float = 0.0, *,
+                   segments: int | None = None, phase: str | None = None, tol: float = TOL, rtol: float = RTOL,
+                   max_iter: int = 20, points: int = POINTS) -> PeriodicOrbit:
+    """The periodic orbit through (or near) the state (q0, v0) at ``t0`` (s), and its Floquet multipliers.
+
+    Autonomous scenes: the period T (s) is an unknown, ``period`` its starting guess (None: the time the motion
+    takes to come back near its start); a phase condition fixes the orbit's start — its tangent displacement
+    from (q0, v0) orthogonal to the flow there, or with ``phase`` = a coordinate's name that coordinate's
+    velocity is zero at t0 (a turning point). A conservative scene's orbits form families in the energy: the
+    start's energy is kept (the orbit through the start's energy level; a family left by symmetries is solved
+    for the nearest member by least-squares steps). Scenes with time-dependent forces, moving supports or
+    drives: ``period`` is required (the forcing's), and t0 places the start in it; driven coordinates take
+    their drives' values.
+
+    Shooting (:mod:`vibdyn.analysis.nonlinear.shooting`) with ``segments`` nodes along the orbit (None:
+    single shooting unless a first run over the period amplifies errors by more than 50, then enough segments
+    for each to amplify them by about 50; an unstable orbit whose single run leaves it needs nodes near the
+    orbit: give q0 (m × nq) and v0 (m × nv), one row per node at t0 + i·T/m). Newton stops at a closing
+    residual ``tol`` (scaled: rad, length scales, velocities per 2π/T); flows by DOP853 at ``rtol``; the
+    final flows are integrated again with an error estimate (rerun at rtol/100) at ``points`` equally
+    spaced outputs per period.
+
+    Raises ModelError for bad input (a period ≤ 0 or not finite, a scene with loops, ...), ConvergenceError
+    (with the residual reached and what to try) when the orbit is not found.
+    """
+    start = time.perf_counter()
+    what = "periodic_orbit"
+    if system.constraints is not None:
+        raise ModelError(f"{what}: not available for a mechanism with closed loops (the simulation gives no "
+                         "variational equations there)")
+    if system.nv == 0:
+        raise ModelError(f"{what}: the scene has no coordinates: nothing moves")
+    t0 = scalar(t0, f"{what}: t0 (s)")
+    if period is not None:
+        period = scalar(period, f"{what}: period (s)", positive=True)
+    tol = scalar(tol, f"{what}: tol", positive=True)
+    rtol = scalar(rtol, f"{what}: rtol", positive=True)
+    max_iter = integer(max_iter, f"{what}: max_iter", minimum=1)
+    points = integer(points, f"{what}: points", minimum=4, maximum=100000)
+    free = free_indices(system)
+    if free.size == 0:
+        raise ModelError(f"{what}: every coordinate is driven: nothing is free to be periodic")
+    autonomous = not system.depends_on_time
+    if not autonomous and period is None:
+        raise ModelError(f"{what}: the scene depends on time (time-dependent forces, moving supports or drives): "
+                         "give its period (s)")
+    if phase is not None and not autonomous:
+        raise ModelError(f"{what}: phase applies to autonomous scenes only (here the forcing fixes the phase)")
+    nodes = _start_nodes(system, q0, v0, t0, segments, what)
+    if segments is not None:
+        segments = integer(segments, f"{what}: segments", minimum=1, maximum=MAX_SEGMENTS)
+        if len(nodes) not in (1, segments):
+            raise ModelError(f"{what}: {len(nodes)} starting nodes given for segments = {segments}")
+    q_start, v_start = nodes[0]
+    omega = 2 * math.pi / period if period is not None else _omega_guess(system, q_start, v_start, t0, free)
+    if autonomous and period is None:
+        period = first_return(system, q_start, v_start, t0, omega, rtol)
+        omega = 2 * math.pi / period
+    cons = autonomous and conservative(system)
+    nodes = Shooting.impose(system, nodes, t0, period)
+    # a first run over the first segment: the coordinates' scales, the energy scale and (one node) the growth
+    k = len(nodes)
+    omega_v = max(_omega_guess(system, q_start, v_start, t0, free), 2 * math.pi / period)
+    max_step = STEP_RESOLUTION / omega_v
+    trial = Shooting(system, t0, period * (1 if k == 1 else 1.0 / k), False, 1, omega, rtol, max_step=max_step)
+    try:
+        first = trial.flows(trial.pack([nodes[0]]))[0]
+    except SimulationError as e:
+        raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "
+                               "start closer to the orbit, or give nodes along it (q0, v0 one row each)",
+                               best=nodes) from e
+    scales = motion_scales(system, first, omega)
+    phase_spec = _phase(system, q_start, v_start, t0, omega, free, phase, scales, what) if autonomous else None
+    energy = (system.energy(q_start, v_start, t0).total, max(first.energy_scale, 1e-300)) if cons else None
+    m = segments if segments is not None else k if k > 1 else growth_segments(first.state_transition)
+    shoot = Shooting(system, t0, period, autonomous, m, omega, rtol, phase_spec, energy, scales, max_step)
+    if m > 1 and k == 1:  # nodes along a first run from the start
+        run = simulate(system, t0 + period, q_start, v_start, t0=t0, rtol=rtol, error="local",
+                       t_eval=[shoot.time(i, period) for i in range(m)])
+        nodes = Shooting.impose(system, list(zip(run.q, run.v)), t0, period)
+    x0 = shoot.pack(nodes, period)
+    if m == 1 and k == 1:
+        shoot.seed(x0, [first])
+    x, residual, iterations = shoot.solve(x0, tol, max_iter)
+    return _result(system, shoot, x, residual, iterations, points, cons, start)
+
+
+def floquet(system, period: float, q0=None, v0=None, t0: float = 0.0, **kwargs: Any) -> PeriodicOrbit:
+    """Floquet multipliers of the orbit of period ``period`` (s) through (q0, v0) at ``t0`` (s), converged
+    first if it is not yet periodic (an autonomous orbit's period is then refined from ``period``): the same
+    result as :func:`periodic_orbit` (keywords as there)."""
+    if period is None:
+        raise ModelError("floquet: period (s) is required (periodic_orbit finds it for an autonomous scene)")
+    period = scalar(period, "floquet: period (s)", positive=True)
+    return periodic_orbit(system, q0, v0, period, t0, **kwargs)
+
+
+# ---------------------------------------------------------------------------------------------- set-up
+def _start_nodes(system, q0, v0, t0, segments, what):
+    """[(q, v)] at the nodes given (one row each; driven coordinates are imposed by :meth:`Shooting.impose`)."""
+    if hasattr(q0, "q") and hasattr(q0, "v"):  # an equilibrium or operating point
+        q0, v0 = q0.q, q0.v if v0 is None else v0
+    if q0 is None:
+        q0 = system.neutral()
+    qa = np.asarray(q0, dtype=float) if not isinstance(q0, dict) else None
+    if qa is not None and qa.ndim == 2:
+        va = np.zeros((len(qa), system.nv)) if v0 is None else np.asarray(v0, dtype=float)
+        if va.shape != (len(qa), system.nv):
+            raise ModelError(f"{what}: {len(qa)} starting nodes in q0 need v0 of shape ({len(qa)}, {system.nv}), "
+                             f"got {va.shape}")
+        nodes = [(system.check_configuration(q, f"{what}: q0[{i}]"), system.check_velocity(v, f"{what}: v0[{i}]"))
+                 for i, (q, v) in enumerate(zip(qa, va))]
+    else:
+        q = system.check_configuration(q0, f"{what}: q0")
+        nodes = [(q, np.zeros(system.nv) if v0 is None else system.check_velocity(v0, f"{what}: v0"))]
+    return nodes
+
+
+def _omega_guess(system, q, v, t, free):
+    """A frequency scale (rad/s) at a start: the largest of √|eig(M⁻¹K)| there and the scaled speed; 1 if
+    neither is positive."""
+    M, K, _ = linear_terms(system, q, v, t)
+    f = np.ix_(free, free)
+    lam = np.abs(np.linalg.eigvals(np.linalg.solve(M[f], K[f])))
+    s = np.asarray(system.coordinate_scales)[free]
+    w = max(math.sqrt(float(lam.max(initial=0.0))), float(np.abs(v[free] / s).max(initial=0.0)))
+    return w if w > 0 and math.isfinite(w) else 1.0
+
+
+def _phase(system, q, v, t, omega, free, phase, scales, what):
+    if phase is not None:
+        if not isinstance(phase, str):
+            raise ModelError(f"{what}: phase must be a coordinate's name, got {phase!r}")
+        i = system.coordinate_index(phase)
+        where = np.flatnonzero(free == i)
+        if not where.size:
+            raise ModelError(f"{what}: phase: coordinate '{phase}' is driven, not free")
+        return ("velocity", int(where[0]))
+    s = np.asarray(scales, dtype=float)[free]
+    a = system.accelerations(q, v, t)
+    u = np.concatenate([v[free] / s, a[free] / (s * omega)])
+    norm = float(np.linalg.norm(u))
+    if not norm > 1e-12:
+        raise ModelError(f"{what}: the start (q0, v0) is an equilibrium (no flow there): start away from it, e.g. "
+                         "displaced along a mode")
+    return ("flow", np.array(q), np.array(v), u / norm)
+
+
+# ---------------------------------------------------------------------------------------------- result
+def _result(system, shoot, x, residual, iterations, points, cons, start):
+    m, n = shoot.m, shoot.n
+    per = max(2, 2 * math.ceil(points / (2 * m)))  # outputs per segment (even: the half-grid quadrature)
+    nodes, T = shoot.unpack(x)
+    coarse = shoot.flows(x)
+    runs = shoot.flows(x, error="rerun", points=per, refine=2)
+    # the variational equations' own error: halving the largest step (DOP853, order 8: counted as if order 4)
+    runs = [replace(r, state_transition_error=max(float(r.state_transition_error), float(
+        np.abs(np.asarray(r.state_transition) - np.asarray(c.state_transition)).max()) / 15.0))
+        for r, c in zip(runs, coarse)]
+    closing = shoot.closing(nodes, runs)
+    res_q = max(float(np.abs(dq).max(initial=0.0)) for dq, _ in closing)
+    res_v = max(float(np.abs(dv).max(initial=0.0)) for _, dv in closing)
+    int_q = max(float(r.q_error.max()) for r in runs)
+    int_v = max(float(r.v_error.max()) for r in runs)
+    maps = shoot.segment_maps(nodes, runs)
+    mono, mono_err = _product([P for P, _, _ in maps], [r.state_transition_error * P.shape[0] for r, (P, _, _) in
+                                                         zip(runs, maps)])
+    J = shoot.jacobian_of(nodes, T, runs)
+    r = shoot.residual_of(nodes, runs)
+    e = np.concatenate([np.concatenate([np.full(n, int_q), np.full(n, int_v)]) / shoot.node_scale
+                        for _ in range(m)] + [np.zeros(shoot.extra)])
+    period_error = 0.0
+    if shoot.free_period:
+        Jp = np.linalg.pinv(J, rcond=1e-10)
+        period_error = float(np.abs(Jp[-1]) @ (np.abs(r) + e)) * shoot.unknown_scale[-1]
+    mu, mu_err = multipliers(mono, mono_err)
+    trivial = 1 if shoot.free_period else 0  # the flow's own multiplier (a conservative one's second is neutral)
+    traj = runs[0] if m == 1 else _join(runs)
+    full = _product([np.asarray(rr.state_transition) for rr in runs], [0.0] * m)[0]
+    traj = replace(traj, state_transition=full, state_transition_error=mono_err)
+    li = _liouville(system, shoot, traj, mono, mono_err, cons, T)
+    q0, v0 = nodes[0]
+    coords = tuple(system.coordinates[i] for i in shoot.free)
+    return PeriodicOrbit(system, float(T), period_error, shoot.t0, np.array(q0), np.array(v0), traj, coords, mono,
+                         mono_err, mu, mu_err, trivial, li, max(res_q, int_q), max(res_v, int_v), float(residual), m,
+                         iterations, shoot.free_period, cons, time.perf_counter() - start)
+
+
+def _product(mats, errs):
+    """(P_{m−1} ⋯ P_0, bound on the 2-norm of its error) from each factor's error bound (2-norm)."""
+    m = len(mats)
+    prod = mats[0]
+    for P in mats[1:]:
+        prod = P @ prod
+    err = 0.0
+    for i in range(m):
+        left = np.eye(len(prod))
+        for P in mats[i + 1:]:
+            left = P @ left
+        right = np.eye(len(prod))
+        for P in mats[:i]:
+            right = P @ right
+        err += np.linalg.norm(left, 2) * errs[i] * np.linalg.norm(right, 2)
+    return prod, float(err)
+
+
+def multipliers(mono, error):
+    """(μ by decreasing modulus, the uncertainty of each) for a monodromy whose error has 2-norm ≤ ``error``:
+    κ_k · error (κ_k = ‖x‖‖y‖/|yᴴx| from the right and left eigenvectors) where that is below half the
+    distance to the nearest other multiplier; for clustered or defective ones (first order fails there), the
+    largest move of μ_k over perturbations of Φ of 2-norm ``error``, times SPREAD_FACTOR."""
+    lam, vl, vr = sla.eig(mono, left=True, right=True)
+    order = np.argsort(-np.abs(lam), kind="stable")
+    lam, vl, vr = lam[order], vl[:, order], vr[:, order]
+    dot = np.abs(np.einsum("ij,ij->j", vl.conj(), vr))
+    kappa = np.linalg.norm(vl, axis=0) * np.linalg.norm(vr, axis=0) / np.maximum(dot, 1e-300)
+    first = kappa * error
+    gap = np.array([np.abs(np.delete(lam, k) - lam[k]).min(initial=np.inf) for k in range(lam.size)])
+    bad = ~(first < 0.5 * gap)
+    err = first.copy()
+    if bad.any() and error > 0:
+        rng = np.random.default_rng(0)
+        spread = np.zeros(lam.size)
+        for _ in range(SAMPLES):
+            E = rng.standard_normal(mono.shape)
+            E *= error / np.linalg.norm(E, 2)
+            moved = np.linalg.eigvals(mono + E)
+            rows, cols = linear_sum_assignment(np.abs(lam[:, None] - moved[None, :]))
+            spread[rows] = np.maximum(spread[rows], np.abs(moved[cols] - lam[rows]))
+        err[bad] = np.minimum(first[bad], SPREAD_FACTOR * spread[bad])
+        # a cluster shares one uncertainty: its members move together
+        for k in np.flatnonzero(bad):
+            near = bad & (np.abs(lam - lam[k]) <= err[k] + err)
+            err[near] = err[near].max()
+    err = np.where(np.isfinite(err), err, np.inf)
+    return lam, err
+
+
+def _join(runs):
+    """One Trajectory of the segments' runs end to end (their common node times once; work summed on)."""
+    first = runs[0]
+    cat = {}
+    for name in ("t", "q", "v", "kinetic", "gravity", "elastic", "q_error", "v_error"):
+        cat[name] = np.concatenate([getattr(first, name)] + [getattr(r, name)[1:] for r in runs[1:]])
+    work, offset = [first.work], first.work[-1]
+    for r in runs[1:]:
+        work.append(r.work[1:] + offset)
+        offset += r.work[-1]
+    rejected = None if any(r.rejected is None for r in runs) else sum(r.rejected for r in runs)
+    return replace(first, **cat, work=np.concatenate(work), nfev=sum(r.nfev for r in runs),
+                   njev=sum(r.njev for r in runs), nlu=sum(r.nlu for r in runs),
+                   accepted=sum(r.accepted for r in runs), rejected=rejected,
+                   error_nfev=sum(r.error_nfev for r in runs), elapsed=sum(r.elapsed for r in runs),
+                   error_elapsed=sum(r.error_elapsed for r in runs),
+                   message=f"one period in {len(runs)} segments (multiple shooting)")
+
+
+def _liouville(system, shoot, traj, mono, mono_err, cons, T):
+    det = float(np.linalg.det(mono))
+    try:
+        inv = np.linalg.norm(np.linalg.inv(mono), 2)
+    except np.linalg.LinAlgError:
+        inv = np.inf
+    det_err = abs(det) * inv * mono_err * len(mono)
+    if cons:
+        return Liouville(det, 1.0, det_err)
+    f = np.ix_(shoot.free, shoot.free)
+    tr = []
+    for q, v, t in zip(traj.q[:-1], traj.v[:-1], traj.t[:-1]):
+        M, _, C = linear_terms(system, q, v, t)
+        tr.append(-np.trace(np.linalg.solve(M[f], C[f])))
+    tr = np.array(tr)
+    whole, half = T * tr.mean(), T * tr[::2].mean()
+    return Liouville(det, math.exp(whole), det_err + math.exp(whole) * abs(whole - half))

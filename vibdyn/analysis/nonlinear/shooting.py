@@ -1,0 +1,334 @@
+"""Shooting on the configuration Lie group: the equations of a periodic orbit, their Jacobian from the time
+layer's variational equations, solved by the solver kit's Newton (:func:`vibdyn.solvers.newton.newton`).
+
+Unknowns: m nodes x_i = (q_i, v_i) at t_i = t0 + i·T/m (m = 1: single shooting; m > 1: multiple shooting),
+moved in the tangent space (q_i ← integrate(q_i, δq_i), free coordinates only), and the period T of an
+autonomous orbit. Equations, per segment i (node m is node 0):
+
+    difference(q_{i+1}, q(t_i + T/m; x_i)) = 0,        v(t_i + T/m; x_i) − v_{i+1} = 0
+
+(angles of pivots compared modulo 2π, so that a rotating orbit closes), with the Jacobian [D₁ Φ_i, D₀; Φ_vi, −1]
+from each segment's state transition Φ_i (:func:`vibdyn.simulation.simulate.simulate` with
+``variational=True``, tangent spaces) and Pinocchio's dDifference D₀, D₁, and ∂/∂T = (D₁ v, a)/m at each
+segment's end. An autonomous orbit adds a phase condition on x_0 (its tangent displacement from the start is
+orthogonal to the start's flow (v, a), or a chosen velocity is zero); a conservative one also keeps the
+start's energy E(x_0) = E_start (its orbits form a family in the energy: fixing it picks one member). The
+residuals and unknowns are scaled: positions by the coordinate scales (1 rad, the scene's length), velocities
+by those × 2π/T, the period by T/2π, where a coordinate's scale is the larger of its own (1 rad, the scene's
+length) and how far it moves in a first run from the start.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from ...errors import ConvergenceError
+from ...model.groups import ForceGroup
+from ...simulation.simulate import SimulationError, simulate
+from ...solvers.newton import newton
+
+ARG0, ARG1 = pin.ArgumentPosition.ARG0, pin.ArgumentPosition.ARG1
+GROWTH_PER_SEGMENT = 50.0  # automatic multiple shooting: each segment amplifies errors by at most about this
+MAX_SEGMENTS = 64
+RCOND = 1e-10  # singular values of the scaled Jacobian below this (relative) are its error: a family direction
+MIN_ALPHA = 1.0 / 32  # the line search's shortest step: below it the flows' noise decides, not the model
+STEP_CAP = 1.0  # largest Newton step per scaled unknown (1 rad, one length scale, T/2π)
+
+
+def conservative(system) -> bool:
+    """Whether the scene keeps its mechanical energy: autonomous, no velocity-dependent force, and every
+    force element has a potential."""
+    return not system.depends_on_time and not any(
+        g.velocity_dependent or g.time_dependent or type(g).potential is ForceGroup.potential
+        for g in system.force_groups)
+
+
+def free_indices(system) -> np.ndarray:
+    """Indices in v of the free coordinates (all but the driven ones)."""
+    drives = getattr(system, "drives", None)
+    return np.arange(system.nv) if drives is None else np.asarray(drives.free, dtype=int)
+
+
+class Shooting:
+    """The shooting equations of one problem (see the module docstring). ``phase``: None (the period is
+    given), ("flow", q_ref, v_ref, u) with u the unit scaled flow at the start, or ("velocity", k) (the free
+    velocity number k is zero at t0); ``energy``: None or (E_target J, E_scale J); ``scales``: per tangent
+    coordinate (m or rad; default the system's coordinate scales)."""
+
+    def __init__(self, system, t0, period, free_period, segments, omega, rtol, phase=None, energy=None, scales=None,
+                 max_step=math.inf):
+        self.system, self.model, self.t0, self.m = system, system.model, float(t0), int(segments)
+        self.period, self.free_period, self.rtol = float(period), bool(free_period), float(rtol)
+        self.max_step = float(max_step)
+        self.drives = getattr(system, "drives", None)
+        self.free = free_indices(system)
+        self.free2 = np.concatenate([self.free, self.free + system.nv])
+        n = self.n = self.free.size
+        self.nq, self.nv = system.nq, system.nv
+        self.s = np.asarray(system.coordinate_scales if scales is None else scales, dtype=float)[self.free]
+        self.omega = float(omega)
+        self.node_scale = np.concatenate([self.s, self.s * self.omega])
+        self.unknown_scale = np.concatenate([np.tile(self.node_scale, self.m)]
+                                            + ([np.array([1.0 / self.omega])] if self.free_period else []))
+        self.phase, self.energy = phase, energy
+        self.extra = (phase is not None) + (energy is not None)
+        self.rows = 2 * n * self.m + self.extra
+        self.row_scale = np.concatenate([np.tile(self.node_scale, self.m), np.ones(self.extra)])
+        v_idx, q_idx = system.additive_coordinates
+        turning = set(np.asarray(v_idx)[np.isin(q_idx, system.periodic_coordinates)].tolist())
+        self.wrap = np.array([k for k, i in enumerate(self.free) if int(i) in turning], dtype=int)
+        self._cache = (None, None)
+        self.evaluations = 0  # sets of flows integrated
+
+    # ------------------------------------------------------------------ unknowns
+    @staticmethod
+    def impose(system, nodes, t0, T):
+        """Nodes [(q, v)] with their driven coordinates set to the drives' values at t0 + i·T/m."""
+        drives = getattr(system, "drives", None)
+        if drives is None:
+            return list(nodes)
+        return [drives.impose(q, v, t0 + i * T / len(nodes)) for i, (q, v) in enumerate(nodes)]
+
+    def time(self, i, T):
+        """Time (s) of node i."""
+        return self.t0 + i * T / self.m
+
+    def pack(self, nodes, T=None):
+        parts = [np.concatenate([q, v]) for q, v in nodes]
+        return np.concatenate(parts + ([np.array([T])] if self.free_period else []))
+
+    def unpack(self, x):
+        """([(q_i, v_i)], T)."""
+        w = self.nq + self.nv
+        nodes = [(x[i * w:i * w + self.nq], x[i * w + self.nq:(i + 1) * w]) for i in range(self.m)]
+        return nodes, (float(x[-1]) if self.free_period else self.period)
+
+    def retract(self, x, dx):
+        """The unknowns moved by the scaled tangent step dx (configurations by ``integrate``)."""
+        dx = np.asarray(dx, dtype=float) * self.unknown_scale
+        nodes, T = self.unpack(x)
+        if self.free_period:
+            T = T + dx[-1]
+        n, out = self.n, []
+        for i, (q, v) in enumerate(nodes):
+            d = dx[2 * n * i:2 * n * (i + 1)]
+            dq = np.zeros(self.nv)
+            dq[self.free] = d[:n]
+            q1, v1 = pin.integrate(self.model, q, dq), np.array(v, dtype=float)
+            v1[self.free] += d[n:]
+            if self.drives is not None:
+                q1, v1 = self.drives.impose(q1, v1, self.time(i, T))
+            out.append((q1, v1))
+        return self.pack(out, T)
+
+    # ------------------------------------------------------------------ flows
+    def flows(self, x, error="local", points=None, refine=1):
+        """One run per segment from its node (variational equations included): a list of Trajectory.
+        ``points``: equally spaced outputs per segment (None: every step); steps at most max_step / ``refine``
+        (the variational equations are integrated with the state's steps, not controlled by them: a state that
+        barely moves — an orbit at an equilibrium, a uniform rotation — would leave them unresolved)."""
+        key = x.tobytes()
+        cached = error == "local" and points is None and refine == 1
+        if cached and self._cache[0] == key:
+            return self._cache[1]
+        nodes, T = self.unpack(x)
+        h, runs = T / self.m, []
+        for i, (q, v) in enumerate(nodes):
+            a = self.time(i, T)
+            t_eval = None if points is None else np.linspace(a, a + h, points + 1)
+            runs.append(simulate(self.system, a + h, q, v, rtol=self.rtol, t0=a, variational=True, error=error,
+                                 t_eval=t_eval, max_step=self.max_step / refine))
+        self.evaluations += 1
+        if cached:
+            self._cache = (key, runs)
+        return runs
+
+    def seed(self, x, runs):
+        """Take ``runs`` as the flows from x (a run the caller made already, with this problem's settings)."""
+        self._cache = (np.asarray(x, dtype=float).tobytes(), runs)
+
+    def residual(self, x):
+        """The scaled residual (non-finite where a flow cannot be integrated: the line search backs off)."""
+        nodes, T = self.unpack(x)
+        if not T > 0:
+            return np.full(self.rows, np.inf)
+        try:
+            runs = self.flows(x)
+        except SimulationError:
+            return np.full(self.rows, np.inf)
+        return self.residual_of(nodes, runs)
+
+    def closing(self, nodes, runs):
+        """Per segment, the unscaled mismatch (Δq tangent m or rad, Δv m/s or rad/s) at its end (free coordinates)."""
+        out = []
+        for i, run in enumerate(runs):
+            qj, vj = nodes[(i + 1) % self.m]
+            dq = pin.difference(self.model, qj, run.q[-1])[self.free]
+            if self.wrap.size:  # a pivot that turned by whole turns closes
+                dq[self.wrap] = (dq[self.wrap] + math.pi) % (2 * math.pi) - math.pi
+            out.append((dq, (run.v[-1] - vj)[self.free]))
+        return out
+
+    def residual_of(self, nodes, runs):
+        r = [np.concatenate([dq, dv]) / self.node_scale for dq, dv in self.closing(nodes, runs)]
+        q0, v0 = nodes[0]
+        if self.phase is not None:
+            r.append([self.phase_value(q0, v0)])
+        if self.energy is not None:
+            target, scale = self.energy
+            r.append([(self.system.energy(q0, v0, self.t0).total - target) / scale])
+        return np.concatenate(r)
+
+    # ------------------------------------------------------------------ phase and energy rows
+    def phase_value(self, q0, v0):
+        if self.phase[0] == "velocity":
+            k = self.phase[1]
+            return float(v0[self.free[k]]) / (self.s[k] * self.omega)
+        _, q_ref, v_ref, u = self.phase
+        d = pin.difference(self.model, q_ref, q0)[self.free] / self.s
+        return float(u @ np.concatenate([d, (v0 - v_ref)[self.free] / (self.s * self.omega)]))
+
+    def phase_row(self, q0, v0):
+        """∂(phase)/∂(δq_0, δv_0), unscaled unknowns."""
+        n = self.n
+        row = np.zeros(2 * n)
+        if self.phase[0] == "velocity":
+            k = self.phase[1]
+            row[n + k] = 1.0 / (self.s[k] * self.omega)
+            return row
+        _, q_ref, _, u = self.phase
+        D = pin.dDifference(self.model, q_ref, q0, ARG1)[np.ix_(self.free, self.free)]
+        row[:n] = (u[:n] / self.s) @ D
+        row[n:] = u[n:] / (self.s * self.omega)
+        return row
+
+    def energy_row(self, q0, v0):
+        """∂E/∂(δq_0, δv_0) / E_scale: central differences in the tangent space for q (steps 1e-6 of each
+        coordinate's scale), M v for v."""
+        system, n, t = self.system, self.n, self.t0
+        row = np.zeros(2 * n)
+        for k, i in enumerate(self.free):
+            e = np.zeros(self.nv)
+            e[i] = 1e-6 * self.s[k]
+            ep = system.energy(pin.integrate(self.model, q0, e), v0, t).total
+            em = system.energy(pin.integrate(self.model, q0, -e), v0, t).total
+            row[k] = (ep - em) / (2 * e[i])
+        row[n:] = (system.mass_matrix(q0) @ v0)[self.free]
+        return row / self.energy[1]
+
+    # ------------------------------------------------------------------ Jacobian
+    def jacobian(self, x):
+        nodes, T = self.unpack(x)
+        return self.jacobian_of(nodes, T, self.flows(x))
+
+    def segment_maps(self, nodes, runs):
+        """Per segment, its transition carried to the next node's tangent space: blockdiag(D₁, 1) Φ_i (free
+        coordinates), and D₀ (∂ of the mismatch with respect to the next node's δq)."""
+        f, n = self.free, self.n
+        out = []
+        for i, run in enumerate(runs):
+            qj = nodes[(i + 1) % self.m][0]
+            D0 = pin.dDifference(self.model, qj, run.q[-1], ARG0)[np.ix_(f, f)]
+            D1 = pin.dDifference(self.model, qj, run.q[-1], ARG1)[np.ix_(f, f)]
+            P = np.array(run.state_transition[np.ix_(self.free2, self.free2)])
+            P[:n] = D1 @ P[:n]
+            out.append((P, D0, D1))
+        return out
+
+    def jacobian_of(self, nodes, T, runs):
+        n, m = self.n, self.m
+        J = np.zeros((self.rows, 2 * n * m + (1 if self.free_period else 0)))
+        for i, ((P, D0, D1), run) in enumerate(zip(self.segment_maps(nodes, runs), runs)):
+            j = (i + 1) % m
+            ri, ci, cj = slice(2 * n * i, 2 * n * (i + 1)), slice(2 * n * i, 2 * n * (i + 1)), 2 * n * j
+            J[ri, ci] += P
+            J[2 * n * i:2 * n * i + n, cj:cj + n] += D0
+            J[2 * n * i + n:2 * n * (i + 1), cj + n:cj + 2 * n] -= np.eye(n)
+            if self.free_period:
+                qe, ve, te = run.q[-1], run.v[-1], run.t[-1]
+                a = self.system.accelerations(qe, ve, te)
+                J[ri, -1] = np.concatenate([D1 @ ve[self.free], a[self.free]]) / m
+        q0, v0 = nodes[0]
+        k = 2 * n * m
+        if self.phase is not None:
+            J[k, :2 * n] = self.phase_row(q0, v0)
+            k += 1
+        if self.energy is not None:
+            J[k, :2 * n] = self.energy_row(q0, v0)
+        return J / self.row_scale[:, None] * self.unknown_scale[None, :]
+
+    # ------------------------------------------------------------------ solution
+    def solve(self, x0, tol, max_iter):
+        """Newton from x0: (x, residual, iterations). A ConvergenceError says what was reached and what to try."""
+        try:
+            f0 = self.residual(x0)
+        except SimulationError as e:
+            raise ConvergenceError(f"periodic orbit: the motion from the start cannot be integrated over a period "
+                                   f"({e}): start closer to the orbit or use more segments", best=x0) from e
+        if not np.all(np.isfinite(f0)):
+            raise ConvergenceError("periodic orbit: the motion from the start cannot be integrated over a period: "
+                                   "start closer to the orbit, or use more segments", best=x0)
+        res = newton(self.residual, x0, self.jacobian, self.retract, tol=tol, max_iter=max_iter,
+                     max_step=STEP_CAP, rcond=RCOND, stall=100.0, f0=f0, min_alpha=MIN_ALPHA)
+        accepted = res.converged or (res.status in ("stagnated", "no_decrease") and res.residual <= 100 * tol)
+        if not accepted:
+            hint = ("more segments (segments=...), " if self.m < MAX_SEGMENTS else "") + \
+                "a better start (closer to the orbit), a smaller amplitude, or a looser tol"
+            raise ConvergenceError(
+                f"periodic orbit: shooting with {self.m} segment{'s' if self.m > 1 else ''} did not converge: "
+                f"{res.message}; closing residual reached {res.residual:.3e} (scaled: rad, length scales, "
+                f"per 2π/T), tolerance {tol:.1e}; try {hint}", residual=res.residual, best=self.unpack(res.x))
+        return res.x, res.residual, res.iterations
+
+
+def growth_segments(transition) -> int:
+    """Segments for multiple shooting so that each amplifies errors by about GROWTH_PER_SEGMENT at most,
+    from a single run's state transition over the period."""
+    g = float(np.linalg.norm(transition, 2)) if np.all(np.isfinite(transition)) else np.inf
+    if not g > GROWTH_PER_SEGMENT:
+        return 1
+    return int(min(MAX_SEGMENTS, math.ceil(math.log(g) / math.log(GROWTH_PER_SEGMENT)))) if math.isfinite(g) \
+        else MAX_SEGMENTS
+
+
+def first_return(system, q0, v0, t0, omega, rtol) -> float:
+    """The time (s) the motion from (q0, v0) takes to come back near its start: the first upward crossing of
+    the section through the start orthogonal to its flow (scaled by ``omega`` rad/s) that comes back to within
+    a tenth of how far the motion went. Looks over 3 periods of ``omega``, then 4 times longer, 5 times."""
+    free = free_indices(system)
+    s = np.asarray(system.coordinate_scales, dtype=float)[free]
+    a0 = system.accelerations(q0, v0, t0)
+    u = np.concatenate([v0[free] / s, a0[free] / (s * omega)])
+    u /= np.linalg.norm(u)
+
+    def scaled(q, v):
+        return np.concatenate([system.difference(q0, q)[free] / s, (v - v0)[free] / (s * omega)])
+
+    def section(t, q, v):
+        return float(u @ scaled(q, v))
+
+    section.direction = 1
+    span = 3 * 2 * math.pi / omega
+    for _ in range(5):
+        traj = simulate(system, t0 + span, q0, v0, t0=t0, rtol=max(rtol, 1e-9), error="local", events=section)
+        dist = np.array([np.linalg.norm(scaled(q, v)) for q, v in zip(traj.q, traj.v)])
+        for tc, qc, vc in zip(traj.events[0], traj.event_q[0], traj.event_v[0]):
+            dc = float(np.linalg.norm(scaled(qc, vc)))
+            went = dist[traj.t < tc].max(initial=0.0)
+            if went > 0 and dc < 0.1 * went:
+                return float(tc - t0)
+        span *= 4
+    raise ConvergenceError(f"periodic orbit: the motion from the start does not come back near it within "
+                           f"{span / 4:.4g} s: give the period (s), or start on (or near) a periodic orbit")
+
+
+def motion_scales(system, run, omega):
+    """Per tangent coordinate, the larger of its own scale (1 rad, the scene's length) and how far it moves
+    in ``run`` (|Δq| from the start, |v|/ω): what one unit of the shooting unknowns means."""
+    q0 = run.q[0]
+    dq = np.abs([system.difference(q0, q) for q in run.q]).max(axis=0)
+    dv = np.abs(run.v).max(axis=0) / omega
+    return np.maximum(np.asarray(system.coordinate_scales, dtype=float), np.maximum(dq, dv))
