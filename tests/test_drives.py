@@ -205,6 +205,31 @@ def test_events_and_linearisation_with_drives():
     K = m_p * l * (G + law.acceleration(t)) * math.cos(th)
     assert abs(lm.K[0, 0] - K) <= 10 * lm.K_error[0, 0] + 1e3 * EPS * abs(K)
     assert lm.modes().omega[0] == pytest.approx(math.sqrt(K / (m_p * l**2)), rel=10 * lm.error + 1e-12)
+    assert lm.drive == system.drives.forces(lm.q0, lm.v0, t)
+    exact = lm.relinearize("analytic")
+    assert abs(exact.K[0, 0] - lm.K[0, 0]) <= 3 * (lm.K_error[0, 0] + exact.K_error[0, 0])
+
+
+def test_steady_motion_of_a_driven_crank_and_its_vibration():
+    """The crank at constant speed ω holds the sprung slider at x* = k x0 / (k − m ω²) (rotating frame), about
+    which the slider vibrates at √(k/m − ω²); the drive needs no torque there (ẋ = 0)."""
+    omega, k, m, x0 = 2.0, 50.0, 1.0, 0.3
+    system = crank_with_sprung_slider(omega, k, m, x0).build()
+    op = system.equilibrium(q0=[0.0, 0.3], t=0.4)
+    assert op.q[0] == omega * 0.4 and op.v[0] == omega and op.v[1] == 0.0  # the driven crank: its law at t
+    x_star = k * x0 / (k - m * omega**2)
+    assert abs(op.q[1] - x_star) <= 3 * op.q_error[1] + 1e3 * EPS * x_star
+    assert abs(op.drive["crank"]) <= 10 * op.tolerance
+    lm = op.linearize()
+    assert lm.coordinates == ("slider",) and lm.M[0, 0] == pytest.approx(m, rel=1e3 * EPS)
+    assert abs(lm.K[0, 0] - (k - m * omega**2)) <= 3 * lm.K_error[0, 0] + 1e3 * EPS * k
+    W = math.sqrt(k / m - omega**2)
+    assert abs(lm.modes().omega[0] - W) <= W * (3 * lm.error + 1e3 * EPS)
+    assert lm.drive["crank.drive"] == pytest.approx(0.0, abs=1e3 * EPS * k * x_star**2)
+    # a drive that accelerates at t leaves no equilibrium: refused, naming it
+    scene, _ = carriage_pendulum(amplitude=0.05, omega=7.0)
+    with pytest.raises(vd.ModelError, match=r"equilibrium: drive 'carriage.drive' accelerates at t = 0.3 s"):
+        scene.build().equilibrium(t=0.3)
 
 
 def test_bad_drives_are_refused_clearly(tmp_path):
@@ -233,8 +258,8 @@ def test_bad_drives_are_refused_clearly(tmp_path):
         system.simulate(1.0, [0.0, 0.1])
     with pytest.raises(vd.ModelError, match=r"drive 'lift'"):
         system.accelerations([0.0, 0.1], [0.0, 0.0], 0.0)
-    with pytest.raises(vd.ModelError, match=r"equilibrium: scene .* has drives \(lift\)"):
-        system.equilibrium()
+    with pytest.raises(vd.ModelError, match=r"held: scene .* has drives \(lift\)"):
+        system.held()
     with pytest.raises(vd.ModelError, match=r"method 'symplectic' does not integrate a scene with drives"):
         carriage_pendulum()[0].build().simulate(1.0, [0.0, 0.1], method="symplectic", dt=1e-3)
     # a Python callable cannot be saved

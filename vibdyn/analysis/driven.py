@@ -46,6 +46,7 @@ class DrivenLinearModel(ConstrainedLinearModel):
 
     @property
     def drive(self) -> dict[str, float]:
+        assert self.tree is not None  # (always set by linearize)
         system = self.tree.system
         tau = dynamics.inverse_dynamics(system, system.workspace(), self.q0, self.v0, self.a0, self.t0)
         return system.drives.of(tau)
@@ -76,7 +77,8 @@ def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_ST
             raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t0})")
     else:
         a0 = system.check_velocity(a, "a")
-        if np.any(np.abs(a0[drives.index] - ad) > 1e-12 * np.maximum(1.0, np.abs(ad))):
+        # (within the tolerance of the equilibria's drives at rest: 1e-10 per s² × 1 rad or the length scale)
+        if np.any(np.abs(a0[drives.index] - ad) > 1e-10 * system.coordinate_scales[drives.index]):
             raise ModelError(f"linearize: a at the driven coordinates ({', '.join(drives.coordinates)}) must be "
                              f"the drives' accelerations at t = {t0:g} s, {ad.tolist()}; got "
                              f"{a0[drives.index].tolist()} (give a = None for the motion's)")

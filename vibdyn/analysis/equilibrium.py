@@ -111,8 +111,11 @@ Equilibrium = OperatingPoint  # (the former name: a static equilibrium is one ki
 def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
     """Static equilibrium near ``q0`` (neutral if None): Newton with line search; least-squares steps where
     K is singular (free or cyclic coordinates). Raises ConvergenceError with the best point. A mechanism with
-    loops: :func:`vibdyn.analysis.constrained.equilibrium` (q0 need not close them)."""
-    _refuse_drives(system, "equilibrium")
+    loops: :func:`vibdyn.analysis.constrained.equilibrium` (q0 need not close them). A scene with drives:
+    the free coordinates' equilibrium with the driven ones held at their laws' position and speed at t
+    (:func:`driven_start`; a moving drive makes it a steady motion)."""
+    if system.drives is not None:
+        return _solve(system, *driven_start(system, "equilibrium", q0, t, {}), tol, max_iter)
     if system.constraints is not None:
         from .constrained import equilibrium
 
@@ -125,8 +128,8 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
     None (found from the forces, starting from ``guess`` rad/s or m/s) — while the others rest.
 
     Example (a rotor driven by τ = 10 − ω² carrying a sprung slider): ``steady_motion({"rotor": None})``.
+    With drives, the driven coordinates move at their laws' speeds at t (:func:`driven_start`).
     """
-    _refuse_drives(system, "steady_motion")
     if system.constraints is not None:  # a mechanism with loops: speeds given (constrained.steady_motion)
         from .constrained import steady_motion as constrained_steady_motion
 
@@ -137,6 +140,8 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
     for name, speed in v_cyclic.items():
         i = system.coordinate_index(name)
         cyclic[i] = None if speed is None else scalar(speed, f"steady_motion: speed of '{name}'")
+    if system.drives is not None:
+        return _solve(system, *driven_start(system, "steady_motion", q0, t, cyclic), tol, max_iter, guess)
     return _solve(system, q0, t, cyclic, tol, max_iter, guess)
 
 
@@ -185,6 +190,26 @@ def _refuse_drives(system, what):
         raise ModelError(f"{what}: scene '{system.name}' has drives ({', '.join(system.drives.names)}) whose "
                          "coordinates move with time: not supported yet; linearise it about a state of its motion "
                          "(system.linearize(q, v=v, t=t), free coordinates) or simulate it")
+
+
+def driven_start(system, what, q0, t, cyclic):
+    """(q0, t, cyclic) of an equilibrium search in a scene with drives: the driven coordinates held at their
+    laws' position (in q0) and speed (given cyclic speeds) at t, the free ones searched for. The laws must
+    not accelerate there (|a_d| ≤ 1e-10 per s² × 1 rad or the length scale): a drive at rest or in uniform
+    motion (a crank at constant speed), else there is no equilibrium and a ModelError says so."""
+    drives, t = system.drives, system.check_time(t)
+    qd, vd, ad = drives.values(t)
+    scale = system.coordinate_scales[drives.index]
+    for k in np.flatnonzero(np.abs(ad) > 1e-10 * scale):
+        raise ModelError(f"{what}: drive '{drives.names[k]}' accelerates at t = {t:g} s (a = {ad[k]:.6g} "
+                         f"{drives.units[k]}/s²): the free coordinates have no equilibrium while it does; "
+                         "linearise about a state of the motion (system.linearize(q, v=v, t=t)) or simulate it")
+    for i in cyclic:
+        if i in drives.index:
+            raise ModelError(f"{what}: coordinate '{system.coordinates[i]}' is driven: its speed is its drive's")
+    q = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
+    q[drives.q_index] = qd
+    return q, t, {**cyclic, **{int(i): float(s) for i, s in zip(drives.index, vd)}}
 
 
 def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
@@ -291,11 +316,14 @@ def _finish(system, q, v, t, regime, residual, tolerance, iterations, ignore_zer
     lin = linearize(system, q, v=v, t=t, a=np.zeros(nv))
     m = lin.modes()
     stability = m.verdict(ignore_zeros=ignore_zeros)
-    q_error = np.abs(np.linalg.pinv(lin.K, rcond=1e-10)) @ np.full(nv, residual) if nv else np.zeros(0)
+    Kinv, M = np.linalg.pinv(lin.K, rcond=1e-10), lin.M
+    if system.drives is not None:  # the free coordinates' model: the driven offsets are their laws', exact
+        Kinv, M = lin.basis @ Kinv @ lin.basis.T, lin.tree.M
+    q_error = np.abs(Kinv) @ np.full(nv, residual) if nv else np.zeros(0)
     if iterations:  # the offsets carry the round-off of the steps that reached them
         q_error = q_error + 4 * np.finfo(float).eps * (np.abs(system.difference(system.neutral(), q)) + 1.0)
         if m.rigid.any():
-            P = np.abs(m.shapes[:, m.rigid] @ (m.shapes[:, m.rigid].T @ lin.M))  # M-projector on rigid modes
+            P = np.abs(m.shapes[:, m.rigid] @ (m.shapes[:, m.rigid].T @ M))  # M-projector on rigid modes
             q_error = q_error + np.sqrt(np.finfo(float).eps) * travel * P.sum(axis=1)
     return OperatingPoint(system, q, v, float(t), regime, residual, tolerance, iterations, stability, speeds, drive,
                        time.perf_counter() - start, m, q_error)
