@@ -270,7 +270,7 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
         return seen["r"][rows]
 
     def full(x):
-        return seen["r"] if seen.get("x") is x else residual(*split(x))
+        return seen["r"] if seen["x"] is x or np.array_equal(seen["x"], x) else residual(*split(x))
 
     def shape_step(x, f, J, step):
         qq, vv = split(x)
@@ -286,6 +286,7 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
         return _within_limits(system, what, qq, step.copy(), rest, full(x), unit, target)
 
     x0 = np.concatenate([q, v[unknown]])
+    seen["x"], seen["r"] = x0, r
     out = newton(rows_of, x0, lambda x: jacobian(*split(x)), retract, tol=target,
                  max_iter=max_iter, max_step=max_step, shape_step=shape_step, on_no_decrease="accept",
                  min_alpha=1e-3, stall=1e3, f0=r[rows], jacobian0=J)

@@ -6,6 +6,7 @@ all this iteration with their own residual, Jacobian and retraction (``pin.integ
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -82,17 +83,16 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
             over = (np.abs(dx) / max_step).max(initial=0.0)
             if over > 1:
                 dx = dx / over
-        norm0, alpha = float(np.linalg.norm(f)), 1.0
+        norm0, alpha = math.sqrt(f @ f), 1.0
         while True:
             x_new = retract(x, alpha * dx)
             f_new = np.asarray(fun(x_new), float)
-            finite = bool(np.all(np.isfinite(f_new)))
-            if finite and np.linalg.norm(f_new) <= (1 - 1e-4 * alpha) * norm0:
-                break
-            if alpha * 0.5 < min_alpha:
+            norm_new = math.sqrt(f_new @ f_new)  # (nan or inf if f_new is not finite)
+            decreased = norm_new <= (1 - 1e-4 * alpha) * norm0
+            if decreased or alpha * 0.5 < min_alpha:
                 break
             alpha *= 0.5
-        decreased = finite and np.linalg.norm(f_new) <= (1 - 1e-4 * alpha) * norm0
+        finite = decreased or bool(np.all(np.isfinite(f_new)))
         if not decreased and (on_no_decrease == "stop" or not finite):
             status = "no_decrease" if finite or on_no_decrease == "stop" else "diverged"
             message = (f"no step decreases the residual further (residual {best[0]:.3e}, tolerance {tol:.1e})"
