@@ -4,8 +4,9 @@ prescribed motion, in the free coordinates.
 The driven coordinates are given (q_d, v_d, a_d: the laws' at the operating time t), so a perturbation moves the
 free ones only: M, C, K are the rows and columns of the free coordinates of the tree's (K and C about the
 motion's accelerations a, a_d the laws' and a_f from the free rows), and modes, receptances and responses
-run on them, shapes given in the tree's coordinates (zero on the driven ones). Equilibria, steady motions
-and held points of a driven scene are refused for now (:mod:`vibdyn.analysis.equilibrium`).
+run on them, shapes given in the tree's coordinates (zero on the driven ones). Equilibria and steady motions
+hold the driven coordinates at their laws' position and speed at t (:func:`vibdyn.analysis.equilibrium.
+driven_start`: refused where a law accelerates); held points of a driven scene are refused.
 """
 
 from __future__ import annotations
