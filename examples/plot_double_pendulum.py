@@ -49,9 +49,13 @@ for r in range(2):
     print(f"  {r + 1}   {modes.omega[r]:.13f}   {omega_exact[r]:.13f}   {actual:.1e}            "
           f"{modes.omega_error[r]:.1e}")
     assert actual <= 10 * modes.omega_error[r]
+# The shapes: to first order a perturbation δK turns an eigenvector by about ‖δK‖ / (ω₂² − ω₁²) (M ~ 1 kg·m²).
 ratio = modes.shapes[1] / modes.shapes[0]
-print("shapes θ₂/θ₁ (relative angles):", ratio, "  exact: √2 − 1 and −√2 − 1 =", [math.sqrt(2) - 1, -math.sqrt(2) - 1])
-assert np.allclose(ratio, [math.sqrt(2) - 1, -math.sqrt(2) - 1], rtol=1e-6)
+ratio_exact = np.array([math.sqrt(2) - 1, -math.sqrt(2) - 1])
+turn = fd.K_error.max() / (modes.omega2[1] - modes.omega2[0])
+print(f"shapes θ₂/θ₁ (relative angles): {ratio}, exact √2 − 1 and −√2 − 1; largest relative gap "
+      f"{np.abs(ratio / ratio_exact - 1).max():.1e}, first-order estimate {turn:.1e}")
+assert np.all(np.abs(ratio / ratio_exact - 1) <= 10 * 2 * turn)
 
 # %%
 # A simulation's global error estimate against its actual error

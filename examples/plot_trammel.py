@@ -2,7 +2,7 @@
 The trammel: a closed loop
 ==========================
 
-Vénizélos & El Hami, *Movement Equations 5*, Ex. 2.4.1 (reference case R9). A plane problem, y vertical
+Vénizélos, *Vibrations des systèmes mécaniques*, Ex. 2.4.1 (reference case R9). A plane problem, y vertical
 upwards, gravity −y. A homogeneous disk (centre G, radius R = 0.1 m, mass M = 2 kg) is welded to massless rods;
 A, G, B are aligned with AB = 2ℓ = 1 m, G the midpoint. Axis A (a point mass m = 0.5 kg) slides without
 friction along x, axis B (m = 0.5 kg) along y. A spring O–A, free length 2ℓ₀ = 0.6 m, stiffness k. With γ the

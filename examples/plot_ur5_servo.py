@@ -105,6 +105,7 @@ assert abs(omega_sim / mode1.omega[0] - 1) <= 1e-5
 # %%
 # The pictures and the viewer
 # ---------------------------
-# The viewer page shows the URDF's meshes (it is large: the meshes are inlined).
-fig_modes = modes.plot()
+# The pictures: the undamped modes on the servos (real shapes, easier to read than the damped ones' two
+# phases). The viewer page animates the damped modes with the URDF's meshes (it is large: they are inlined).
+fig_modes = mode1.plot()
 vd.export_html(modes, "viewer_ur5_servo.html")
