@@ -186,9 +186,10 @@ def search(browser: Browser, base: str, query: str) -> list[str]:
     return [urllib.parse.urlparse(h).path.lstrip("/") for h in hrefs]
 
 
-def check(root: str | Path, gallery: bool = True, searches=SEARCHES, exe: str | None = None) -> tuple[list, dict]:
+def check(root: str | Path, gallery: bool = True, searches=SEARCHES, exe: str | None = None,
+          only: list[str] | None = None) -> tuple[list, dict]:
     """Problems found on the site built at ``root`` (an empty list when none) and a summary of what was
-    checked (pages, links, images, gallery pages, the search results)."""
+    checked (pages, links, images, gallery pages, the search results). ``only``: visit these pages alone."""
     root = Path(root)
     if not (root / "index.html").is_file():
         return [f"{root}: no index.html (build the site first)"], {}
@@ -197,6 +198,8 @@ def check(root: str | Path, gallery: bool = True, searches=SEARCHES, exe: str | 
         return ["Chromium is not installed (apt-get install chromium)"], {}
     pages = sorted(p.relative_to(root).as_posix() for p in root.rglob("*.html")
                    if not p.relative_to(root).as_posix().startswith(SKIP_DIRS))
+    if only is not None:
+        pages = [p for p in pages if p in only]
     problems, status, ids, targets = [], {}, {}, []
     n_images = 0
     gallery_pages = [p for p in pages if re.fullmatch(r"auto_examples/plot_\w+\.html", p)]
@@ -213,9 +216,10 @@ def check(root: str | Path, gallery: bool = True, searches=SEARCHES, exe: str | 
                 n_images += 1
                 if not (complete and width > 0):
                     problems.append(f"{page}: image {src} did not load")
-            if page in gallery_pages and not any(w > 0 and "sphx_glr" in s for s, _, w in got["images"]):
+            shown = any(w > 0 and "sphx_glr" in src for src, _, w in got["images"])
+            if gallery and page in gallery_pages and not shown:
                 problems.append(f"{page}: a gallery page without its figure")
-        if gallery and not gallery_pages:
+        if gallery and not gallery_pages and only is None:
             problems.append("no gallery page (auto_examples/plot_*.html) in the site")
         for page, url in targets:
             parts = urllib.parse.urlparse(url)
