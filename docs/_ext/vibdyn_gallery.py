@@ -206,8 +206,8 @@ def reference_tables(app):
                  f"     - {elapsed * 1e3:.0f} ms"]
     out += ["", ".. list-table:: Natural frequencies ω (rad/s) of the scenes at rest: reference and vibdyn, computed "
             "when this page was built (load, build, equilibrium, linearisation, modes)", "   :header-rows: 1", "",
-            "   * - file", "     - reference ω (rad/s)", "     - vibdyn ω (rad/s)", "     - largest relative difference",
-            "     - vibdyn's relative error estimate", "     - time", *rows, ""]
+            "   * - file", "     - reference ω (rad/s)", "     - vibdyn ω (rad/s)",
+            "     - largest relative difference", "     - vibdyn's relative error estimate", "     - time", *rows, ""]
     return "\n".join(out)
 
 
