@@ -98,13 +98,14 @@ class Derivatives:
         return Q
 
 
-def analytic_derivatives(system, q, v, a, t, with_terms=False):
+def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None):
     """(K, C, terms, K_size) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|, Σ |J|ᵀ |∂f|) at (q, v, a, t), analytically;
     ``terms`` (N or N·m per coordinate) is the size of what cancels in r, ``K_size`` (nv × nv) that of the
-    point elements' terms summed into K: the scales of their round-off (None unless ``with_terms``)."""
+    point elements' terms summed into K: the scales of their round-off (None unless ``with_terms``).
+    ``shift``: offsets of the supports' motion, as :func:`vibdyn.model.dynamics.forces` takes them."""
     ws = system.workspace()
     model, data = system.model, ws.data
-    Q, fext = dynamics.forces(system, ws, q, v, t)
+    Q, fext = dynamics.forces(system, ws, q, v, t, shift)
     out = (pin.computeRNEADerivatives(model, data, q, v, a) if fext is None
            else pin.computeRNEADerivatives(model, data, q, v, a, fext))
     K, C = out[0].copy(), out[1].copy()  # Pinocchio overwrites them on the next call
@@ -116,7 +117,7 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False):
                     magnitudes=with_terms)
     K_size = np.zeros_like(K) if with_terms else None
     if system.point_groups:
-        d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t)
+        d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t, shift)
         for g in system.point_groups:
             g.derivatives(d)
         for j in system.point_joints:

@@ -36,7 +36,7 @@ from ...defaults import FD_STEP
 from ...errors import ConvergenceError, ModelError
 from ...model import dynamics
 from ...model.derivatives import analytic_derivatives
-from ...model.fd import point_jacobian, steps, tangent_derivative, vector_derivative
+from ...model.fd import point_jacobian, steps, tangent_derivative
 from ...solvers.continuation import continuation
 from ...solvers.newton import newton
 
@@ -335,7 +335,7 @@ class _Balance:
         self.P = w[:, None] * self.E.T  # Galerkin projection: exact coefficients of a trig polynomial ≤ H
         self.k, self.iq = system.additive_coordinates
         self.h = steps(system, FD_STEP)
-        self.fd = excitation.kind == "support"  # the support's shift has no analytic derivative: differences
+        self.support = excitation.kind == "support"
         self._memo = None
         X0 = np.zeros((2 * H + 1) * self.n)
         r0 = self._samples(X0, 1.0)[3]
@@ -366,16 +366,9 @@ class _Balance:
         for j, tau in enumerate(self.tau):
             t = tau / omega
             M[j] = dynamics.mass_matrix(sys_.model, ws.data, Q[j])
-            if self.fd:
-                sh = self.exc.shift(tau, omega, t)
-                K[j] = tangent_derivative(sys_, lambda q: dynamics.inverse_dynamics(
-                    sys_, ws, q, xd[j], xdd[j], t, sh), Q[j], self.h)
-                C[j] = vector_derivative(lambda v: dynamics.inverse_dynamics(
-                    sys_, ws, Q[j], v, xdd[j], t, sh), xd[j], self.h)
-            else:
-                K[j], C[j] = analytic_derivatives(sys_, Q[j], xd[j], xdd[j], t)[:2]
-                if self.exc.kind == "point":
-                    K[j] -= tangent_derivative(sys_, lambda q: self.exc.force(q, tau), Q[j], self.h)
+            K[j], C[j] = analytic_derivatives(sys_, Q[j], xd[j], xdd[j], t, shift=self.exc.shift(tau, omega, t))[:2]
+            if self.exc.kind == "point":  # J(q)ᵀF turns with the body: its own ∂/∂q, by differences
+                K[j] -= tangent_derivative(sys_, lambda q: self.exc.force(q, tau), Q[j], self.h)
         return xd, xdd, r, K, C, M
 
     def jacobian(self, X, omega):
@@ -388,7 +381,7 @@ class _Balance:
         JX = (np.einsum("aj,jpi,jb->apbi", self.P, K, self.E)
               + omega * np.einsum("aj,jpi,jb->apbi", self.P, C, self.E1)
               + omega**2 * np.einsum("aj,jpi,jb->apbi", self.P, M, self.E2)).reshape(m, m)
-        if self.fd:  # the support's velocity Ω·Y·sin τ depends on Ω too: a central difference
+        if self.support:  # the support's velocity Ω·Y·sin τ depends on Ω too: a central difference
             d = 1e-6 * omega
             JW = (self.residual(X, omega + d) - self.residual(X, omega - d)) * self.scale / (2 * d)
         else:  # ẋ ∝ Ω, ẍ ∝ Ω²
