@@ -218,7 +218,8 @@ def test_stable_point_stays_unstable_point_leaves(curve):
         assert res < 1e-11 and abs(z[0] - z0[0]) < 1e-7  # HB and shooting: the same orbit
         mu = np.sort(np.abs(np.linalg.eigvals(tr1.state_transition)))[::-1]
         hill = np.abs(curve.multipliers[i])
-        assert np.all(np.abs(mu - hill) <= 1e-9 + 10 * tr1.state_transition_error)
+        assert np.all(np.abs(mu - hill) <= 10 * (curve.multiplier_error[i] + tr1.state_transition_error))
+        assert curve.stability[i] == ("unstable" if leaves else "stable")
         assert (mu[0] > 1) == leaves
 
 

@@ -107,7 +107,9 @@ class ForcedResponseCurve:
     ``error`` (its harmonic-truncation estimate, same unit), ``coefficients`` (points × (2H + 1) × nv: the
     constant, then cos kΩt and sin kΩt for k = 1..H, of each tangent coordinate's displacement from
     ``q_eq``), ``multipliers`` (points × 2nv complex Floquet multipliers by Hill's method, by decreasing
-    modulus), ``stable`` (all |μ| < 1). ``folds`` and ``peak``; ``harmonics`` H; ``status`` ("finished",
+    modulus), ``multiplier_error`` (the largest error of their moduli, from Hill's method with 2H + 1
+    harmonics), ``stable`` (all |μ| < 1) and ``stability`` ("stable", "unstable", or "within the error" where
+    the largest |μ| is within its error of 1, as at a fold). ``folds`` and ``peak``; ``harmonics`` H; ``status`` ("finished",
     "stopped", "failed") and ``message``; ``elapsed`` (s)."""
 
     coordinate: str
@@ -118,7 +120,9 @@ class ForcedResponseCurve:
     error: np.ndarray
     coefficients: np.ndarray
     multipliers: np.ndarray
+    multiplier_error: np.ndarray
     stable: np.ndarray
+    stability: tuple
     folds: list
     peak: ResponsePeak
     harmonics: int
@@ -141,7 +145,8 @@ class ForcedResponseCurve:
                  f"  peak: amplitude {number(self.peak.amplitude, u, digits=10)} ± {self.peak.error:.1e} at "
                  f"Ω = {number(self.peak.omega, digits=10)} rad/s ({number(self.peak.hz, digits=8)} Hz)",
                  f"  truncation error ≤ {float(np.max(self.error)):.1e} {u}; "
-                 f"{int(np.count_nonzero(~self.stable))} unstable points (Hill)"]
+                 f"{int(np.count_nonzero(~self.stable))} unstable points (Hill's method, |μ| to "
+                 f"{float(np.max(self.multiplier_error)):.0e})"]
         for f in self.folds:
             lines.append(f"  fold: Ω = {number(f.omega, digits=10)} rad/s ({number(f.hz, digits=8)} Hz), "
                          f"amplitude {number(f.amplitude, u, digits=10)} ± {f.error:.1e}")
@@ -182,7 +187,8 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
     while True:
         bal = _Balance(system, excitation, q_eq, H)
         run = _follow(bal, lo, hi, X0, step, max_steps)
-        err = np.array([bal.truncation(x, w, c) for x, w in zip(run.x, run.lam)])
+        trunc = [bal.truncation(x, w, c) for x, w in zip(run.x, run.lam)]
+        err = np.array([e for e, _ in trunc])
         amp = np.array([bal.amplitude(x, c) for x in run.x])
         worst = float(np.max(err / max(float(np.max(amp)), 1e-300)))
         history.append((H, worst))
@@ -195,14 +201,21 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
         message += f"; truncation {worst:.1e} of the peak with H = {H} (the most tried) is above tol = {tol:g}"
     if status != "finished":
         message += f"; largest amplitude reached {float(np.max(amp)):.6g} {system.units[c]}"
-    folds = [ResponseFold(f.lam, bal.amplitude(f.x, c), bal.truncation(f.x, f.lam, c), f.index)
+    folds = [ResponseFold(f.lam, bal.amplitude(f.x, c), bal.truncation(f.x, f.lam, c)[0], f.index)
              for f in run.folds]
     peak = _peak(bal, run, amp, c)
     mult = np.array([bal.hill(x, w) for x, w in zip(run.x, run.lam)])
-    stable = np.abs(mult[:, 0]) < 1.0
+    # each |μ|'s error: Hill's method again on the 2H + 1 balance (from the truncation step's coefficients)
+    fine = np.array([bal.refined().hill(x2, w) for (_, x2), w in zip(trunc, run.lam)])
+    mult_error = np.max(np.abs(np.abs(mult) - np.abs(fine)), axis=1)
+    largest = np.abs(mult[:, 0])
+    stable = largest < 1.0
+    verdict = tuple("within the error" if abs(m - 1.0) <= e else "stable" if m < 1.0 else "unstable"
+                    for m, e in zip(largest, mult_error))
     return ForcedResponseCurve(coordinate, system.units[c], excitation.label, run.lam.copy(), amp, err,
-                               run.x.reshape(len(run.lam), 2 * H + 1, system.nv).copy(), mult, stable, folds,
-                               peak, H, q_eq.copy(), status, message, time.perf_counter() - start, history)
+                               run.x.reshape(len(run.lam), 2 * H + 1, system.nv).copy(), mult, mult_error, stable,
+                               verdict, folds, peak, H, q_eq.copy(), status, message, time.perf_counter() - start,
+                               history)
 
 
 def _omega_range(omega):
@@ -431,25 +444,32 @@ class _Balance:
         val = abs(a[0] + np.sum(ac * np.cos(k * tau) + as_ * np.sin(k * tau)))
         return float(max(val, best))
 
+    def refined(self):
+        """The balance with 2H + 1 harmonics (the next odd one too, which odd forces excite), made once."""
+        big = self.__dict__.get("_refined")
+        if big is None:
+            big = self._refined = _Balance.__new__(_Balance)
+            big.__dict__.update(self.__dict__)
+            H2 = 2 * self.H + 1
+            big.H, big.N = H2, 4 * H2 + 4
+            big.tau = 2 * np.pi * np.arange(big.N) / big.N
+            big.E, big.E1, big.E2 = _basis(big.tau, H2)
+            w = np.full(2 * H2 + 1, 2.0 / big.N)
+            w[0] = 1.0 / big.N
+            big.P, big._memo, big._refined = w[:, None] * big.E.T, None, None
+        return big
+
     def truncation(self, X, omega, c):
-        """Estimated truncation error of the amplitude of coordinate c: the largest displacement over a period
-        of one Newton step of the 2H balance from this solution."""
-        H2 = 2 * self.H + 1  # (2H + 1: the next odd harmonic too, which odd forces excite)
-        big = _Balance.__new__(_Balance)
-        big.__dict__.update(self.__dict__)
-        big.H, big.N = H2, 4 * H2 + 4
-        big.tau = 2 * np.pi * np.arange(big.N) / big.N
-        big.E, big.E1, big.E2 = _basis(big.tau, H2)
-        w = np.full(2 * H2 + 1, 2.0 / big.N)
-        w[0] = 1.0 / big.N
-        big.P, big._memo = w[:, None] * big.E.T, None
-        X2 = _embed(X, self.H, H2, self.n)
+        """(error, X2): the estimated truncation error of the amplitude of coordinate c — the largest
+        displacement over a period of one Newton step of the 2H + 1 balance from this solution — and the
+        coefficients that step reaches."""
+        big = self.refined()
+        X2 = _embed(X, self.H, big.H, self.n)
         J = big.jacobian(X2, omega)[:, :-1]
-        R = big.residual(X2, omega)
-        dX = np.linalg.lstsq(J, -R, rcond=None)[0]
-        grid = np.linspace(0, 2 * np.pi, max(64, 8 * (2 * H2 + 1)), endpoint=False)
-        d = _basis(grid, H2)[0] @ dX.reshape(2 * H2 + 1, self.n)[:, c]
-        return float(np.max(np.abs(d)))
+        dX = np.linalg.lstsq(J, -big.residual(X2, omega), rcond=None)[0]
+        grid = np.linspace(0, 2 * np.pi, max(64, 8 * (2 * big.H + 1)), endpoint=False)
+        d = _basis(grid, big.H)[0] @ dX.reshape(2 * big.H + 1, self.n)[:, c]
+        return float(np.max(np.abs(d))), X2 + dX
 
 
 def _basis(tau, H):
@@ -536,5 +556,5 @@ def _peak(bal, run, amp, c):
         res = cache.get(opt.x)
         if res is not None and res.converged and -opt.fun >= amp[i]:
             y = res.x
-            return ResponsePeak(float(y[-1]), float(-opt.fun), bal.truncation(y[:-1], y[-1], c))
-    return ResponsePeak(float(run.lam[i]), float(amp[i]), bal.truncation(run.x[i], run.lam[i], c))
+            return ResponsePeak(float(y[-1]), float(-opt.fun), bal.truncation(y[:-1], y[-1], c)[0])
+    return ResponsePeak(float(run.lam[i]), float(amp[i]), bal.truncation(run.x[i], run.lam[i], c)[0])
