@@ -75,7 +75,7 @@ def __dir__():
 
 
 def load_scene(path: str | os.PathLike) -> Scene:
-    """Read a TOML scene file (see the README for its format) into a :class:`Scene`; a bare name that is no
+    """Read a TOML scene file (its format: docs/guide/scene-files.md) into a :class:`Scene`; a bare name that is no
     file here ("four_bar" or "four_bar.toml") loads the bundled model of that name (:func:`bundled_models`)."""
     from .io.scenefile import load_scene as _load
 

@@ -227,7 +227,7 @@ class Modes:
         return "\n".join(lines)
 
 
-#: what each frequency of a modal analysis is (the README's glossary; every output names its numbers so)
+#: what each frequency of a modal analysis is (the glossary, docs/guide/glossary.md; every output names its numbers so)
 GLOSSARY = {
     "omega": "ω (rad/s): undamped natural frequency, from K_s φ = ω² M φ (damping and gyroscopic terms left out)",
     "frequency": "f = ω/2π (Hz), of the undamped ω",
@@ -290,7 +290,8 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     A = np.abs(Phi)
     abs_Ks = np.abs(Ks)
     quadratic = np.add.reduce(A * (((n * EPS) * abs_Ks + Ke) @ A))
-    uncertainty = np.sqrt(np.add.reduce(LR * LR))
+    with np.errstate(over="ignore"):  # squares past the float range: caught below and scaled, no warning
+        uncertainty = np.sqrt(np.add.reduce(LR * LR))
     uncertainty += quadratic
     if not all_finite(uncertainty):  # the squares overflowed (huge ω²)? the same, column by column scaled
         r = np.abs(R).max(axis=0, initial=0.0)

@@ -21,7 +21,7 @@ PERIOD = 2.0  # s: one cycle of a shown mode lasts this long (whatever its frequ
 
 @dataclass(frozen=True)
 class ModeView:
-    """One mode as the viewer lists it, each number named after the glossary (README, "Frequencies"):
+    """One mode as the viewer lists it, each number named after the glossary (docs/guide/glossary.md):
     ``omega`` is the undamped ω of the undamped problem, or the damped ω_d = |Im λ| of the state form
     (``damped``), rad/s; ``omega_n`` = |λ| (state form), ``zeta`` = −Re λ/|λ| (nan when undamped); ``rate``
     the growth (> 0) or decay (< 0) rate of a mode that does not oscillate, or the growth of an unstable
