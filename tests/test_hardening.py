@@ -5,8 +5,11 @@ Python exception. Now it computes right (checked against a closed form) or raise
 what is wrong.
 """
 
+from contextlib import nullcontext
+
 import numpy as np
 import pytest
+from conftest import numpy_overflow
 
 import vibdyn as vd
 
@@ -92,7 +95,7 @@ def test_overflowing_results_are_errors(case):
     s.add_body("a", joint=vd.Slider((1, 0, 0)), mass=1.0)
     s.add_spring("k", ("a", (0, 0, 0)), ("world", (1, 0, 0)), 1e10)
     system = s.build()
-    with pytest.raises(vd.ModelError, match="not finite"):
+    with numpy_overflow() if case == "spring" else nullcontext(), pytest.raises(vd.ModelError, match="not finite"):
         if case == "spring":
             system.generalized_forces([1e300], [0.0])
         else:
@@ -156,7 +159,7 @@ def damped_mass():
 def test_non_finite_initial_derivative_is_a_simulation_error(method):
     """v0 = 1e300 with a damper and unit mass: the first acceleration −c v overflows in the step; before,
     DOP853 looped forever and Radau raised a raw ValueError."""
-    with pytest.raises(vd.SimulationError):
+    with numpy_overflow(), pytest.raises(vd.SimulationError):
         damped_mass().simulate(1.0, v0=[1e300], method=method)
 
 

@@ -5,9 +5,11 @@ now give the right answer or a vibdyn error naming the element.
 """
 
 import re
+from contextlib import nullcontext
 
 import numpy as np
 import pytest
+from conftest import numpy_overflow
 
 import vibdyn as vd
 
@@ -77,12 +79,12 @@ def damped_mass(c=1.0):
 def test_non_finite_first_derivative_is_a_simulation_error(method):
     # finite energy (5e299 J) but the damper's force 1e350 N overflows: DOP853 used to loop for ever on a NaN
     # first step; Radau raised scipy's raw ValueError
-    with pytest.raises(vd.SimulationError):
+    with numpy_overflow(), pytest.raises(vd.SimulationError):
         damped_mass(1e200).simulate(1.0, v0=[1e150], method=method, dt=0.1)
 
 
 def test_initial_state_whose_energy_overflows_is_refused():
-    with pytest.raises(vd.VibdynError, match="not finite|overflow"):
+    with numpy_overflow(), pytest.raises(vd.VibdynError, match="not finite|overflow"):
         damped_mass().simulate(1.0, v0=[1e300])
 
 
@@ -133,7 +135,7 @@ def test_one_coordinate_laws_get_numpy_scalars_so_overflow_is_a_blow_up():
         seen.append(type(q))
         return -1e3 * q ** 3
 
-    with pytest.raises(vd.VibdynError):
+    with numpy_overflow(), pytest.raises(vd.VibdynError):
         failing_scene(law).accelerations([1e110], [0.0])
     assert seen and all(issubclass(k, np.floating) for k in seen)
 
@@ -169,7 +171,8 @@ def spring_mass():
     (lambda s: s.steady_motion({"m": "fast"}), ("steady_motion", "'m'", "expected a number")),
 ])
 def test_bad_numbers_and_overflow_are_model_errors(call, parts):
-    with err(*parts):
+    # the spring's force at q = 1e300 overflows in numpy on its way to the error (the energy's in Pinocchio)
+    with numpy_overflow() if parts[0] in ("generalized forces", "inverse dynamics") else nullcontext(), err(*parts):
         call(spring_mass().build())
 
 
@@ -194,7 +197,7 @@ def test_spin_energy_overflow_in_a_run_is_a_simulation_error():
     s = vd.Scene("spin")
     s.add_body("r", joint=vd.Pivot((0, 0, 1)), mass=1.0, inertia=np.eye(3))
     s.add_joint_force("r", lambda t, q, v: 1e307 * np.exp(t))
-    with pytest.raises(vd.VibdynError, match="not finite|overflow|underflow"):
+    with numpy_overflow(), pytest.raises(vd.VibdynError, match="not finite|overflow|underflow"):
         s.build().simulate(1000.0, v0=[1e150])
 
 

@@ -2,6 +2,7 @@
 finite result or a vibdyn error — never NaN or inf, never a raw exception."""
 
 import math
+import warnings
 
 import numpy as np
 from hypothesis import HealthCheck, given, settings
@@ -17,6 +18,7 @@ anything = st.one_of(
     st.integers(min_value=-10 ** 400, max_value=10 ** 400),
     st.sampled_from([None, "1", "abc", True, 1 + 2j, [], [1.0, 2.0], {"a": 1}]),
 )
+REFUSED = object()
 positive = st.one_of(st.floats(min_value=1e-300, max_value=1e300), anything)
 
 
@@ -29,11 +31,18 @@ def finite(x):
 
 
 def outcome(fn):
-    """Run fn: a vibdyn error is fine; a result must be finite; any other exception fails the test."""
-    try:
-        out = fn()
-    except vd.VibdynError:
+    """Run fn: a vibdyn error is fine; a result must be finite; any other exception fails the test. numpy's
+    overflow warnings are recorded, not printed: they may come on the way to a refusal, never with a result."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            out = fn()
+        except vd.VibdynError:
+            out = REFUSED
+    assert all(issubclass(w.category, RuntimeWarning) for w in caught), [str(w.message) for w in caught]
+    if out is REFUSED:
         return None
+    assert not caught, f"a result reached through numpy warnings: {[str(w.message) for w in caught]}"
     for x in out if isinstance(out, tuple) else (out,):
         assert finite(x), f"non-finite result {x!r}"
     return out

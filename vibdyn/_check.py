@@ -91,7 +91,7 @@ def unit_axis(value, what):
     scale = np.abs(a).max()
     if scale < 1e-12:
         raise ModelError(f"{what}: axis has zero length")
-    if abs(np.linalg.norm(a) - 1.0) <= 4 * np.finfo(float).eps:
+    if scale <= 1.0 + 4 * np.finfo(float).eps and abs(np.linalg.norm(a) - 1.0) <= 4 * np.finfo(float).eps:
         return a  # already unit: kept bit for bit, so scene files round-trip exactly
     a = a / scale  # no overflow for huge components
     return a / np.linalg.norm(a)
@@ -117,7 +117,8 @@ def rotation_matrix(value, what):
             raise ModelError(f"{what}: rotation vector too large ({np.linalg.norm(arr):.3g} rad)")
         return R
     R = finite_array(value, (3, 3), what)
-    if not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
+    # (an entry beyond 2 fails RᵀR = 1 anyway: refused before RᵀR of huge ones overflows on the way)
+    if np.abs(R).max() > 2.0 or not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
         raise ModelError(f"{what}: not a rotation matrix (RᵀR ≠ 1 or det R < 0)")
     return R
 
