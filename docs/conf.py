@@ -11,7 +11,7 @@ os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")  # the Dask exampl
 sys.path.insert(0, str(DOCS / "_ext"))
 
 import vibdyn  # noqa: E402
-from vibdyn_gallery import VIEWER_ROOT, VibdynScraper, snapshot_outputs  # noqa: E402
+from vibdyn_gallery import VIEWER_ROOT  # noqa: E402
 
 project = "vibdyn"
 author = "the vibdyn authors"
@@ -55,15 +55,11 @@ sphinx_gallery_conf = {
     "gallery_dirs": "auto_examples",
     "filename_pattern": os.environ.get("VIBDYN_DOCS_EXAMPLES", r"/plot_"),  # a regex: run only some (drafting)
     "plot_gallery": _run_gallery,
-    "image_scrapers": ("matplotlib", VibdynScraper()),
-    "reset_modules": ("matplotlib", snapshot_outputs),
+    "image_scrapers": ("matplotlib", "vibdyn_gallery.scraper"),  # names, not objects: the config pickles
+    "reset_modules": ("matplotlib", "vibdyn_gallery.snapshot_outputs"),
     "download_all_examples": False,
     "remove_config_comments": True,
     "abort_on_example_error": True,
     "only_warn_on_example_error": False,
     "min_reported_time": 1,
 }
-
-suppress_warnings = [
-    "config.cache",  # sphinx-gallery's scraper objects are not picklable: the environment is rebuilt each time
-]

@@ -74,6 +74,9 @@ class VibdynScraper:
         return figure_rst(images, gallery_conf["src_dir"]) + rst
 
 
+scraper = VibdynScraper()
+
+
 def _iframe(name: str) -> str:
     return (
         "\n.. raw:: html\n\n"
