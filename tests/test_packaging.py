@@ -95,3 +95,16 @@ def test_version_license_and_changelog_agree():
     changelog = (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
     assert "## [Unreleased]" in changelog and f"## [{project['version']}]" in changelog
     assert "pytest-xdist" in " ".join(project["optional-dependencies"]["test"])
+
+
+def test_ci_runs_the_readme_test_command():
+    """README's set-up: the first command installs vibdyn alone and runs the demo, the second installs the
+    test extra and runs the suite on every core; .ci/run runs that same pytest command, then the wheel check."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = text.split("## Set-up on a fresh machine", 1)[1].split("\n## ", 1)[0]
+    install, tests = (block.strip() for block in section.split("```sh\n")[1:3] for block in [block.split("```")[0]])
+    assert install == "python3 -m venv .venv && .venv/bin/pip install -e . && .venv/bin/vibdyn demo"
+    assert tests.startswith(".venv/bin/pip install -e '.[test]' && ") and " -n auto" in tests
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+    assert tests.split(" && ", 1)[1] in ci
+    assert ".ci/wheel-check python3" in ci
