@@ -156,7 +156,7 @@ class Motion:
         for part in parts:
             if not callable(getattr(self, part)):
                 raise ModelError(f"motion: {part} must be a callable of t, got {getattr(self, part)!r}")
-            user_callable(getattr(self, part), 1, f"motion: {part} (a callable of t)")
+            user_callable(getattr(self, part), 1, f"support motion (or drive motion): {part} (a callable of t)")
 
     def to_dict(self):
         raise ModelError("a motion given as Python callables cannot be written to a scene file "

@@ -428,7 +428,7 @@ def _prescribed_motion(motion, name, t0):
         return fn
 
     y, yd = scalar_of(motion.position, "position"), scalar_of(motion.velocity, "velocity")
-    if hasattr(motion, "acceleration"):
+    if getattr(motion, "acceleration", None) is not None:  # (a Motion of two callables has none)
         ydd = scalar_of(motion.acceleration, "acceleration")
     else:
         def ydd(s, h=1e-4):  # fourth-order central differences of the velocity
