@@ -49,26 +49,33 @@ def curve(duffing):
     return vd.forced_response_curve(duffing, ("cart", P), (0.5, 1.6), "cart")
 
 
-def state_at_zero(curve, i, c=0):
-    """(x(0), ẋ(0)) of point i from its Fourier coefficients (constant, cos kτ, sin kτ)."""
-    X = curve.coefficients[i][:, c]
+def state_at_zero(curve, i):
+    """(x(0), ẋ(0)) of point i from its Fourier coefficients (constant, cos kτ, sin kτ): the q_eq offsets and
+    velocities of every coordinate, one after the other (2n numbers)."""
+    X = curve.coefficients[i]
     k = np.arange(1, curve.harmonics + 1)
-    return float(X[0] + X[1::2].sum()), float(curve.omega[i] * (k * X[2::2]).sum())
+    return np.concatenate([X[0] + X[1::2].sum(axis=0), curve.omega[i] * (k @ X[2::2])])
 
 
 def shoot(system, z, T, t0=0.0):
-    """The periodic orbit through z ≈ (x0, v0) of period T by Newton on φ_T(z) − z (Jacobian Φ − I from the
-    variational equations); returns (z, the trajectory of one period from z with its state transition and
-    their error estimates, the residual)."""
+    """The periodic orbit through z ≈ (x0, v0) (offsets from q = 0, which is q_eq in these scenes: vector
+    joints) of period T by Newton on φ_T(z) − z (Jacobian Φ − I from the variational equations); returns
+    (z, the trajectory of one period from z with its state transition and their error estimates, the
+    residual)."""
     z = np.array(z, float)
+    n = len(z) // 2
+
+    def run(z, **kw):
+        tr = system.simulate(t0 + T, z[:n], z[n:], rtol=RTOL, t0=t0, variational=True, **kw)
+        return tr, np.concatenate([tr.q[-1], tr.v[-1]]) - z
+
     for _ in range(12):
-        tr = system.simulate(t0 + T, [z[0]], [z[1]], rtol=RTOL, t0=t0, variational=True, error="local")
-        F = np.array([tr.q[-1][0], tr.v[-1][0]]) - z
+        tr, F = run(z, error="local")
         if np.max(np.abs(F)) < 1e-11:
             break
-        z = z - np.linalg.solve(tr.state_transition - np.eye(2), F)
-    tr = system.simulate(t0 + T, [z[0]], [z[1]], rtol=RTOL, t0=t0, variational=True)
-    return z, tr, float(np.max(np.abs(np.array([tr.q[-1][0], tr.v[-1][0]]) - z)))
+        z = z - np.linalg.solve(tr.state_transition - np.eye(2 * n), F)
+    tr, F = run(z)
+    return z, tr, float(np.max(np.abs(F)))
 
 
 def orbit_maximum(system, z, T, t0=0.0):
@@ -302,6 +309,44 @@ def test_forced_pendulum_leans_left_and_matches_shooting():
         assert res < 1e-11
         A, _ = orbit_maximum(forced, z, T)
         assert abs(A - crv.amplitude[j]) <= 1e-8 + crv.error[j]
+
+
+def double_pendulum_scene(forcing=None):
+    """Two rods on pivots under gravity, dampers on both joints; with ``forcing`` = (M, Ω) the torque M cos Ωt
+    on the upper joint as a scene element."""
+    s = vd.Scene("double pendulum", gravity=(0, 0, -9.81))
+    s.add_body("upper", joint=vd.Pivot((0, 1, 0)), mass=1.0, com=(0, 0, -0.5), inertia=vd.inertia.rod(1.0, 1.0))
+    s.add_body("lower", "upper", vd.Pivot((0, 1, 0), at=(0, 0, -1.0)), mass=0.5, com=(0, 0, -0.4),
+               inertia=vd.inertia.rod(0.5, 0.8))
+    s.add_joint_damper("upper", 0.3)
+    s.add_joint_damper("lower", 0.1)
+    if forcing is not None:
+        s.add_joint_force("upper", vd.laws.Harmonic(forcing[0], forcing[1], phase=math.pi / 2))
+    return s
+
+
+def test_double_pendulum_orbit_and_multipliers_against_shooting():
+    """Two coordinates coupled through M(q) and gravity: at the peak near the first resonance, shooting from
+    the HB state converges (the same orbit), whose offset of the reported coordinate at t = 0 and amplitude
+    are HB's within its truncation estimate, and whose monodromy has Hill's multipliers within their errors."""
+    M = 0.5
+    system = double_pendulum_scene().build()
+    w1 = system.linearize().modes().omega[0]
+    crv = vd.forced_response_curve(system, ("upper", M), (0.9 * w1, 1.1 * w1), "lower", harmonics=12)
+    i = int(np.argmax(crv.amplitude))
+    w = crv.omega[i]
+    forced = double_pendulum_scene(forcing=(M, w)).build()
+    T = 2 * np.pi / w
+    z0 = state_at_zero(crv, i)
+    z, tr, res = shoot(forced, z0, T)
+    assert res < 1e-10
+    assert abs(z[1] - z0[1]) <= 10 * crv.error[i] + 1e-9  # the reported coordinate's offset at t = 0
+    mu = np.abs(np.linalg.eigvals(tr.state_transition))
+    assert np.all(np.abs(np.sort(mu) - np.sort(np.abs(crv.multipliers[i])))
+                  <= 10 * (crv.multiplier_error[i] + tr.state_transition_error))
+    ext = forced.simulate(T, z[:2], z[2:], rtol=RTOL, events=lambda t, q, v: v[1])
+    A = max(np.abs(np.asarray(ext.event_q[0])[:, 1]).max(), abs(z[1]))
+    assert abs(A - crv.amplitude[i]) <= 10 * crv.error[i] + 1e-9
 
 
 def test_a_branch_that_leaves_the_range_stops_and_says_how_far_it_got():

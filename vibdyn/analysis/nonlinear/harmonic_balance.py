@@ -10,11 +10,15 @@ the samples' ∂/∂q, ∂/∂v, ∂/∂a (:func:`vibdyn.model.derivatives.analy
 the DFT matrices; ∂/∂Ω analytic too. The branch is followed in Ω by the solver kit's pseudo-arclength
 continuation (:mod:`vibdyn.solvers.continuation`), which locates folds exactly.
 
-Truncation: each point's error is estimated by one Newton step of the 2H balance from the H solution (its
-largest displacement of the reported coordinate over a period); with ``harmonics=None`` H grows until that
-estimate is below ``tol`` × the peak amplitude. Stability: Hill's method, the quadratic eigenproblem
-(Δ₀ + λΔ₁ + λ²Δ₂) Y = 0 of the HB Jacobian, keeping the 2n exponents whose eigenvectors, written in
-complex exponentials, are centred on the harmonic 0 (the others are the same exponents shifted by ikΩ); Floquet multipliers μ = exp(λ 2π/Ω).
+Truncation: each point's error is estimated by one Newton step of the 2H + 1 balance from the H solution (its
+largest displacement of the reported coordinate over a period); with ``harmonics=None`` H grows (doubled, then
+where the estimates' geometric decay says) until that estimate is below ``tol`` × the peak amplitude.
+
+Stability: Hill's method, the quadratic eigenproblem (Δ₀ + λΔ₁ + λ²Δ₂) Y = 0 of the HB Jacobian, keeping the
+2n exponents whose eigenvectors, written in complex exponentials, are centred on the harmonic 0 and whose
+|Im λ| is least (the others are the same exponents shifted by ikΩ, or truncation's); Floquet multipliers
+μ = exp(λ 2π/Ω), each |μ|'s error from the same exponent on the 2H + 1 problem (nonlinear inverse iteration
+from the H one).
 
 Damping is whatever the scene has. Not handled (refused with a ModelError): closed loops, joints whose
 configuration is not a sum (ball, free, planar), drives, time-dependent forces of the scene itself (give the
@@ -194,8 +198,9 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
         history.append((H, worst))
         if harmonics is not None or worst <= tol or H >= MAX_HARMONICS:
             break
-        X0 = _embed(run.x[0], H, min(2 * H, MAX_HARMONICS), system.nv)
-        H = min(2 * H, MAX_HARMONICS)
+        H_next = _next_harmonics(history, tol)
+        X0 = _embed(run.x[0], H, H_next, system.nv)
+        H = H_next
     status, message = run.status, run.message
     if harmonics is None and worst > tol:
         message += f"; truncation {worst:.1e} of the peak with H = {H} (the most tried) is above tol = {tol:g}"
@@ -204,10 +209,12 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
     folds = [ResponseFold(f.lam, bal.amplitude(f.x, c), bal.truncation(f.x, f.lam, c)[0], f.index)
              for f in run.folds]
     peak = _peak(bal, run, amp, c)
-    mult = np.array([bal.hill(x, w) for x, w in zip(run.x, run.lam)])
-    # each |μ|'s error: Hill's method again on the 2H + 1 balance (from the truncation step's coefficients)
-    fine = np.array([bal.refined().hill(x2, w) for (_, x2), w in zip(trunc, run.lam)])
-    mult_error = np.max(np.abs(np.abs(mult) - np.abs(fine)), axis=1)
+    # each |μ|'s error: its exponent again on Hill's problem of the 2H + 1 balance (at the truncation step's
+    # coefficients), followed from the H one by inverse iteration
+    mult, mult_error = np.empty((len(run.lam), 2 * system.nv), complex), np.empty(len(run.lam))
+    for k, (x, w, (_, x2)) in enumerate(zip(run.x, run.lam, trunc)):
+        mult[k], lam, Y = bal.hill(x, w, vectors=True)
+        mult_error[k] = np.max(np.abs(np.abs(mult[k]) - np.abs(bal.refined().refined_multipliers(x2, w, lam, Y))))
     largest = np.abs(mult[:, 0])
     stable = largest < 1.0
     verdict = tuple("within the error" if abs(m - 1.0) <= e else "stable" if m < 1.0 else "unstable"
@@ -216,6 +223,19 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
                                run.x.reshape(len(run.lam), 2 * H + 1, system.nv).copy(), mult, mult_error, stable,
                                verdict, folds, peak, H, q_eq.copy(), status, message, time.perf_counter() - start,
                                history)
+
+
+def _next_harmonics(history, tol):
+    """The next H to try: twice the last, or, after two runs, where the estimates' geometric decay
+    ρ = (e₂/e₁)^(1/(H₂ − H₁)) says tol is reached, plus one (at least two more, at most twice)."""
+    H2, e2 = history[-1]
+    guess = 2 * H2
+    if len(history) > 1:
+        H1, e1 = history[-2]
+        rho = (e2 / e1) ** (1.0 / (H2 - H1)) if e1 > 0 and e2 > 0 else 1.0
+        if rho < 1.0:
+            guess = H2 + math.ceil(math.log(tol / e2) / math.log(rho)) + 1
+    return int(min(max(guess, H2 + 2), 2 * H2, MAX_HARMONICS))
 
 
 def _omega_range(omega):
@@ -390,10 +410,7 @@ class _Balance:
         if self._memo is not None and self._memo[0] == key:
             return self._memo[1]
         xd, xdd, r, K, C, M = self._derivatives(X, omega)
-        m = X.size
-        JX = (np.einsum("aj,jpi,jb->apbi", self.P, K, self.E)
-              + omega * np.einsum("aj,jpi,jb->apbi", self.P, C, self.E1)
-              + omega**2 * np.einsum("aj,jpi,jb->apbi", self.P, M, self.E2)).reshape(m, m)
+        JX = self._galerkin((K, self.E), (C, omega * self.E1), (M, omega**2 * self.E2))
         if self.support:  # the support's velocity Ω·Y·sin τ depends on Ω too: a central difference
             d = 1e-6 * omega
             JW = (self.residual(X, omega + d) - self.residual(X, omega - d)) * self.scale / (2 * d)
@@ -403,28 +420,76 @@ class _Balance:
         self._memo = (key, out)
         return out
 
-    def hill(self, X, omega):
-        """The 2n Floquet multipliers by Hill's method, by decreasing modulus."""
+    def _galerkin(self, *terms):
+        """The Galerkin matrix Σ P · diag_j(A_j) · B of the per-sample n × n matrices A_j and sample bases B:
+        rows (harmonic, equation), columns (harmonic, coordinate), as X is ordered."""
+        W = sum(A[:, :, :, None] * B[:, None, None, :] for A, B in terms)  # (N, n, n, 2H + 1)
+        G = np.tensordot(self.P, W, axes=(1, 0))  # (2H + 1, n, n, 2H + 1): (a, p, i, b)
+        m = (2 * self.H + 1) * self.n
+        return G.transpose(0, 1, 3, 2).reshape(m, m)
+
+    def hill_matrices(self, X, omega):
+        """(Δ₀, Δ₁, Δ₂) of Hill's quadratic eigenproblem (Δ₀ + λΔ₁ + λ²Δ₂) Y = 0 at this solution."""
         xd, xdd, r, K, C, M = self._derivatives(X, omega)
+        D0 = self.jacobian(X, omega)[:, :X.size] * self.scale
+        D1 = self._galerkin((C, self.E), (M, 2 * omega * self.E1))
+        D2 = self._galerkin((M, self.E))
+        return D0, D1, D2
+
+    def hill(self, X, omega, vectors=False):
+        """The 2n Floquet multipliers by Hill's method, by decreasing modulus (and, with ``vectors``, their
+        exponents λ and the eigenvectors Y, in that order)."""
         m, n = X.size, self.n
-        D0 = self.jacobian(X, omega)[:, :m] * self.scale
-        D1 = (np.einsum("aj,jpi,jb->apbi", self.P, C, self.E)
-              + 2 * omega * np.einsum("aj,jpi,jb->apbi", self.P, M, self.E1)).reshape(m, m)
-        D2 = np.einsum("aj,jpi,jb->apbi", self.P, M, self.E).reshape(m, m)
+        D0, D1, D2 = self.hill_matrices(X, omega)
         A = np.block([[np.zeros((m, m)), np.eye(m)],
                       [-np.linalg.solve(D2, D0), -np.linalg.solve(D2, D1)]])
         lam, V = np.linalg.eig(A)
         # each exponent appears shifted by ikΩ; keep the 2n whose eigenvectors, in complex exponentials
-        # e^{ikτ}, are centred on k = 0 (a real exponent of the resonant harmonic weighs on k = ±1 alike)
+        # e^{ikτ}, are centred nearest to k = 0 (a real exponent of the resonant harmonic weighs on k = ±1
+        # alike), ties (the same nearest k) to the least |Im λ| (a symmetric scene's truncated constant mode is
+        # centred on 0 too, far from |Im λ| ≤ Ω/2), skipping copies of one already kept (λ' − λ ≈ ikΩ)
         Y = V[:m].reshape(2 * self.H + 1, n, 2 * m)
         w0 = (np.abs(Y[0]) ** 2).sum(axis=0)
         wp = (np.abs(Y[1::2] - 1j * Y[2::2]) ** 2).sum(axis=1) / 4  # k = +1..H
         wm = (np.abs(Y[1::2] + 1j * Y[2::2]) ** 2).sum(axis=1) / 4  # k = −1..−H
         k = np.arange(1, self.H + 1)[:, None]
         centroid = (k * (wp - wm)).sum(axis=0) / np.maximum(w0 + (wp + wm).sum(axis=0), 1e-300)
-        keep = np.argsort(np.abs(centroid), kind="stable")[:2 * n]
+        keep: list = []
+        for j in np.lexsort((np.abs(lam.imag), np.floor(np.abs(centroid) + 0.5))):
+            shift = (lam[j] - lam[keep]) / (1j * omega)
+            if not np.any((np.abs(shift.imag) <= 1e-6) & (np.abs(shift.real - np.round(shift.real)) <= 1e-6)):
+                keep.append(j)
+            if len(keep) == 2 * n:
+                break
         mu = np.exp(lam[keep] * 2 * np.pi / omega)
-        return mu[np.argsort(-np.abs(mu))]
+        order = np.argsort(-np.abs(mu), kind="stable")
+        if vectors:
+            return mu[order], lam[keep][order], V[:m, keep][:, order]
+        return mu[order]
+
+    def refined_multipliers(self, X2, omega, lam, Y):
+        """The multipliers of the 2H + 1 balance (``self`` is it) at X2, from the H ones' exponents ``lam`` and
+        eigenvectors ``Y`` (H harmonics) by nonlinear inverse iteration on its Hill problem (one complex solve
+        per step, no eigenproblem of the larger size)."""
+        D0, D1, D2 = self.hill_matrices(X2, omega)
+        out = np.empty(len(lam), complex)
+        H = (Y.shape[0] // self.n - 1) // 2
+        for k, (l, y) in enumerate(zip(lam, Y.T)):
+            w = _embed(y, H, self.H, self.n)
+            w = w / np.linalg.norm(w)
+            y = w.copy()
+            for _ in range(8):
+                L, dL = D0 + l * D1 + l * l * D2, D1 + 2 * l * D2
+                try:
+                    u = np.linalg.solve(L, dL @ y)
+                except np.linalg.LinAlgError:  # λ is an exact eigenvalue
+                    break
+                step = (np.conj(w) @ y) / (np.conj(w) @ u)
+                l, y = l - step, u / (np.conj(w) @ u)
+                if abs(step) <= 1e-14 * max(abs(l), omega):
+                    break
+            out[k] = np.exp(l * 2 * np.pi / omega)
+        return out
 
     def amplitude(self, X, c):
         """max over a period of |x_c(τ)| (m or rad), the maximum refined by Newton on dx/dτ = 0."""
@@ -488,7 +553,7 @@ def _basis(tau, H):
 
 def _embed(X, H, H2, n):
     """The coefficients of H harmonics as those of H2 ≥ H (zeros above)."""
-    out = np.zeros((2 * H2 + 1, n))
+    out = np.zeros((2 * H2 + 1, n), dtype=X.dtype)
     out[:2 * H + 1] = X.reshape(2 * H + 1, n)
     return out.ravel()
 
