@@ -399,6 +399,10 @@ def test_scenes_harmonic_balance_does_not_handle_are_refused():
     timed = duffing_scene(forcing=(P, 1.0)).build()
     with pytest.raises(vd.ModelError, match="depend on time"):
         vd.forced_response_curve(timed, ("cart", P), (0.5, 1.6), "cart")
+    driven = double_pendulum_scene()
+    driven.add_drive("upper", vd.laws.Harmonic(0.1, 2.0))
+    with pytest.raises(vd.ModelError, match="drives"):
+        vd.forced_response_curve(driven.build(), ("lower", 1.0), (0.5, 1.6), "lower")
     s = vd.Scene("top")
     s.add_body("top", joint=vd.Ball(), mass=1.0, com=(0, 0, 0.1), inertia=0.01 * np.eye(3))
     with pytest.raises(vd.ModelError, match="ball, free or planar"):

@@ -7,8 +7,9 @@ is evaluated in time at N = 4H + 4 samples (oversampled against aliasing: exact 
 vibdyn's own inverse dynamics M(q) ẍ + b(q, ẋ) − Q(q, ẋ) (gravity, springs, dampers, cubic springs, large
 rotations) minus the excitation, and projected back on the harmonics (Galerkin). Its Jacobian is analytic:
 the samples' ∂/∂q, ∂/∂v, ∂/∂a (:func:`vibdyn.model.derivatives.analytic_derivatives`, M by CRBA) carried by
-the DFT matrices; ∂/∂Ω analytic too. The branch is followed in Ω by the solver kit's pseudo-arclength
-continuation (:mod:`vibdyn.solvers.continuation`), which locates folds exactly.
+the DFT matrices; ∂/∂Ω analytic too (for a moving support, whose velocity Ω·Y·sin τ also depends on Ω, a
+central difference). The branch is followed in Ω by the solver kit's pseudo-arclength continuation
+(:mod:`vibdyn.solvers.continuation`), which locates folds exactly.
 
 Truncation: each point's error is estimated by one Newton step of the 2H + 1 balance from the H solution (its
 largest displacement of the reported coordinate over a period); with ``harmonics=None`` H grows (doubled, then
