@@ -102,6 +102,11 @@ def test_crank_slider_against_rotating_frame_closed_form(method, options):
     tau = np.array([system.drives.forces(q, v, ti)["crank.drive"] for ti, q, v in zip(traj.t, traj.q, traj.v)])
     hand = 2 * m * traj.q[:, 1] * traj.v[:, 1] * omega
     assert np.all(np.abs(tau - hand) <= 1e3 * EPS * (k * 1.0 + m * omega**2) * 1.0)
+    # its work: ∫ 2 m ω² x ẋ dt = m ω² (x² − x(0)²); the spring is conservative, so it is all the work
+    W = m * omega**2 * (traj.q[:, 1] ** 2 - 0.4**2)
+    bound = energy_bound(system, traj)
+    assert np.all(np.abs(traj.drive_work - W) <= bound)
+    assert np.all(np.abs(traj.work - traj.drive_work) <= bound)
 
 
 def test_drive_overwrites_initial_state_and_t0_shifts_the_phase():
@@ -123,21 +128,30 @@ def test_drive_overwrites_initial_state_and_t0_shifts_the_phase():
     assert np.abs(traj.q[:, 1] - shifted).max() > 100 * (traj.q_error.max() + REF_ERROR)  # it would show
 
 
+def energy_bound(system, traj):
+    """What the error estimate allows an energy (J) to be off by, at each output and before: 10 × (|p|·δv +
+    Σ|generalized forces|·δq), p = M v the momenta, the forces those of gravity, the elements and the drives."""
+    bound = []
+    for ti, q, v, eq, ev in zip(traj.t, traj.q, traj.v, upto(traj.q_error), upto(traj.v_error)):
+        p = system.mass_matrix(q) @ v
+        f = (np.abs(system.gravity_forces(q)) + np.abs(system.generalized_forces(q, v, ti))
+             + np.abs(system.inverse_dynamics(q, v, system.accelerations(q, v, ti), ti)))
+        bound.append(np.abs(p).sum() * ev + f.sum() * eq)
+    return np.maximum.accumulate(10 * np.array(bound) + 1e3 * EPS * traj.energy_scale)
+
+
 def test_energy_balance_closes_with_the_drives_work():
     scene, law = carriage_pendulum(amplitude=0.1, omega=6.0)
     scene.add_joint_damper("pendulum", 0.05)
     system = scene.build()
     traj = system.simulate(3.0, [0.0, 0.8], [0.0, 0.0], rtol=1e-10)
-    # the energy bound from the error estimate: |p|·δv + |forces|·δq at each output (p = M v)
-    bound = []
-    for ti, q, v, eq, ev in zip(traj.t, traj.q, traj.v, traj.q_error, traj.v_error):
-        p = system.mass_matrix(q) @ v
-        f = np.abs(system.gravity_forces(q)) + np.abs(system.inverse_dynamics(q, v, system.accelerations(q, v, ti), ti))
-        bound.append(np.abs(p).sum() * ev + f.sum() * eq)
-    bound = 10 * np.array(bound) + 1e3 * EPS * traj.energy_scale
-    assert np.all(np.abs(traj.energy_balance) <= np.maximum.accumulate(bound))
+    bound = energy_bound(system, traj)
+    assert np.all(np.abs(traj.energy_balance) <= bound)
     # the drive does work: without it the balance would be far from closed
     assert np.abs(traj.energy - traj.energy0.total).max() > 1e3 * bound.max()
+    # the rest of the work is the damper's: it only dissipates
+    damper = traj.work - traj.drive_work
+    assert np.all(np.diff(damper) <= bound[1:]) and damper[-1] < -1e3 * bound.max()
 
 
 def test_state_transition_over_free_coordinates_against_finite_differences():

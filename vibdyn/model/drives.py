@@ -73,21 +73,22 @@ class Drives:
 
     def accelerations(self, system, ws, q, v, t):
         """dv/dt (nv): a_d from the laws at t, a_f from the free rows of the equations of motion at (q, v)
-        as given (their driven entries are not replaced: :meth:`impose` does that). Unchecked (the hot path)."""
+        as given (their driven entries are not replaced: :meth:`impose` does that); the drives' forces τ_d
+        there are left in ``ws.drive_forces``. Unchecked (the hot path)."""
+        d, f = self.index, self.free
         a = np.zeros(system.nv)
-        a[self.index] = self.values(t)[2]
-        if not self.free.size:
+        a[d] = self.values(t)[2]
+        h = dynamics.inverse_dynamics(system, ws, q, v, a, t)  # M a⁰ + b + g − Q, a⁰ = (a_f = 0, a_d)
+        if not f.size:
+            ws.drive_forces = h[d]
             return a
-        h = dynamics.inverse_dynamics(system, ws, q, v, a, t)
-        f = self.free
         M = dynamics.mass_matrix(system.model, ws.data, q)
         from scipy.linalg import lapack  # (on first use: not at `import vibdyn`)
 
         _, x, info = lapack.dposv(M[np.ix_(f, f)], -h[f])
-        if info != 0:  # (not positive definite: the free coordinates have no inertia here; the checks say which)
-            a[f] = np.nan
-        else:
-            a[f] = x
+        # (not positive definite: the free coordinates have no inertia here; the checks say which)
+        a[f] = x if info == 0 else np.nan
+        ws.drive_forces = h[d] + M[np.ix_(d, f)] @ a[f]
         return a
 
     def forces(self, q, v, t: float = 0.0, a=None) -> dict[str, float]:

@@ -87,8 +87,8 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
 
     Drives (:meth:`vibdyn.Scene.add_drive`; every method but "symplectic"): the free coordinates alone are
     integrated; the driven entries of q0 and v0 are replaced by the laws' values at t0 and those of every
-    output are the laws' (to round-off); ``traj.work`` includes the drives' work (the energy balance closes
-    with it); ``state_transition`` is 2nf × 2nf over the free coordinates, ordered (δq_f, δv_f) as
+    output are the laws' (to round-off); ``traj.drive_work`` is the drives' work W_d (J) and ``traj.work``
+    includes it (the energy balance closes with it); ``state_transition`` is 2nf × 2nf over the free coordinates, ordered (δq_f, δv_f) as
     ``system.drives.free``.
 
     Returns a :class:`Trajectory`; Ctrl-C returns the motion so far with status "interrupted". Bad input is
@@ -455,17 +455,19 @@ def _trajectory(system, cfg, main, runs, q_err, v_err, elapsed, error_elapsed, e
     energies = np.array([_energy(system, qi, vi, ti) for qi, vi, ti in zip(q, v, t)]).reshape(n, 3)
     e0 = Energy(*_energy(system, cfg.q0, cfg.v0, cfg.t0))
     w = np.array(main.w, dtype=float)
+    w, drive_work = (w[:, 0], w[:, 1].copy()) if w.ndim == 2 else (w, None)  # with drives: (w, W_d)
     work = (w + energies[:, 2] - e0.elastic) if cfg.work and n else np.zeros(n)
     nfev, njev, nlu, accepted, rejected = main.stepper.counters if main.stepper is not None else (0, 0, 0, 0, 0)
     error_nfev = sum(r.stepper.nfev for r in runs[1:] if r.stepper is not None)
     error_method = error_method if np.all(np.isfinite(q_err)) or error_method == "local" else "none"
-    return Trajectory(
+    return replace(Trajectory(
         system, cfg.method, t, q, v, energies[:, 0].copy(), energies[:, 1].copy(),
         energies[:, 2].copy(), work, np.asarray(q_err, dtype=float), np.asarray(v_err, dtype=float), error_method,
         nfev, njev, nlu, accepted, rejected, error_nfev, elapsed,
         main.status, main.message or f"reached t_end = {cfg.t_end:g} s", cfg.rtol,
         np.concatenate([cfg.atol_q, cfg.atol_v]), cfg.dt, e0, error_elapsed, cfg.t0,
-        *(main.events.result(system.nq, system.nv) if main.events is not None else ((), (), ())))
+        *(main.events.result(system.nq, system.nv) if main.events is not None else ((), (), ()))),
+        drive_work=drive_work)
 
 
 def _energy(system, q, v, t):

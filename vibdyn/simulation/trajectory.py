@@ -33,7 +33,7 @@ class Trajectory(TimeResult):
     ``q`` (n × nq) and ``v`` (n × nv) in the system's coordinates, ``a`` (n × nv, m/s² or rad/s²) the
     accelerations there (computed on first use); ``coordinates`` and ``units`` the system's; ``kinetic``,
     ``gravity``, ``elastic`` (J) from :meth:`System.energy`; ``work`` (J) the work of the non-conservative
-    forces since t0; ``q_error``/``v_error`` (arrays) the estimated global error at each output (tangent
+    forces since t0 (and of the drives: ``drive_work``, J, None without drives); ``q_error``/``v_error`` (arrays) the estimated global error at each output (tangent
     space, largest over the coordinates: m or rad, m/s or rad/s) by ``error_method``, and ``error`` /
     ``velocity_error`` (numbers) their largest values over the outputs; ``nfev`` dynamics evaluations, ``njev`` Jacobians
     (implicit and symplectic methods), ``nlu`` LU factorisations (or inverses), ``accepted``/``rejected`` steps
@@ -74,6 +74,7 @@ class Trajectory(TimeResult):
     event_v: tuple = ()  # per event function, the velocities there (n × nv)
     state_transition: np.ndarray | None = field(default=None, repr=False)  # ∂(q, v)(t_end)/∂(q0, v0), tangent
     state_transition_error: float | None = None  # its estimated error (largest entry)
+    drive_work: np.ndarray | None = field(default=None, repr=False)  # J per output: the drives' work (in work)
 
     @property
     def coordinates(self) -> tuple:

@@ -80,6 +80,15 @@ class Stepper:
         raise NotImplementedError(f"{self.name} does not integrate the variational equations")
 
 
+def work_of(ode, y):
+    """The work integral w of a state y of ``ode`` (J, 0 if not integrated); with drives, (w, W_d): the
+    drives' work W_d is the component before w (:mod:`.driven`)."""
+    w = y[-1] if ode.work else 0.0
+    if ode.system.drives is None:
+        return w
+    return np.array([w, y[-2] if ode.work else y[-1]])
+
+
 class Interpolant:
     """A step's dense output ``sol`` (a callable y(t) in the chart of that step) as (q, v, w) at a time."""
 
@@ -92,7 +101,7 @@ class Interpolant:
         q, v = chart.configuration(y), y[nv:2 * nv].copy()
         if chart.system.drives is not None:  # the driven entries: the laws' at t, exactly
             q, v = chart.system.drives.impose(q, v, t)
-        return q, v, (y[-1] if chart.work else 0.0)
+        return q, v, work_of(chart, y)
 
 
 class ODEStepper(Stepper):
@@ -122,7 +131,7 @@ class ODEStepper(Stepper):
         q, v = ode.configuration(y), y[ode.nv:2 * ode.nv].copy()
         if self.system.drives is not None:  # the driven entries: the laws' at t, exactly
             q, v = self.system.drives.impose(q, v, self.t)
-        return q, v, (y[-1] if ode.work else 0.0)
+        return q, v, work_of(ode, y)
 
     def atol_vector(self):
         """Absolute tolerances of every ODE component (the work component is not controlled: inf)."""

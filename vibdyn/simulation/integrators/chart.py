@@ -219,9 +219,9 @@ class Variational:
         return getattr(self.base, name)
 
     def _split(self, y):
-        """(the base ODE's state, Y as an m × m view): y = (ξ, v, Y, [w])."""
+        """(the base ODE's state, Y as an m × m view): y = (ξ, v, Y, the base's other components: [W_d], [w])."""
         m = self.m
-        base = y[:m] if not self.work else np.concatenate([y[:m], y[-1:]])
+        base = y[:m] if self.base.n == m else np.concatenate([y[:m], y[m + m * m:]])  # (w and the like last)
         return base, y[m:m + m * m].reshape(m, m)
 
     def __call__(self, t, y):
@@ -236,8 +236,7 @@ class Variational:
         f = np.empty(self.base.n)
         self.base.into(t, base, f)
         out[:m] = f[:m]
-        if self.work:
-            out[-1] = f[-1]
+        out[m + m * m:] = f[m:]
         out[m:m + m * m] = (self.base.jacobian(t, base)[:m, :m] @ Y).ravel()
 
     def initial(self, q0, v0, w0=0.0):
@@ -245,8 +244,7 @@ class Variational:
         y = np.zeros(self.n)
         y[:self.m] = b[:self.m]
         y[self.m:self.m + self.m * self.m] = np.eye(self.m).ravel()
-        if self.work:
-            y[-1] = b[-1]
+        y[self.m + self.m * self.m:] = b[self.m:]
         return y
 
     def configuration(self, y):

@@ -12,13 +12,17 @@ def driven_ode(base):
     keeps the tree's layout, but its driven entries are frozen (derivative 0: no error, no step-size control)
     and every evaluation replaces them by the laws' values at t (a drive's joint has one additive coordinate,
     so in a chart ξ_d = q_d(t) − centre_d); the steppers report states with the laws' values (exact to
-    round-off). The free accelerations are the drives' (:meth:`vibdyn.model.drives.Drives.accelerations`), and
-    the work component integrates v·RNEA(q, v, a) over every coordinate: the work of the force elements and
-    of the drives. The Jacobian (implicit methods, variational equations) has zero driven rows and columns
+    round-off). The free accelerations are the drives' (:meth:`vibdyn.model.drives.Drives.accelerations`);
+    one more component, before the work w, integrates the drives' power v_d·τ_d (their work W_d, J), and w
+    integrates v·RNEA(q, v, a) over every coordinate: the work of the force elements and of the drives. The Jacobian (implicit methods, variational equations) has zero driven rows and columns
     and, on the free ones, −M_ff⁻¹K_ff and −M_ff⁻¹C_ff (K and C at the motion's accelerations): the state
     transition is the identity on the driven entries and Φ_ff on the free ones."""
 
     class Driven(base):
+        def __init__(self, system, work=False):
+            super().__init__(system, work)
+            self.n += 1  # W_d, last but the work w
+
         def _impose(self, t, y):
             d, nv = self.system.drives, self.nv
             qd, vd, _ = d.values(t)
@@ -28,8 +32,10 @@ def driven_ode(base):
             return y
 
         def into(self, t, y, out):
-            super().into(t, self._impose(t, y), out)
+            y = self._impose(t, y)
+            super().into(t, y, out)
             d = self.system.drives
+            out[self.n - 2 if self.work else self.n - 1] = y[self.nv + d.index] @ self.ws.drive_forces
             out[d.index] = 0.0
             out[self.nv + d.index] = 0.0
 
