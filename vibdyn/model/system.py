@@ -119,7 +119,8 @@ class System:
     ``point_groups``/``point_joints``/``uses_point_velocities`` (what point elements need), ``joint_groups``
     (the others); ``coordinate_scales`` (1 for rad, the length scale for m), ``additive_coordinates`` and
     ``curved_coordinates`` (which tangent coordinates move by a sum, which by ``integrate``);
-    ``model`` and ``model_without_gravity`` (pinocchio.Model, read only).
+    ``model`` and ``model_without_gravity`` (pinocchio.Model, read only); ``drives`` (driven and free
+    coordinates, the drives' values and forces: :class:`vibdyn.model.drives.Drives`; None without drives).
     """
 
     def __setattr__(self, name, value):
