@@ -261,6 +261,8 @@ def test_bad_drives_are_refused_clearly(tmp_path):
     s.add_drive("arm", vd.laws.Harmonic(0.1, 1.0))
     with pytest.raises(vd.ModelError, match=r"already driven by drive 'arm.drive' \(one drive per joint\)"):
         s.add_drive("arm", vd.laws.Harmonic(0.2, 1.0), name="second")
+    with pytest.raises(vd.ModelError, match=r"support 'ground': vibdyn.laws.Harmonic moves one coordinate"):
+        s.add_support("ground", vd.laws.Harmonic(0.1, 1.0))
     with pytest.raises(vd.ModelError, match=r"motion: acceleration must be a callable"):
         vd.laws.Motion(lambda t: 0.0, lambda t: 0.0, 3.0)
     # a Motion returning NaN: named where it is first evaluated

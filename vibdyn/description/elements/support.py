@@ -30,6 +30,10 @@ class Support(ElementKind):
 
         if isinstance(motion, dict):
             motion = laws.from_dict(motion, f"support '{name}' motion")
+        if isinstance(motion, laws.Harmonic):  # (it has position(t) too, but of one coordinate: a drive's)
+            raise ModelError(f"support '{name}': vibdyn.laws.Harmonic moves one coordinate (a drive's); a support "
+                             "moves along the world axes: use vibdyn.laws.HarmonicMotion(amplitude (3 numbers, m), "
+                             "omega)")
         if not (callable(getattr(motion, "position", None)) and callable(getattr(motion, "velocity", None))):
             raise ModelError(f"support '{name}': motion must have position(t) and velocity(t) (m, m/s), e.g. "
                              "vibdyn.laws.HarmonicMotion")
