@@ -57,11 +57,11 @@ def state_at_zero(curve, i):
     return np.concatenate([X[0] + X[1::2].sum(axis=0), curve.omega[i] * (k @ X[2::2])])
 
 
-def shoot(system, z, T, t0=0.0):
+def shoot(system, z, T, t0=0.0, final=True):
     """The periodic orbit through z ≈ (x0, v0) (offsets from q = 0, which is q_eq in these scenes: vector
     joints) of period T by Newton on φ_T(z) − z (Jacobian Φ − I from the variational equations); returns
     (z, the trajectory of one period from z with its state transition and their error estimates, the
-    residual)."""
+    residual; ``final``: the last run again with the error estimates (rerun), else the local ones)."""
     z = np.array(z, float)
     n = len(z) // 2
 
@@ -74,7 +74,8 @@ def shoot(system, z, T, t0=0.0):
         if np.max(np.abs(F)) < 1e-11:
             break
         z = z - np.linalg.solve(tr.state_transition - np.eye(2 * n), F)
-    tr, F = run(z)
+    if final:  # once more with the error estimates of the state and its transition
+        tr, F = run(z)
     return z, tr, float(np.max(np.abs(F)))
 
 
@@ -161,43 +162,68 @@ def test_adaptive_harmonics_reach_the_tolerance(curve):
     assert "fold" in text and "peak" in text and "rad/s" in text and "Hz" in text
 
 
+def turning_point_orbit(A, y0, J=None):
+    """(Ω, t0) of the forced orbit with a turning point x = A, ẋ = 0 at t0 (the forcing's phase and Ω the
+    unknowns, regular at a fold), from y0 = (Ω, t0): by Newton (central differences), or with a Jacobian J
+    given by the chord method; returns ((Ω, t0), the last Jacobian, the residual)."""
+    def G(y):
+        system = duffing_scene(forcing=(P, y[0])).build()
+        tr = system.simulate(y[1] + 2 * np.pi / y[0], [A], [0.0], rtol=RTOL, t0=y[1], error="local")
+        return np.array([tr.q[-1][0] - A, tr.v[-1][0]])
+
+    y, newton = np.array(y0, float), J is None
+    for _ in range(40):
+        g = G(y)
+        if np.max(np.abs(g)) < 1e-12:
+            break
+        if newton:
+            J = np.column_stack([(G(y + e) - G(y - e)) / 2e-6 for e in np.diag([1e-6, 1e-6])])
+        y = y - np.linalg.solve(J, g)
+    return y, J, float(np.max(np.abs(g)))
+
+
+def vertex(f, x0, d):
+    """The extremum of f near x0 from parabolas through x0 and x0 ± d, x0 ± d/2, their d² errors removed
+    (Richardson)."""
+    f0 = f(x0)
+
+    def one(h):
+        c = np.polyfit([-h, 0.0, h], [f(x0 - h), f0, f(x0 + h)], 2)
+        return x0 - c[1] / (2 * c[0])
+
+    return (4 * one(d / 2) - one(d)) / 3
+
+
 def test_adaptive_folds_and_peak_agree_with_shooting(curve):
-    """Shooting on the simulation: a fold's Ω from the orbit with x(0) = A_fold, v(0) = 0 (a turning point at
-    the fold's amplitude; the forcing's phase t0 and Ω the unknowns: regular at a fold), to which Ω is
-    insensitive to first order; the peak's amplitude from the orbit at Ω_peak (insensitive to first order in
-    Ω there)."""
+    """Shooting on the simulation, each number where it is regular. A fold's Ω: the orbit with a turning
+    point at the fold's amplitude (Ω and the forcing's phase the unknowns), Ω being extremal there; its
+    amplitude: where that Ω(A) is extremal (a parabola's vertex, Richardson over two widths). The peak's
+    amplitude: the orbit at Ω_peak, A(Ω) being extremal there; its Ω: where A(Ω) is extremal."""
     assert len(curve.folds) == 2
     for fold in curve.folds:
-        A, w, t0 = fold.amplitude, fold.omega, 0.0
-        # the HB phase at which x is largest: t0 such that the forcing lags the turning point as HB says
-        i = fold.index
-        X = curve.coefficients[i][:, 0]
+        X = curve.coefficients[fold.index][:, 0]  # the phase of the neighbouring point's largest x
         grid = np.linspace(0, 2 * np.pi, 4001)
         k = np.arange(1, curve.harmonics + 1)
         x = X[0] + np.cos(np.outer(grid, k)) @ X[1::2] + np.sin(np.outer(grid, k)) @ X[2::2]
-        t0 = grid[np.argmax(x)] / curve.omega[i]
-        y = np.array([w, t0])
-        for _ in range(10):
-            def G(y):
-                system = duffing_scene(forcing=(P, y[0])).build()
-                T = 2 * np.pi / y[0]
-                tr = system.simulate(y[1] + T, [A], [0.0], rtol=RTOL, t0=y[1], error="local")
-                return np.array([tr.q[-1][0] - A, tr.v[-1][0]])
-            g = G(y)
-            if np.max(np.abs(g)) < 1e-10:
-                break
-            J = np.column_stack([(G(y + e) - G(y - e)) / (2 * e.max()) for e in np.diag([1e-6, 1e-6])])
-            y = y - np.linalg.solve(J, g)
-        assert np.max(np.abs(G(y))) < 1e-9
-        assert abs(y[0] - fold.omega) <= 1e-6 + fold.error
+        y0 = np.array([fold.omega, grid[np.argmax(x)] / curve.omega[fold.index]])
+        y, J, res = turning_point_orbit(fold.amplitude, y0)
+        assert res < 1e-12
+        assert abs(y[0] - fold.omega) <= 1e-6 + fold.omega_error
+        A = vertex(lambda a: turning_point_orbit(a, y, J)[0][0], fold.amplitude, 4e-4)
+        assert abs(A - fold.amplitude) <= 1e-6 + fold.error
     peak = curve.peak
-    system = duffing_scene(forcing=(P, peak.omega)).build()
     i = int(np.argmin(np.abs(curve.amplitude - peak.amplitude)))
-    T = 2 * np.pi / peak.omega
-    z, tr, res = shoot(system, state_at_zero(curve, i), T)
-    assert res < 1e-11
-    A, _ = orbit_maximum(system, z, T)
-    assert abs(A - peak.amplitude) <= 1e-6 + peak.error
+    z0 = state_at_zero(curve, i)
+
+    def amplitude(w):
+        system = duffing_scene(forcing=(P, w)).build()
+        z, _, res = shoot(system, z0, 2 * np.pi / w, final=False)
+        assert res < 1e-11
+        return orbit_maximum(system, z, 2 * np.pi / w)[0]
+
+    assert abs(amplitude(peak.omega) - peak.amplitude) <= 1e-6 + peak.error
+    # (the upper fold lies 9e-4 rad/s above the peak: the parabolas stay below it)
+    assert abs(vertex(amplitude, peak.omega, 2e-4) - peak.omega) <= 1e-6 + peak.omega_error
 
 
 def test_stable_point_stays_unstable_point_leaves(curve):
@@ -256,7 +282,8 @@ def test_point_force_and_support_motion_are_the_same_excitations():
     point = vd.forced_response_curve(duffing_scene(c=c, k3=0.0, k=k, m=m).build(),
                                      vd.PointForce("cart", (0, 0, 0), (2, 0, 0), F), (1.0, 10.0), "cart",
                                      harmonics=3)
-    np.testing.assert_allclose(point.peak.amplitude, joint.peak.amplitude, rtol=1e-9)
+    assert point.peak.amplitude == pytest.approx(joint.peak.amplitude, rel=1e-9)
+    assert point.peak.omega == pytest.approx(joint.peak.omega, abs=1e-6)
     s = vd.Scene("base")
     s.add_support("ground", vd.laws.HarmonicMotion((0, 0, 0), 0.0))
     s.add_body("mass", joint=vd.Slider((0, 0, 1), at=(0, 0, 1.0)), mass=m)
@@ -347,6 +374,28 @@ def test_double_pendulum_orbit_and_multipliers_against_shooting():
     ext = forced.simulate(T, z[:2], z[2:], rtol=RTOL, events=lambda t, q, v: v[1])
     A = max(np.abs(np.asarray(ext.event_q[0])[:, 1]).max(), abs(z[1]))
     assert abs(A - crv.amplitude[i]) <= 10 * crv.error[i] + 1e-9
+
+
+def test_point_force_on_a_pendulum_against_shooting():
+    """A horizontal force F cos Ωt at the pendulum's tip (a generalized torque F l cos θ cos Ωt that turns with
+    the arm): a point near the peak and its multipliers against shooting on the scene with that force as an
+    element (``add_force`` with a callable of t)."""
+    F, w0 = 1.0, math.sqrt(9.81)
+    crv = vd.forced_response_curve(pendulum_scene().build(), vd.PointForce("arm", (0, 0, -1.0), (1, 0, 0), F),
+                                   (0.8 * w0, 1.1 * w0), "arm", harmonics=10)
+    i = int(np.argmax(crv.amplitude))
+    w = crv.omega[i]
+    s = pendulum_scene()
+    s.add_force("push", "arm", lambda t, q, v: np.array([F * math.cos(w * t), 0.0, 0.0]), at=(0, 0, -1.0))
+    forced = s.build()
+    T = 2 * np.pi / w
+    z, tr, res = shoot(forced, state_at_zero(crv, i), T)
+    assert res < 1e-11
+    A, _ = orbit_maximum(forced, z, T)
+    assert abs(A - crv.amplitude[i]) <= 10 * crv.error[i] + 1e-9
+    mu = np.sort(np.abs(np.linalg.eigvals(tr.state_transition)))
+    assert np.all(np.abs(mu - np.sort(np.abs(crv.multipliers[i])))
+                  <= 10 * (crv.multiplier_error[i] + tr.state_transition_error))
 
 
 def test_a_branch_that_leaves_the_range_stops_and_says_how_far_it_got():

@@ -75,13 +75,14 @@ class SupportMotion:
 
 @dataclass(frozen=True)
 class ResponseFold:
-    """A fold of a forced-response curve: ``omega`` (rad/s), ``amplitude`` (m or rad), ``error`` (its
-    truncation estimate), ``index`` (the curve point after which it lies)."""
+    """A fold of a forced-response curve: ``omega`` (rad/s), ``amplitude`` (m or rad), ``error`` and
+    ``omega_error`` (their truncation estimates), ``index`` (the curve point after which it lies)."""
 
     omega: float
     amplitude: float
     error: float
     index: int
+    omega_error: float = 0.0
 
     @property
     def hz(self) -> float:
@@ -91,12 +92,13 @@ class ResponseFold:
 
 @dataclass(frozen=True)
 class ResponsePeak:
-    """The largest amplitude along the curve: ``omega`` (rad/s), ``amplitude`` (m or rad), ``error`` (its
-    truncation estimate)."""
+    """The largest amplitude along the curve: ``omega`` (rad/s), ``amplitude`` (m or rad), ``error`` and
+    ``omega_error`` (their truncation estimates)."""
 
     omega: float
     amplitude: float
     error: float
+    omega_error: float = 0.0
 
     @property
     def hz(self) -> float:
@@ -153,8 +155,9 @@ class ForcedResponseCurve:
                  f"{int(np.count_nonzero(~self.stable))} unstable points (Hill's method, |μ| to "
                  f"{float(np.max(self.multiplier_error)):.0e})"]
         for f in self.folds:
-            lines.append(f"  fold: Ω = {number(f.omega, digits=10)} rad/s ({number(f.hz, digits=8)} Hz), "
-                         f"amplitude {number(f.amplitude, u, digits=10)} ± {f.error:.1e}")
+            lines.append(f"  fold: Ω = {number(f.omega, digits=10)} ± {f.omega_error:.1e} rad/s "
+                         f"({number(f.hz, digits=8)} Hz), amplitude {number(f.amplitude, u, digits=10)} ± "
+                         f"{f.error:.1e}")
         if not self.folds:
             lines.append("  no folds")
         return "\n".join(lines)
@@ -193,7 +196,7 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
         bal = _Balance(system, excitation, q_eq, H)
         run = _follow(bal, lo, hi, X0, step, max_steps)
         trunc = [bal.truncation(x, w, c) for x, w in zip(run.x, run.lam)]
-        err = np.array([e for e, _ in trunc])
+        err = np.array([e[0] for e in trunc])
         amp = np.array([bal.amplitude(x, c) for x in run.x])
         worst = float(np.max(err / max(float(np.max(amp)), 1e-300)))
         history.append((H, worst))
@@ -207,15 +210,18 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
         message += f"; truncation {worst:.1e} of the peak with H = {H} (the most tried) is above tol = {tol:g}"
     if status != "finished":
         message += f"; largest amplitude reached {float(np.max(amp)):.6g} {system.units[c]}"
-    folds = [ResponseFold(f.lam, bal.amplitude(f.x, c), bal.truncation(f.x, f.lam, c)[0], f.index)
-             for f in run.folds]
+    folds = []
+    for f in run.folds:
+        e = bal.truncation(f.x, f.lam, c)
+        folds.append(ResponseFold(f.lam, bal.amplitude(f.x, c), e[0], f.index, e[1]))
     peak = _peak(bal, run, amp, c)
     # each |μ|'s error: its exponent again on Hill's problem of the 2H + 1 balance (at the truncation step's
     # coefficients), followed from the H one by inverse iteration
     mult, mult_error = np.empty((len(run.lam), 2 * system.nv), complex), np.empty(len(run.lam))
-    for k, (x, w, (_, x2)) in enumerate(zip(run.x, run.lam, trunc)):
+    for k, (x, w, (_, _, x2, w2)) in enumerate(zip(run.x, run.lam, trunc)):
         mult[k], lam, Y = bal.hill(x, w, vectors=True)
-        mult_error[k] = np.max(np.abs(np.abs(mult[k]) - np.abs(bal.refined().refined_multipliers(x2, w, lam, Y))))
+        fine = bal.refined().refined_multipliers(x2, w2, lam, Y)
+        mult_error[k] = np.max(np.abs(np.abs(mult[k]) - np.abs(fine)))
     largest = np.abs(mult[:, 0])
     stable = largest < 1.0
     verdict = tuple("within the error" if abs(m - 1.0) <= e else "stable" if m < 1.0 else "unstable"
@@ -526,16 +532,20 @@ class _Balance:
         return big
 
     def truncation(self, X, omega, c):
-        """(error, X2): the estimated truncation error of the amplitude of coordinate c — the largest
-        displacement over a period of one Newton step of the 2H + 1 balance from this solution — and the
-        coefficients that step reaches."""
+        """(error, omega_error, X2, omega2): the estimated truncation errors of this point of the branch — one
+        Newton step of the 2H + 1 balance from it, normal to the branch (the continuation's corrector: regular
+        at folds too), its largest displacement of coordinate c over a period and its change of Ω — and the
+        coefficients and Ω that step reaches."""
+        t = np.linalg.svd(self.jacobian(X, omega))[2][-1]  # the branch's tangent (X, Ω)
         big = self.refined()
         X2 = _embed(X, self.H, big.H, self.n)
-        J = big.jacobian(X2, omega)[:, :-1]
-        dX = np.linalg.lstsq(J, -big.residual(X2, omega), rcond=None)[0]
+        t2 = np.append(_embed(t[:-1], self.H, big.H, self.n), t[-1])
+        A = np.vstack([big.jacobian(X2, omega), t2])
+        dY = np.linalg.lstsq(A, np.append(-big.residual(X2, omega), 0.0), rcond=None)[0]
+        dX = dY[:-1]
         grid = np.linspace(0, 2 * np.pi, max(64, 8 * (2 * big.H + 1)), endpoint=False)
         d = _basis(grid, big.H)[0] @ dX.reshape(2 * big.H + 1, self.n)[:, c]
-        return float(np.max(np.abs(d))), X2 + dX
+        return float(np.max(np.abs(d))), float(abs(dY[-1])), X2 + dX, omega + float(dY[-1])
 
 
 def _basis(tau, H):
@@ -622,5 +632,7 @@ def _peak(bal, run, amp, c):
         res = cache.get(opt.x)
         if res is not None and res.converged and -opt.fun >= amp[i]:
             y = res.x
-            return ResponsePeak(float(y[-1]), float(-opt.fun), bal.truncation(y[:-1], y[-1], c)[0])
-    return ResponsePeak(float(run.lam[i]), float(amp[i]), bal.truncation(run.x[i], run.lam[i], c)[0])
+            e = bal.truncation(y[:-1], y[-1], c)
+            return ResponsePeak(float(y[-1]), float(-opt.fun), e[0], e[1])
+    e = bal.truncation(run.x[i], run.lam[i], c)
+    return ResponsePeak(float(run.lam[i]), float(amp[i]), e[0], e[1])
