@@ -166,6 +166,13 @@ def _fold(F, J, ya, yb, t, w, n, index, tol):
         y, v = z[:n + 1], z[n + 1:]
         return np.concatenate([F(y), J(y)[:, :n] @ v, [v @ v0 - 1.0]])
 
-    res = newton(G, z0, tol=tol, max_iter=30)
+    def DG(z):  # ∂(F_x v)/∂y = the derivative of J along (v, 0) (second derivatives commute): 3 Jacobians
+        y, v = z[:n + 1], z[n + 1:]
+        Jy, e = J(y), np.append(v, 0.0)
+        h = 1e-5 * max(1.0, float(np.linalg.norm(y))) / max(float(np.linalg.norm(v)), 1e-300)
+        Jv = (J(y + h * e) - J(y - h * e)) / (2 * h)
+        return np.block([[Jy, np.zeros((n, n))], [Jv, Jy[:, :n]], [np.zeros((1, n + 1)), v0[None, :]]])
+
+    res = newton(G, z0, DG, tol=tol, max_iter=30)
     y = res.x[:n + 1]
     return Fold(y[:n] * w[:n], float(y[n] * w[n]), index, res.residual)
