@@ -376,7 +376,7 @@ class _Balance:
         self.k, self.iq = system.additive_coordinates
         self.h = steps(system, FD_STEP)
         self.support = excitation.kind == "support"
-        self._memo = None
+        self._memo = self._kept = None
         X0 = np.zeros((2 * H + 1) * self.n)
         r0 = self._samples(X0, 1.0)[3]
         self.scale = max(float(np.max(np.abs(r0))), 1e-300)  # the excitation's generalized force
@@ -399,7 +399,11 @@ class _Balance:
         return (self.P @ self._samples(X, omega)[3]).ravel() / self.scale
 
     def _derivatives(self, X, omega):
-        """Per sample: r, K = ∂r/∂q, C = ∂r/∂v, M = ∂r/∂a."""
+        """Per sample: r, K = ∂r/∂q, C = ∂r/∂v, M = ∂r/∂a (the last point's kept: Jacobian, Hill's matrices
+        and the truncation step ask at the same point)."""
+        key = (X.tobytes(), omega)
+        if self._kept is not None and self._kept[0] == key:
+            return self._kept[1]
         Q, xd, xdd, r = self._samples(X, omega)
         N, n, sys_, ws = self.N, self.n, self.system, self.system.workspace()
         K, C, M = np.empty((N, n, n)), np.empty((N, n, n)), np.empty((N, n, n))
@@ -409,6 +413,7 @@ class _Balance:
             K[j], C[j] = analytic_derivatives(sys_, Q[j], xd[j], xdd[j], t, shift=self.exc.shift(tau, omega, t))[:2]
             if self.exc.kind == "point":  # J(q)ᵀF turns with the body: its own ∂/∂q, by differences
                 K[j] -= tangent_derivative(sys_, lambda q: self.exc.force(q, tau), Q[j], self.h)
+        self._kept = (key, (xd, xdd, r, K, C, M))
         return xd, xdd, r, K, C, M
 
     def jacobian(self, X, omega):
@@ -528,7 +533,7 @@ class _Balance:
             big.E, big.E1, big.E2 = _basis(big.tau, H2)
             w = np.full(2 * H2 + 1, 2.0 / big.N)
             w[0] = 1.0 / big.N
-            big.P, big._memo, big._refined = w[:, None] * big.E.T, None, None
+            big.P, big._memo, big._kept, big._refined = w[:, None] * big.E.T, None, None, None
         return big
 
     def truncation(self, X, omega, c):
