@@ -259,18 +259,29 @@ def test_stable_point_stays_unstable_point_leaves(curve):
 # 2. the linear oscillator ------------------------------------------------------------------------------------------
 
 def test_linear_oscillator_is_the_receptance_without_folds():
-    m, k, c, F = 2.0, 50.0, 1.5, 3.0
-    system = duffing_scene(c=c, k3=0.0, k=k, m=m).build()
-    crv = vd.forced_response_curve(system, ("cart", F), (1.0, 10.0), "cart")
+    """m ẍ + c ẋ + k x = F0 + F cos Ωt: |X| = F / √((k − mΩ²)² + (cΩ)²) about the static offset F0/k; the peak
+    at ω_n √(1 − 2ζ²), of F / (c ω_n √(1 − ζ²)); multipliers exp(−cT/2m)."""
+    m, k, c, F, F0 = 2.0, 50.0, 1.5, 3.0, 5.0
+    s = duffing_scene(c=c, k3=0.0, k=k, m=m)
+    s.add_joint_force("cart", F0)  # a constant force: the equilibrium moves, the curve does not
+    # (searched from 0.09 m: from the neutral configuration the search's step cap stops it halfway)
+    crv = vd.forced_response_curve(s.build(), ("cart", F), (1.0, 10.0), "cart", equilibrium=[0.09])
     w = crv.omega
     exact = F / np.sqrt((k - m * w**2) ** 2 + (c * w) ** 2)
     assert np.all(np.abs(crv.amplitude - exact) <= crv.error + 1e-9 * exact.max())
+    assert crv.q_eq[0] == pytest.approx(F0 / k, rel=1e-9)
+    assert np.max(np.abs(crv.coefficients[:, 0])) < 1e-9 * exact.max()  # no mean offset about q_eq
     assert not crv.folds and np.all(crv.stable)
-    wn = math.sqrt(k / m)
-    assert crv.peak.omega == pytest.approx(wn * math.sqrt(1 - c**2 / (2 * k * m)), rel=1e-5)
-    assert crv.peak.amplitude == pytest.approx(F / (c * wn * math.sqrt(1 - c**2 / (4 * k * m))), rel=1e-9)
+    np.testing.assert_allclose(np.abs(crv.multipliers), np.exp(-c / (2 * m) * 2 * np.pi / w)[:, None] * [1, 1],
+                               rtol=1e-9)
+    wn, zeta = math.sqrt(k / m), c / (2 * math.sqrt(k * m))
+    # the peak is flat in Ω: located to √(the amplitude's precision) ≈ 1e-6 of ω_n
+    assert crv.peak.omega == pytest.approx(wn * math.sqrt(1 - 2 * zeta**2), rel=1e-5)
+    assert crv.peak.amplitude == pytest.approx(F / (c * wn * math.sqrt(1 - zeta**2)), rel=1e-9)
     # linear: the adaptive loop stops at the first H (the higher harmonics are zero)
     assert crv.harmonics == 3 and np.max(np.abs(crv.coefficients[:, 3:])) < 1e-12
+    text = repr(crv)
+    assert "\n" not in text and len(text) < 400 and "peak" in text
 
 
 def test_point_force_and_support_motion_are_the_same_excitations():
