@@ -453,6 +453,11 @@ def test_bad_coordinate_force_and_harmonics(duffing):
     for H in (0, -1, 1.5, True):
         with pytest.raises(vd.ModelError, match="harmonics"):
             vd.forced_response_curve(duffing, ("cart", P), (0.5, 1.6), "cart", harmonics=H)
+    for key, value in (("tol", 0.0), ("tol", float("nan")), ("step", -0.1), ("max_steps", 0)):
+        with pytest.raises(vd.ModelError, match=key):
+            vd.forced_response_curve(duffing, ("cart", P), (0.5, 1.6), "cart", **{key: value})
+    with pytest.raises(vd.ModelError, match="coordinate"):
+        vd.forced_response_curve(duffing, ("cart", P), (0.5, 1.6), 0)
 
 
 def test_scenes_harmonic_balance_does_not_handle_are_refused():

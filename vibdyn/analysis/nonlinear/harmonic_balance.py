@@ -186,6 +186,8 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
     if harmonics is not None:
         harmonics = integer(harmonics, "forced_response_curve: harmonics", minimum=1, maximum=1000)
     tol = scalar(tol, "forced_response_curve: tol", positive=True)
+    step = scalar(step, "forced_response_curve: step", positive=True)
+    max_steps = integer(max_steps, "forced_response_curve: max_steps", minimum=1)
     _check_system(system)
     excitation = _Excitation(system, force)
     q_eq = _equilibrium(system, equilibrium)
