@@ -215,19 +215,19 @@ def reference_tables(app):
 
 
 def setup(app):
-    from docutils import nodes
-    from docutils.statemachine import StringList
     from sphinx.util.docutils import SphinxDirective
-    from sphinx.util.nodes import nested_parse_with_titles
 
     class ReferenceTables(SphinxDirective):
-        """``.. vibdyn-reference-tables::`` (in MyST: a ``{vibdyn-reference-tables}`` fence)."""
+        """``.. vibdyn-reference-tables::`` (in MyST: a ``{vibdyn-reference-tables}`` fence); its tables are RST,
+        parsed as RST whatever the page's language."""
 
         def run(self):
-            node = nodes.section()
-            node.document = self.state.document
-            nested_parse_with_titles(self.state, StringList(reference_tables(self.env.app).splitlines()), node)
-            return node.children
+            from docutils.parsers.rst import Parser
+            from docutils.utils import new_document
+
+            doc = new_document(self.env.docname, self.state.document.settings)
+            Parser().parse(reference_tables(self.env.app), doc)
+            return list(doc.children)
 
     app.add_directive("vibdyn-reference-tables", ReferenceTables)
     app.connect("source-read", complete_api)
