@@ -468,7 +468,7 @@ class _Balance:
         wm = (np.abs(Y[1::2] + 1j * Y[2::2]) ** 2).sum(axis=1) / 4  # k = −1..−H
         k = np.arange(1, self.H + 1)[:, None]
         centroid = (k * (wp - wm)).sum(axis=0) / np.maximum(w0 + (wp + wm).sum(axis=0), 1e-300)
-        keep: list = []
+        keep = []
         for j in np.lexsort((np.abs(lam.imag), np.floor(np.abs(centroid) + 0.5))):
             shift = (lam[j] - lam[keep]) / (1j * omega)
             if not np.any((np.abs(shift.imag) <= 1e-6) & (np.abs(shift.real - np.round(shift.real)) <= 1e-6)):
