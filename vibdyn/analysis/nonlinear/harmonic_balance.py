@@ -1,15 +1,17 @@
 """Forced-response curves of nonlinear scenes by harmonic balance (HB) with alternating frequency–time (AFT).
 
 The steady response to a harmonic excitation at Ω (rad/s) is sought as x(τ) = c₀ + Σ_{k=1..H} (c_k cos kτ +
-s_k sin kτ), τ = Ωt, x the tangent displacement of the free coordinates from the static equilibrium q_eq
-(q = q_eq ⊕ x; for pivots, sliders, helical, cylindrical and universal joints q − q_eq itself). The residual
-is evaluated in time at N = 4H + 4 samples (oversampled against aliasing: exact for cubic forces) through
-vibdyn's own inverse dynamics M(q) ẍ + b(q, ẋ) − Q(q, ẋ) (gravity, springs, dampers, cubic springs, large
-rotations) minus the excitation, and projected back on the harmonics (Galerkin). Its Jacobian is analytic:
-the samples' ∂/∂q, ∂/∂v, ∂/∂a (:func:`vibdyn.model.derivatives.analytic_derivatives`, M by CRBA) carried by
-the DFT matrices; ∂/∂Ω analytic too (for a moving support, whose velocity Ω·Y·sin τ also depends on Ω, a
-central difference). The branch is followed in Ω by the solver kit's pseudo-arclength continuation
-(:mod:`vibdyn.solvers.continuation`), which locates folds exactly.
+s_k sin kτ), τ = Ωt, x the tangent displacement of the free coordinates from the static equilibrium q_eq:
+q = q_eq ⊕ x. For pivots, sliders, helical, cylindrical and universal joints x is q − q_eq itself; for ball,
+free and planar joints the unknowns are tangent coordinates (a ball's rotation vector from q_eq), with
+v = J(x) ẋ and a = J(x) ẍ + (∂J/∂x · ẋ) ẋ, J = ∂(q_eq ⊕ x)/∂x (``pin.dIntegrate``). The residual is evaluated
+in time at N = 4H + 4 samples (oversampled against aliasing: exact for cubic forces) through vibdyn's own
+inverse dynamics M(q) a + b(q, v) − Q(q, v) (gravity, springs, dampers, cubic springs, large rotations) minus
+the excitation, and projected back on the harmonics (Galerkin). Its Jacobian: the samples' ∂/∂q, ∂/∂v, ∂/∂a,
+analytic (:func:`vibdyn.model.derivatives.analytic_derivatives`, M by CRBA; on curved groups each sample's
+∂/∂x, ∂/∂ẋ, ∂/∂ẍ by central differences), carried by the DFT matrices; ∂/∂Ω analytic too (for a moving
+support, whose velocity Ω·Y·sin τ also depends on Ω, a central difference). The branch is followed in Ω by the
+solver kit's pseudo-arclength continuation (:mod:`vibdyn.solvers.continuation`), which locates folds exactly.
 
 Truncation: each point's error is estimated by one Newton step of the 2H + 1 balance from the H solution (its
 largest displacement of the reported coordinate over a period); with ``harmonics=None`` H grows (doubled, then
@@ -21,9 +23,8 @@ Stability: Hill's method, the quadratic eigenproblem (Δ₀ + λΔ₁ + λ²Δ�
 μ = exp(λ 2π/Ω), each |μ|'s error from the same exponent on the 2H + 1 problem (nonlinear inverse iteration
 from the H one).
 
-Damping is whatever the scene has. Not handled (refused with a ModelError): closed loops, joints whose
-configuration is not a sum (ball, free, planar), drives, time-dependent forces of the scene itself (give the
-excitation as ``force``).
+Damping is whatever the scene has. Not handled (refused with a ModelError): closed loops, drives,
+time-dependent forces of the scene itself (give the excitation as ``force``).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pinocchio as pin
 
 from ..._check import finite_array, integer, scalar
 from ..._format import number
@@ -41,7 +43,7 @@ from ...defaults import FD_STEP
 from ...errors import ConvergenceError, ModelError
 from ...model import dynamics
 from ...model.derivatives import analytic_derivatives
-from ...model.fd import point_jacobian, steps, tangent_derivative
+from ...model.fd import point_jacobian, steps, tangent_derivative, vector_derivative
 from ...solvers.continuation import continuation
 from ...solvers.newton import newton
 
@@ -116,8 +118,8 @@ class ForcedResponseCurve:
     ``q_eq``), ``multipliers`` (points × 2nv complex Floquet multipliers by Hill's method, by decreasing
     modulus), ``multiplier_error`` (the largest error of their moduli, from Hill's method with 2H + 1
     harmonics), ``stable`` (all |μ| < 1) and ``stability`` ("stable", "unstable", or "within the error" where
-    the largest |μ| is within its error of 1, as at a fold). ``folds`` and ``peak``; ``harmonics`` H; ``status`` ("finished",
-    "stopped", "failed") and ``message``; ``elapsed`` (s)."""
+    the largest |μ| is within its error of 1, as at a fold). ``folds`` and ``peak``; ``harmonics`` H;
+    ``status`` ("finished", "stopped", "failed") and ``message``; ``elapsed`` (s)."""
 
     coordinate: str
     unit: str
@@ -267,10 +269,6 @@ def _check_system(system):
     what = "forced_response_curve"
     if system.has_loops:
         raise ModelError(f"{what}: scenes with closed loops are not handled by harmonic balance yet")
-    if system.curved_coordinates:
-        names = ", ".join(system.coordinates[k] for k in system.curved_coordinates)
-        raise ModelError(f"{what}: harmonic balance needs joints whose configuration is a sum (pivots, sliders, "
-                         f"helical, cylindrical, universal); {names} belong to ball, free or planar joints")
     if getattr(system, "drives", None) is not None:
         raise ModelError(f"{what}: scenes with drives are not handled by harmonic balance yet")
     timed = [type(g).__name__ for g in system.force_groups if getattr(g, "time_dependent", False)]
@@ -378,6 +376,7 @@ class _Balance:
         self.k, self.iq = system.additive_coordinates
         self.h = steps(system, FD_STEP)
         self.support = excitation.kind == "support"
+        self.curved = bool(system.curved_coordinates)
         self._memo = self._kept = None
         X0 = np.zeros((2 * H + 1) * self.n)
         r0 = self._samples(X0, 1.0)[3]
@@ -386,6 +385,9 @@ class _Balance:
     def _samples(self, X, omega):
         Xm = X.reshape(2 * self.H + 1, self.n)
         x, xd, xdd = self.E @ Xm, omega * (self.E1 @ Xm), omega**2 * (self.E2 @ Xm)
+        if self.curved:
+            r = np.array([self._sample(j, x[j], xd[j], xdd[j], omega) for j in range(self.N)])
+            return x, xd, xdd, r
         Q = np.repeat(self.q_eq[None, :], self.N, axis=0)
         Q[:, self.iq] += x[:, self.k]  # q_eq ⊕ x: a sum on these joints
         ws = self.system.workspace()
@@ -395,6 +397,25 @@ class _Balance:
             r[j] = dynamics.inverse_dynamics(self.system, ws, Q[j], xd[j], xdd[j], t,
                                              self.exc.shift(tau, omega, t)) - self.exc.force(Q[j], tau)
         return Q, xd, xdd, r
+
+    def _state(self, x, xd, xdd):
+        """(q, v, a) of the tangent coordinates x and their rates on a curved group: q = q_eq ⊕ x,
+        v = J(x) ẋ and a = J(x) ẍ + (∂J/∂x · ẋ) ẋ with J = ∂(q_eq ⊕ x)/∂x (``pin.dIntegrate``), its derivative
+        along ẋ by a fourth-order central difference."""
+        model = self.system.model
+        J = pin.dIntegrate(model, self.q_eq, x, pin.ARG1)
+        e = 1e-3 / max(float(np.linalg.norm(xd)), 1e-300)
+        Jm, Jp, Jm2, Jp2 = (pin.dIntegrate(model, self.q_eq, x + s * e * xd, pin.ARG1) for s in (-1, 1, -2, 2))
+        dJ = (8 * (Jp - Jm) - (Jp2 - Jm2)) / (12 * e)
+        return pin.integrate(model, self.q_eq, x), J @ xd, J @ xdd + dJ @ xd
+
+    def _sample(self, j, x, xd, xdd, omega):
+        """The time residual at sample j as a function of the tangent coordinates and their rates."""
+        tau = self.tau[j]
+        t = tau / omega
+        q, v, a = self._state(x, xd, xdd)
+        return (dynamics.inverse_dynamics(self.system, self.system.workspace(), q, v, a, t,
+                                          self.exc.shift(tau, omega, t)) - self.exc.force(q, tau))
 
     def residual(self, X, omega):
         """R (the harmonics of the time residual, flattened) / the excitation's force scale."""
@@ -409,6 +430,13 @@ class _Balance:
         Q, xd, xdd, r = self._samples(X, omega)
         N, n, sys_, ws = self.N, self.n, self.system, self.system.workspace()
         K, C, M = np.empty((N, n, n)), np.empty((N, n, n)), np.empty((N, n, n))
+        if self.curved:  # ∂/∂x, ∂/∂ẋ, ∂/∂ẍ of each sample's residual by central differences
+            for j in range(N):
+                K[j] = vector_derivative(lambda y: self._sample(j, y, xd[j], xdd[j], omega), Q[j], self.h)
+                C[j] = vector_derivative(lambda y: self._sample(j, Q[j], y, xdd[j], omega), xd[j], self.h)
+                M[j] = vector_derivative(lambda y: self._sample(j, Q[j], xd[j], y, omega), xdd[j], self.h)
+            self._kept = (key, (xd, xdd, r, K, C, M))
+            return xd, xdd, r, K, C, M
         for j, tau in enumerate(self.tau):
             t = tau / omega
             M[j] = dynamics.mass_matrix(sys_.model, ws.data, Q[j])
