@@ -455,6 +455,45 @@ def test_ball_joint_pendulum_is_the_pivot_one_and_its_orbit_closes_on_the_group(
                   <= 10 * (ball.multiplier_error[i] + tr.state_transition_error + closing))
 
 
+def test_spherical_pendulum_planar_motion_is_unstable_out_of_its_plane():
+    """Miles's spherical pendulum (Miles 1962): weakly damped (0.05 N·m·s/rad) and forced in a plane near
+    resonance, its planar motion — on the branch above the jump-down fold, in-plane stable — is unstable out
+    of the plane: Hill's largest |μ| ≈ 1.10 is the monodromy's, a simulation started on the orbit stays
+    planar, and one started 1e-6 rad out of the plane leaves it by that factor per period."""
+    def scene(forcing=None):
+        s = vd.Scene("spherical pendulum", gravity=(0, 0, -9.81))
+        s.add_body("arm", joint=vd.Ball(), mass=1.0, com=(0, 0, -1.0), inertia=1e-2 * np.eye(3))
+        s.add_joint_damper("arm", 0.05)
+        s.add_joint_spring("arm", (0, 0, 2.0))
+        if forcing is not None:
+            s.add_joint_force("arm", lambda t, q, v: np.array([0.0, 0.1 * math.cos(forcing * t), 0.0]))
+        return s
+
+    system = scene().build()
+    crv = vd.forced_response_curve(system, ("arm.ry", 0.1), (3.08, 3.10), "arm.ry", harmonics=5)
+    i = len(crv.omega) // 2
+    w, mu = crv.omega[i], np.abs(crv.multipliers[i])
+    assert crv.stability[i] == "unstable" and mu[0] > 1.05 and mu[1] < 1
+    forced = scene(w).build()
+    X, k = crv.coefficients[i], np.arange(1, crv.harmonics + 1)
+    x0, xd0 = X[0] + X[1::2].sum(axis=0), w * (k @ X[2::2])
+    T = 2 * np.pi / w
+    tr = forced.simulate(T, system.integrate(crv.q_eq, x0), pin.dIntegrate(system.model, crv.q_eq, x0, pin.ARG1)
+                         @ xd0, rtol=RTOL, variational=True)
+    mono = np.sort(np.abs(np.linalg.eigvals(tr.state_transition)))[::-1]
+    assert np.all(np.abs(mono - mu) <= 10 * (crv.multiplier_error[i] + tr.state_transition_error + crv.error[i]))
+    for offset in (0.0, 1e-6):
+        x1 = x0 + [offset, 0.0, 0.0]  # out of the plane: about x
+        q1 = system.integrate(crv.q_eq, x1)
+        v1 = pin.dIntegrate(system.model, crv.q_eq, x1, pin.ARG1) @ xd0
+        run = forced.simulate(30 * T, q1, v1, rtol=1e-10, t_eval=np.arange(31) * T)
+        rx = np.abs([forced.difference(crv.q_eq, q)[0] for q in run.q])
+        if offset == 0.0:
+            assert rx.max() < 1e-12  # the symmetry keeps it planar
+        else:  # grows as μ per period once its own transient has passed
+            assert (rx[30] / rx[15]) ** (1 / 15) == pytest.approx(mu[0], rel=1e-2)
+
+
 def test_a_branch_that_leaves_the_range_stops_and_says_how_far_it_got():
     """Weakly damped (c = 0.1) and pushed hard (M = 0.6 N·m), the pendulum's branch bends so far left past its
     fold that it turns back below the range's start: the curve stops there, says so and gives the largest
