@@ -69,7 +69,8 @@ class PointForce:
 @dataclass(frozen=True)
 class SupportMotion:
     """The support ``support`` (a :meth:`Scene.add_support`) moved by amplitude·cos Ωt (m, 3 numbers, world
-    axes) in place of its own motion law: base excitation through its springs and dampers."""
+    axes) in place of its own motion law: base excitation through its springs and dampers. The static
+    equilibrium is the scene's at t = 0, its law's position there (zero for a HarmonicMotion's sine)."""
 
     support: str
     amplitude: tuple
