@@ -163,3 +163,16 @@ def test_high_spin_state_eigenvalues_within_their_error_estimate(method):
         ref = exact[np.argmin(np.abs(exact - lam))]
         assert abs(lam - ref) <= max(err * abs(lam), 1e-9 * np.abs(exact).max())
     assert modes.error < 1e-6 and st.stability == "stable"
+
+
+def test_equilibrium_far_away_in_a_scene_with_a_tiny_length_scale():
+    """A 2 kg point mass on a slider (no geometry: length scale 1 mm), spring 50 N/m, force 5 N: x* = F/k =
+    0.1 m, a hundred of the search's first steps away; the expanding trust region reaches it."""
+    s = vd.Scene("point")
+    s.add_body("m", joint=vd.Slider((1, 0, 0)), mass=2.0)
+    s.add_joint_spring("m", 50.0)
+    s.add_joint_force("m", lambda t, q, v: 5.0)
+    system = s.build()
+    assert system.length_scale <= 1e-3
+    eq = system.equilibrium()
+    assert eq.q[0] == pytest.approx(0.1, abs=10 * eq.q_error[0] + 1e-15) and eq.iterations < 30

@@ -70,3 +70,12 @@ def test_mode_tracking_recovers_a_permutation_and_breaks_ties_by_frequency():
     a = np.array([[1.0, 1.0], [0.0, 0.0]])
     assert list(match(a, a[:, ::-1], [1.0, 2.0], [2.0, 1.0])) == [1, 0]
     assert mac(np.array([1.0, 0.0]), np.array([0.0, 1.0])) == 0.0 and vd.mac is mac
+
+
+def test_newton_trust_region_expands_towards_a_far_root():
+    """x − 1000 = 0 from 0 with steps capped at 1: a fixed cap needs 1000 steps, the expanding one doubles it
+    after every whole capped step and lands in about log₂(1000) of them."""
+    fixed = newton(lambda x: x - 1000.0, [0.0], max_step=1.0, max_iter=50)
+    assert not fixed.converged and fixed.x[0] == pytest.approx(50.0)
+    grown = newton(lambda x: x - 1000.0, [0.0], max_step=1.0, max_iter=50, expand=True)
+    assert grown.converged and grown.x[0] == pytest.approx(1000.0, abs=1e-10) and grown.iterations <= 12

@@ -280,16 +280,13 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
                              force_scale, unit)
             # a gradient step: move along the unbalanced force, as far as a step may go
             step = step - left / (np.abs(left) / max_step).max()
-        over = (np.abs(step) / max_step).max(initial=0.0)
-        if over > 1:
-            step = step / over
         return _within_limits(system, what, qq, step.copy(), rest, full(x), unit, target)
 
     x0 = np.concatenate([q, v[unknown]])
     seen["x"], seen["r"] = x0, r
     out = newton(rows_of, x0, lambda x: jacobian(*split(x)), retract, tol=target,
                  max_iter=max_iter, max_step=max_step, shape_step=shape_step, on_no_decrease="accept",
-                 min_alpha=1e-3, stall=1e3, f0=r[rows], jacobian0=J)
+                 min_alpha=1e-3, stall=1e3, f0=r[rows], jacobian0=J, expand=True)
     if out.status == "diverged":
         raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=out.residual,
                                best=split(out.x)[0])

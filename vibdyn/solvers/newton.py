@@ -47,7 +47,7 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
            tol: float = 1e-10, max_iter: int = 50, max_step: float | np.ndarray | None = None, rcond: float = 1e-12,
            raise_on_failure: bool = False, shape_step: Callable | None = None, on_no_decrease: str = "stop",
            min_alpha: float = 1e-4, stall: float | None = None, f0: np.ndarray | None = None,
-           jacobian0: np.ndarray | None = None) -> NewtonResult:
+           jacobian0: np.ndarray | None = None, expand: bool = False) -> NewtonResult:
     """Solve F(x) = 0 from x0 (F: ℝⁿ or a manifold → ℝᵐ, tangent steps of n components).
 
     ``jacobian(x)``: m × n (central differences if None); ``retract(x, dx)``: the point reached from x by
@@ -59,7 +59,9 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
     point is kept either way). ``stall``: a factor s; steps that no longer move x (round-off) end the
     search as "stagnated" once ‖F‖_∞ ≤ s·tol. Stops when ‖F‖_∞ ≤ tol (``converged``); otherwise
     ``message`` says why, and with ``raise_on_failure`` a ConvergenceError carries the residual and the best
-    point. ``f0``, ``jacobian0``: F and J at x0 if the caller has them already."""
+    point. ``f0``, ``jacobian0``: F and J at x0 if the caller has them already. ``expand``: the cap is a trust
+    region that doubles after a capped step is taken whole (a far solution is reached in log₂ of the distance
+    steps) and falls back towards ``max_step`` after a step the line search had to cut."""
     start = time.perf_counter()
     retract = retract or (lambda x, dx: x + dx)
     x = np.array(x0, dtype=float)
@@ -67,7 +69,7 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
     res = float(np.abs(f).max(initial=0.0))
     best = (res, x)
     it, status, message = 0, "converged", "converged"
-    J = jacobian0
+    J, radius = jacobian0, 1.0
     while res > tol:
         if it >= max_iter:
             status, message = "max_iter", f"no convergence in {max_iter} iterations (residual {best[0]:.3e}, " \
@@ -79,10 +81,11 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
         dx = np.linalg.lstsq(J, -f, rcond=rcond)[0]
         if shape_step is not None:
             dx = np.asarray(shape_step(x, f, J, dx), float)
+        capped = False
         if max_step is not None:
-            over = (np.abs(dx) / max_step).max(initial=0.0)
+            over = (np.abs(dx) / (radius * max_step)).max(initial=0.0)
             if over > 1:
-                dx = dx / over
+                dx, capped = dx / over, True
         norm0, alpha = math.sqrt(f @ f), 1.0
         while True:
             x_new = retract(x, alpha * dx)
@@ -98,6 +101,8 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
             message = (f"no step decreases the residual further (residual {best[0]:.3e}, tolerance {tol:.1e})"
                        if status == "no_decrease" else "the residual became non-finite (diverged)")
             break
+        if expand:
+            radius = min(2.0 * radius, 1024.0) if capped and alpha == 1.0 else max(1.0, radius * alpha)
         x, f, J = x_new, f_new, None
         res = float(np.abs(f).max(initial=0.0))
         if res < best[0]:
