@@ -25,7 +25,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from ...errors import ConvergenceError
+from ...errors import ConvergenceError, ModelError
 from ...model.groups import ForceGroup
 from ...simulation.simulate import SimulationError, simulate
 from ...solvers.newton import newton
@@ -50,6 +50,21 @@ def free_indices(system) -> np.ndarray:
     """Indices in v of the free coordinates (all but the driven ones)."""
     drives = getattr(system, "drives", None)
     return np.arange(system.nv) if drives is None else np.asarray(drives.free, dtype=int)
+
+
+def turning_indices(system, free) -> np.ndarray:
+    """Positions in ``free`` of the angles whose q is the angle itself (pivots): q and q ± 2π are one pose."""
+    v_idx, q_idx = system.additive_coordinates
+    turning = set(np.asarray(v_idx)[np.isin(q_idx, system.periodic_coordinates)].tolist())
+    return np.array([k for k, i in enumerate(free) if int(i) in turning], dtype=int)
+
+
+def wrapped(dq, wrap):
+    """dq with the entries ``wrap`` brought into [−π, π) (a pivot that turned by whole turns has closed)."""
+    if wrap.size:
+        dq = np.array(dq, dtype=float)
+        dq[wrap] = (dq[wrap] + math.pi) % (2 * math.pi) - math.pi
+    return dq
 
 
 class Shooting:
@@ -77,9 +92,7 @@ class Shooting:
         self.extra = (phase is not None) + (energy is not None)
         self.rows = 2 * n * self.m + self.extra
         self.row_scale = np.concatenate([np.tile(self.node_scale, self.m), np.ones(self.extra)])
-        v_idx, q_idx = system.additive_coordinates
-        turning = set(np.asarray(v_idx)[np.isin(q_idx, system.periodic_coordinates)].tolist())
-        self.wrap = np.array([k for k, i in enumerate(self.free) if int(i) in turning], dtype=int)
+        self.wrap = turning_indices(system, self.free)
         self._cache = (None, None)
         self.evaluations = 0  # sets of flows integrated
 
@@ -166,9 +179,7 @@ class Shooting:
         out = []
         for i, run in enumerate(runs):
             qj, vj = nodes[(i + 1) % self.m]
-            dq = pin.difference(self.model, qj, run.q[-1])[self.free]
-            if self.wrap.size:  # a pivot that turned by whole turns closes
-                dq[self.wrap] = (dq[self.wrap] + math.pi) % (2 * math.pi) - math.pi
+            dq = wrapped(pin.difference(self.model, qj, run.q[-1])[self.free], self.wrap)
             out.append((dq, (run.v[-1] - vj)[self.free]))
         return out
 
@@ -299,13 +310,17 @@ def first_return(system, q0, v0, t0, omega, rtol) -> float:
     the section through the start orthogonal to its flow (scaled by ``omega`` rad/s) that comes back to within
     a tenth of how far the motion went. Looks over 3 periods of ``omega``, then 4 times longer, 5 times."""
     free = free_indices(system)
+    wrap = turning_indices(system, free)
     s = np.asarray(system.coordinate_scales, dtype=float)[free]
     a0 = system.accelerations(q0, v0, t0)
     u = np.concatenate([v0[free] / s, a0[free] / (s * omega)])
+    if not np.linalg.norm(u) > 1e-12:
+        raise ModelError("periodic orbit: the start (q0, v0) is an equilibrium (no flow there): start away from "
+                         "it, e.g. displaced along a mode")
     u /= np.linalg.norm(u)
 
     def scaled(q, v):
-        return np.concatenate([system.difference(q0, q)[free] / s, (v - v0)[free] / (s * omega)])
+        return np.concatenate([wrapped(system.difference(q0, q)[free], wrap) / s, (v - v0)[free] / (s * omega)])
 
     def section(t, q, v):
         return float(u @ scaled(q, v))

@@ -1,0 +1,302 @@
+"""Periodic orbits and Floquet multipliers (issue 25): shooting on the Lie group against closed forms (the
+pendulum's elliptic period, a forced damped oscillator, a conical pendulum), Hill's determinant for the Mathieu
+equation, multiple against single shooting, and bad input. Tolerances come from each result's own estimates."""
+
+import json
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import MODELS
+from scipy.special import ellipk
+
+import vibdyn as vd
+
+G = 9.81
+
+
+# ---------------------------------------------------------------------------------------------- 1. pendulum
+@pytest.fixture(scope="module")
+def rod():
+    return vd.load_scene(MODELS / "rod_pivot.toml").build()
+
+
+W0_ROD = math.sqrt(3 * G / 2)  # uniform rod on a pivot at its end, L = 1 m: ω₀² = m g (L/2) / (m L²/3)
+
+
+@pytest.mark.parametrize("amplitude", [0.3, 1.5, 3.0])
+def test_pendulum_period_is_the_complete_elliptic_integral(rod, amplitude):
+    """Released from rest at A (phase: the turning point, energy kept): T = 4 K(sin²(A/2)) / ω₀ (K with the
+    parameter m = k²) to 1e-8, within the orbit's own period error; both multipliers 1 within their error,
+    det Φ = 1 (conservative)."""
+    orbit = vd.periodic_orbit(rod, [amplitude], [0.0], phase="rod")
+    a = float(orbit.q0[0])  # the converged turning point
+    assert abs(a - amplitude) <= 1e-9 and orbit.v0[0] == pytest.approx(0.0, abs=1e-12)
+    exact = 4 * ellipk(math.sin(a / 2) ** 2) / W0_ROD
+    assert abs(orbit.period - exact) <= orbit.period_error
+    assert orbit.period_error < 1e-8
+    assert orbit.autonomous and orbit.energy_fixed and orbit.monodromy.shape == (2, 2)
+    assert np.all(np.abs(orbit.multipliers - 1.0) <= orbit.multiplier_error)
+    assert orbit.stable and orbit.stability == "neutral within the error"
+    li = orbit.liouville
+    assert li.expected == 1.0 and abs(li.det - 1.0) <= li.error
+    assert orbit.trajectory.t[0] == 0.0 and orbit.trajectory.t[-1] == pytest.approx(orbit.period, abs=1e-12)
+
+
+def test_pendulum_period_found_from_its_first_return(rod):
+    """No period given: the first return to the section through the start gives the guess; the start is
+    converged by the flow-orthogonal phase condition, the energy kept: T(E) against the elliptic integral with
+    the amplitude of that energy (E = −m g L/2 cos A)."""
+    orbit = vd.periodic_orbit(rod, [1.0], [0.5])
+    energy = rod.energy(orbit.q0, orbit.v0).total
+    assert energy == pytest.approx(rod.energy([1.0], [0.5]).total, abs=1e-12)
+    a = math.acos(-energy / (G * 0.5))
+    assert abs(orbit.period - 4 * ellipk(math.sin(a / 2) ** 2) / W0_ROD) <= orbit.period_error < 1e-8
+
+
+def test_rotating_pendulum_closes_modulo_a_turn(rod):
+    """Over the top from θ = 0 at θ̇ = v0 > 2ω₀: the pivot turns by 2π per period, T = 4 K(4ω₀²/v0²) / v0."""
+    v0 = 9.0
+    orbit = vd.periodic_orbit(rod, [0.0], [v0])
+    traj = orbit.trajectory
+    assert traj.q[-1, 0] - traj.q[0, 0] == pytest.approx(2 * math.pi, abs=1e-6)
+    # the energy is kept, so v0 at θ = 0 is the start's; the converged start may sit elsewhere on the orbit
+    e = rod.energy(orbit.q0, orbit.v0).total + G * 0.5  # kinetic energy at θ = 0 (m L²/3 = 1/3 kg·m²)
+    speed = math.sqrt(2 * e * 3)
+    assert speed == pytest.approx(v0, rel=1e-10)
+    assert abs(orbit.period - 4 * ellipk(4 * W0_ROD**2 / speed**2) / speed) <= orbit.period_error < 1e-8
+
+
+# ---------------------------------------------------------------------------------------------- 2. forced oscillator
+def test_forced_damped_oscillator_against_its_closed_form():
+    """m x'' + c x' + k x = F cos Ωt (a harmonic joint force): x = X cos(Ωt − φ), X = F/√((k − mΩ²)² + (cΩ)²),
+    tan φ = cΩ/(k − mΩ²); multipliers exp((−ζω₀ ± iω_d) T); det Φ = exp(−c T/m) = exp ∫ tr A dt."""
+    m, k, c, force, omega = 2.0, 8.0, 0.4, 1.5, 1.7
+    s = vd.Scene("forced")
+    s.add_body("m", joint=vd.Slider((1, 0, 0)), mass=m)
+    s.add_joint_spring("m", k)
+    s.add_joint_damper("m", c)
+    s.add_joint_force("m", vd.laws.Harmonic(force, omega, phase=math.pi / 2))  # F sin(Ωt + π/2) = F cos Ωt
+    system = s.build()
+    period = 2 * math.pi / omega
+    orbit = vd.floquet(system, period, [0.0], [0.0])
+    x_amp = force / math.hypot(k - m * omega**2, c * omega)
+    phi = math.atan2(c * omega, k - m * omega**2)
+    assert abs(orbit.q0[0] - x_amp * math.cos(phi)) <= orbit.error
+    assert abs(orbit.v0[0] - x_amp * omega * math.sin(phi)) <= orbit.velocity_error
+    assert not orbit.autonomous and orbit.period == period and orbit.period_error == 0.0
+    w0, zeta = math.sqrt(k / m), c / (2 * math.sqrt(k * m))
+    mu = np.exp((-zeta * w0 + 1j * w0 * math.sqrt(1 - zeta**2)) * period)
+    assert np.abs(np.sort_complex(orbit.multipliers) - np.sort_complex(np.array([mu, mu.conjugate()]))).max() <= \
+        orbit.multiplier_error.max()
+    assert orbit.multiplier_error.max() < 1e-8
+    assert orbit.stability == "stable" and orbit.stable
+    assert orbit.exponents.real == pytest.approx(-zeta * w0, abs=orbit.multiplier_error.max() / abs(mu) / period)
+    li = orbit.liouville
+    assert abs(li.expected - math.exp(-c / m * period)) <= li.error
+    assert abs(li.det - math.exp(-c / m * period)) <= li.error
+
+
+# ---------------------------------------------------------------------------------------------- 3. Mathieu
+def hill_multipliers(delta, eps, n=4000):
+    """Floquet multipliers over 2π of x'' + (δ + ε cos t) x = 0 from Hill's determinant (Whittaker & Watson
+    §19.42, with t = 2z: θ₀ = 4δ, θ₁ = 2ε): tr Φ = 2 − 4 Δ(0) sin²(π√δ), Δ(0) the infinite determinant with
+    unit diagonal and off-diagonal θ₁/((2r)² − θ₀) = ε/(2(r² − δ)) in row r; det Φ = 1. Returns (μ, the
+    truncation error: the change from n to 2n rows)."""
+
+    def trace(n):
+        r = np.arange(-n, n + 1)
+        off = eps / (2 * (r**2 - delta))
+        d_prev, d = 1.0, 1.0  # the tridiagonal determinant by its three-term recurrence (a continuant)
+        for k in range(1, r.size):
+            d_prev, d = d, d - off[k] * off[k - 1] * d_prev
+        return 2 - 4 * d * math.sin(math.pi * math.sqrt(delta)) ** 2
+
+    tr, tr2 = trace(n), trace(2 * n)
+    mu = np.roots([1.0, -tr2, 1.0]).astype(complex)
+    return mu[np.argsort(-np.abs(mu))], abs(tr2 - tr)
+
+
+def mathieu(delta, eps):
+    s = vd.Scene("mathieu")
+    s.add_body("x", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_joint_force("x", lambda t, q, v: -(delta + eps * math.cos(t)) * q, velocity_dependent=False,
+                      time_dependent=True)
+    return s.build()
+
+
+@pytest.mark.parametrize("delta, eps, verdict", [(0.5, 0.1, "neutral within the error"), (0.25, 0.1, "unstable"),
+                                                 (0.9, 0.3, "neutral within the error")])
+def test_mathieu_multipliers_against_hill_determinant(delta, eps, verdict):
+    """The orbit x = 0 of the Mathieu equation (a slider with the parametric force −(δ + ε cos t) x): its
+    multipliers against Hill's determinant to 1e-6, within their own error; stable (on the unit circle)
+    between the tongues, unstable inside the first one (δ = 1/4)."""
+    orbit = vd.floquet(mathieu(delta, eps), 2 * math.pi, [0.0], [0.0])
+    mu, trunc = hill_multipliers(delta, eps)
+    got = orbit.multipliers
+    if mu.imag.any():  # a conjugate pair: match by the sign of the imaginary part
+        got, mu = np.sort_complex(got), np.sort_complex(mu)
+    assert np.all(np.abs(got - mu) <= orbit.multiplier_error + trunc)
+    assert orbit.multiplier_error.max() < 1e-6
+    assert orbit.stability == verdict and orbit.stable == (verdict != "unstable")
+    assert abs(orbit.liouville.det - 1.0) <= orbit.liouville.error
+
+
+# ---------------------------------------------------------------------------------------------- 4. conical pendulum
+def test_conical_pendulum_on_a_ball_joint():
+    """A sphere (m, radius r) at L below a ball joint (nq = 4, nv = 3) turning at the tilt α: Ω² = g/(L cos α)
+    for any isotropic inertia; the monodromy is 6 × 6 in the tangent space; multipliers on the unit circle: four
+    equal to 1 (the flow, energy, the two symmetries), and the nutation pair exp(±iω_n T) with ω_n from the
+    Routh-reduced equation of the tilt θ (a Lagrange top: A θ̈ = A φ̇² sinθ cosθ − p_ψ φ̇ sinθ + m g L sinθ at
+    fixed p_φ, p_ψ), differentiated here by central differences."""
+    m, L, r, alpha = 1.0, 1.0, 0.1, 0.6
+    s = vd.Scene("conical", gravity=(0, 0, -G))
+    s.add_body("bob", joint=vd.Ball(), mass=m, com=(0, 0, -L), inertia=vd.inertia.sphere(m, r))
+    system = s.build()
+    omega = math.sqrt(G / (L * math.cos(alpha)))
+    q0 = system.integrate(system.neutral(), [alpha, 0.0, 0.0])
+    v0 = pin.utils.rotate("x", alpha).T @ np.array([0.0, 0.0, omega])  # body-frame angular velocity
+    period = 2 * math.pi / omega
+    orbit = vd.periodic_orbit(system, q0, v0, period=1.01 * period)
+    assert abs(orbit.period - period) <= orbit.period_error + 1e-12 * period
+    assert orbit.monodromy.shape == (6, 6) and system.nq == 4
+    assert np.all(np.abs(np.abs(orbit.multipliers) - 1.0) <= orbit.multiplier_error)
+    ones = np.abs(orbit.multipliers - 1.0) <= orbit.multiplier_error
+    assert ones.sum() == 4
+    # the nutation: Routh reduction of the symmetric top (A about the pivot, C about its axis)
+    j = 0.4 * m * r * r
+    A, C = j + m * L * L, j
+    th0 = math.pi - alpha  # from the upward vertical
+    p_psi = C * omega * math.cos(th0)
+    p_phi = A * omega * math.sin(th0) ** 2 + p_psi * math.cos(th0)
+
+    def force(th):
+        phidot = (p_phi - p_psi * math.cos(th)) / (A * math.sin(th) ** 2)
+        return A * phidot**2 * math.sin(th) * math.cos(th) - p_psi * phidot * math.sin(th) + m * G * L * math.sin(th)
+
+    assert abs(force(th0)) < 1e-12  # the steady precession
+
+    def nutation(h):
+        return math.sqrt(-(force(th0 + h) - force(th0 - h)) / (2 * h) / A)
+
+    wn, wn_error = nutation(1e-4), abs(nutation(1e-4) - nutation(2e-4))  # (difference error ~h², h and 2h)
+    pair = orbit.multipliers[~ones]
+    expected = np.exp(1j * wn * orbit.period * np.array([1, -1]))
+    assert np.abs(np.sort_complex(pair) - np.sort_complex(expected)).max() <= \
+        orbit.multiplier_error[~ones].max() + wn_error * orbit.period + orbit.period_error * wn
+    assert orbit.multiplier_error[~ones].max() < 1e-6 and orbit.stability == "neutral within the error"
+    assert abs(orbit.liouville.det - 1.0) <= orbit.liouville.error
+
+
+# ---------------------------------------------------------------------------------------------- 5. multiple shooting
+def inverted(force, omega, m=1.0, L=1.0, r=0.05):
+    """A sphere above a pivot (inverted pendulum, unstable) driven by the torque F cos Ωt; its λ² = m g L / I."""
+    s = vd.Scene("inverted", gravity=(0, 0, -G))
+    s.add_body("rod", joint=vd.Pivot((0, 1, 0)), mass=m, com=(0, 0, L), inertia=vd.inertia.sphere(m, r))
+    s.add_joint_force("rod", vd.laws.Harmonic(force, omega, phase=math.pi / 2))
+    inertia = m * L * L + 0.4 * m * r * r
+    return s.build(), inertia, math.sqrt(m * G * L / inertia)
+
+
+def linear_nodes(force, omega, inertia, lam, period, m):
+    """The linear periodic response θ = −F/(I(λ² + Ω²)) cos Ωt at the m node times (rows)."""
+    t = np.arange(m) * period / m
+    a = -force / (inertia * (lam**2 + omega**2))
+    return (a * np.cos(omega * t))[:, None], (-a * omega * np.sin(omega * t))[:, None]
+
+
+def test_multiple_shooting_gives_the_multipliers_of_single_shooting():
+    """A mildly unstable orbit (the forced inverted pendulum, T = 1 s, μ ≈ e^{λT} ≈ 23): single and multiple
+    (4 segments) shooting agree within their errors, and with the linear theory's e^{±λT} (the orbit's
+    amplitude is 5e-6 rad: the nonlinearity shifts λ by ~1e-11)."""
+    force, period = 1e-4, 1.0
+    omega = 2 * math.pi / period
+    system, inertia, lam = inverted(force, omega)
+    q, v = linear_nodes(force, omega, inertia, lam, period, 1)
+    single = vd.floquet(system, period, q[0], v[0])
+    multiple = vd.floquet(system, period, q[0], v[0], segments=4)
+    assert single.segments == 1 and multiple.segments == 4
+    err = single.multiplier_error + multiple.multiplier_error
+    assert np.all(np.abs(single.multipliers - multiple.multipliers) <= err)
+    exact = np.exp(np.array([lam, -lam]) * period)
+    for orbit in (single, multiple):
+        assert np.all(np.abs(orbit.multipliers - exact) <= orbit.multiplier_error + 1e-9 * exact[0])
+        assert orbit.stability == "unstable" and not orbit.stable
+        assert abs(orbit.q0[0] - q[0, 0]) <= orbit.error + 1e-12
+
+
+def test_multiple_shooting_converges_where_single_shooting_fails():
+    """Strongly unstable (T = 8 s, μ ≈ e^{λT} ≈ 7e10): single shooting cannot close the orbit of amplitude 1e-3
+    rad (its residual is amplified integration error) and says what to try, where 16 segments from nodes along
+    the linear response converge; at the amplitude 1e-5 rad (where the nonlinearity shifts λT by ~1e-10) the
+    large multiplier is e^{λT} within its error."""
+    period = 8.0
+    omega = 2 * math.pi / period
+    system, inertia, lam = inverted(1e-2, omega)
+    q, v = linear_nodes(1e-2, omega, inertia, lam, period, 16)
+    with pytest.raises(vd.ConvergenceError, match=r"did not converge.*residual reached .*more segments") as info:
+        vd.floquet(system, period, q[0], v[0], segments=1, max_iter=6)
+    assert info.value.residual > 1e-10
+    orbit = vd.floquet(system, period, q, v)
+    assert orbit.segments == 16 and orbit.stability == "unstable" and orbit.error < 1e-10
+    force = 1e-4
+    system, inertia, lam = inverted(force, omega)
+    q, v = linear_nodes(force, omega, inertia, lam, period, 16)
+    orbit = vd.floquet(system, period, q, v)
+    assert orbit.segments == 16 and orbit.stability == "unstable"
+    big = math.exp(lam * period)
+    assert abs(orbit.multipliers[0] - big) <= orbit.multiplier_error[0] + 1e-8 * big
+    assert orbit.multiplier_error[0] < 1e-6 * big
+    assert np.abs(orbit.trajectory.q[:, 0] - force / (inertia * (lam**2 + omega**2)) * -np.cos(
+        omega * orbit.trajectory.t)).max() < 1e-9
+
+
+# ---------------------------------------------------------------------------------------------- 6. bad input
+@pytest.mark.parametrize("period", [0.0, -1.0, math.nan, math.inf])
+def test_a_period_that_is_not_positive_and_finite_is_refused(rod, period):
+    with pytest.raises(vd.ModelError, match="period"):
+        vd.periodic_orbit(rod, [1.0], [0.0], period=period)
+    with pytest.raises(vd.ModelError, match="period"):
+        vd.floquet(rod, period, [1.0], [0.0])
+
+
+def test_bad_input_is_named():
+    forced = mathieu(0.5, 0.1)
+    with pytest.raises(vd.ModelError, match="depends on time.*give its period"):
+        vd.periodic_orbit(forced, [0.1], [0.0])
+    with pytest.raises(vd.ModelError, match="phase applies to autonomous scenes only"):
+        vd.floquet(forced, 2 * math.pi, [0.1], [0.0], phase="x")
+    with pytest.raises(vd.ModelError, match="floquet: period"):
+        vd.floquet(forced, None, [0.1], [0.0])
+    rod = vd.load_scene(MODELS / "rod_pivot.toml").build()
+    with pytest.raises(vd.ModelError, match="equilibrium"):
+        vd.periodic_orbit(rod, [0.0], [0.0])
+    with pytest.raises(vd.ModelError, match="segments"):
+        vd.periodic_orbit(rod, [1.0], [0.0], segments=0)
+    with pytest.raises(vd.ModelError, match="coordinate"):
+        vd.periodic_orbit(rod, [1.0], [0.0], phase="nope")
+    with pytest.raises(vd.ModelError, match="starting nodes"):
+        vd.periodic_orbit(rod, [[1.0], [0.5]], [[0.0]])
+    looped = vd.load_scene(MODELS / "four_bar.toml").build()
+    with pytest.raises(vd.ModelError, match="closed loops"):
+        vd.periodic_orbit(looped, period=1.0)
+
+
+def test_a_motion_that_never_comes_back_asks_for_the_period():
+    s = vd.Scene("drift")
+    s.add_body("m", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    system = s.build()
+    with pytest.raises(vd.ConvergenceError, match="does not come back near it.*give the period"):
+        vd.periodic_orbit(system, [0.0], [1.0])
+
+
+def test_the_result_reads_and_serialises(rod):
+    orbit = vd.periodic_orbit(rod, [1.0], [0.0], phase="rod")
+    text = str(orbit)
+    assert "T = " in text and "Floquet multipliers" in text and "Liouville" in text and "rad/s" in text
+    assert repr(orbit).startswith("PeriodicOrbit(T = ")
+    assert "<table>" in orbit._repr_html_()
+    d = json.loads(json.dumps(orbit.to_dict()))
+    assert d["period_s"] == orbit.period and len(d["multipliers"]) == 2
+    assert orbit.omega == pytest.approx(2 * math.pi / orbit.period) and orbit.exponents.shape == (2,)
