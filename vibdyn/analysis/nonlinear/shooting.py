@@ -244,7 +244,9 @@ class Shooting:
             qj = nodes[(i + 1) % self.m][0]
             D0 = pin.dDifference(self.model, qj, run.q[-1], ARG0)[np.ix_(f, f)]
             D1 = pin.dDifference(self.model, qj, run.q[-1], ARG1)[np.ix_(f, f)]
-            P = np.array(run.state_transition[np.ix_(self.free2, self.free2)])
+            P = np.array(run.state_transition, dtype=float)
+            if P.shape[0] != 2 * n:  # (with drives the time layer gives it over the free coordinates already)
+                P = P[np.ix_(self.free2, self.free2)]
             P[:n] = D1 @ P[:n]
             out.append((P, D0, D1))
         return out
