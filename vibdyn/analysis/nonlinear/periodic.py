@@ -234,6 +234,7 @@ def periodic_orbit(system, q0=None, v0=None, period: float | None = None, t0: fl
     if autonomous and period is None:
         period = first_return(system, q_start, v_start, t0, omega, rtol)
         omega = 2 * math.pi / period
+    assert period is not None  # (given, or found from the first return)
     cons = autonomous and conservative(system)
     nodes = Shooting.impose(system, nodes, t0, period)
     # a first run over the first segment: the coordinates' scales, the energy scale and (one node) the growth

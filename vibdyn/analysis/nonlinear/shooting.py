@@ -327,7 +327,7 @@ def first_return(system, q0, v0, t0, omega, rtol) -> float:
     def section(t, q, v):
         return float(u @ scaled(q, v))
 
-    section.direction = 1
+    setattr(section, "direction", 1)  # upward crossings only (the event protocol's attribute)
     span = 3 * 2 * math.pi / omega
     for _ in range(5):
         traj = simulate(system, t0 + span, q0, v0, t0=t0, rtol=max(rtol, 1e-9), error="local", events=section)
