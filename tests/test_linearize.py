@@ -227,3 +227,16 @@ def test_stencil_configurations_are_integrate_of_each_step(chain):
             e[k] = s * h[k]
             assert np.array_equal(Q[1 + i * system.nv + k], pin.integrate(system.model, q0, e)), (i, k)
     assert stencil(system, system.workspace(), h, estimate=True) is st  # made once per steps
+
+
+def test_fd_damping_error_counts_a_motor_law_vanishing_as_a_difference():
+    """The rotor driven by τ = 10 − ω² at its steady speed Ω = √10: the law is a difference of two terms of 10
+    N·m that rounds off by ε × 10 where its value is 0. The FD C must carry that round-off in its error
+    estimate (it differs from the analytic C by ~1e-11; the estimate once said 6e-15); the steady speed itself
+    is polished to round-off, not left anywhere below the search's tolerance."""
+    system = vd.load_scene("rotor_slider").build()
+    st = system.operating_point()
+    assert abs(st.v[0] - np.sqrt(10.0)) <= 1e-13
+    fd, an = st.linearize(method="fd"), st.linearize(method="analytic")
+    assert np.all(np.abs(fd.C - an.C) <= fd.C_error + an.C_error)
+    assert np.all(np.abs(fd.K - an.K) <= fd.K_error + an.K_error)

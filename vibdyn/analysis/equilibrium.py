@@ -286,7 +286,7 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
     seen["x"], seen["r"] = x0, r
     out = newton(rows_of, x0, lambda x: jacobian(*split(x)), retract, tol=target,
                  max_iter=max_iter, max_step=max_step, shape_step=shape_step, on_no_decrease="accept",
-                 min_alpha=1e-3, stall=1e3, f0=r[rows], jacobian0=J, expand=True)
+                 min_alpha=1e-3, stall=1e3, f0=r[rows], jacobian0=J, expand=True, polish=True)
     if out.status == "diverged":
         raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=out.residual,
                                best=split(out.x)[0])

@@ -377,6 +377,9 @@ def _finite_differences(system, ws, q0, v0, a0, t0, step):
         tau_v -= F
         C, T = differences(tau_v, hv)
         C_err = fd_error(C, T, terms, hv)
+        # a velocity-dependent force that vanishes at v0 as a difference of large terms (a motor law 10 − ω² at
+        # its steady ω) rounds off by ε × their size, which |C|·|v0| measures where the force itself does not
+        C_err += np.multiply.outer(np.abs(C) @ np.abs(v0), EPS / hv)
         evaluations += 4 * system.nv
     else:  # nothing depends on velocity and v0 = 0: C is exactly zero
         C, C_err = np.zeros(K.shape), np.zeros(K.shape)

@@ -47,7 +47,7 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
            tol: float = 1e-10, max_iter: int = 50, max_step: float | np.ndarray | None = None, rcond: float = 1e-12,
            raise_on_failure: bool = False, shape_step: Callable | None = None, on_no_decrease: str = "stop",
            min_alpha: float = 1e-4, stall: float | None = None, f0: np.ndarray | None = None,
-           jacobian0: np.ndarray | None = None, expand: bool = False) -> NewtonResult:
+           jacobian0: np.ndarray | None = None, expand: bool = False, polish: bool = False) -> NewtonResult:
     """Solve F(x) = 0 from x0 (F: ℝⁿ or a manifold → ℝᵐ, tangent steps of n components).
 
     ``jacobian(x)``: m × n (central differences if None); ``retract(x, dx)``: the point reached from x by
@@ -69,7 +69,7 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
     res = float(np.abs(f).max(initial=0.0))
     best = (res, x)
     it, status, message = 0, "converged", "converged"
-    J, radius = jacobian0, 1.0
+    J, J_last, radius = jacobian0, None, 1.0
     while res > tol:
         if it >= max_iter:
             status, message = "max_iter", f"no convergence in {max_iter} iterations (residual {best[0]:.3e}, " \
@@ -103,7 +103,7 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
             break
         if expand:
             radius = min(2.0 * radius, 1024.0) if capped and alpha == 1.0 else max(1.0, radius * alpha)
-        x, f, J = x_new, f_new, None
+        x, f, J_last, J = x_new, f_new, J, None
         res = float(np.abs(f).max(initial=0.0))
         if res < best[0]:
             best = (res, x)
@@ -114,7 +114,15 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
                                                                     if max_step is not None else 1.0):
             status, message = "stagnated", f"stagnated at round-off (residual {res:.3e}, tolerance {tol:.1e})"
             break
+    x_last = x
     res, x = best
+    if polish and 0 < res <= tol and J_last is not None:
+        f_best = f if x is x_last else np.asarray(fun(x), float)
+        x_p = retract(x, np.linalg.lstsq(J_last, -f_best, rcond=rcond)[0])
+        f_p = np.asarray(fun(x_p), float)
+        res_p = float(np.abs(f_p).max(initial=0.0))
+        if res_p < res:
+            res, x = res_p, x_p
     out = NewtonResult(x, res, it, res <= tol, "converged" if res <= tol else message, time.perf_counter() - start,
                        "converged" if res <= tol else status)
     if raise_on_failure and not out.converged:
