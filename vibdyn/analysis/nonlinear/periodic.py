@@ -18,6 +18,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
+from numpy.typing import ArrayLike
 from scipy.optimize import linear_sum_assignment
 
 from ..._check import integer, scalar
@@ -176,7 +177,8 @@ class PeriodicOrbit:
         return html_table(self._head(), ["μ", "|μ|", "arg μ", "±", "Re exponent"], self._rows())
 
 
-def periodic_orbit(system, q0=None, v0=None, period: float | None = None, t0: float = 0.0, *,
+def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, period: float | None = None,
+                   t0: float = 0.0, *,
                    segments: int | None = None, phase: str | None = None, tol: float = TOL, rtol: float = RTOL,
                    max_iter: int = 20, points: int = POINTS) -> PeriodicOrbit:
     """The periodic orbit through (or near) the state (q0, v0) at ``t0`` (s), and its Floquet multipliers.
@@ -264,7 +266,8 @@ def periodic_orbit(system, q0=None, v0=None, period: float | None = None, t0: fl
     return _result(system, shoot, x, residual, iterations, points, cons, start)
 
 
-def floquet(system, period: float, q0=None, v0=None, t0: float = 0.0, **kwargs: Any) -> PeriodicOrbit:
+def floquet(system: Any, period: float, q0: Any = None, v0: ArrayLike | None = None, t0: float = 0.0,
+            **kwargs: Any) -> PeriodicOrbit:
     """Floquet multipliers of the orbit of period ``period`` (s) through (q0, v0) at ``t0`` (s), converged
     first if it is not yet periodic (an autonomous orbit's period is then refined from ``period``): the same
     result as :func:`periodic_orbit` (keywords as there)."""
