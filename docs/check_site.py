@@ -85,11 +85,12 @@ class Server:
 class Browser:
     """Headless Chromium driven through the DevTools protocol (tornado's websocket client)."""
 
-    def __init__(self, exe: str):
+    def __init__(self, exe: str, flags=FLAGS):
         from tornado.websocket import websocket_connect
 
         self.dir = tempfile.mkdtemp()
-        self.proc = subprocess.Popen([exe, *FLAGS, f"--user-data-dir={self.dir}/profile", "--remote-debugging-port=0",
+        self.requests: list[str] = []  # every URL the page asked for (with Network.enable)
+        self.proc = subprocess.Popen([exe, *flags, f"--user-data-dir={self.dir}/profile", "--remote-debugging-port=0",
                                       "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         deadline, port = time.monotonic() + 60, None
         while port is None:
@@ -132,6 +133,8 @@ class Browser:
         self.loop.run_until_complete(send())
         while True:
             msg = json.loads(self.loop.run_until_complete(receive()))
+            if msg.get("method") == "Network.requestWillBeSent":
+                self.requests.append(msg["params"]["request"]["url"])
             if msg.get("id") == self.id:
                 if "error" in msg:
                     raise RuntimeError(f"{method}: {msg['error']}")
@@ -145,15 +148,19 @@ class Browser:
 
     def goto(self, url, ready="true", timeout=60):
         self.call("Page.navigate", url=url)
+        self.wait(ready, timeout, url)
+
+    def wait(self, condition, timeout=60, what=""):
+        """Until the page is loaded and the JavaScript ``condition`` holds (TimeoutError after ``timeout`` s)."""
         deadline = time.monotonic() + timeout
         while True:
             try:
-                if self.js(f"document.readyState === 'complete' && ({ready})"):
+                if self.js(f"document.readyState === 'complete' && ({condition})"):
                     return
             except RuntimeError:
                 pass
             if time.monotonic() > deadline:
-                raise TimeoutError(f"{url}: {ready}")
+                raise TimeoutError(f"{what}: {condition}" if what else condition)
             time.sleep(0.05)
 
     def close(self):

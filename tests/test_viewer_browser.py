@@ -2,7 +2,6 @@
 and the live server's page are drawn, animate, switch modes when a mode is clicked, and request nothing
 outside 127.0.0.1. Skipped when Chromium is missing, except under CI (``CI=true``), where that fails."""
 
-import asyncio
 import base64
 import io
 import json
@@ -20,6 +19,7 @@ import numpy as np
 import pytest
 
 import vibdyn as vd
+from conftest import ROOT
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
@@ -75,81 +75,24 @@ def screenshot(chromium, url, budget=1500):
         return _image(out.read_bytes())
 
 
-class Browser:
-    """Headless Chromium driven through the DevTools protocol (tornado's websocket client)."""
+def _site_check():
+    """docs/check_site.py, whose DevTools client (Browser) these tests drive too."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("check_site", ROOT / "docs" / "check_site.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+class Browser(_site_check().Browser):
+    """The docs check's headless Chromium, at the viewer's window size, recording the page's requests, with
+    screenshots and real mouse clicks."""
 
     def __init__(self, chromium):
-        from tornado.websocket import websocket_connect
-
-        self.dir = tempfile.mkdtemp()
-        self.proc = subprocess.Popen([chromium, *FLAGS, f"--user-data-dir={self.dir}/profile",
-                                      "--remote-debugging-port=0", "about:blank"],
-                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        deadline = time.monotonic() + 60
-        port = None
-        while port is None:
-            line = self.proc.stderr.readline().decode(errors="replace")
-            m = re.search(r"DevTools listening on ws://127\.0\.0\.1:(\d+)/", line)
-            if m:
-                port = int(m.group(1))
-            elif (not line and self.proc.poll() is not None) or time.monotonic() > deadline:
-                self.close()
-                raise RuntimeError("Chromium did not start its DevTools server")
-        with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=30) as r:
-            target = next(t for t in json.load(r) if t["type"] == "page")
-        self.loop = asyncio.new_event_loop()
-
-        async def connect():
-            return await websocket_connect(target["webSocketDebuggerUrl"], max_message_size=1 << 28)
-
-        self.ws = self.loop.run_until_complete(connect())
-        self.id = 0
-        self.requests = []
-        self.call("Page.enable")
+        super().__init__(chromium, FLAGS)
         self.call("Network.enable")
         self.call("Emulation.setDeviceMetricsOverride", width=900, height=700, deviceScaleFactor=1, mobile=False)
-
-    def call(self, method, **params):
-        self.id += 1
-        message = json.dumps({"id": self.id, "method": method, "params": params})
-
-        async def send():
-            await self.ws.write_message(message)
-
-        async def receive():
-            return await asyncio.wait_for(self.ws.read_message(), 60)
-
-        self.loop.run_until_complete(send())
-        while True:
-            msg = json.loads(self.loop.run_until_complete(receive()))
-            if msg.get("method") == "Network.requestWillBeSent":
-                self.requests.append(msg["params"]["request"]["url"])
-            if msg.get("id") == self.id:
-                if "error" in msg:
-                    raise RuntimeError(f"{method}: {msg['error']}")
-                return msg.get("result", {})
-
-    def js(self, expression):
-        r = self.call("Runtime.evaluate", expression=expression, awaitPromise=True, returnByValue=True)
-        if "exceptionDetails" in r:
-            raise RuntimeError(f"{expression}: {r['exceptionDetails']}")
-        return r["result"].get("value")
-
-    def goto(self, url, ready="true", timeout=60):
-        self.call("Page.navigate", url=url)
-        self.wait(ready, timeout)
-
-    def wait(self, condition, timeout=60):
-        deadline = time.monotonic() + timeout
-        while True:
-            try:
-                if self.js(f"document.readyState === 'complete' && ({condition})"):
-                    return
-            except RuntimeError:
-                pass
-            if time.monotonic() > deadline:
-                raise TimeoutError(condition)
-            time.sleep(0.1)
 
     def shot(self):
         return _image(base64.b64decode(self.call("Page.captureScreenshot", format="png")["data"]))
@@ -160,16 +103,6 @@ class Browser:
                     " return [b.x + b.width / 2, b.y + b.height / 2]; })()")
         for kind in ("mousePressed", "mouseReleased"):
             self.call("Input.dispatchMouseEvent", type=kind, x=r[0], y=r[1], button="left", clickCount=1)
-
-    def close(self):
-        try:
-            if hasattr(self, "ws"):
-                self.ws.close()
-                self.loop.close()
-        finally:
-            self.proc.kill()
-            self.proc.wait()
-            shutil.rmtree(self.dir, ignore_errors=True)
 
 
 @pytest.fixture
