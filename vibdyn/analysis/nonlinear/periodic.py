@@ -239,6 +239,7 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
     assert period is not None  # (given, or found from the first return)
     cons = autonomous and conservative(system)
     nodes = Shooting.impose(system, nodes, t0, period)
+    q_start, v_start = nodes[0]
     # a first run over the first segment: the coordinates' scales, the energy scale and (one node) the growth
     k = len(nodes)
     omega_v = max(_omega_guess(system, q_start, v_start, t0, free), 2 * math.pi / period)

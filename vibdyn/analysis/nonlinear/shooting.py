@@ -275,7 +275,9 @@ class Shooting:
 
     # ------------------------------------------------------------------ solution
     def solve(self, x0, tol, max_iter):
-        """Newton from x0: (x, residual, iterations). A ConvergenceError says what was reached and what to try."""
+        """Newton from x0: (x, residual, iterations); a point where Newton stalls at the flows' noise (no step
+        decreases the residual, or steps at round-off) is accepted within 100·tol. A ConvergenceError says what
+        was reached and what to try."""
         try:
             f0 = self.residual(x0)
         except SimulationError as e:
