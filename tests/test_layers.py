@@ -64,6 +64,7 @@ ENTRY_POINTS = {
     ("vibdyn.analysis.linearize", "LinearModel.with_rayleigh"): {"vibdyn.analysis.modal"},
     ("vibdyn.analysis.campbell_diagram", "Campbell.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.results", "TimeResult.plot"): {"vibdyn.faces.plots"},
+    ("vibdyn.analysis.nonlinear.harmonic_balance", "ForcedResponseCurve.plot"): {"vibdyn.faces.plots"},
 }
 
 

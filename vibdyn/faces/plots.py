@@ -195,3 +195,41 @@ def campbell(diagram, *, path=None, dpi=100):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     return save(fig, path, dpi)
+
+
+def _runs(flags):
+    """(start, stop) index ranges of equal consecutive flags, each run sharing its end point with the next."""
+    cuts = np.flatnonzero(np.diff(np.asarray(flags, bool))) + 1
+    edges = [0, *cuts.tolist(), len(flags)]
+    return [(a, min(b + 1, len(flags))) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def forced_response(curve, *, path=None, dpi=100):
+    """A forced-response curve (:func:`vibdyn.forced_response_curve`): the amplitude max over a period of
+    |q − q_eq| of its coordinate (m or rad) against the excitation's Ω (rad/s; Hz on the top axis), stable
+    points solid, unstable dashed (Hill's method), folds marked ×, the peak marked ▼."""
+    fig, ax = figure(1, 1, size=(7.0, 4.8))
+    a = ax[0, 0]
+    w, amp = curve.omega, curve.amplitude
+    for i, j in _runs(curve.stable):
+        a.plot(w[i:j], amp[i:j], "-" if curve.stable[i] else "--", color="C0", lw=1.6)
+    a.plot([], [], "-", color="C0", label="stable")
+    if not np.all(curve.stable):
+        a.plot([], [], "--", color="C0", label="unstable (Hill)")
+    if curve.folds:
+        a.plot([f.omega for f in curve.folds], [f.amplitude for f in curve.folds], "x", color="C3", ms=8, mew=2,
+               label="fold")
+    p = curve.peak
+    a.plot([p.omega], [p.amplitude], "v", color="C2", ms=8,
+           label=f"peak {p.amplitude:.6g} {curve.unit} at Ω = {p.omega:.6g} rad/s")
+    u = curve.unit
+    a.set_xlabel("excitation frequency Ω (rad/s)")
+    a.set_ylabel(f"amplitude max |{curve.coordinate} − {curve.coordinate}_eq| ({u})")
+    top = a.secondary_xaxis("top", functions=(lambda x: x / (2 * np.pi), lambda f: 2 * np.pi * f))
+    top.set_xlabel("Ω/2π (Hz)")
+    a.set_ylim(bottom=0)
+    a.grid(True, alpha=0.3)
+    a.legend(loc="best", fontsize="small")
+    a.set_title(f"forced response, {curve.excitation}; harmonic balance H = {curve.harmonics}, truncation ≤ "
+                f"{float(np.max(curve.error)):.1e} {u}", fontsize="small")
+    return save(fig, path, dpi)

@@ -141,11 +141,26 @@ class ForcedResponseCurve:
     message: str
     elapsed: float
     history: list = field(default_factory=list, repr=False)  # (H, largest truncation estimate) of each run
+    system: Any = field(default=None, repr=False)
 
     @property
     def hz(self) -> np.ndarray:
         """Ω in Hz per point."""
         return self.omega / (2 * math.pi)
+
+    def orbit(self, i: int, points: int = 64) -> Any:
+        """The steady motion at point ``i`` over one period, q(t) = q_eq ⊕ x(Ωt) (a ResponseOrbit, animated by
+        ``vd.export_html(curve.orbit(i), path)``)."""
+        from .response_orbit import response_orbit
+
+        return response_orbit(self, i, points)
+
+    def plot(self, path: str | None = None, dpi: int = 100) -> Any:
+        """Amplitude against Ω (matplotlib): stable solid, unstable dashed, folds and peak marked (see
+        :func:`vibdyn.faces.plots.forced_response`). Saves to ``path`` if given."""
+        from ...faces import plots
+
+        return plots.forced_response(self, path=path, dpi=dpi)
 
     def __str__(self):
         u = self.unit
@@ -234,7 +249,7 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
     return ForcedResponseCurve(coordinate, system.units[c], excitation.label, run.lam.copy(), amp, err,
                                run.x.reshape(len(run.lam), 2 * H + 1, system.nv).copy(), mult, mult_error, stable,
                                verdict, folds, peak, H, q_eq.copy(), status, message, time.perf_counter() - start,
-                               history)
+                               history, system)
 
 
 def _next_harmonics(history, tol):

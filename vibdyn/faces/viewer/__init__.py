@@ -38,6 +38,7 @@ class Content:
     speed: float = 1.0
     title: str = ""
     subtitle: str = ""
+    label: str = ""  # the trajectory's entry in the panel (default: its duration and samples)
     _jacobian: np.ndarray | None = None
 
     @property
@@ -49,7 +50,7 @@ class Content:
         out = []
         if self.trajectory is not None:
             t = self.trajectory[0]
-            out.append({"label": f"trajectory, {t[-1] - t[0]:.4g} s ({t.size} samples)",
+            out.append({"label": self.label or f"trajectory, {t[-1] - t[0]:.4g} s ({t.size} samples)",
                         "status": f"replay at {self.speed:g} × real time", "clock": True, "speed": self.speed})
         for v in self.views or ():
             status = {"rigid": "rigid-body mode: drifts (0 Hz)",
@@ -101,7 +102,15 @@ class Content:
 
 def content(obj, trajectory=None, speed=1.0):
     """The :class:`Content` of a Modes, Trajectory, System or Scene (plus an optional trajectory: a
-    Trajectory or a ``.npz`` file of ``vibdyn simulate --out``)."""
+    Trajectory or a ``.npz`` file of ``vibdyn simulate --out``), or of one period of a nonlinear orbit (a
+    PeriodicOrbit, or ``ForcedResponseCurve.orbit(i)``: its real motion, looped)."""
+    orbit = _motion.orbit_motion(obj)
+    if orbit is not None:
+        system, data, label, slow = orbit
+        d = _drawing(system, data[1][0])
+        d.frame(data[1])
+        return Content(system, d, data[1][0], None, [], data, float(speed) * slow, f"vibdyn: {system.name}",
+                       "one period of the orbit, looped", label)
     from ...analysis.modal import Modes
     from ...description.scene import Scene
     from ...model.system import System
@@ -117,7 +126,8 @@ def content(obj, trajectory=None, speed=1.0):
     elif isinstance(obj, System):
         system = obj
     else:
-        raise ModelError(f"the viewer shows a Modes, Trajectory, System or Scene, got {type(obj).__name__}")
+        raise ModelError(f"the viewer shows a Modes, Trajectory, System, Scene, PeriodicOrbit or "
+                         f"ForcedResponseCurve.orbit(i), got {type(obj).__name__}")
     data = None
     if trajectory is not None:
         if isinstance(trajectory, Trajectory):
@@ -150,7 +160,8 @@ def content(obj, trajectory=None, speed=1.0):
 
 
 def export_html(obj, path, *, amplitude=None, trajectory=None, speed=1.0):
-    """Write a self-contained HTML page showing ``obj`` (every mode, or the trajectory) and return its path.
+    """Write a self-contained HTML page showing ``obj`` (every mode, the trajectory, or one period of a periodic
+    orbit or of a forced-response point, looped) and return its path.
 
     ``amplitude``: the largest point displacement shown (m; default 10 % of the scene's size).
     The file makes no request to any host: meshcat's viewer is inlined.

@@ -278,3 +278,26 @@ def _clip(path, times, pos, quat, scale):
 def _track(name, kind, times, values):
     return {"name": name, "type": kind, "times": np.round(times, 6).tolist(),
             "values": np.round(values, 6).ravel().tolist()}
+
+
+def orbit_motion(obj):
+    """(system, (t, q), label, slow-down) of one period of a nonlinear orbit — a
+    :class:`~vibdyn.analysis.nonlinear.periodic.PeriodicOrbit` (its trajectory) or a forced-response point
+    (:class:`~vibdyn.analysis.nonlinear.response_orbit.ResponseOrbit`, the harmonic-balance motion) — or None for
+    anything else. The slow-down (≤ 1) shows a period shorter than ``PERIOD`` s over ``PERIOD`` s."""
+    from ...analysis.nonlinear.periodic import PeriodicOrbit
+    from ...analysis.nonlinear.response_orbit import ResponseOrbit
+
+    if isinstance(obj, PeriodicOrbit):
+        tr = obj.trajectory
+        data = (np.asarray(tr.t, float), np.asarray(tr.q, float))
+        label = (f"periodic orbit: T = {obj.period:.6g} s (ω = {obj.omega:.6g} rad/s, {obj.frequency_hz:.4g} Hz), "
+                 f"{obj.stability}")
+    elif isinstance(obj, ResponseOrbit):
+        data = (np.asarray(obj.t, float), np.asarray(obj.q, float))
+        label = (f"forced response at Ω = {obj.omega:.6g} rad/s ({obj.hz:.4g} Hz): amplitude of {obj.coordinate} "
+                 f"{obj.amplitude:.6g} {obj.unit}, {obj.stability}")
+    else:
+        return None
+    period = float(data[0][-1] - data[0][0])
+    return obj.system, data, label, min(1.0, period / PERIOD)
