@@ -1,5 +1,5 @@
-"""The ``vibdyn`` command: ``info``, ``modes``, ``demo``, ``frf``, ``bench``, ``simulate``, ``view`` and
-``campbell`` (``vibdyn COMMAND --help``; ``COMMANDS`` below lists each one's parser and runner).
+"""The ``vibdyn`` command: ``info``, ``modes``, ``demo``, ``frf``, ``bench``, ``simulate``, ``view``,
+``campbell`` and the nonlinear ``frc``, ``floquet``, ``backbone`` (:mod:`vibdyn.faces.nonlinear_command`) (``vibdyn COMMAND --help``; ``COMMANDS`` below lists each one's parser and runner).
 
 SCENE is a TOML scene file, a bundled model name, or ``robot:NAME`` for a robot of example-robot-data (e.g.
 ``robot:ur5``).
@@ -15,6 +15,7 @@ import numpy as np
 
 from .._format import number, table, vector
 from ..errors import ModelError, VibdynError
+from .nonlinear_command import PARSERS as NONLINEAR
 
 
 def benchmarks_dir():
@@ -541,10 +542,17 @@ def _run_campbell(args):
     command(load(args.scene).build(), args)
 
 
+def _run_nonlinear(args):
+    from .nonlinear_command import RUNNERS
+
+    RUNNERS[args.command](with_start(load(args.scene), start_offsets(getattr(args, "start", None))), args)
+
+
 #: the subcommands, in the order ``vibdyn --help`` lists them: name -> (add its parser, run it)
 COMMANDS = {"info": (_add_info, _run_info), "modes": (_add_modes, _run_modes), "demo": (_add_demo, _run_demo),
             "frf": (_add_frf, _run_frf), "bench": (_add_bench, None), "simulate": (_add_simulate, _run_simulate),
-            "view": (_add_view, _run_view), "campbell": (_add_campbell, _run_campbell)}
+            "view": (_add_view, _run_view), "campbell": (_add_campbell, _run_campbell),
+            **{name: (add, _run_nonlinear) for name, add in NONLINEAR.items()}}
 
 
 def _main(argv=None):

@@ -1,0 +1,220 @@
+"""``vibdyn frc``, ``vibdyn floquet`` and ``vibdyn backbone``: the nonlinear analyses from the command line
+(forced-response curves by harmonic balance, Floquet multipliers of a periodic orbit, backbones of nonlinear
+normal modes), each as a readable table or ``--json``, with ``--png`` figures and ``--html`` viewer pages.
+
+``PARSERS`` and ``RUNNERS`` list each one's parser and runner (a runner takes the loaded Scene, its ``--start``
+applied, and the parsed arguments); :data:`vibdyn.faces.cli.COMMANDS` registers them. Nothing heavier than
+argparse is imported until a command runs.
+"""
+
+import math
+import sys
+
+import numpy as np
+
+from .._format import json_ready, number, table
+from ..errors import ModelError
+
+SCENE_HELP = "scene file, bundled model name, or robot:NAME"
+
+
+def _p(out):
+    return lambda *a: print(*a, file=out or sys.stdout)
+
+
+def _pair(text, option, what, sep=":"):
+    """Two numbers A{sep}B (``--omega LO:HI``), or the force NAME:AMPLITUDE (a name and one number)."""
+    a, s, b = text.rpartition(sep)
+    try:
+        if not s or not a:
+            raise ValueError
+        return a, float(b)
+    except ValueError:
+        raise ModelError(f"{option} '{text}': expected {what}") from None
+
+
+def omega_range(text):
+    """(lo, hi) rad/s from ``LO:HI``."""
+    lo, hi = _pair(text, "--omega", "LO:HI, two frequencies in rad/s (e.g. 0.5:2)")
+    try:
+        lo = float(lo)
+    except ValueError:
+        raise ModelError(f"--omega '{text}': expected LO:HI, two frequencies in rad/s (e.g. 0.5:2)") from None
+    return lo, hi
+
+
+def forcing_period(scene):
+    """2π/ω (s) of the scene's harmonic drives, supports and forces when they share one ω, else None."""
+    omegas = set()
+    for e in scene.elements.values():
+        for part in ("motion", "value", "force", "torque"):
+            w = getattr(getattr(e, part, None), "omega", None)
+            if w is not None and getattr(getattr(e, part), "time_dependent", True):
+                omegas.add(float(w))
+    if len(omegas) == 1 and next(iter(omegas)) > 0:
+        return 2 * math.pi / omegas.pop()
+    return None
+
+
+# ---------------------------------------------------------------------------------------------- frc
+def _add_frc(sub):
+    frc = sub.add_parser("frc", help="forced-response curve of a nonlinear scene (harmonic balance): folds, "
+                         "peak, stability")
+    frc.add_argument("scene", help=SCENE_HELP)
+    frc.add_argument("--force", required=True, metavar="NAME:AMPLITUDE",
+                     help="harmonic force AMPLITUDE·cos Ωt (N, or N·m on a pivot) on the coordinate NAME")
+    frc.add_argument("--omega", required=True, metavar="LO:HI", help="range of the excitation's Ω, rad/s")
+    frc.add_argument("--coordinate", help="the coordinate whose amplitude is reported (default: the forced one)")
+    frc.add_argument("--harmonics", type=int, help="number of harmonics H (default: grown until the truncation "
+                     "estimate is below --tol × the peak)")
+    frc.add_argument("--tol", type=float, default=1e-8, help="relative truncation tolerance (default 1e-8)")
+    frc.add_argument("--png", help="save the curve (amplitude against Ω) to this PNG file")
+    frc.add_argument("--html", help="write a viewer page of the motion at the curve's largest amplitude")
+    frc.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+
+
+def frc_dict(system, curve):
+    """Plain data of a forced-response curve (SI units)."""
+    u = curve.unit
+    return json_ready({
+        "scene": system.name, "coordinate": curve.coordinate, "unit": u, "excitation": curve.excitation,
+        "method": "harmonic balance", "harmonics": curve.harmonics, "omega_rad_s": curve.omega,
+        "frequency_hz": curve.hz, "amplitude": curve.amplitude, "amplitude_error": curve.error,
+        "max_multiplier_modulus": np.abs(curve.multipliers[:, 0]), "multiplier_error": curve.multiplier_error,
+        "stability": list(curve.stability),
+        "peak": {"omega_rad_s": curve.peak.omega, "omega_error_rad_s": curve.peak.omega_error,
+                 "frequency_hz": curve.peak.hz, "amplitude": curve.peak.amplitude, "amplitude_error": curve.peak.error},
+        "folds": [{"omega_rad_s": f.omega, "omega_error_rad_s": f.omega_error, "frequency_hz": f.hz,
+                   "amplitude": f.amplitude, "amplitude_error": f.error} for f in curve.folds],
+        "status": curve.status, "message": curve.message, "elapsed_s": curve.elapsed})
+
+
+def frc_command(scene, args, out=None):
+    """``vibdyn frc``: the curve's peak, folds and points (Ω, amplitude, |μ|, stability), or JSON."""
+    from ..analysis.nonlinear.harmonic_balance import forced_response_curve
+
+    p = _p(out)
+    system = scene.build()
+    name, amplitude = _pair(args.force, "--force", "NAME:AMPLITUDE, a coordinate and a force amplitude (N or N·m)")
+    if name not in system.coordinates:
+        raise ModelError(f"--force '{args.force}': no coordinate '{name}' in scene '{system.name}' (coordinates: "
+                         f"{', '.join(system.coordinates)})")
+    coordinate = args.coordinate or name
+    if coordinate not in system.coordinates:
+        raise ModelError(f"--coordinate '{coordinate}': no such coordinate in scene '{system.name}' (coordinates: "
+                         f"{', '.join(system.coordinates)})")
+    curve = forced_response_curve(system, (name, amplitude), omega_range(args.omega), coordinate, args.harmonics,
+                                  tol=args.tol)
+    if args.png:
+        curve.plot(args.png)
+    if args.html:
+        from .viewer import export_html
+
+        export_html(curve.orbit(int(np.argmax(curve.amplitude))), args.html)
+    if args.json:
+        import json
+
+        p(json.dumps(frc_dict(system, curve), indent=1))
+        return curve
+    p(str(curve))
+    u = curve.unit
+    rows = [[number(w, digits=8), number(w / (2 * math.pi), digits=6), number(a, digits=8), f"{e:.1e}",
+             number(abs(m[0]), digits=8), f"{me:.1e}", s]
+            for w, a, e, m, me, s in zip(curve.omega, curve.amplitude, curve.error, curve.multipliers,
+                                          curve.multiplier_error, curve.stability)]
+    p(f"points: amplitude = max over a period of |{curve.coordinate} − equilibrium| ({u}) ± its truncation "
+      "estimate; largest Floquet multiplier |μ| (Hill's method) ± its error; stability 'within the error' where "
+      "|μ| = 1 within it")
+    for line in table(["Ω rad/s", "Ω/2π Hz", f"amplitude {u}", "±", "max |μ|", "± |μ|", "stability"], rows):
+        p("  " + line)
+    for path in (args.png, args.html):
+        if path:
+            p(f"saved {path}")
+    return curve
+
+
+# ---------------------------------------------------------------------------------------------- floquet
+def _add_floquet(sub):
+    fl = sub.add_parser("floquet", help="periodic orbit through the scene's start and its Floquet multipliers "
+                        "(shooting)")
+    fl.add_argument("scene", help=SCENE_HELP)
+    fl.add_argument("--period", type=float, help="the period T (s): a guess for an autonomous scene; a driven or "
+                    "forced scene's default is its drive's 2π/ω")
+    fl.add_argument("--start", nargs="+", metavar="NAME=VALUE",
+                    help="the start's offsets from neutral by coordinate, m or rad (others: the scene's start)")
+    fl.add_argument("--velocity", nargs="+", metavar="NAME=VALUE",
+                    help="the start's velocities by coordinate, m/s or rad/s (others 0)")
+    fl.add_argument("--t0", type=float, default=0.0, help="the start's time in the forcing period (s, default 0)")
+    fl.add_argument("--phase", help="autonomous scenes: this coordinate's velocity is zero at the start")
+    fl.add_argument("--html", help="write a viewer page of one period of the orbit (looped)")
+    fl.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+
+
+def floquet_command(scene, args, out=None):
+    """``vibdyn floquet``: the orbit through the scene's start state (period, multipliers |μ| ± their error,
+    verdict, Liouville's check), or JSON."""
+    from ..analysis.nonlinear.periodic import floquet, periodic_orbit
+
+    p = _p(out)
+    system = scene.build()
+    q0, where = system.start_configuration()
+    v0 = np.zeros(system.nv)
+    for name, value in _velocities(args.velocity).items():
+        if name not in system.coordinates:
+            raise ModelError(f"--velocity {name}: no such coordinate in scene '{system.name}' (coordinates: "
+                             f"{', '.join(system.coordinates)})")
+        v0[system.coordinates.index(name)] = value
+    period, source = args.period, "given"
+    if system.depends_on_time:
+        if period is None:
+            period, source = forcing_period(scene), "the forcing's 2π/ω"
+        if period is None:
+            raise ModelError(f"floquet: scene '{system.name}' depends on time without one harmonic frequency: give "
+                             "--period (s)")
+        orbit = floquet(system, period, q0, v0, args.t0)
+    else:
+        if period is None:
+            source = "found from the first return"
+        orbit = periodic_orbit(system, q0, v0, period, args.t0, phase=args.phase)
+    if args.html:
+        from .viewer import export_html
+
+        export_html(orbit, args.html)
+    if args.json:
+        import json
+
+        p(json.dumps(json_ready({"scene": system.name, "start": where, "period_source": source,
+                                 **orbit.to_dict()}), indent=1))
+        return orbit
+    driven = "; driven coordinates follow their drives" if system.depends_on_time else ""
+    p(f"scene {system.name}: orbit through {where}, velocities {_state(system, v0)}{driven}; period {source}")
+    p(str(orbit))
+    g, e = orbit.growth
+    verdict = " (within the error)" if abs(g) <= e else ""
+    p(f"largest |μ| − 1 = {g:.3e} ± {e:.1e}{verdict}: {orbit.stability}")
+    if args.html:
+        p(f"saved {args.html}")
+    return orbit
+
+
+def _velocities(items):
+    out = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        try:
+            if not sep or not name.strip():
+                raise ValueError
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise ModelError(f"--velocity {item!r}: expected NAME=VALUE, a coordinate and its velocity (m/s or "
+                             "rad/s)") from None
+    return out
+
+
+def _state(system, v):
+    return ", ".join(f"{c} {number(x, u + '/s')}" for c, x, u in zip(system.coordinates, v, system.units)) or "-"
+
+
+#: name -> add its parser; name -> run it on (scene, args)
+PARSERS = {"frc": _add_frc, "floquet": _add_floquet}
+RUNNERS = {"frc": frc_command, "floquet": floquet_command}
