@@ -58,3 +58,22 @@ def test_command_on_model(path, command):
     else:
         assert code == 2, f"expected the refusal '{expected}', got exit {code}: {out[-500:]}"
         assert err.startswith("vibdyn: error:") and expected in err, err
+
+
+# the nonlinear commands, on the models they apply to: frc needs a forced coordinate (and no drive), floquet a start
+# off equilibrium or a drive, backbone a conservative scene
+NONLINEAR = {
+    "duffing": [["frc", "--force", "mass:0.1", "--omega", "0.8:1.4", "--harmonics", "3"]],
+    "two_mass_cubic": [["frc", "--force", "m1:0.02", "--omega", "0.8:2", "--coordinate", "m2", "--harmonics", "3"],
+                       ["floquet", "--start", "m1=0.5", "m2=0.5"]],
+    "shaken_pendulum": [["floquet"], ["floquet", "--start", "pend=3.141592653589793"]],
+    "rod_pivot": [["floquet", "--start", "rod=1"]],
+}
+
+
+@pytest.mark.parametrize("model, argv", [(m, a) for m, runs in NONLINEAR.items() for a in runs],
+                         ids=[f"{m}-{' '.join(a[:1] + a[1:3])}" for m, runs in NONLINEAR.items() for a in runs])
+def test_nonlinear_command_on_model(model, argv):
+    code, out, err = run([argv[0], str(MODELS / f"{model}.toml"), *argv[1:]])
+    assert code == 0, f"vibdyn {argv[0]} {model} failed: {err.strip()}"
+    assert out.strip() and "nan" not in out.lower().split(), out
