@@ -344,3 +344,18 @@ def value_strings(x):
     if a is None or not all(isinstance(v, str) for v in a):
         raise BadValue(f"expected a list of strings, got {shown(x)}")
     return a
+
+
+def name_values(items, option, meaning):
+    """{name: number} from ``NAME=VALUE`` strings of the command-line ``option``; ``meaning`` says what a pair
+    is in the error (a ModelError naming the bad item)."""
+    out = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        try:
+            if not sep or not name.strip():
+                raise ValueError
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise ModelError(f"{option} {item!r}: expected NAME=VALUE, {meaning}") from None
+    return out

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._check import name_values
 from .._format import number, table, vector
 from ..errors import ModelError, VibdynError
 from .nonlinear_command import PARSERS as NONLINEAR
@@ -297,17 +298,8 @@ def _damped_note(m):
 
 def start_offsets(items):
     """{coordinate: offset (m or rad)} from ``NAME=VALUE`` strings (the ``--start`` option)."""
-    out = {}
-    for item in items or ():
-        name, sep, value = item.partition("=")
-        try:
-            if not sep or not name.strip():
-                raise ValueError
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise ModelError(f"--start {item!r}: expected NAME=VALUE, a coordinate and its offset from neutral "
-                             "(m or rad), e.g. --start pendulum=-1.5") from None
-    return out
+    return name_values(items, "--start", "a coordinate and its offset from neutral (m or rad), e.g. --start "
+                                         "pendulum=-1.5")
 
 
 def servo_pair(text):

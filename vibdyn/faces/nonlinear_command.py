@@ -12,6 +12,7 @@ import sys
 
 import numpy as np
 
+from .._check import name_values
 from .._format import json_ready, number, table
 from ..errors import ModelError
 
@@ -198,17 +199,7 @@ def floquet_command(scene, args, out=None):
 
 
 def _velocities(items):
-    out = {}
-    for item in items or ():
-        name, sep, value = item.partition("=")
-        try:
-            if not sep or not name.strip():
-                raise ValueError
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise ModelError(f"--velocity {item!r}: expected NAME=VALUE, a coordinate and its velocity (m/s or "
-                             "rad/s)") from None
-    return out
+    return name_values(items, "--velocity", "a coordinate and its velocity (m/s or rad/s)")
 
 
 def _state(system, v):
