@@ -232,7 +232,7 @@ def test_modes_png_and_plot(tmp_path, capsys):
 def test_bad_requests_are_model_errors(tmp_path, capsys):
     with pytest.raises(vd.ModelError, match="amplitude"):
         vd.export_html(vd.load_scene(MODELS / "trailer.toml"), tmp_path / "x.html", amplitude=-1.0)
-    with pytest.raises(vd.ModelError, match="Modes, Trajectory, System or Scene"):
+    with pytest.raises(vd.ModelError, match="Modes, Trajectory, System, Scene, PeriodicOrbit"):
         vd.export_html(42, tmp_path / "x.html")
     assert cli.main(["view", str(MODELS / "trailer.toml"), "--html", str(tmp_path / "no" / "x.html")]) == 2
     assert "cannot write" in capsys.readouterr().err
