@@ -23,6 +23,7 @@ REGISTRY = {
     "linearization": "benchmarks.linearization",  # linearise + all modes against chain length, FD V-curve
     "extreme": "benchmarks.extreme",  # stiff and extreme cases: right or refused loudly
     "speed": "benchmarks.speed",  # the next speed targets, as ratios to MuJoCo
+    "nonlinear": "benchmarks.nonlinear",  # forced-response curves (HB beside pyHarm, sweeps), periodic orbits
 }
 RESULTS = C.HERE / "results"
 BASELINE = C.HERE / "baseline.json"

@@ -1,0 +1,214 @@
+"""Nonlinear vibrations: forced-response curves by harmonic balance and periodic orbits, error against run time.
+
+Cases (references independent of the method measured):
+
+- **Duffing forced response, peak amplitude** (models/duffing.toml, F = 0.1 N): the reference is the largest
+  amplitude of the true periodic response, found by shooting on vibdyn's time simulation (``vd.floquet`` of the
+  scene with the force as a time law, each orbit started from the last) maximised over Ω by Brent's method;
+  its uncertainty is the orbits' closing error plus the maximiser's. Runs: vibdyn's harmonic balance at H = 1,
+  3, 5, 7 and adaptive (estimate: the peak's truncation estimate); pyHarm (``pyharm-os`` 1.2.2, the HB code of
+  Safran, installed with pip) at nh = 1, 3, 5, 7 (no error estimate); and a brute-force sweep — vibdyn's
+  simulation run to steady state at each Ω of a grid, up in frequency (each start the last end), the
+  amplitude read off the last periods. Each run also records its folds' Ω against the single-harmonic closed
+  form at H = 1 (``fold_error_h1``: the closed form solves the H = 1 balance exactly) and the jump frequencies
+  of the sweep (only as fine as its grid).
+- **Pendulum orbits against the elliptic integral** (models/rod_pivot.toml, released from 2.5 rad): the
+  period T = 4 K(sin²(A/2))/ω₀ of the nonlinear normal mode at that amplitude, ``vd.periodic_orbit`` at
+  several flow tolerances (estimate: ``period_error``).
+
+What each gets wrong is recorded in the runs (``note``): a single harmonic misses the Duffing peak by about
+1 % (its truncation estimate says so); pyHarm's peak is the best of its continuation points (no refinement),
+so its error floors at the step's resolution whatever nh; the sweep's peak and jumps are only as fine as its
+grid and each Ω costs ~10 damping times of simulation.
+"""
+
+import math
+import time
+
+import numpy as np
+
+import vibdyn as vd
+
+from . import common as C
+
+F = 0.1  # N: the forcing of the Duffing cases (models/duffing.toml's reference)
+RANGE = (0.5, 2.0)  # rad/s: the swept Ω
+
+
+def duffing():
+    scene = vd.load_scene("duffing")
+    return scene, scene.build(), scene.references
+
+
+def forced(scene, omega):
+    s = scene.copy()
+    s.add_joint_force("mass", vd.laws.Harmonic(F, omega, phase=math.pi / 2))  # F cos Ωt
+    return s.build()
+
+
+def orbit_amplitude(orbit):
+    """max |x| over a periodic orbit's samples, refined by a parabola through the largest and its neighbours."""
+    x = np.abs(orbit.trajectory.q[:-1, 0])
+    k = int(np.argmax(x))
+    a, b, c = x[k - 1], x[k], x[(k + 1) % len(x)]
+    d = a - 2 * b + c
+    return float(b - (a - c) ** 2 / (8 * d)) if d < 0 else float(b)
+
+
+def shooting_peak(scene, curve, xatol=1e-7, width=None):
+    """(Ω*, largest amplitude, its uncertainty, elapsed) of the true response by shooting, maximised over Ω
+    between the curve's neighbours of its largest point (or ± ``width`` rad/s about its peak)."""
+    from scipy.optimize import minimize_scalar
+
+    start = time.perf_counter()
+    i = int(np.argmax(curve.amplitude))
+    lo, hi = float(curve.omega[max(i - 1, 0)]), float(curve.omega[min(i + 1, len(curve.omega) - 1)])
+    if width is not None:
+        lo, hi = curve.peak.omega - width, curve.peak.omega + width
+    coef = curve.coefficients[i][:, 0]
+    state = {"x": (coef[0] + coef[1::2].sum(), curve.omega[i] * (np.arange(1, curve.harmonics + 1) * coef[2::2]).sum())}
+    errs = []
+
+    def neg(w):
+        x0, v0 = state["x"]
+        orbit = vd.floquet(forced(scene, w), 2 * math.pi / w, [x0], [v0], points=1024)
+        state["x"] = (orbit.q0[0], orbit.v0[0])
+        errs.append(orbit.error)
+        return -orbit_amplitude(orbit)
+
+    res = minimize_scalar(neg, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
+    w, peak = float(res.x), float(-res.fun)
+    # flat at the peak: Ω off by δ ≲ 3·xatol costs ½|A''|δ² (A'' by a central difference there)
+    h = 1e-4 * w
+    curvature = abs(-neg(w + h) - 2 * peak - neg(w - h)) / h**2
+    return w, peak, max(errs) + 0.5 * curvature * (3 * xatol) ** 2 + 1e-12, time.perf_counter() - start
+
+
+def pyharm_curve(nh, ds=5e-3):
+    """(Ω, amplitude) of pyHarm's Duffing FRC with nh harmonics, and its fold frequencies."""
+    from pyHarm.DynamicOperator import compute_DFT
+    from pyHarm.Maestro import Maestro
+
+    k, c, k3 = 1.0, 0.05, 0.1
+    linsys = {"M": np.array([[1.0]]), "C": np.array([[c]]), "K": np.array([[k]]), "G": np.zeros((1, 1))}
+    data = {"analysis": {"frf": {"study": "frf", "puls_inf": RANGE[0], "puls_sup": RANGE[1], "ds0": ds,
+                                 "ds_min": 1e-8, "ds_max": ds, "sign_ds": 1, "verbose": False,
+                                 "stepsizer": "acceptance", "predictor": "tangent", "corrector": "arc_length",
+                                 "stopper": "bounds"}},
+            "system": {"type": "Base", "nh": nh, "nti": 256, "adim": {"status": False, "lc": 1.0, "wc": 1.0}},
+            "substructures": {"duffing": {"matrix": linsys, "ndofs": 1}},
+            "connectors": {"loading": {"type": "CosinusForcing", "connect": {"duffing": [0]}, "dirs": [0], "amp": F},
+                           "cubic": {"type": "CubicSpring", "connect": {"duffing": [0]}, "dirs": [0], "k": k3}}}
+    import logging
+    import warnings
+
+    logging.disable(logging.WARNING)  # its log of folds and steps
+    try:
+        with warnings.catch_warnings():  # pyHarm's own deprecations (getIndex) are not ours to report
+            warnings.simplefilter("ignore")
+            M = Maestro(data)
+            ix = M.getIndex("duffing", 0, 0)
+            M.operate()
+    finally:
+        logging.disable(logging.NOTSET)
+    sols = [s for s in M.nls["frf"].SolList if s.flag_accepted]
+    D = compute_DFT(M.system.nti, M.system.nh)
+    w = np.array([s.x[-1] for s in sols])
+    a = np.array([np.max(np.abs(s.x[ix] @ D["ft"])) for s in sols])
+    turns = np.flatnonzero(np.diff(np.sign(np.diff(w))) != 0) + 1  # where Ω turns back: the folds (a point each)
+    return w, a, sorted(w[turns].tolist())
+
+
+def sweep(system_at, omegas, periods):
+    """Brute force: at each Ω (upwards) the simulation from the last end runs ``periods`` forcing periods; the
+    amplitude is max |x| over the last two. Returns the amplitudes."""
+    x, v = [0.0], [0.0]
+    amps = []
+    for w in omegas:
+        T = 2 * math.pi / w
+        tr = system_at(w).simulate(periods * T, x, v, t_eval=np.linspace((periods - 2) * T, periods * T, 257),
+                                   rtol=1e-9)
+        x, v = tr.q[-1], tr.v[-1]
+        amps.append(float(np.abs(tr.q[:, 0]).max()))
+    return np.array(amps)
+
+
+def fold_error(folds, reference):
+    if len(folds) != len(reference):
+        return None
+    return float(max(abs(a - b) for a, b in zip(sorted(folds), sorted(reference))))
+
+
+def duffing_case(S):
+    scene, system, ref = duffing()
+    best = vd.forced_response_curve(system, ("mass", F), RANGE, "mass")
+    w_ref, a_ref, a_err, t_ref = (shooting_peak(scene, best, 1e-7, width=2e-4) if S.smoke
+                                  else shooting_peak(scene, best, 1e-7))
+    folds_h1 = ref["fold_omega"]
+    runs = []
+    for H in ([1] if S.smoke else [1, 3, 5, 7]) + [None]:
+        curve, t, peak_mb = C.measure(
+            lambda: vd.forced_response_curve(system, ("mass", F), RANGE, "mass", harmonics=H), S.repeat)
+        folds = [f.omega for f in curve.folds]
+        runs.append(C.run_record(f"vibdyn HB H={H or 'adaptive'}", "vibdyn", abs(curve.peak.amplitude - a_ref),
+                                 curve.peak.error, t, None, peak_mb, reference_error=a_err, method="harmonic balance",
+                                 harmonics=curve.harmonics, points=len(curve.omega), peak_omega=curve.peak.omega,
+                                 folds=folds, fold_error_h1=fold_error(folds, folds_h1) if H == 1 else None,
+                                 fold_estimate=max((f.omega_error for f in curve.folds), default=None)))
+    try:
+        import os
+        import tempfile
+
+        # pyHarm keeps a "kernel state" file, by default ./.pyHarm/context.json: out of the working tree
+        os.environ.setdefault("PYHARM_CONTEXT_FILE", os.path.join(tempfile.gettempdir(), "vibdyn-pyharm",
+                                                                  "context.json"))
+        import pyHarm  # noqa: F401
+
+        for nh in [1] if S.smoke else [1, 3, 5, 7]:
+            (w, a, folds), t, peak_mb = C.measure(lambda: pyharm_curve(nh), 1, memory=False)
+            runs.append(C.run_record(f"pyHarm nh={nh}", "pyharm", abs(float(a.max()) - a_ref), None, t, None, None,
+                                     method="pyHarm", harmonics=nh, points=len(w), peak_omega=float(w[a.argmax()]),
+                                     folds=folds, fold_error_h1=fold_error(folds, folds_h1) if nh == 1 else None,
+                                     note="peak = best continuation point (not refined); folds = turning points"))
+    except ImportError as e:  # said in the case (a run of its own would be "new" against the baseline)
+        pyharm_note = f"pyHarm not run: pyharm-os is not installed here ({e}); pip install pyharm-os"
+    else:
+        pyharm_note = "pyharm-os installed and run"
+    # every mode runs the coarse sweep (the smoke run's, so that its baseline exists); the others a finer one
+    for n, periods in [(5, 10)] + ([] if S.smoke else [(13, 40)] if S.quick else [(61, 80)]):
+        grid = np.linspace(0.9, 1.2, n)  # damping time 1/(ζω) ≈ 40 s ≈ 6 periods
+        amps, t, _ = C.measure(lambda: sweep(lambda w: forced(scene, w), grid, periods), 1, memory=False)
+        k = int(np.argmax(amps))
+        jump = float(grid[k + 1]) if k + 1 < len(grid) else None
+        runs.append(C.run_record(f"brute-force simulation sweep, {n} Ω × {periods} periods", "simulation",
+                                 abs(float(amps.max()) - a_ref), None, t, None, None, method="simulation sweep",
+                                 peak_omega=float(grid[k]), jump_up_sweep=jump,
+                                 note=f"grid step {grid[1] - grid[0]:.3g} rad/s: the jump (true upper fold "
+                                      f"{best.folds[0].omega if best.folds else float('nan'):.6f}) and the peak "
+                                      "only to that resolution; unsettled transients remain after few periods"))
+    return C.case_record("Duffing FRC peak amplitude (F = 0.1 N)", "nonlinear",
+                         f"shooting on the simulation, maximised over Ω: {a_ref:.10f} m at Ω = {w_ref:.8f} rad/s "
+                         f"(± {a_err:.1e} m, {t_ref:.1f} s)", runs, unit="m", reference_value=a_ref,
+                         reference_omega=w_ref, reference_error=a_err, pyharm=pyharm_note)
+
+
+def pendulum_case(S):
+    from scipy.special import ellipk
+
+    system = vd.load_scene("rod_pivot").build()
+    A = 2.5
+    w0 = vd.load_scene("rod_pivot").references["omega"][0]
+    exact = 4 * float(ellipk(math.sin(A / 2) ** 2)) / w0
+    runs = []
+    for rtol in [1e-9] if S.smoke else [1e-5, 1e-7, 1e-9, 1e-11]:
+        orbit, t, peak_mb = C.measure(lambda: vd.periodic_orbit(system, [A], [0.0], phase="rod", rtol=rtol,
+                                                                tol=max(rtol * 10, 1e-10)), S.repeat)
+        runs.append(C.run_record(f"vibdyn periodic_orbit rtol={rtol:g}", "vibdyn", abs(orbit.period - exact),
+                                 orbit.period_error, t, None, peak_mb, method="shooting", rtol=rtol,
+                                 multiplier_error=float(orbit.multiplier_error.max())))
+    return C.case_record(f"pendulum orbit from {A} rad: period", "nonlinear",
+                         f"4 K(sin²(A/2)) / ω₀ = {exact:.12f} s (scipy ellipk)", runs, unit="s")
+
+
+def run(S):
+    return [duffing_case(S), pendulum_case(S)]
