@@ -187,7 +187,8 @@ def _status(url: str, cache: dict) -> int:
 def search(browser: Browser, base: str, query: str) -> list[str]:
     """The result pages (paths relative to the site) Sphinx's search page lists for ``query``, best first."""
     browser.goto(f"{base}search.html?q={urllib.parse.quote(query)}",
-                 ready="document.querySelector('#search-results .search-summary') !== null")
+                 ready="(document.querySelector('#search-results .search-summary') || {}).innerText > ''")
+    # Sphinx creates the summary first and fills its text once the last result is listed
     hrefs = browser.js("[...document.querySelectorAll('#search-results ul.search > li')]"
                        ".map(li => li.querySelector('a').href)")
     return [urllib.parse.urlparse(h).path.lstrip("/") for h in hrefs]
