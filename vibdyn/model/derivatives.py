@@ -28,6 +28,7 @@ class Derivatives:
         self.system, self.q, self.v, self.t = system, q, v, t
         self.nv = system.nv
         self.fkin = None
+        self.differenced = False  # element_fd was used: these derivatives are exact only to ~1e-10 (relative)
         self.dFq = {j: np.zeros((6, self.nv)) for j in system.point_joints}
         self.dFv = {j: np.zeros((6, self.nv)) for j in system.point_joints}
         self.dFq_abs = {j: np.zeros((6, self.nv)) for j in system.point_joints} if magnitudes else None
@@ -86,6 +87,7 @@ class Derivatives:
     def element_fd(self, fun, with_v=True):
         """Central differences (∂/∂q, ∂/∂v) of an element's own output ``fun(q, v)`` (for user callables,
         which have no derivative)."""
+        self.differenced = True
         h = steps(self.system, 1e-6)
         Dq = tangent_derivative(self.system, lambda qq: fun(qq, self.v), self.q, h)
         Dv = vector_derivative(lambda vv: fun(self.q, vv), self.v, h) if with_v else np.zeros_like(Dq)
@@ -131,6 +133,7 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None):
             K -= dq
         if dv is not None:
             C -= dv
+    ws.differenced = d.differenced
     return K, C, terms, K_size
 
 

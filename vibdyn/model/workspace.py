@@ -20,10 +20,11 @@ class Workspace:
     :mod:`vibdyn.model.dynamics` may share memory with it: copy what you keep."""
 
     __slots__ = ("data", "fext", "rotations", "translations", "linear", "angular", "forces", "stencils",
-                 "drive_forces")
+                 "drive_forces", "differenced")
 
     def __init__(self, model: pin.Model):
         self.data = data = create_data(model)
+        self.differenced = False  # the last analytic derivatives differenced a user callable
         self.fext = pin.StdVec_Force()
         for _ in range(model.njoints):
             self.fext.append(pin.Force.Zero())

@@ -44,6 +44,7 @@ from ..errors import ModelError, VibdynError
 from ..model.groups import ForceGroup
 from ..model.system import Energy
 from .integrators import ALIASES, METHODS, StepError, method_class
+from .integrators.base import DIFFERENCED_RTOL
 from .integrators.driven import free_block
 from .trajectory import SimulationError, Trajectory, q_names  # noqa: F401  (the module's public names)
 
@@ -126,6 +127,9 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
         other = runs[1].transition if len(runs) > 1 else None
         err = np.inf if other is None else float(np.abs(main.transition - other).max()) / (
             1.0 if cfg.error == "rerun" else 2.0 ** METHODS[cfg.method].order - 1.0)
+        floored = getattr(main.stepper, "floored_steps", 0)
+        if floored:  # both runs held these steps' Φ to the same floor: their errors, summed
+            err = max(err, DIFFERENCED_RTOL * floored * float(np.abs(main.transition).max()))
         traj = replace(traj, state_transition=main.transition, state_transition_error=err)
     if main.status == "finished" and not np.all(np.isfinite(traj.energy)):
         raise SimulationError("the energies of the motion overflow (state too large for double precision)",

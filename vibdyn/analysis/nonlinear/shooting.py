@@ -141,8 +141,7 @@ class Shooting:
     def flows(self, x, error="local", points=None, refine=1):
         """One run per segment from its node (variational equations included): a list of Trajectory.
         ``points``: equally spaced outputs per segment (None: every step); steps at most max_step / ``refine``
-        (the variational equations are integrated with the state's steps, not controlled by them: a state that
-        barely moves — an orbit at an equilibrium, a uniform rotation — would leave them unresolved)."""
+        (the error estimate's run halves the steps: the variational equations' own convergence)."""
         key = x.tobytes()
         cached = error == "local" and points is None and refine == 1
         if cached and self._cache[0] == key:

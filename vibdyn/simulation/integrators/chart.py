@@ -60,6 +60,7 @@ class VectorODE:
         self.n = 2 * system.nv + (1 if work else 0)
         self.work = work
         self.nfev = 0
+        self.differenced = False  # a Jacobian so far differenced a user callable (exact to ~1e-10 only)
 
     def __call__(self, t, y):
         out = np.empty(self.n)
@@ -121,6 +122,7 @@ class VectorODE:
 
     def _minv_kc(self, q, v, t):
         M, K, C = linear_terms(self.system, q, v, t)
+        self.differenced = self.differenced or self.ws.differenced
         X = sla.cho_solve(sla.cho_factor(M), np.hstack([K, C]))
         return X[:, :self.nv], X[:, self.nv:]
 
@@ -174,7 +176,7 @@ class ChartODE(VectorODE):
 
     def jacobian(self, t, y):
         """As :meth:`VectorODE.jacobian`, mapped to the chart: ∂v̇/∂ξ = −M⁻¹K dIntegrate(ξ), ∂ξ̇/∂v =
-        dexp⁻¹(ξ), and the chart's own term ∂(dexp⁻¹(ξ) v)/∂ξ by central differences on the curved joints'
+        dexp⁻¹(ξ), and the chart's own term ∂(dexp⁻¹(ξ) v)/∂ξ by fourth-order differences on the curved joints'
         columns (it is zero on the others)."""
         nv, model, c = self.nv, self.model, self.centre
         xi, v = y[:nv], y[nv:2 * nv].copy()
@@ -184,13 +186,14 @@ class ChartODE(VectorODE):
         J[:nv, nv:2 * nv] = pin.dDifference(model, c, q, ARG1)
         J[nv:2 * nv, :nv] = -MinvK @ pin.dIntegrate(model, c, xi, ARG1)
         J[nv:2 * nv, nv:2 * nv] = -MinvC
-        eps = 1e-7
+        # fourth-order differences of a step 1e-3 (rad or m): truncation ~1e-14 and round-off ~1e-13 relative (a
+        # plain central difference of 1e-7 leaves round-off of 1e-9, which the variational step control sees)
+        eps = 1e-3
         for k in self.curved_columns:
             e = np.zeros(nv)
             e[k] = eps
-            dp = pin.dDifference(model, c, pin.integrate(model, c, xi + e), ARG1)
-            dm = pin.dDifference(model, c, pin.integrate(model, c, xi - e), ARG1)
-            J[:nv, k] = (dp - dm) @ v / (2 * eps)
+            d = [pin.dDifference(model, c, pin.integrate(model, c, xi + s * e), ARG1) for s in (2, 1, -1, -2)]
+            J[:nv, k] = (8 * (d[1] - d[2]) - (d[0] - d[3])) @ v / (12 * eps)
         return J
 
 
@@ -199,8 +202,8 @@ class Variational:
     derivative of (ξ, v) with respect to their initial values, Ẏ = J(t, ξ, v) Y, J the ODE's Jacobian
     (:meth:`VectorODE.jacobian`: the analytic −M⁻¹K and −M⁻¹C, mapped to the chart). The chart re-centres
     carry Y with them (δξ_new = dIntegrate(ξ) δξ_old), so :meth:`transition` is the state transition in the
-    tangent spaces at q(t) and q0. The Y components are integrated with the state's steps, not controlled by
-    them (their absolute tolerance is infinite). Not for mechanisms with loops (their projection has no
+    tangent spaces at q(t) and q0. The steppers control Y's error with the state's (DOP853: see
+    :mod:`.explicit`). Not for mechanisms with loops (their projection has no
     variational counterpart here)."""
 
     def __init__(self, base):

@@ -10,7 +10,9 @@ step costs).
 
 Error control: positions are measured in the step's chart, so their scale is atol_q + rtol·|Δq| (an angle
 of 1000 rad after many turns does not loosen the tolerance); velocities use atol_v + rtol·max(|v_n|, |v_n+1|).
-The work component w is integrated with the state but not controlled (it feeds nothing back).
+The work component w is integrated with the state but not controlled (it feeds nothing back). The variational
+equations' Φ is controlled too (normwise relative, see :class:`DOP853`): a state at rest would otherwise allow
+steps that leave Φ unresolved.
 """
 
 import math
@@ -18,7 +20,7 @@ import math
 import numpy as np
 
 from . import dop853_tableau as _dop
-from .base import Interpolant, ODEStepper, StepError, initial_step
+from .base import DIFFERENCED_RTOL, Interpolant, ODEStepper, StepError, initial_step
 
 __all__ = ["DOP853", "RK4", "RungeKutta", "StepError"]
 
@@ -114,6 +116,15 @@ class DOP853(RungeKutta):
         self._previous = 1e-4  # error norm of the last accepted step
         self._E = np.vstack([_dop.E5, _dop.E3])
         self._atol = np.concatenate([self.atol_q, self.atol_v])
+        # the variational equations are controlled too (a state at rest would otherwise take steps that leave Φ
+        # unresolved): Φ made dimensionless by the tolerances, Φ̂_ij = Φ_ij atol_j / atol_i, held to
+        # rtol·max(1, max|Φ̂|) (normwise relative: an entry's scale is that of the largest, as in a matrix norm);
+        # not below DIFFERENCED_RTOL where the Jacobian differences a user callable (its noise would stall the steps)
+        self._Y = None
+        self.floored_steps = 0  # accepted steps whose Φ was held to DIFFERENCED_RTOL rather than rtol
+        if self.variational:
+            self._Y = slice(2 * nv, 2 * nv + 4 * nv * nv)
+            self._Yscale = (self._atol[None, :] / self._atol[:, None]).ravel()
         first_step = self.first_step
         if first_step is None:
             first_step = initial_step(self.ode, self.t, self.y, self.f, self.t_end, self.max_step, 7, self.rtol,
@@ -148,6 +159,14 @@ class DOP853(RungeKutta):
             scale += atol
             n5, n3 = np.square(err / scale).sum(axis=1).tolist()
             error_norm = 0.0 if n5 == 0 and n3 == 0 else h * n5 / math.sqrt((n5 + 0.01 * n3) * m)
+            if self._Y is not None:
+                Yhat = np.abs(y_new[self._Y] * self._Yscale).max()
+                rtol_Y = max(rtol, DIFFERENCED_RTOL) if self.ode.differenced else rtol
+                errY = np.dot(E, self.YK[1:self.stages + 2, self._Y]) * (self._Yscale / (rtol_Y * max(1.0, Yhat)))
+                y5, y3 = np.square(errY).sum(axis=1).tolist()
+                y_norm = h * y5 / math.sqrt((y5 + 0.01 * y3) * m * m) if y5 > 0 else 0.0
+                floored = y_norm > error_norm and rtol_Y > rtol  # this step's Φ is held to the floor only
+                error_norm = max(error_norm, y_norm)
             if error_norm <= 1:  # accepted: PI control (Lund stabilisation) with the previous error norm
                 factor = SAFETY * (error_norm ** -self.alpha if error_norm > 0 else math.inf) * self._previous ** BETA
                 factor = min(MAX_FACTOR, max(MIN_FACTOR, factor))
@@ -165,6 +184,8 @@ class DOP853(RungeKutta):
         # norm is error_norm), accumulated
         c = math.sqrt(n5 / (n5 + 0.01 * n3)) if n5 > 0 else 0.0
         self.local_error += (h * c) * np.abs(err[0])
+        if self._Y is not None and floored:
+            self.floored_steps += 1
         self.dense = (self._dense_output(h, y_new, f_new)
                       if next_output is not None and next_output < t_new else None)
         self._accept(h, y_new, f_new)
