@@ -46,6 +46,7 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "results": ("TimeResult",),
     "analysis.campbell_diagram": ("campbell", "Campbell", "CriticalSpeed"),
     "analysis.nonlinear.periodic": ("periodic_orbit", "floquet", "PeriodicOrbit"),
+    "analysis.nonlinear.backbone": ("backbone", "Backbone"),
     "simulation.simulate": ("Trajectory", "SimulationError"),
     "studies.sweeps": ("sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked"),
     "analysis.nonlinear.harmonic_balance": ("forced_response_curve", "ForcedResponseCurve", "PointForce",
@@ -145,4 +146,4 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html",
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
-           "periodic_orbit", "floquet", "PeriodicOrbit"]
+           "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone"]

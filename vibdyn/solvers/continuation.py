@@ -53,7 +53,9 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
                  stop: Callable | None = None) -> Branch:
     """Follow the branch of F(x, λ) = 0 from (x0, lam0) (x0 corrected first at λ = lam0) towards λ = lam_end.
 
-    ``fun(x, lam)`` → ℝⁿ; ``jacobian(x, lam)`` → n × (n + 1) = [F_x, F_λ] (central differences if None);
+    ``fun(x, lam)`` → ℝᵐ, m ≥ n (m > n: a consistent system with redundant rows, solved in least squares, as
+    shooting with energy conservation); ``jacobian(x, lam)`` → m × (n + 1) = [F_x, F_λ] (central differences
+    if None);
     ``step``: the first arclength step, in the variables scaled by ``scale`` (n + 1 positive numbers, default
     1: what "one unit" of each means), grown ×1.5 after an easy correction, halved after a failed one, at
     most ``max_step``; ``stop(x, lam)`` → True ends the branch there (a request reached). The point where λ
@@ -76,7 +78,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
 
     def J(y):
         if jacobian is not None:
-            return np.asarray(jacobian(y[:n] * w[:n], y[n] * w[n]), float).reshape(n, n + 1) * w[None, :]
+            return np.asarray(jacobian(y[:n] * w[:n], y[n] * w[n]), float).reshape(-1, n + 1) * w[None, :]
         return fd_jacobian(F, y)
 
     first = newton(lambda x: F(np.append(x, lam0 / w[n])), x0 / w[:n],
@@ -171,7 +173,8 @@ def _fold(F, J, ya, yb, t, w, n, index, tol):
         Jy, e = J(y), np.append(v, 0.0)
         h = 1e-5 * max(1.0, float(np.linalg.norm(y))) / max(float(np.linalg.norm(v)), 1e-300)
         Jv = (J(y + h * e) - J(y - h * e)) / (2 * h)
-        return np.block([[Jy, np.zeros((n, n))], [Jv, Jy[:, :n]], [np.zeros((1, n + 1)), v0[None, :]]])
+        m = Jy.shape[0]  # (m ≥ n rows: a redundant consistent system)
+        return np.block([[Jy, np.zeros((m, n))], [Jv, Jy[:, :n]], [np.zeros((1, n + 1)), v0[None, :]]])
 
     res = newton(G, z0, DG, tol=tol, max_iter=30)
     y = res.x[:n + 1]

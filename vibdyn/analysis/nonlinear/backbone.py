@@ -1,0 +1,535 @@
+"""Backbones of nonlinear normal modes: :func:`backbone` → :class:`Backbone`.
+
+A nonlinear normal mode (NNM) of a conservative scene is the family of periodic orbits that grows out of one
+linear mode of the static equilibrium; its backbone is the fundamental frequency ω (rad/s) against the energy
+(or an amplitude). The family is followed from the linear mode at small amplitude (q = q_eq ⊕ ε φ, v = 0,
+T = 2π/ω_lin) by the solver kit's pseudo-arclength continuation (:mod:`vibdyn.solvers.continuation`) in the
+energy above the equilibrium's (J), or in the amplitude of the reported coordinate, on the shooting equations of
+:mod:`.shooting`: unknowns the start's tangent displacement ξ from q_eq (q0 = q_eq ⊕ ξ: ball joints stay on
+their group), its velocities v0 and the period T; equations the closing of the orbit, the phase condition
+v_c(0) = 0 (the start is a turning point of the coordinate c) and the parameter's own row (E(q0, v0) − E_eq = λ,
+or ξ_c = λ). The closing equations hold one redundant row (energy is conserved): the system is square plus one
+consistent row, solved in least squares, its one-dimensional null space the branch's tangent. Each request is an
+end point of the continuation, solved exactly there, then converged again by :func:`.periodic.periodic_orbit`
+(energy kept, same phase condition) for its Floquet multipliers and error estimates.
+
+Internal resonances: at every point of the branch the nontrivial Floquet multipliers (the monodromy on the
+energy level, the flow's direction removed) are followed as rotation angles θ_j, starting from 2π ω_j/ω_i of the
+other linear modes; θ_j crossing a multiple 2πk (a multiplier μ = e^{iθ_j} reaching +1: the other NNM's period
+commensurate, k:1) is reported in :attr:`Backbone.resonances` with the energy and ω where met, as are the folds
+of the branch; the continuation goes on past it (the orbits after it are flagged in the summary).
+
+Damping is left out: a scene's backbone is that of its conservative part (dampers and velocity-dependent forces
+dropped, said in :attr:`Backbone.note`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+import scipy.linalg as sla
+from numpy.typing import ArrayLike
+
+from ..._check import integer, scalar
+from ..._format import duration, number, summary, table
+from ...errors import ConvergenceError, ModelError
+from ...model.groups import ForceGroup
+from ...simulation.simulate import SimulationError, simulate
+from ...solvers.continuation import continuation
+from .periodic import RTOL, STEP_RESOLUTION, TOL, periodic_orbit
+from .shooting import Shooting, conservative
+
+__all__ = ["Backbone", "Resonance", "backbone"]
+START_AMPLITUDE = 1e-2  # the linear start's displacement of the coordinate c, in its scale (1 rad, length scale)
+MAX_PERIOD_GROWTH = 50.0  # the branch stops where T exceeds this × the linear period (a separatrix near)
+FIRST_STEP = 0.02  # the continuation's first arclength step (variables scaled by the requests' range)
+MAX_STEP = 0.1  # and its largest (the multipliers' angles are followed from point to point)
+ARG1 = pin.ArgumentPosition.ARG1
+
+
+@dataclass(frozen=True)
+class Resonance:
+    """Where the backbone meets an internal resonance or a fold: ``kind`` ("internal resonance": the nontrivial
+    Floquet multiplier of linear mode ``other_mode`` reaches +1, its frequency ``ratio`` = k times ω, k:1; or
+    "fold": the energy turns back along the branch), ``energy`` (J above the equilibrium's) and ``omega`` (rad/s)
+    there, ``energy_range`` (J, the branch points that bracket it: its uncertainty), ``message``."""
+
+    kind: str
+    energy: float
+    omega: float
+    energy_range: tuple
+    other_mode: int | None = None
+    ratio: int | None = None
+    message: str = ""
+
+    @property
+    def frequency_hz(self) -> float:
+        """ω / 2π (Hz)."""
+        return self.omega / (2 * math.pi)
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "energy_J": self.energy, "omega_rad_s": self.omega,
+                "frequency_hz": self.frequency_hz, "energy_range_J": list(self.energy_range),
+                "other_mode": self.other_mode, "ratio": self.ratio, "message": self.message}
+
+
+@dataclass(frozen=True, eq=False)
+class Backbone:
+    """The backbone of one nonlinear normal mode (see :func:`backbone`), one entry per request, in the order given.
+
+    ``omega`` fundamental angular frequency 2π/T (rad/s; ``frequency_hz`` alongside) and ``error`` its estimated
+    error (rad/s: the shooting's closing residual and the flows' integration error, through the period's
+    sensitivity); ``amplitude`` max over the orbit of |q_c − q_c,eq| of ``coordinate`` (m or rad, ``unit``) and
+    ``amplitude_error``; ``energy`` total mechanical energy above the equilibrium's (J) and ``energy_error``;
+    ``orbits`` the :class:`~vibdyn.analysis.nonlinear.periodic.PeriodicOrbit` of each request (``.trajectory``
+    one period); ``stable`` (no Floquet multiplier beyond the unit circle by more than its uncertainty) and
+    ``stability`` (the orbits' verdicts: "unstable", "stable", "neutral within the error"); ``resonances``
+    (:class:`Resonance`: internal resonances and folds met on the followed branch up to the last request);
+    ``mode`` (index into the undamped linear modes, ascending ω) and ``linear_omega`` (its ω, rad/s);
+    ``q_eq`` the static equilibrium; ``requested`` ("amplitude" or "energy"); ``points`` branch points
+    followed; ``note`` (what was left out: damping); ``elapsed`` (s); ``system`` the conservative scene used.
+    """
+
+    system: Any = field(repr=False)
+    mode: int
+    coordinate: str
+    unit: str
+    requested: str
+    linear_omega: float
+    omega: np.ndarray
+    error: np.ndarray
+    amplitude: np.ndarray
+    amplitude_error: np.ndarray
+    energy: np.ndarray
+    energy_error: np.ndarray
+    orbits: tuple = field(repr=False)
+    resonances: tuple
+    q_eq: np.ndarray = field(repr=False)
+    points: int
+    note: str
+    elapsed: float
+
+    @property
+    def frequency_hz(self) -> np.ndarray:
+        """ω / 2π (Hz) per request."""
+        return self.omega / (2 * math.pi)
+
+    @property
+    def period(self) -> np.ndarray:
+        """T = 2π/ω (s) per request."""
+        return 2 * math.pi / self.omega
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Per request: no Floquet multiplier's modulus exceeds 1 by more than its uncertainty."""
+        return np.array([o.stable for o in self.orbits], dtype=bool)
+
+    @property
+    def stability(self) -> tuple:
+        """Per request: the orbit's verdict ("unstable", "stable" or "neutral within the error")."""
+        return tuple(o.stability for o in self.orbits)
+
+    def to_dict(self) -> dict:
+        """Plain data (JSON-ready), SI units named in the keys; each orbit as :meth:`PeriodicOrbit.to_dict`."""
+        return {"mode": self.mode, "coordinate": self.coordinate, "unit": self.unit, "requested": self.requested,
+                "linear_omega_rad_s": self.linear_omega, "omega_rad_s": self.omega.tolist(),
+                "omega_error_rad_s": self.error.tolist(), "frequency_hz": self.frequency_hz.tolist(),
+                "period_s": self.period.tolist(), f"amplitude_{self.unit}": self.amplitude.tolist(),
+                f"amplitude_error_{self.unit}": self.amplitude_error.tolist(), "energy_J": self.energy.tolist(),
+                "energy_error_J": self.energy_error.tolist(), "stable": self.stable.tolist(),
+                "stability": list(self.stability), "resonances": [r.to_dict() for r in self.resonances],
+                "points": self.points, "note": self.note, "elapsed_s": self.elapsed,
+                "orbits": [o.to_dict() for o in self.orbits]}
+
+    def __str__(self):
+        u = self.unit
+        lines = [f"backbone of mode {self.mode} (linear ω = {number(self.linear_omega, 'rad/s', digits=10)}, "
+                 f"{number(self.linear_omega / (2 * math.pi), 'Hz')}), amplitude of '{self.coordinate}', "
+                 f"{len(self.omega)} {self.requested} requests, {self.points} branch points, {duration(self.elapsed)}"]
+        rows = [[number(a, u, digits=10), number(e, "J", digits=10), number(w, "rad/s", digits=12), f"{de:.1e}",
+                 number(w / (2 * math.pi), "Hz", digits=10), s]
+                for a, e, w, de, s in zip(self.amplitude, self.energy, self.omega, self.error, self.stability)]
+        lines += ["  " + line for line in table(["amplitude", "energy", "ω", "± ω (rad/s)", "f", "stability"], rows)]
+        for r in self.resonances:
+            lines.append(f"  {r.kind}: {r.message}")
+        if not self.resonances:
+            lines.append("  no internal resonance or fold met on the branch")
+        lines.append(f"  note: {self.note}")
+        return "\n".join(lines)
+
+    def __repr__(self):
+        return summary("Backbone", f"mode {self.mode}", f"'{self.coordinate}'", f"{len(self.omega)} points",
+                       f"ω {number(float(self.omega.min()), 'rad/s')} … {number(float(self.omega.max()), 'rad/s')}",
+                       f"{len(self.resonances)} resonances", duration(self.elapsed))
+
+
+def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energies: ArrayLike | None = None,
+             coordinate: str | None = None, *, equilibrium: Any = None, tol: float = TOL, rtol: float = RTOL,
+             max_steps: int = 400) -> Backbone:
+    """The backbone of the nonlinear normal mode grown from linear mode ``mode`` (index into the undamped modes
+    of the linearisation at the static equilibrium, ascending ω), at each of ``amplitudes`` (m or rad: max over
+    the orbit of |q_c − q_c,eq| of ``coordinate``, default the coordinate with the largest share of the linear
+    mode) or ``energies`` (J, total mechanical energy above the equilibrium's): exactly one of the two.
+
+    Continued by pseudo-arclength from the linear mode (see the module docstring); each request is solved
+    exactly (never interpolated), by shooting at closing tolerance ``tol`` (scaled) with flows at ``rtol``.
+    ``equilibrium``: the static equilibrium (an OperatingPoint) or a configuration to search it from (default:
+    from the neutral configuration). Damping is left out: a damped scene's backbone is that of its conservative
+    part (dampers and velocity-dependent forces dropped; said in ``.note``).
+
+    Raises ModelError for bad input (both or neither of amplitudes/energies, a request ≤ 0 or not finite, a mode
+    index out of range, a rigid or unstable mode, scenes with loops, drives, supports or time-dependent forces)
+    and ConvergenceError for a request beyond the followed branch (naming the largest amplitude and energy
+    reached and why the branch stopped).
+    """
+    start = time.perf_counter()
+    what = "backbone"
+    requested, requests = _requests(amplitudes, energies, what)
+    tol = scalar(tol, f"{what}: tol", positive=True)
+    rtol = scalar(rtol, f"{what}: rtol", positive=True)
+    max_steps = integer(max_steps, f"{what}: max_steps", minimum=1)
+    cons, note = _conservative_part(system, what)
+    q_eq = _equilibrium(cons, equilibrium, what)
+    modes = cons.linearize(q_eq).modes()
+    k = _mode_index(mode, modes, what)
+    phi = np.asarray(modes.shapes[:, k], dtype=float)
+    s = np.asarray(cons.coordinate_scales, dtype=float)
+    c = (cons.coordinate_index(coordinate) if isinstance(coordinate, str)
+         else _bad_coordinate(coordinate, what) if coordinate is not None else int(np.argmax(np.abs(phi) / s)))
+    if abs(phi[c]) < 1e-8 * float(np.max(np.abs(phi) / s)) * s[c]:
+        raise ModelError(f"{what}: coordinate '{cons.coordinates[c]}' does not move in mode {k} (its share of the "
+                         "linear mode is zero): choose a coordinate that moves")
+    phi = phi / phi[c]  # the coordinate c moves by 1 (m or rad)
+    follower = _Follower(cons, q_eq, phi, c, float(modes.omega[k]), modes, k, requested, requests, rtol, tol)
+    order = np.argsort(requests, kind="stable")
+    solved = follower.run(requests[order], max_steps)
+    out = [None] * len(requests)
+    for i, (z, slope) in zip(order, solved):
+        out[i] = follower.request(z, slope, requests[i] if requested == "energy" else None)
+    cols = [np.array([o[j] for o in out]) for j in range(6)]
+    orbits = tuple(o[6] for o in out)
+    return Backbone(cons, k, cons.coordinates[c], cons.units[c], requested, float(modes.omega[k]), cols[0], cols[1],
+                    cols[2], cols[3], cols[4], cols[5], orbits, tuple(follower.resonances), q_eq,
+                    follower.points, note, time.perf_counter() - start)
+
+
+# ---------------------------------------------------------------------------------------------- checks
+def _requests(amplitudes, energies, what):
+    if (amplitudes is None) == (energies is None):
+        raise ModelError(f"{what}: give exactly one of amplitudes (m or rad) or energies (J), got "
+                         f"{'both' if amplitudes is not None else 'neither'}")
+    name, value = ("amplitude", amplitudes) if amplitudes is not None else ("energy", energies)
+    try:
+        arr = np.atleast_1d(np.asarray(value, dtype=float))
+    except (TypeError, ValueError):
+        raise ModelError(f"{what}: {name} requests must be numbers, got {value!r}") from None
+    if arr.ndim != 1 or arr.size == 0:
+        raise ModelError(f"{what}: {name} requests must be a non-empty list of numbers, got shape {arr.shape}")
+    bad = np.flatnonzero(~(np.isfinite(arr) & (arr > 0)))
+    if bad.size:
+        raise ModelError(f"{what}: {name} requests must be positive and finite: entry {int(bad[0])} is "
+                         f"{arr[bad[0]]!r}")
+    return name, arr
+
+
+def _bad_coordinate(coordinate, what):
+    raise ModelError(f"{what}: coordinate must be a coordinate's name, got {coordinate!r}")
+
+
+def _conservative_part(system, what):
+    """(the scene without dampers and velocity-dependent forces, rebuilt if anything was dropped; the note)."""
+    if system.has_loops:
+        raise ModelError(f"{what}: not available for a mechanism with closed loops")
+    if system.nv == 0:
+        raise ModelError(f"{what}: the scene has no coordinates: nothing oscillates")
+    if getattr(system, "drives", None) is not None or system.supports:
+        raise ModelError(f"{what}: the scene has drives or moving supports: a backbone needs an autonomous scene")
+    timed = [type(g).__name__ for g in system.force_groups if g.time_dependent]
+    if timed:
+        raise ModelError(f"{what}: the scene's forces depend on time ({', '.join(timed)}): a backbone needs an "
+                         "autonomous scene")
+    note = "conservative scene: the backbone of its own free motion"
+    if not conservative(system):
+        scene = system.scene.copy()
+        dropped = [name for name, e in scene.elements.items() if _velocity_dependent(e)]
+        for name in dropped:
+            del scene.elements[name]
+        system = scene.build()
+        if not conservative(system):
+            kinds = sorted({type(g).__name__ for g in system.force_groups
+                            if type(g).potential is ForceGroup.potential})
+            raise ModelError(f"{what}: forces without a potential remain once dampers are dropped "
+                             f"({', '.join(kinds) or 'applied forces'}): a backbone needs a conservative scene")
+        note = (f"damping left out: the backbone of the conservative part ({', '.join(dropped)} dropped: dampers "
+                "and velocity-dependent forces)")
+    return system, note
+
+
+def _velocity_dependent(element):
+    if getattr(element, "velocity_dependent", False):
+        return True
+    group = type(element).group
+    return group is not None and bool(getattr(group, "velocity_dependent", False) is True)
+
+
+def _equilibrium(system, equilibrium, what):
+    if equilibrium is not None and hasattr(equilibrium, "q"):
+        q = np.array(equilibrium.q, dtype=float)
+    else:
+        q = system.equilibrium(equilibrium).q
+    return np.array(q, dtype=float)
+
+
+def _mode_index(mode, modes, what):
+    n = len(modes.omega)
+    k = integer(mode, f"{what}: mode", minimum=0)
+    if k >= n:
+        raise ModelError(f"{what}: mode {k} out of range: the linearisation has {n} mode{'s' if n > 1 else ''} "
+                         f"(0 … {n - 1})")
+    if np.all(modes.rigid | modes.unstable):
+        raise ModelError(f"{what}: the scene has no oscillating mode (every mode is rigid/cyclic or unstable): "
+                         "nothing to follow")
+    if modes.rigid[k] or modes.unstable[k]:
+        raise ModelError(f"{what}: mode {k} is {'rigid (ω = 0)' if modes.rigid[k] else 'unstable (ω² < 0)'}: "
+                         "no oscillation grows out of it")
+    if np.any(modes.rigid):
+        raise ModelError(f"{what}: the scene has rigid or cyclic modes ({int(np.count_nonzero(modes.rigid))}): "
+                         "their free drift makes the orbits a larger family; hold those coordinates")
+    return k
+
+
+# ---------------------------------------------------------------------------------------------- the branch
+class _Follower:
+    """The continuation of one NNM: unknowns z = (ξ, v0, T) (q0 = q_eq ⊕ ξ), parameter λ (the energy above the
+    equilibrium's, J, or ξ_c, m or rad); the points' monitoring (periods, multipliers' angles, resonances)."""
+
+    def __init__(self, system, q_eq, phi, c, omega, modes, k, requested, requests, rtol, tol):
+        self.system, self.model, self.q_eq, self.c = system, system.model, q_eq, c
+        self.n, self.rtol, self.tol, self.requested = system.nv, rtol, tol, requested
+        self.omega_lin, self.T_lin = omega, 2 * math.pi / omega
+        self.E_eq = system.energy(q_eq, np.zeros(system.nv)).total
+        self.omega_max = float(np.max(modes.omega))
+        s = np.asarray(system.coordinate_scales, dtype=float)
+        m_phi = float(phi @ system.mass_matrix(q_eq) @ phi)  # E = ½ ω² a² φᵀMφ for the linear mode of amplitude a
+        top = float(np.max(requests))
+        a_ref = top if requested == "amplitude" else math.sqrt(2 * top / (omega**2 * m_phi))
+        xi_scale = a_ref * np.maximum(np.abs(phi), 0.1 * s / s[c])
+        self.w = np.concatenate([xi_scale, xi_scale * omega, [self.T_lin], [top]])
+        a0 = min(START_AMPLITUDE * s[c], 0.5 * float(np.min(requests))) if requested == "amplitude" else \
+            min(START_AMPLITUDE * s[c], math.sqrt(float(np.min(requests)) / (omega**2 * m_phi)))
+        self.z0 = np.concatenate([a0 * phi, np.zeros(self.n), [self.T_lin]])
+        # the other oscillating modes' rotation angles θ_j = 2π ω_j/ω (their multipliers e^{±iθ_j})
+        others = [j for j in range(len(modes.omega)) if j != k and not modes.unstable[j] and not modes.rigid[j]]
+        self.others = others
+        self.theta = np.array([2 * math.pi * modes.omega[j] / omega for j in others])
+        self.resonances: list = []
+        self.points = 0
+        self.last = None  # (λ, energy, ω) of the last branch point
+        self.reached = (0.0, 0.0)  # (largest amplitude, largest energy) on the branch
+        self.why = ""
+
+    # ------------------------------------------------------------------ unknowns
+    def state(self, z):
+        n = self.n
+        return pin.integrate(self.model, self.q_eq, z[:n]), np.array(z[n:2 * n]), float(z[2 * n])
+
+    def energy(self, q, v):
+        return self.system.energy(q, v).total - self.E_eq
+
+    def energy_gradient(self, q, v):
+        """∂E/∂(δq, δv) at (q, v), δq in the tangent space at q (central differences of 1e-6 scales; M v)."""
+        s = np.asarray(self.system.coordinate_scales, dtype=float)
+        g = np.zeros(2 * self.n)
+        for i in range(self.n):
+            e = np.zeros(self.n)
+            e[i] = 1e-6 * s[i]
+            g[i] = (self.energy(pin.integrate(self.model, q, e), v)
+                    - self.energy(pin.integrate(self.model, q, -e), v)) / (2 * e[i])
+        g[self.n:] = self.system.mass_matrix(q) @ v
+        return g
+
+    def shooting(self, T):
+        omega = 2 * math.pi / T
+        return Shooting(self.system, 0.0, T, True, 1, omega, self.rtol, ("velocity", self.c), None, None,
+                        STEP_RESOLUTION / max(self.omega_max, omega))
+
+    # ------------------------------------------------------------------ equations
+    def equations(self, shoot, row_scale):
+        n, c = self.n, self.c
+
+        def fun(z, lam):
+            q0, v0, T = self.state(z)
+            r = shoot.residual(shoot.pack([(q0, v0)], T))
+            p = self.energy(q0, v0) if self.requested == "energy" else z[c]
+            return np.append(r, (p - lam) / row_scale)
+
+        def jac(z, lam):
+            q0, v0, T = self.state(z)
+            J = shoot.jacobian(shoot.pack([(q0, v0)], T)) / shoot.unknown_scale[None, :]
+            Jr = pin.dIntegrate(self.model, self.q_eq, z[:n], ARG1)
+            J[:, :n] = J[:, :n] @ Jr
+            row = np.zeros(2 * n + 2)
+            if self.requested == "energy":
+                g = self.energy_gradient(q0, v0)
+                row[:n], row[n:2 * n] = g[:n] @ Jr, g[n:]
+            else:
+                row[c] = 1.0
+            row[-1] = -1.0
+            return np.vstack([np.hstack([J, np.zeros((J.shape[0], 1))]), row / row_scale])
+
+        return fun, jac
+
+    # ------------------------------------------------------------------ the run
+    def run(self, targets, max_steps):
+        """[(z at each target (ascending), dω/dλ there)]; ConvergenceError past the branch's end."""
+        z = self.z0
+        q0, v0, T = self.state(z)
+        lam = self.energy(q0, v0) if self.requested == "energy" else float(z[self.c])
+        self.monitor(z, lam, None)
+        out, steps = [], 0
+        for target in targets:
+            if target == lam and out:
+                out.append(out[-1])
+                continue
+            shoot = self.shooting(self.state(z)[2])
+            fun, jac = self.equations(shoot, max(target, lam))
+            try:
+                branch = continuation(fun, z, lam, float(target), step=FIRST_STEP, jacobian=jac, tol=self.tol,
+                                      max_steps=max(1, max_steps - steps), max_step=MAX_STEP, scale=self.w,
+                                      stop=lambda x, lm: self.monitor(x, lm, shoot))
+            except (SimulationError, np.linalg.LinAlgError) as e:
+                self.why = self.why or f"the motion could not be integrated further: {e}"
+                self.beyond(target, None)
+            steps += branch.steps
+            for f in branch.folds:
+                q, v, Tf = self.state(f.x)
+                e = self.energy(q, v)
+                self.resonances.append(Resonance("fold", e, 2 * math.pi / Tf, (e, e), message=(
+                    f"the branch folds back in {self.requested} at energy {number(e, 'J', digits=8)}, "
+                    f"ω = {number(2 * math.pi / Tf, 'rad/s', digits=8)}: a turning point of the family (an internal "
+                    "resonance's tongue, or the branch turning)")))
+            if branch.status != "finished" or branch.lam.size == 0 or branch.lam[-1] != target:
+                self.beyond(target, branch)
+            if branch.lam.size > 1 and self.last is not None:
+                self.monitor(branch.x[-1], float(branch.lam[-1]), shoot)
+            z, lam = branch.x[-1], float(branch.lam[-1])
+            slope = 0.0
+            if branch.lam.size > 1 and branch.lam[-1] != branch.lam[-2]:
+                slope = float((2 * math.pi / branch.x[-1, -1] - 2 * math.pi / branch.x[-2, -1])
+                              / (branch.lam[-1] - branch.lam[-2]))
+            out.append((z, slope))
+        return out
+
+    def beyond(self, target, branch):
+        a, e = self.reached
+        why = self.why or branch.message
+        best = branch.x[-1] if branch is not None and branch.x.size else None
+        raise ConvergenceError(
+            f"backbone: the {self.requested} {target:.6g} {'J' if self.requested == 'energy' else self.unit()} is "
+            f"beyond the followed branch: largest amplitude reached {a:.6g} {self.unit()}, largest energy "
+            f"{e:.6g} J ({why})", residual=None if branch is None else branch.residual, best=best)
+
+    def unit(self):
+        return self.system.units[self.c]
+
+    def monitor(self, z, lam, shoot):
+        """Called at every branch point (the continuation's ``stop``): records how far the branch went, follows
+        the nontrivial multipliers' angles (a crossing of 2πk: a k:1 internal resonance), stops where the period
+        grows without bound (a separatrix)."""
+        q0, v0, T = self.state(z)
+        e, w = self.energy(q0, v0), 2 * math.pi / T
+        self.points += 1
+        self.reached = (max(self.reached[0], abs(float(z[self.c]))), max(self.reached[1], e))
+        if shoot is not None and self.theta.size:
+            theta = self.angles(shoot, q0, v0, T)
+            if theta is not None and self.last is not None:
+                for j, (a, b) in enumerate(zip(self.theta, theta)):
+                    ka, kb = math.floor(a / (2 * math.pi)), math.floor(b / (2 * math.pi))
+                    if ka != kb:
+                        k = max(ka, kb)
+                        f = (2 * math.pi * k - a) / (b - a) if b != a else 0.5
+                        e0, w0 = self.last[1], self.last[2]
+                        ei, wi = e0 + f * (e - e0), w0 + f * (w - w0)
+                        j_mode = self.others[j]
+                        self.resonances.append(Resonance(
+                            "internal resonance", ei, wi, (min(e0, e), max(e0, e)), j_mode, k,
+                            f"a {k}:1 internal resonance with mode {j_mode} (its Floquet multiplier reaches +1) at "
+                            f"energy ≈ {number(ei, 'J', digits=6)} (between {e0:.6g} and {e:.6g} J), ω ≈ "
+                            f"{number(wi, 'rad/s', digits=6)}: continued past it; the orbits beyond are flagged"))
+            if theta is not None:
+                self.theta = theta
+        self.last = (lam, e, w)
+        if T > MAX_PERIOD_GROWTH * self.T_lin:
+            self.why = (f"the period grew to {T:.4g} s, {MAX_PERIOD_GROWTH:g} times the linear one: a separatrix "
+                        "(an orbit of infinite period) is near")
+            return True
+        return False
+
+    def angles(self, shoot, q0, v0, T):
+        """The nontrivial multipliers' angles, unwrapped from the previous point's (None if unavailable)."""
+        x = shoot.pack([(q0, v0)], T)
+        try:
+            runs = shoot.flows(x)
+        except Exception:  # noqa: BLE001 - a point whose flow fails is simply not monitored
+            return None
+        P = shoot.segment_maps([(q0, v0)], runs)[0][0]
+        d = shoot.node_scale
+        P = P * (1.0 / d)[:, None] * d[None, :]
+        a = self.system.accelerations(q0, v0)
+        f = np.concatenate([v0, a]) / d
+        g = self.energy_gradient(q0, v0) * d
+        W = sla.null_space(np.vstack([g, f]))
+        if W.shape[1] != 2 * self.n - 2:
+            return None
+        mu = np.linalg.eigvals(W.T @ P @ W)
+        ang = np.angle(mu)
+        out = self.theta.copy()
+        free = list(range(len(ang)))
+        for j, th in enumerate(self.theta):
+            if not free:
+                break
+            moves = [(abs(((ang[i] - th + math.pi) % (2 * math.pi)) - math.pi), i) for i in free]
+            d_min, i = min(moves)
+            out[j] = th + (((ang[i] - th + math.pi) % (2 * math.pi)) - math.pi)
+            free.remove(i)
+            conj = [m for m in free if abs(mu[m] - np.conj(mu[i])) <= 1e-8 * max(1.0, abs(mu[i]))]
+            if conj:
+                free.remove(conj[0])
+        return out
+
+    # ------------------------------------------------------------------ a request
+    def request(self, z, slope, energy_target):
+        """(ω, its error, amplitude, its error, energy, its error, PeriodicOrbit) at the branch point z."""
+        q0, v0, T = self.state(z)
+        name = self.system.coordinates[self.c]
+        orbit = periodic_orbit(self.system, q0, v0, T, phase=name, tol=self.tol, rtol=self.rtol)
+        omega = orbit.omega
+        err_w = 2 * math.pi * orbit.period_error / orbit.period**2
+        amp = self.amplitude(orbit)
+        g = self.energy_gradient(orbit.q0, orbit.v0)
+        e = self.energy(orbit.q0, orbit.v0)
+        err_e = float(np.abs(g[:self.n]).sum() * orbit.error + np.abs(g[self.n:]).sum() * orbit.velocity_error)
+        if energy_target is not None:
+            err_e += abs(e - energy_target)
+        err_w += abs(slope) * (err_e if self.requested == "energy" else orbit.error)
+        return omega, err_w, amp, orbit.error, e, err_e, orbit
+
+    def amplitude(self, orbit):
+        """max over the orbit of |q_c − q_c,eq|: at the start (a turning point of c by the phase condition) or at
+        the other turning points (zeros of v_c, located by the simulation's events)."""
+        c, T = self.c, orbit.period
+        best = abs(float(self.system.difference(self.q_eq, orbit.q0)[c]))
+
+        def turning(t, q, v):
+            return float(v[c])
+
+        run = simulate(self.system, T, orbit.q0, orbit.v0, rtol=self.rtol, error="local", events=turning)
+        for t, q in zip(run.events[0], run.event_q[0]):
+            if 1e-6 * T < t < (1 - 1e-6) * T:
+                best = max(best, abs(float(self.system.difference(self.q_eq, q)[c])))
+        return best
