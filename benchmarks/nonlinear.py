@@ -12,6 +12,12 @@ Cases (references independent of the method measured):
   amplitude read off the last periods. Each run also records its folds' Ω against the single-harmonic closed
   form at H = 1 (``fold_error_h1``: the closed form solves the H = 1 balance exactly) and the jump frequencies
   of the sweep (only as fine as its grid).
+- **Two-mass cubic forced response, peak of x₁** (models/two_mass_cubic.toml, Kerschen et al.'s system, with a
+  damper of 0.02 N·s/m on each mass and 0.02 N·cos Ωt on m1, Ω from 0.7 to 2 rad/s: both modes): the same
+  reference by shooting, vibdyn's balance at H = 1, 3, 5 and adaptive, pyHarm at nh = 1…7 on the same matrices.
+  vibdyn evaluates its multibody forces (three point springs) sample by sample in the alternating
+  frequency–time loop, where pyHarm's cubic spring is one vectorised formula: vibdyn is the slower per harmonic
+  here, and the only one whose peak goes below pyHarm's continuation resolution (~1e-5 m).
 - **Pendulum orbits against the elliptic integral** (models/rod_pivot.toml, released from 2.5 rad): the
   period T = 4 K(sin²(A/2))/ω₀ of the nonlinear normal mode at that amplitude, ``vd.periodic_orbit`` at
   several flow tolerances (estimate: ``period_error``).
@@ -46,18 +52,19 @@ def forced(scene, omega):
     return s.build()
 
 
-def orbit_amplitude(orbit):
-    """max |x| over a periodic orbit's samples, refined by a parabola through the largest and its neighbours."""
-    x = np.abs(orbit.trajectory.q[:-1, 0])
+def orbit_amplitude(orbit, c=0):
+    """max |x_c| over a periodic orbit's samples, refined by a parabola through the largest and its neighbours."""
+    x = np.abs(orbit.trajectory.q[:-1, c])
     k = int(np.argmax(x))
     a, b, c = x[k - 1], x[k], x[(k + 1) % len(x)]
     d = a - 2 * b + c
     return float(b - (a - c) ** 2 / (8 * d)) if d < 0 else float(b)
 
 
-def shooting_peak(scene, curve, xatol=1e-7, width=None):
-    """(Ω*, largest amplitude, its uncertainty, elapsed) of the true response by shooting, maximised over Ω
-    between the curve's neighbours of its largest point (or ± ``width`` rad/s about its peak)."""
+def shooting_peak(scene, curve, xatol=1e-7, width=None, forced_at=None, c=0):
+    """(Ω*, largest amplitude of coordinate ``c``, its uncertainty, elapsed) of the true response by shooting,
+    maximised over Ω between the curve's neighbours of its largest point (or ± ``width`` rad/s about its peak);
+    ``forced_at(Ω)``: the forced System (default: the Duffing scene's, :func:`forced`)."""
     from scipy.optimize import minimize_scalar
 
     start = time.perf_counter()
@@ -65,16 +72,18 @@ def shooting_peak(scene, curve, xatol=1e-7, width=None):
     lo, hi = float(curve.omega[max(i - 1, 0)]), float(curve.omega[min(i + 1, len(curve.omega) - 1)])
     if width is not None:
         lo, hi = curve.peak.omega - width, curve.peak.omega + width
-    coef = curve.coefficients[i][:, 0]
-    state = {"x": (coef[0] + coef[1::2].sum(), curve.omega[i] * (np.arange(1, curve.harmonics + 1) * coef[2::2]).sum())}
+    forced_at = forced_at or (lambda w: forced(scene, w))
+    coef = curve.coefficients[i]  # (2H + 1) × nv: constant, then cos and sin of each harmonic
+    k = np.arange(1, curve.harmonics + 1)[:, None]
+    state = {"x": (coef[0] + coef[1::2].sum(axis=0), curve.omega[i] * (k * coef[2::2]).sum(axis=0))}
     errs = []
 
     def neg(w):
         x0, v0 = state["x"]
-        orbit = vd.floquet(forced(scene, w), 2 * math.pi / w, [x0], [v0], points=1024)
-        state["x"] = (orbit.q0[0], orbit.v0[0])
+        orbit = vd.floquet(forced_at(w), 2 * math.pi / w, x0, v0, points=1024)
+        state["x"] = (orbit.q0, orbit.v0)
         errs.append(orbit.error)
-        return -orbit_amplitude(orbit)
+        return -orbit_amplitude(orbit, c)
 
     res = minimize_scalar(neg, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
     w, peak = float(res.x), float(-res.fun)
@@ -84,20 +93,25 @@ def shooting_peak(scene, curve, xatol=1e-7, width=None):
     return w, peak, max(errs) + 0.5 * curvature * (3 * xatol) ** 2 + 1e-12, time.perf_counter() - start
 
 
-def pyharm_curve(nh, ds=5e-3):
-    """(Ω, amplitude) of pyHarm's Duffing FRC with nh harmonics, and its fold frequencies."""
+DUFFING_MATRICES = (np.array([[1.0]]), np.array([[0.05]]), np.array([[1.0]]), 0.1)  # M, C, K, k3 (SI)
+
+
+def pyharm_curve(nh, ds=5e-3, matrices=DUFFING_MATRICES, force=F, omega_range=RANGE):
+    """(Ω, amplitude of the first coordinate) of pyHarm's FRC with nh harmonics of ``matrices`` = (M, C, K, k3):
+    a cubic spring k3 x₁³ to ground and the force ``force``·cos Ωt on the first coordinate; and its folds."""
     from pyHarm.DynamicOperator import compute_DFT
     from pyHarm.Maestro import Maestro
 
-    k, c, k3 = 1.0, 0.05, 0.1
-    linsys = {"M": np.array([[1.0]]), "C": np.array([[c]]), "K": np.array([[k]]), "G": np.zeros((1, 1))}
-    data = {"analysis": {"frf": {"study": "frf", "puls_inf": RANGE[0], "puls_sup": RANGE[1], "ds0": ds,
+    Mm, Cm, Km, k3 = matrices
+    linsys = {"M": Mm, "C": Cm, "K": Km, "G": np.zeros_like(Mm)}
+    data = {"analysis": {"frf": {"study": "frf", "puls_inf": omega_range[0], "puls_sup": omega_range[1], "ds0": ds,
                                  "ds_min": 1e-8, "ds_max": ds, "sign_ds": 1, "verbose": False,
                                  "stepsizer": "acceptance", "predictor": "tangent", "corrector": "arc_length",
                                  "stopper": "bounds"}},
             "system": {"type": "Base", "nh": nh, "nti": 256, "adim": {"status": False, "lc": 1.0, "wc": 1.0}},
-            "substructures": {"duffing": {"matrix": linsys, "ndofs": 1}},
-            "connectors": {"loading": {"type": "CosinusForcing", "connect": {"duffing": [0]}, "dirs": [0], "amp": F},
+            "substructures": {"duffing": {"matrix": linsys, "ndofs": 1}},  # (one coordinate per node)
+            "connectors": {"loading": {"type": "CosinusForcing", "connect": {"duffing": [0]}, "dirs": [0],
+                                       "amp": force},
                            "cubic": {"type": "CubicSpring", "connect": {"duffing": [0]}, "dirs": [0], "k": k3}}}
     import logging
     import warnings
@@ -139,6 +153,28 @@ def fold_error(folds, reference):
     return float(max(abs(a - b) for a, b in zip(sorted(folds), sorted(reference))))
 
 
+def pyharm_runs(S, runs, a_ref, folds_h1=None, **kw):
+    """Append pyHarm's runs at nh = 1, 3, 5, 7 (``kw``: :func:`pyharm_curve`'s) to ``runs``; returns what was done."""
+    try:
+        import os
+        import tempfile
+
+        # pyHarm keeps a "kernel state" file, by default ./.pyHarm/context.json: out of the working tree
+        os.environ.setdefault("PYHARM_CONTEXT_FILE", os.path.join(tempfile.gettempdir(), "vibdyn-pyharm",
+                                                                  "context.json"))
+        import pyHarm  # noqa: F401
+    except ImportError as e:  # said in the case (a run of its own would be "new" against the baseline)
+        return f"pyHarm not run: pyharm-os is not installed here ({e}); pip install pyharm-os"
+    for nh in [1] if S.smoke else [1, 3, 5, 7]:
+        (w, a, folds), t, peak_mb = C.measure(lambda: pyharm_curve(nh, **kw), 1, memory=False)
+        runs.append(C.run_record(f"pyHarm nh={nh}", "pyharm", abs(float(a.max()) - a_ref), None, t, None, None,
+                                 method="pyHarm", harmonics=nh, points=len(w), peak_omega=float(w[a.argmax()]),
+                                 folds=folds, fold_error_h1=fold_error(folds, folds_h1) if folds_h1 and nh == 1
+                                 else None, note="peak = best continuation point (not refined); folds = turning "
+                                 "points"))
+    return "pyharm-os installed and run"
+
+
 def duffing_case(S):
     scene, system, ref = duffing()
     best = vd.forced_response_curve(system, ("mass", F), RANGE, "mass")
@@ -155,25 +191,7 @@ def duffing_case(S):
                                  harmonics=curve.harmonics, points=len(curve.omega), peak_omega=curve.peak.omega,
                                  folds=folds, fold_error_h1=fold_error(folds, folds_h1) if H == 1 else None,
                                  fold_estimate=max((f.omega_error for f in curve.folds), default=None)))
-    try:
-        import os
-        import tempfile
-
-        # pyHarm keeps a "kernel state" file, by default ./.pyHarm/context.json: out of the working tree
-        os.environ.setdefault("PYHARM_CONTEXT_FILE", os.path.join(tempfile.gettempdir(), "vibdyn-pyharm",
-                                                                  "context.json"))
-        import pyHarm  # noqa: F401
-
-        for nh in [1] if S.smoke else [1, 3, 5, 7]:
-            (w, a, folds), t, peak_mb = C.measure(lambda: pyharm_curve(nh), 1, memory=False)
-            runs.append(C.run_record(f"pyHarm nh={nh}", "pyharm", abs(float(a.max()) - a_ref), None, t, None, None,
-                                     method="pyHarm", harmonics=nh, points=len(w), peak_omega=float(w[a.argmax()]),
-                                     folds=folds, fold_error_h1=fold_error(folds, folds_h1) if nh == 1 else None,
-                                     note="peak = best continuation point (not refined); folds = turning points"))
-    except ImportError as e:  # said in the case (a run of its own would be "new" against the baseline)
-        pyharm_note = f"pyHarm not run: pyharm-os is not installed here ({e}); pip install pyharm-os"
-    else:
-        pyharm_note = "pyharm-os installed and run"
+    pyharm_note = pyharm_runs(S, runs, a_ref, folds_h1)
     # every mode runs the coarse sweep (the smoke run's, so that its baseline exists); the others a finer one
     for n, periods in [(5, 10)] + ([] if S.smoke else [(13, 40)] if S.quick else [(61, 80)]):
         grid = np.linspace(0.9, 1.2, n)  # damping time 1/(ζω) ≈ 40 s ≈ 6 periods
@@ -187,6 +205,42 @@ def duffing_case(S):
                                       f"{best.folds[0].omega if best.folds else float('nan'):.6f}) and the peak "
                                       "only to that resolution; unsettled transients remain after few periods"))
     return C.case_record("Duffing FRC peak amplitude (F = 0.1 N)", "nonlinear",
+                         f"shooting on the simulation, maximised over Ω: {a_ref:.10f} m at Ω = {w_ref:.8f} rad/s "
+                         f"(± {a_err:.1e} m, {t_ref:.1f} s)", runs, unit="m", reference_value=a_ref,
+                         reference_omega=w_ref, reference_error=a_err, pyharm=pyharm_note)
+
+
+F2, C2, RANGE2 = 0.02, 0.02, (0.7, 2.0)  # N on m1, N·s/m on each mass, rad/s: the two-mass forced case
+
+
+def two_mass(omega=None):
+    """models/two_mass_cubic.toml with a damper C2 on each mass and, at ``omega``, F2·cos Ωt on m1 (a System)."""
+    scene = vd.load_scene("two_mass_cubic")
+    for body in ("m1", "m2"):
+        scene.add_joint_damper(body, C2)
+    if omega is not None:
+        scene.add_joint_force("m1", vd.laws.Harmonic(F2, omega, phase=math.pi / 2))  # F2 cos Ωt
+    return scene.build()
+
+
+def two_mass_case(S):
+    """The Kerschen two-mass oscillator, damped and forced on m1: peak of x₁ against shooting, vibdyn's HB and
+    pyHarm on the same equations (M = I, K = [[2, −1], [−1, 2]], C = C2·I, 0.5 x₁³)."""
+    system = two_mass()
+    best = vd.forced_response_curve(system, ("m1", F2), RANGE2, "m1", harmonics=5 if S.smoke else None)
+    w_ref, a_ref, a_err, t_ref = shooting_peak(None, best, 1e-7, width=2e-4 if S.smoke else None,
+                                               forced_at=two_mass)
+    runs = []
+    for H in [1] if S.smoke else [1, 3, 5, None]:  # (the adaptive run takes ~8 s: not in the smoke run)
+        curve, t, peak_mb = C.measure(
+            lambda: vd.forced_response_curve(system, ("m1", F2), RANGE2, "m1", harmonics=H), S.repeat)
+        runs.append(C.run_record(f"vibdyn HB H={H or 'adaptive'}", "vibdyn", abs(curve.peak.amplitude - a_ref),
+                                 curve.peak.error, t, None, peak_mb, reference_error=a_err, method="harmonic balance",
+                                 harmonics=curve.harmonics, points=len(curve.omega), peak_omega=curve.peak.omega,
+                                 folds=[f.omega for f in curve.folds]))
+    matrices = (np.eye(2), C2 * np.eye(2), np.array([[2.0, -1.0], [-1.0, 2.0]]), 0.5)
+    pyharm_note = pyharm_runs(S, runs, a_ref, matrices=matrices, force=F2, omega_range=RANGE2)
+    return C.case_record(f"two-mass cubic FRC peak amplitude of x₁ (F = {F2} N, c = {C2} N·s/m)", "nonlinear",
                          f"shooting on the simulation, maximised over Ω: {a_ref:.10f} m at Ω = {w_ref:.8f} rad/s "
                          f"(± {a_err:.1e} m, {t_ref:.1f} s)", runs, unit="m", reference_value=a_ref,
                          reference_omega=w_ref, reference_error=a_err, pyharm=pyharm_note)
@@ -211,4 +265,4 @@ def pendulum_case(S):
 
 
 def run(S):
-    return [duffing_case(S), pendulum_case(S)]
+    return [duffing_case(S), two_mass_case(S), pendulum_case(S)]
