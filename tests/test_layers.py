@@ -65,6 +65,7 @@ ENTRY_POINTS = {
     ("vibdyn.analysis.campbell_diagram", "Campbell.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.results", "TimeResult.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.analysis.nonlinear.harmonic_balance", "ForcedResponseCurve.plot"): {"vibdyn.faces.plots"},
+    ("vibdyn.analysis.nonlinear.backbone", "Backbone.plot"): {"vibdyn.faces.plots"},
 }
 
 

@@ -224,3 +224,98 @@ def test_viewer_animates_a_periodic_orbit(tmp_path):
     dt = (t[1] - t[0]) * kap.omega
     assert abs(pos[:, 2].max() - a) <= a * ((math.pi / 128) ** 2 + dt**2 / 8) + 1e-6
     assert abs(pos[:, 2].min() + a) <= a * ((math.pi / 128) ** 2 + dt**2 / 8) + 1e-6
+
+
+# ---------------------------------------------------------------------------------------------- backbone
+def elliptic_omega(amplitude):
+    """ω (rad/s) of the compound pendulum (rod_pivot) swinging with ``amplitude`` (rad): π ω₀ / (2 K(sin²(A/2)))."""
+    from scipy.special import ellipk
+
+    w0 = vd.load_scene("rod_pivot").references["omega"][0]
+    return math.pi * w0 / (2 * ellipk(math.sin(amplitude / 2) ** 2))
+
+
+@pytest.fixture(scope="module")
+def pendulum_backbone():
+    return vd.backbone(vd.load_scene("rod_pivot").build(), 0, amplitudes=[0.3, 1.0])
+
+
+def test_backbone_table_is_the_elliptic_integral():
+    """Each row's ω is the pendulum's exact ω(A) within the row's own error column; every column says its unit."""
+    code, out, err = run(["backbone", "rod_pivot", "--mode", 1, "--amplitudes", "0.3,1"])
+    assert code == 0, err
+    for words in ("mode 1", "ω_lin = 3.836013556 rad/s", "request: amplitude rad", "energy J", "ω rad/s", "f Hz",
+                  "ω/ω_lin", "± ω rad/s", "stability", "neutral within the error", "note:"):
+        assert words in out, words
+    assert "nan" not in out.lower().split()
+    rows = [line.split() for line in out.splitlines() if re.match(r"\s+(0\.3|1)\s", line)]
+    assert len(rows) == 2
+    for row in rows:
+        A, w, f, ratio, e = float(row[1]), float(row[3]), float(row[4]), float(row[5]), float(row[6])
+        assert abs(w - elliptic_omega(A)) <= e + 1e-11 * w  # + the table's 12 printed digits
+        assert abs(f - w / (2 * math.pi)) <= 1e-9 * f and abs(ratio - w / 3.8360135557633264) <= 1e-9
+
+
+def test_backbone_json_png_and_html(tmp_path):
+    """--json is the Backbone's to_dict (units in the keys), --png the frequency–energy plot, --html the orbit of
+    the largest request: the rod's frames turn it by that amplitude (its quaternion's angle)."""
+    png, html = tmp_path / "fe.png", tmp_path / "bb.html"
+    code, out, err = run(["backbone", "rod_pivot", "--mode", 1, "--energies", "0.5,2", "--json", "--png", png,
+                          "--html", html])
+    assert code == 0, err
+    data = json.loads(out)
+    for key in ("scene", "mode", "mode_number", "coordinate", "unit", "requested", "linear_omega_rad_s",
+                "omega_rad_s", "omega_error_rad_s", "frequency_hz", "amplitude_rad", "energy_J", "energy_error_J",
+                "stability", "resonances", "note", "elapsed_s", "orbits"):
+        assert key in data, key
+    assert data["requested"] == "energy" and data["mode"] == 0 and data["mode_number"] == 1
+    assert np.allclose(data["energy_J"], [0.5, 2.0], rtol=0, atol=1e-9 + max(data["energy_error_J"]))
+    for A, w, e in zip(data["amplitude_rad"], data["omega_rad_s"], data["omega_error_rad_s"]):
+        assert abs(w - elliptic_omega(A)) <= 1e-6 * w  # the amplitude's own error moves ω(A) by dω/dA·δA
+    assert_png(png)
+    text = html.read_text(encoding="utf-8")
+    assert "backbone of mode 1" in text and "set_animation" in text
+    t, quat = track(animations(html)[0], "rod", ".quaternion")
+    angle = 2 * np.arctan2(np.linalg.norm(quat[:, :3], axis=1), np.abs(quat[:, 3]))
+    A = max(data["amplitude_rad"])
+    dt = (t[1] - t[0]) * max(data["omega_rad_s"])
+    assert abs(angle.max() - A) <= A * ((math.pi / 128) ** 2 + dt**2 / 8) + 1e-5
+
+
+def test_frequency_energy_plot(tmp_path, pendulum_backbone):
+    """Log energy axis, ω in rad/s with Hz on the right, the linear ω dotted; a request's orbit exports too."""
+    bb = pendulum_backbone
+    fig = bb.plot(path=tmp_path / "bb.png")
+    assert_png(tmp_path / "bb.png")
+    ax = fig.axes[0]
+    assert ax.get_xscale() == "log" and "(J)" in ax.get_xlabel() and "rad/s" in ax.get_ylabel()
+    assert any("Hz" in a.get_ylabel() for a in fig.axes[1:] + [c for c in ax.child_axes])
+    dotted = [line for line in ax.lines if line.get_linestyle() == ":"]
+    assert any(np.allclose(line.get_ydata(), bb.linear_omega) for line in dotted)
+    # ω falls with the swing: the drawn curve is the backbone's own numbers
+    (drawn,) = [line for line in ax.lines if line.get_marker() == "o"]
+    assert np.allclose(drawn.get_xdata(), bb.energy) and np.allclose(drawn.get_ydata(), bb.omega)
+    assert drawn.get_linestyle() == "-" and bb.stability == ("neutral within the error",) * 2
+    fig2 = vd.plots.frequency_energy([bb, bb], path=tmp_path / "two.png")
+    assert_png(tmp_path / "two.png")
+    assert len(fig2.axes[0].get_legend().get_texts()) == 3  # two backbones and the one verdict
+    page = vd.export_html(bb.orbits[0], tmp_path / "orbit.html")
+    assert f"T = {bb.orbits[0].period:.6g} s" in page.read_text(encoding="utf-8")
+    with pytest.raises(vd.ModelError, match="no backbone"):
+        vd.plots.frequency_energy([])
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["rod_pivot", "--mode", "1", "--amplitudes", "x"], "--amplitudes 'x': expected amplitudes"),
+    (["rod_pivot", "--mode", "1", "--amplitudes", "0.5,-1"], "positive and finite"),
+    (["rod_pivot", "--mode", "1", "--energies", "nan"], "positive and finite"),
+    (["rod_pivot", "--mode", "1", "--amplitudes", "0.5", "--energies", "1"], "not both"),
+    (["rod_pivot", "--mode", "0"], "numbered from 1"),
+    (["rod_pivot", "--mode", "3", "--amplitudes", "0.5"], "out of range"),
+    (["rod_pivot", "--mode", "1", "--coordinate", "zz"], "--coordinate 'zz'"),
+    (["shaken_pendulum", "--mode", "1", "--amplitudes", "0.5"], "drives"),
+    (["four_bar", "--mode", "1", "--amplitudes", "0.1"], "closed loops"),
+])
+def test_backbone_bad_input_is_named(argv, words):
+    code, out, err = run(["backbone", *argv])
+    assert code == 2 and err.startswith("vibdyn: error:") and words in err, err

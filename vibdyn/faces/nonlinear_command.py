@@ -206,6 +206,117 @@ def _state(system, v):
     return ", ".join(f"{c} {number(x, u + '/s')}" for c, x, u in zip(system.coordinates, v, system.units)) or "-"
 
 
+# ---------------------------------------------------------------------------------------------- backbone
+#: without --amplitudes or --energies: these fractions of the coordinate's scale, 1 rad for a rotation and
+#: TRANSLATION_SCALE × the scene's length scale for a translation (a larger share may close a spring's gap)
+DEFAULT_FRACTIONS = (0.1, 0.2, 0.5, 1.0)
+TRANSLATION_SCALE = 0.2
+
+
+def _add_backbone(sub):
+    bb = sub.add_parser("backbone", help="backbone of a nonlinear normal mode (undamped): its frequency against "
+                        "amplitude and energy, continued from a linear mode")
+    bb.add_argument("scene", help=SCENE_HELP)
+    bb.add_argument("--mode", type=int, required=True, metavar="K",
+                    help="the linear mode it is continued from (1 = the lowest)")
+    bb.add_argument("--amplitudes", metavar="A1,A2,…", help="requested amplitudes, max over the orbit of "
+                    "|q − q_eq| of --coordinate (m or rad), comma separated (default: 0.1, 0.2, 0.5, 1 × 1 rad "
+                    "for a rotation, × 20 %% of the scene's length scale for a translation)")
+    bb.add_argument("--energies", metavar="E1,E2,…", help="requested energies above the equilibrium (J), comma "
+                    "separated (instead of --amplitudes)")
+    bb.add_argument("--coordinate", help="the coordinate whose amplitude is requested and reported (default: the "
+                    "one with the largest share of the linear mode)")
+    bb.add_argument("--png", help="save the frequency–energy plot to this PNG file")
+    bb.add_argument("--html", help="write a viewer page of the orbit of the largest request (one period, looped)")
+    bb.add_argument("--json", action="store_true", help="print a JSON object instead of text")
+
+
+def _numbers(text, option, what):
+    try:
+        values = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise ModelError(f"{option} '{text}': expected {what} separated by commas (e.g. 0.1,0.5,1)") from None
+    bad = [x for x in values if not (math.isfinite(x) and x > 0)]
+    if bad:
+        raise ModelError(f"{option} '{text}': {what} must be positive and finite, got {bad[0]!r}")
+    return values
+
+
+def backbone_command(scene, args, out=None):
+    """``vibdyn backbone``: the backbone of linear mode ``--mode`` (numbered from 1 as ``vibdyn modes`` lists them)
+    at each request — amplitude, energy, ω, f, ω/ω_lin, ω's error, stability — and the internal resonances met,
+    or JSON."""
+    from ..analysis.nonlinear.backbone import backbone
+
+    p = _p(out)
+    system = scene.build()
+    if args.amplitudes and args.energies:
+        raise ModelError("backbone: give --amplitudes or --energies, not both")
+    if args.mode < 1:
+        raise ModelError(f"--mode {args.mode}: modes are numbered from 1 (the lowest ω, as vibdyn modes lists them)")
+    if args.coordinate is not None and args.coordinate not in system.coordinates:
+        raise ModelError(f"--coordinate '{args.coordinate}': no such coordinate in scene '{system.name}' "
+                         f"(coordinates: {', '.join(system.coordinates) or 'none'})")
+    amplitudes = _numbers(args.amplitudes, "--amplitudes", "amplitudes (m or rad)") if args.amplitudes else None
+    energies = _numbers(args.energies, "--energies", "energies (J)") if args.energies else None
+    default = ""
+    if amplitudes is None and energies is None:
+        amplitudes, default = _default_amplitudes(system, args.coordinate)
+    bb = backbone(system, args.mode - 1, amplitudes=amplitudes, energies=energies, coordinate=args.coordinate)
+    if args.png:
+        from .plots import frequency_energy
+
+        frequency_energy(bb, path=args.png)
+    if args.html:
+        from .viewer import export_html
+
+        export_html(bb, args.html)
+    if args.json:
+        import json
+
+        p(json.dumps(json_ready({"scene": system.name, "mode_number": args.mode, **bb.to_dict()}), indent=1))
+        return bb
+    u, lin = bb.unit, bb.linear_omega
+    requests = energies if energies is not None else amplitudes
+    p(f"scene {system.name}: backbone of mode {args.mode} (linear ω_lin = {number(lin, 'rad/s', digits=10)}, "
+      f"{number(lin / (2 * math.pi), 'Hz', digits=8)}), amplitude of '{bb.coordinate}'; {len(bb.omega)} "
+      f"{bb.requested} requests, each solved by shooting; {bb.points} branch points, {bb.elapsed:.2f} s")
+    if default:
+        p(default)
+    p(f"amplitude = max over the orbit of |{bb.coordinate} − equilibrium| ({u}); energy above the equilibrium (J); "
+      "ω the fundamental frequency 2π/T ± its estimated error (rad/s); stability from the orbit's Floquet "
+      "multipliers")
+    rows = [[number(r, digits=8), number(a, digits=10), number(e, digits=10), number(w, digits=12),
+             number(w / (2 * math.pi), digits=10), number(w / lin, digits=10), f"{err:.1e}", s]
+            for r, a, e, w, err, s in zip(requests, bb.amplitude, bb.energy, bb.omega, bb.error, bb.stability)]
+    kind = "energy J" if bb.requested == "energy" else f"amplitude {u}"
+    for line in table([f"request: {kind}", f"amplitude {u}", "energy J", "ω rad/s", "f Hz", "ω/ω_lin",
+                       "± ω rad/s", "stability"], rows):
+        p("  " + line)
+    for r in bb.resonances:
+        p(f"{r.kind}: {r.message}")
+    if not bb.resonances:
+        p("no internal resonance or fold met on the branch")
+    p(f"note: {bb.note}")
+    for path in (args.png, args.html):
+        if path:
+            p(f"saved {path}")
+    return bb
+
+
+def _default_amplitudes(system, coordinate):
+    """DEFAULT_FRACTIONS × the coordinate's scale (1 rad, or TRANSLATION_SCALE × the scene's length scale in m;
+    without a coordinate named, the smallest of the scene's), and a line saying so."""
+    scales = np.array([1.0 if u == "rad" else TRANSLATION_SCALE * system.length_scale for u in system.units])
+    if not scales.size:
+        return [1.0], ""  # no coordinate: the backbone itself says so
+    k = system.coordinates.index(coordinate) if coordinate is not None else int(np.argmin(scales))
+    scale, u = float(scales[k]), system.units[k]
+    return ([f * scale for f in DEFAULT_FRACTIONS],
+            f"amplitudes by default: {', '.join(f'{f:g}' for f in DEFAULT_FRACTIONS)} × {number(scale, u)} (1 rad for "
+            f"a rotation, 20 % of the scene's length scale for a translation; give --amplitudes or --energies)")
+
+
 #: name -> add its parser; name -> run it on (scene, args)
-PARSERS = {"frc": _add_frc, "floquet": _add_floquet}
-RUNNERS = {"frc": frc_command, "floquet": floquet_command}
+PARSERS = {"frc": _add_frc, "floquet": _add_floquet, "backbone": _add_backbone}
+RUNNERS = {"frc": frc_command, "floquet": floquet_command, "backbone": backbone_command}

@@ -198,9 +198,10 @@ def campbell(diagram, *, path=None, dpi=100):
 
 
 def _runs(flags):
-    """(start, stop) index ranges of equal consecutive flags, each run sharing its end point with the next."""
-    cuts = np.flatnonzero(np.diff(np.asarray(flags, bool))) + 1
-    edges = [0, *cuts.tolist(), len(flags)]
+    """(start, stop) index ranges of equal consecutive flags (or labels), each run sharing its end point with the
+    next."""
+    cuts = [k for k in range(1, len(flags)) if flags[k] != flags[k - 1]]
+    edges = [0, *cuts, len(flags)]
     return [(a, min(b + 1, len(flags))) for a, b in zip(edges[:-1], edges[1:])]
 
 
@@ -233,3 +234,68 @@ def forced_response(curve, *, path=None, dpi=100):
     a.set_title(f"forced response, {curve.excitation}; harmonic balance H = {curve.harmonics}, truncation ≤ "
                 f"{float(np.max(curve.error)):.1e} {u}", fontsize="small")
     return save(fig, path, dpi)
+
+
+#: line style per orbit verdict: an undamped orbit that is bounded is neutral (|μ| = 1 within the error): drawn solid
+#: like a stable one; unstable dashed; anything else dotted
+_VERDICT_STYLE = {"stable": "-", "neutral within the error": "-", "unstable": "--"}
+_VERDICT_LABEL = {"stable": "stable (attracting)", "neutral within the error": "neutral: |μ| = 1 within the error "
+                  "(bounded)", "unstable": "unstable: |μ| > 1 beyond the error"}
+
+
+def frequency_energy(backbones, *, path=None, ax=None, dpi=100):
+    """Frequency–energy plot of one or several backbones (:func:`vibdyn.backbone`): the nonlinear normal mode's
+    fundamental ω (rad/s; Hz on the right axis) against its energy above the equilibrium (J, log scale); by each
+    orbit's Floquet verdict, stable or neutral within the error (|μ| = 1 within its uncertainty: the bounded
+    orbits of an undamped scene) solid, unstable dashed, anything else dotted; the linear ω
+    of each mode as a thin dotted line; internal resonances (tongues) marked ◆ and labelled. Draws on ``ax``
+    if given (a matplotlib Axes), else on a new figure; returns the Figure."""
+    items = list(backbones) if isinstance(backbones, (list, tuple)) else [backbones]
+    if not items:
+        raise ModelError("frequency_energy: no backbone to plot")
+    if ax is None:
+        fig, axes = figure(1, 1, size=(7.0, 4.8))
+        a = axes[0, 0]
+    else:
+        a, fig = ax, ax.figure
+    styles_used = set()
+    for n, bb in enumerate(items):
+        color = f"C{n}"
+        e, w = np.asarray(bb.energy, float), np.asarray(bb.omega, float)
+        order = np.argsort(e)
+        e, w = e[order], w[order]
+        kinds = np.asarray(bb.stability, dtype=object)[order]
+        for i, j in _runs(kinds):
+            style = _VERDICT_STYLE.get(kinds[i], ":")
+            styles_used.add(kinds[i])
+            a.plot(e[i:j], w[i:j], style, color=color, lw=1.6, marker="o", ms=3)
+        a.axhline(bb.linear_omega, color=color, lw=0.8, ls=":", alpha=0.7)
+        a.plot([], [], "-", color=color, lw=1.6, label=f"NNM of mode {bb.mode + 1} (amplitude of {bb.coordinate}); "
+               f"linear ω = {bb.linear_omega:.6g} rad/s ⋯")
+        for r in bb.resonances:
+            a.plot([r.energy], [r.omega], "D", color=color, mec="k", ms=7, zorder=5)
+            a.annotate(_resonance_label(r), (r.energy, r.omega), xytext=(6, 6), textcoords="offset points",
+                       fontsize=8)
+        if bb.resonances:
+            a.plot([], [], "D", color=color, mec="k", ms=7, ls="none", label="internal resonance (tongue)")
+    for kind in sorted(styles_used):
+        a.plot([], [], _VERDICT_STYLE.get(kind, ":"), color="0.3", label=_VERDICT_LABEL.get(kind, kind))
+    a.set_xscale("log")
+    a.set_xlabel("energy above the equilibrium (J)")
+    a.set_ylabel("fundamental frequency ω (rad/s)")
+    right = a.secondary_yaxis("right", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
+    right.set_ylabel("f = ω/2π (Hz)")
+    a.grid(True, which="both", alpha=0.3)
+    a.legend(loc="best", fontsize="small")
+    names = sorted({bb.system.name for bb in items})
+    err = max(float(np.max(bb.error)) for bb in items)
+    a.set_title(f"frequency–energy plot of {', '.join(names)}: backbones (nonlinear normal modes, undamped)\n"
+                f"ω by shooting, error ≤ {err:.1e} rad/s", fontsize="small")
+    return save(fig, path, dpi)
+
+
+def _resonance_label(r):
+    """"3:1 with mode 2" (a tongue: mode numbers from 1) or "fold"."""
+    if r.kind == "fold":
+        return "fold"
+    return f"{r.ratio}:1 with mode {r.other_mode + 1}" if r.ratio is not None else r.kind

@@ -146,6 +146,13 @@ class Backbone:
                 "points": self.points, "note": self.note, "elapsed_s": self.elapsed,
                 "orbits": [o.to_dict() for o in self.orbits]}
 
+    def plot(self, ax: Any = None, path: str | None = None, dpi: int = 100) -> Any:
+        """The frequency–energy plot of this backbone (matplotlib; see :func:`vibdyn.faces.plots.frequency_energy`,
+        which draws several on one plot). Saves to ``path`` if given."""
+        from ...faces import plots
+
+        return plots.frequency_energy(self, ax=ax, path=path, dpi=dpi)
+
     def __str__(self):
         u = self.unit
         lines = [f"backbone of mode {self.mode} (linear ω = {number(self.linear_omega, 'rad/s', digits=10)}, "

@@ -103,7 +103,7 @@ class Content:
 def content(obj, trajectory=None, speed=1.0):
     """The :class:`Content` of a Modes, Trajectory, System or Scene (plus an optional trajectory: a
     Trajectory or a ``.npz`` file of ``vibdyn simulate --out``), or of one period of a nonlinear orbit (a
-    PeriodicOrbit, or ``ForcedResponseCurve.orbit(i)``: its real motion, looped)."""
+    PeriodicOrbit, a Backbone's largest orbit, or ``ForcedResponseCurve.orbit(i)``: its real motion, looped)."""
     orbit = _motion.orbit_motion(obj)
     if orbit is not None:
         system, data, label, slow = orbit
@@ -126,7 +126,7 @@ def content(obj, trajectory=None, speed=1.0):
     elif isinstance(obj, System):
         system = obj
     else:
-        raise ModelError(f"the viewer shows a Modes, Trajectory, System, Scene, PeriodicOrbit or "
+        raise ModelError(f"the viewer shows a Modes, Trajectory, System, Scene, PeriodicOrbit, Backbone or "
                          f"ForcedResponseCurve.orbit(i), got {type(obj).__name__}")
     data = None
     if trajectory is not None:

@@ -284,15 +284,23 @@ def orbit_motion(obj):
     """(system, (t, q), label, slow-down) of one period of a nonlinear orbit — a
     :class:`~vibdyn.analysis.nonlinear.periodic.PeriodicOrbit` (its trajectory) or a forced-response point
     (:class:`~vibdyn.analysis.nonlinear.response_orbit.ResponseOrbit`, the harmonic-balance motion) — or None for
-    anything else. The slow-down (≤ 1) shows a period shorter than ``PERIOD`` s over ``PERIOD`` s."""
+    anything else; a :class:`~vibdyn.analysis.nonlinear.backbone.Backbone` shows the orbit of its largest energy.
+    The slow-down (≤ 1) shows a period shorter than ``PERIOD`` s over ``PERIOD`` s."""
+    from ...analysis.nonlinear.backbone import Backbone
     from ...analysis.nonlinear.periodic import PeriodicOrbit
     from ...analysis.nonlinear.response_orbit import ResponseOrbit
 
+    head = ""
+    if isinstance(obj, Backbone):
+        i = int(np.argmax(obj.energy))
+        head = (f"backbone of mode {obj.mode + 1}, its largest request: amplitude of {obj.coordinate} "
+                f"{obj.amplitude[i]:.6g} {obj.unit}, energy {obj.energy[i]:.6g} J; ")
+        obj = obj.orbits[i]
     if isinstance(obj, PeriodicOrbit):
         tr = obj.trajectory
         data = (np.asarray(tr.t, float), np.asarray(tr.q, float))
-        label = (f"periodic orbit: T = {obj.period:.6g} s (ω = {obj.omega:.6g} rad/s, {obj.frequency_hz:.4g} Hz), "
-                 f"{obj.stability}")
+        label = (f"{head}periodic orbit: T = {obj.period:.6g} s (ω = {obj.omega:.6g} rad/s, {obj.frequency_hz:.4g} "
+                 f"Hz), {obj.stability}")
     elif isinstance(obj, ResponseOrbit):
         data = (np.asarray(obj.t, float), np.asarray(obj.q, float))
         label = (f"forced response at Ω = {obj.omega:.6g} rad/s ({obj.hz:.4g} Hz): amplitude of {obj.coordinate} "
