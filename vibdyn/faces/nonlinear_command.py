@@ -262,7 +262,12 @@ def backbone_command(scene, args, out=None):
     default = ""
     if amplitudes is None and energies is None:
         amplitudes, default = _default_amplitudes(system, args.coordinate)
-    bb = backbone(system, args.mode - 1, amplitudes=amplitudes, energies=energies, coordinate=args.coordinate)
+    try:
+        bb = backbone(system, args.mode - 1, amplitudes=amplitudes, energies=energies, coordinate=args.coordinate)
+    except ModelError as e:
+        if "mode" not in str(e):
+            raise
+        raise ModelError(f"{e} (--mode {args.mode} is vd.backbone's mode index {args.mode - 1})") from None
     if args.png:
         from .plots import frequency_energy
 
