@@ -41,14 +41,18 @@ from ...errors import ConvergenceError, ModelError
 from ...model.groups import ForceGroup
 from ...simulation.simulate import SimulationError, simulate
 from ...solvers.continuation import continuation
+from ...solvers.newton import newton
 from .periodic import RTOL, STEP_RESOLUTION, TOL, periodic_orbit
-from .shooting import Shooting, conservative
+from .shooting import RCOND, Shooting, conservative
 
 __all__ = ["Backbone", "Resonance", "backbone"]
 START_AMPLITUDE = 1e-2  # the linear start's displacement of the coordinate c, in its scale (1 rad, length scale)
 MAX_PERIOD_GROWTH = 50.0  # the branch stops where T exceeds this × the linear period (a separatrix near)
-FIRST_STEP = 0.02  # the continuation's first arclength step (variables scaled by the requests' range)
-MAX_STEP = 0.1  # and its largest (the multipliers' angles are followed from point to point)
+FIRST_STEP = 0.05  # the continuation's first arclength step (variables scaled by the requests' range)
+CONTINUATION_RTOL = 1e-9  # the flows along the branch (each request is solved again at the caller's rtol)
+CONTINUATION_TOL = 1e-8  # and the branch's closing tolerance (scaled)
+MIN_STEP = 1e-4  # steps halved below this (scaled) end the branch: it cannot be followed further
+MAX_STEP = 0.25  # and its largest (the multipliers' angles are followed from point to point)
 ARG1 = pin.ArgumentPosition.ARG1
 
 
@@ -220,6 +224,9 @@ def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energi
         out[i] = follower.request(z, slope, requests[i] if requested == "energy" else None)
     cols = [np.array([o[j] for o in out]) for j in range(6)]
     orbits = tuple(o[6] for o in out)
+    if follower.jumps:
+        note += (f"; the multipliers' angles moved by more than π/2 over {follower.jumps} branch step(s): an internal "
+                 "resonance there may be missed")
     return Backbone(cons, k, cons.coordinates[c], cons.units[c], requested, float(modes.omega[k]), cols[0], cols[1],
                     cols[2], cols[3], cols[4], cols[5], orbits, tuple(follower.resonances), q_eq,
                     follower.points, note, time.perf_counter() - start)
@@ -335,6 +342,7 @@ class _Follower:
         self.others = others
         self.theta = np.array([2 * math.pi * modes.omega[j] / omega for j in others])
         self.resonances: list = []
+        self.jumps = 0  # branch steps over which a multiplier's angle moved by more than π/2 (tracking unsure)
         self.points = 0
         self.last = None  # (λ, energy, ω) of the last branch point
         self.reached = (0.0, 0.0)  # (largest amplitude, largest energy) on the branch
@@ -360,10 +368,14 @@ class _Follower:
         g[self.n:] = self.system.mass_matrix(q) @ v
         return g
 
-    def shooting(self, T):
+    def shooting(self, T, tight):
+        """The shooting equations at period guess T: flows at the caller's rtol for a request (``tight``), at
+        CONTINUATION_RTOL along the branch (steps resolve the orbit's own ω; DOP853 controls the rest)."""
         omega = 2 * math.pi / T
-        return Shooting(self.system, 0.0, T, True, 1, omega, self.rtol, ("velocity", self.c), None, None,
-                        STEP_RESOLUTION / max(self.omega_max, omega))
+        rtol = self.rtol if tight else max(self.rtol, CONTINUATION_RTOL)
+        fastest = max(self.omega_max, omega) if tight else omega
+        return Shooting(self.system, 0.0, T, True, 1, omega, rtol, ("velocity", self.c), None, None,
+                        STEP_RESOLUTION / fastest)
 
     # ------------------------------------------------------------------ equations
     def equations(self, shoot, row_scale):
@@ -403,11 +415,13 @@ class _Follower:
             if target == lam and out:
                 out.append(out[-1])
                 continue
-            shoot = self.shooting(self.state(z)[2])
+            shoot = self.shooting(self.state(z)[2], False)
             fun, jac = self.equations(shoot, max(target, lam))
             try:
-                branch = continuation(fun, z, lam, float(target), step=FIRST_STEP, jacobian=jac, tol=self.tol,
-                                      max_steps=max(1, max_steps - steps), max_step=MAX_STEP, scale=self.w,
+                branch = continuation(fun, z, lam, float(target), step=FIRST_STEP, jacobian=jac,
+                                      tol=max(self.tol, CONTINUATION_TOL),
+                                      max_steps=max(1, max_steps - steps), max_step=MAX_STEP, min_step=MIN_STEP,
+                                      scale=self.w,
                                       stop=lambda x, lm: self.monitor(x, lm, shoot))
             except (SimulationError, np.linalg.LinAlgError) as e:
                 self.why = self.why or f"the motion could not be integrated further: {e}"
@@ -424,7 +438,7 @@ class _Follower:
                 self.beyond(target, branch)
             if branch.lam.size > 1 and self.last is not None:
                 self.monitor(branch.x[-1], float(branch.lam[-1]), shoot)
-            z, lam = branch.x[-1], float(branch.lam[-1])
+            z, lam = self.exact(branch.x[-1], float(target)), float(target)
             slope = 0.0
             if branch.lam.size > 1 and branch.lam[-1] != branch.lam[-2]:
                 slope = float((2 * math.pi / branch.x[-1, -1] - 2 * math.pi / branch.x[-2, -1])
@@ -432,9 +446,24 @@ class _Follower:
             out.append((z, slope))
         return out
 
+    def exact(self, z, target):
+        """The branch point at λ = target solved again with the request's tolerances (tol, rtol)."""
+        shoot = self.shooting(self.state(z)[2], True)
+        fun, jac = self.equations(shoot, target)
+        res = newton(lambda y: fun(y, target), z, lambda y: jac(y, target)[:, :-1], tol=self.tol, max_iter=10,
+                     rcond=RCOND, stall=100.0)
+        if not (res.converged or res.residual <= 100 * self.tol):
+            raise ConvergenceError(f"backbone: the {self.requested} {target:.6g} was reached along the branch but "
+                                   f"not solved to tol = {self.tol:.1e} ({res.message})", residual=res.residual,
+                                   best=res.x)
+        return res.x
+
     def beyond(self, target, branch):
         a, e = self.reached
         why = self.why or branch.message
+        if not self.why and self.last is not None and self.last[2] < self.omega_lin / 3:
+            why += (f"; the period has grown to {2 * math.pi / self.last[2]:.4g} s, "
+                    f"{self.omega_lin / self.last[2]:.3g} times the linear one: a separatrix (infinite period) is near")
         best = branch.x[-1] if branch is not None and branch.x.size else None
         raise ConvergenceError(
             f"backbone: the {self.requested} {target:.6g} {'J' if self.requested == 'energy' else self.unit()} is "
@@ -469,6 +498,8 @@ class _Follower:
                             f"energy ≈ {number(ei, 'J', digits=6)} (between {e0:.6g} and {e:.6g} J), ω ≈ "
                             f"{number(wi, 'rad/s', digits=6)}: continued past it; the orbits beyond are flagged"))
             if theta is not None:
+                if np.any(np.abs(theta - self.theta) > 0.5 * math.pi):
+                    self.jumps += 1
                 self.theta = theta
         self.last = (lam, e, w)
         if T > MAX_PERIOD_GROWTH * self.T_lin:
@@ -516,7 +547,7 @@ class _Follower:
         name = self.system.coordinates[self.c]
         orbit = periodic_orbit(self.system, q0, v0, T, phase=name, tol=self.tol, rtol=self.rtol)
         omega = orbit.omega
-        err_w = 2 * math.pi * orbit.period_error / orbit.period**2
+        err_w = 2 * math.pi * orbit.period_error / orbit.period**2 + 16 * np.finfo(float).eps * omega  # (+ round-off)
         amp = self.amplitude(orbit)
         g = self.energy_gradient(orbit.q0, orbit.v0)
         e = self.energy(orbit.q0, orbit.v0)

@@ -1,0 +1,188 @@
+"""Backbones of nonlinear normal modes (issue 25): the compound pendulum against the complete elliptic integral,
+Kerschen's two-mass oscillator with a cubic spring against an independent shooting on the hand-written ODE
+(scipy), a ball joint's planar swing against the planar pendulum, and bad input. Tolerances come from each
+result's own error estimate."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import fsolve
+from scipy.special import ellipk
+
+import vibdyn as vd
+
+G = 9.81
+
+
+def pendulum(damping=0.0):
+    """A uniform rod (2 kg, 1 m) on a pivot at its end: ω₀² = m g (L/2) / (m L²/3) = 3g/2."""
+    sc = vd.Scene("rod", gravity=(0, 0, -G))
+    sc.add_body("bar", joint=vd.Pivot(axis=(1, 0, 0)), mass=2.0, com=(0, 0, -0.5),
+                inertia=vd.inertia.rod(2.0, 1.0, axis=(0, 0, 1)))
+    if damping:
+        sc.add_joint_damper("bar", damping)
+    return sc.build()
+
+
+W0 = math.sqrt(1.5 * G)
+
+
+def elliptic_omega(amplitude, w0=W0):
+    """ω(A) = π ω₀ / (2 K(m)), m = sin²(A/2) (scipy's parameter m = k²)."""
+    return math.pi * w0 / (2 * ellipk(np.sin(np.asarray(amplitude) / 2) ** 2))
+
+
+@pytest.fixture(scope="module")
+def rod_backbone():
+    return vd.backbone(pendulum(), 0, amplitudes=[3.0, 0.5, 2.0])
+
+
+def test_pendulum_backbone_is_the_elliptic_integral(rod_backbone):
+    """Amplitudes up to 3 rad (given unsorted: results in the order given): ω against π ω₀ / (2 K(sin²(A/2)))
+    within the result's own error, which is below 1e-8 relative; the amplitude is the one requested, the energy
+    m g d (1 − cos A); a conservative orbit is neutral within the error."""
+    bb = rod_backbone
+    A = np.array([3.0, 0.5, 2.0])
+    assert np.all(np.abs(bb.amplitude - A) <= bb.amplitude_error + 1e-12)
+    ref = elliptic_omega(bb.amplitude)
+    assert np.all(np.abs(bb.omega - ref) <= bb.error)  # (ref at the converged amplitude)
+    assert np.all(bb.error < 1e-8 * bb.omega)
+    assert np.all(np.abs(bb.energy - 2 * G * 0.5 * (1 - np.cos(bb.amplitude))) <= bb.energy_error + 1e-12)
+    assert np.allclose(bb.frequency_hz, bb.omega / (2 * math.pi))
+    assert bb.stability == ("neutral within the error",) * 3 and bb.stable.all()
+    assert bb.coordinate == "bar" and bb.mode == 0 and bb.unit == "rad" and bb.resonances == ()
+    assert abs(bb.linear_omega - W0) < 1e-6 and bb.elapsed > 0
+    for orbit, w in zip(bb.orbits, bb.omega):
+        assert orbit.omega == w and orbit.trajectory.t[-1] == pytest.approx(orbit.period)
+    d = json.loads(json.dumps(bb.to_dict()))
+    assert d["omega_rad_s"] == bb.omega.tolist() and d["amplitude_rad"] == bb.amplitude.tolist()
+    assert "ω" in str(bb) and "neutral within the error" in str(bb) and "Backbone(" in repr(bb)
+
+
+def test_a_damped_pendulum_has_the_backbone_of_its_conservative_part(rod_backbone):
+    """A joint damper is dropped (said in the note): the same ω at the same amplitude, within both errors."""
+    bb = vd.backbone(pendulum(damping=0.3), 0, amplitudes=[0.5])
+    assert "damping left out" in bb.note and "bar.damper" in bb.note
+    assert abs(bb.omega[0] - rod_backbone.omega[1]) <= bb.error[0] + rod_backbone.error[1]
+    assert abs(bb.omega[0] - elliptic_omega(0.5)) <= bb.error[0]
+
+
+# ---------------------------------------------------------------------------------------------- 2. Kerschen
+L = 100.0  # the springs' free lengths (m): collinear point springs stay linear while |x| < L
+
+
+@pytest.fixture(scope="module")
+def kerschen():
+    """Kerschen et al. (MSSP 2009), NLvib's example: m1 = m2 = 1 kg on sliders, springs ground–m1, m1–m2,
+    m2–ground of 1 N/m, a cubic 0.5 x1³ on m1: ẍ1 + 2x1 − x2 + 0.5x1³ = 0, ẍ2 + 2x2 − x1 = 0."""
+    sc = vd.Scene("kerschen")
+    sc.add_body("m1", joint=vd.Slider(axis=(1, 0, 0), at=(L, 0, 0)), mass=1.0)
+    sc.add_body("m2", joint=vd.Slider(axis=(1, 0, 0), at=(2 * L, 0, 0)), mass=1.0)
+    sc.add_spring("k1", ("world", (0, 0, 0)), "m1", 1.0, L)
+    sc.add_spring("k2", "m1", "m2", 1.0, L)
+    sc.add_spring("k3", "m2", ("world", (3 * L, 0, 0)), 1.0, L)
+    sc.add_cubic_joint_spring("m1", 0.5)
+    return sc.build()
+
+
+def hand_shooting(energy, guess):
+    """The NNM orbit at ``energy`` (J) of the hand ODE: from rest at (x1, x2), both velocities zero again at T/2
+    (a synchronous NNM, time-reversible), V(x1, x2) = E; solve_ivp DOP853 at rtol 1e-13, fsolve."""
+
+    def rhs(t, y):
+        x1, x2, v1, v2 = y
+        return [v1, v2, -(2 * x1 - x2) - 0.5 * x1**3, -(2 * x2 - x1)]
+
+    def equations(u):
+        x1, x2, T = u
+        run = solve_ivp(rhs, (0, T / 2), [x1, x2, 0, 0], method="DOP853", rtol=1e-13, atol=1e-15)
+        V = 0.5 * x1**2 + 0.5 * (x1 - x2) ** 2 + 0.5 * x2**2 + 0.125 * x1**4
+        return [run.y[2, -1], run.y[3, -1], V - energy]
+
+    x1, x2, T = fsolve(equations, guess, xtol=1e-13)
+    assert np.max(np.abs(equations([x1, x2, T]))) < 1e-10
+    return 2 * math.pi / T
+
+
+@pytest.mark.parametrize("mode, energies, omega_lin", [(0, [0.1, 10.0, 100.0], 1.0),
+                                                       (1, [0.1, 10.0], math.sqrt(3))])
+def test_kerschen_backbones_against_an_independent_shooting(kerschen, mode, energies, omega_lin):
+    """Both NNMs harden from their linear ω (1 and √3 rad/s); ω against the hand shooting within the result's
+    error plus 1e-10 (the oracle's), each error below 1e-7 relative; the in-phase one stays below √2 (its limit
+    at high energy, m1 held by the cubic spring) and met a 2:1 internal resonance with the out-of-phase mode
+    on the way (the transverse multiplier at +1), beyond which its orbits are unstable."""
+    bb = vd.backbone(kerschen, mode, energies=energies)
+    assert abs(bb.linear_omega - omega_lin) < 1e-5
+    assert np.all(np.abs(bb.energy - energies) <= bb.energy_error + 1e-12 * np.array(energies))
+    for i, e in enumerate(energies):
+        x = kerschen.difference(bb.q_eq, bb.orbits[i].q0)
+        ref = hand_shooting(e, [x[0], x[1], bb.orbits[i].period])
+        assert abs(bb.omega[i] - ref) <= bb.error[i] + 1e-10 * ref
+        assert bb.error[i] < 1e-7 * ref
+    assert np.all(np.diff(bb.omega) > 0) and bb.omega[0] > omega_lin
+    if mode == 0:
+        assert bb.omega[-1] < math.sqrt(2) and bb.omega[-1] > 1.3
+        res = [r for r in bb.resonances if r.kind == "internal resonance"]
+        assert len(res) == 1 and res[0].other_mode == 1 and res[0].ratio == 2
+        assert 10.0 < res[0].energy < 100.0 and bb.omega[1] < res[0].omega < bb.omega[2]
+        assert bb.stability[:2] == ("neutral within the error",) * 2 and bb.stability[2] == "unstable"
+        assert "2:1 internal resonance" in str(bb)
+
+
+# ---------------------------------------------------------------------------------------------- 3. ball joint
+def test_ball_joint_planar_swing_is_the_planar_pendulum():
+    """A box (2 kg, 0.3 × 0.1 × 1 m, centre 0.5 m below a ball joint; a torsion spring on the ball's z holds
+    its spin) swinging about x: the motion stays planar and its backbone is the compound pendulum's,
+    ω₀² = m g d / (I_xx + m d²), on the rotation vector's x component. The y swing is slower (I_yy larger):
+    as the x swing softens past it, a 1:1 internal resonance is met and the planar swing turns unstable."""
+    m, a, b, h, d = 2.0, 0.3, 0.1, 1.0, 0.5
+    sc = vd.Scene("ball pendulum", gravity=(0, 0, -G))
+    sc.add_body("b", joint=vd.Ball(), mass=m, com=(0, 0, -d), inertia=vd.inertia.box(m, (a, b, h)))
+    sc.add_joint_spring("b", [0.0, 0.0, 5.0])
+    system = sc.build()
+    w0 = math.sqrt(m * G * d / (m * (b**2 + h**2) / 12 + m * d**2))
+    modes = system.equilibrium().linearize().modes()
+    k = int(np.argmin(np.abs(modes.omega - w0)))
+    bb = vd.backbone(system, k, amplitudes=[1.5], coordinate="b.rx")
+    assert abs(bb.amplitude[0] - 1.5) <= bb.amplitude_error[0] + 1e-12
+    assert abs(bb.omega[0] - elliptic_omega(bb.amplitude[0], w0)) <= bb.error[0] < 1e-8
+    dq = np.array([system.difference(bb.q_eq, q) for q in bb.orbits[0].trajectory.q])
+    assert np.abs(dq[:, 1:]).max() <= 1e-6  # planar
+    assert [r.ratio for r in bb.resonances] == [1] and bb.resonances[0].other_mode == 1 - k
+    assert bb.stability == ("unstable",)
+
+
+# ---------------------------------------------------------------------------------------------- 4. bad input
+@pytest.mark.parametrize("kwargs, match", [
+    ({}, "exactly one of amplitudes"),
+    ({"amplitudes": [0.1], "energies": [1.0]}, "exactly one of amplitudes"),
+    ({"amplitudes": [0.1, -0.2]}, "positive and finite: entry 1"),
+    ({"amplitudes": [float("nan")]}, "positive and finite"),
+    ({"energies": []}, "non-empty"),
+    ({"amplitudes": [0.1], "mode": 1}, "mode 1 out of range"),
+    ({"amplitudes": [0.1], "mode": -1}, "mode"),
+    ({"amplitudes": [0.1], "coordinate": "nope"}, "nope"),
+])
+def test_bad_requests_are_refused(kwargs, match):
+    mode = kwargs.pop("mode", 0)
+    with pytest.raises(vd.ModelError, match=match):
+        vd.backbone(pendulum(), mode, **kwargs)
+
+
+def test_a_scene_with_no_oscillating_mode_is_refused():
+    sc = vd.Scene("free slider")
+    sc.add_body("m", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
+    with pytest.raises(vd.ModelError, match="no oscillating mode"):
+        vd.backbone(sc.build(), 0, amplitudes=[0.1])
+
+
+def test_a_request_beyond_the_branch_names_how_far_it_went():
+    """The bundled two_mass_cubic has springs of free length 1 m: the out-of-phase NNM cannot grow past the
+    collapse of the middle spring; asking 10 J names the largest amplitude and energy reached and why."""
+    system = vd.load_scene("two_mass_cubic").build()
+    with pytest.raises(vd.ConvergenceError, match=r"beyond the followed branch: largest amplitude reached "
+                                                  r"0\.\d+ m, largest energy 0\.\d+ J .*zero length"):
+        vd.backbone(system, 1, energies=[0.1, 10.0])
