@@ -1,4 +1,5 @@
-"""Nonlinear vibrations: forced-response curves by harmonic balance and periodic orbits, error against run time.
+"""Nonlinear vibrations: forced-response curves by harmonic balance, periodic orbits and backbones (nonlinear normal
+modes), error against run time.
 
 Cases (references independent of the method measured):
 
@@ -21,6 +22,15 @@ Cases (references independent of the method measured):
 - **Pendulum orbits against the elliptic integral** (models/rod_pivot.toml, released from 2.5 rad): the
   period T = 4 K(sin²(A/2))/ω₀ of the nonlinear normal mode at that amplitude, ``vd.periodic_orbit`` at
   several flow tolerances (estimate: ``period_error``).
+- **Backbones** (nonlinear normal modes, ``vd.backbone``), ω at requested amplitudes: the pendulum (rod_pivot,
+  A = 1 and 2.5 rad) against the elliptic integral π ω₀ / (2 K(sin²(A/2))); the two-mass cubic oscillator
+  (both NNMs, x₁ amplitude 0.1, 0.3, 0.5 m) against an independent shooting with scipy's DOP853 at rtol 1e-13
+  on the hand-written ODE (checked on the pendulum against the elliptic integral to 4e-15). vd.backbone at
+  (tol, rtol) = (1e-6, 1e-7), (1e-8, 1e-9), (1e-10, 1e-11) (estimate: the largest ω error estimate; each run
+  also records how far the reported amplitudes are from the requests, ``amplitude_miss``, against its
+  ``amplitude_estimate``); the brute-force competitor is that scipy shooting itself at rtol 1e-6, 1e-8, 1e-10
+  (no estimate), continued from the linear mode in steps of 0.05. pyHarm has no backbone (no nonlinear normal
+  mode continuation of a conservative system: its analyses are forced-response curves), so it is not run here.
 
 What each gets wrong is recorded in the runs (``note``): a single harmonic misses the Duffing peak by about
 1 % (its truncation estimate says so); pyHarm's peak is the best of its continuation points (no refinement),
@@ -264,5 +274,113 @@ def pendulum_case(S):
                          f"4 K(sin²(A/2)) / ω₀ = {exact:.12f} s (scipy ellipk)", runs, unit="s")
 
 
+# ---------------------------------------------------------------------------------------------- backbones
+def scipy_backbone(accel, stiffness, phi, c, omega_lin, amplitudes, rtol, step=0.05):
+    """The independent reference (and the brute-force competitor): ω (rad/s) of the NNM grown from the linear
+    mode ``phi`` at each amplitude of coordinate ``c`` (ascending), by shooting with scipy's DOP853 on the
+    hand-written ODE ẍ = accel(x) (∂accel/∂x = −stiffness(x)): a time-reversible orbit released at rest from a
+    turning point, x_c(0) = A, v(0) = 0, the other x_j(0) and T/2 the unknowns, v(T/2) = 0 the equations
+    (Newton on the variational equations), continued from A = ``step`` in steps of ``step``."""
+    from scipy.integrate import solve_ivp
+
+    n = len(phi)
+    others = [j for j in range(n) if j != c]
+
+    def rhs(t, y):
+        x, v = y[:n], y[n:2 * n]
+        S = y[2 * n:].reshape(2 * n, n)  # ∂(x, v)/∂x0
+        return np.concatenate([v, accel(x), S[n:].ravel(), (-stiffness(x) @ S[:n]).ravel()])
+
+    x0, half, out = np.asarray(phi, float) / phi[c] * step, math.pi / omega_lin, []
+    grid = sorted(set(np.round(np.arange(step, max(amplitudes) + step / 2, step), 12)) | set(amplitudes))
+    A_prev = step
+    for A in grid:
+        x0 = x0 * (A / A_prev)
+        x0[c], A_prev = A, A
+        for _ in range(40):
+            y0 = np.concatenate([x0, np.zeros(n), np.eye(n).ravel(), np.zeros(n * n)])
+            y = solve_ivp(rhs, (0.0, half), y0, method="DOP853", rtol=rtol, atol=rtol * 1e-3).y[:, -1]
+            S = y[2 * n:].reshape(2 * n, n)
+            J = np.column_stack([S[n:, others], accel(y[:n])])
+            d = np.linalg.lstsq(J, -y[n:2 * n], rcond=None)[0]
+            x0[others] += d[:-1]
+            half += d[-1]
+            if np.max(np.abs(d)) < 1e-14 * max(1.0, half):
+                break
+        if A in amplitudes:
+            out.append(math.pi / half)
+    return np.array(out)
+
+
+def pendulum_ode():
+    """rod_pivot as a hand-written ODE: θ̈ = −ω₀² sin θ."""
+    w0 = vd.load_scene("rod_pivot").references["omega"][0]
+    return (lambda x: -w0**2 * np.sin(x)), (lambda x: np.array([[w0**2 * math.cos(x[0])]])), np.array([1.0]), 0, w0
+
+
+def two_mass_ode(mode):
+    """Kerschen's system as a hand-written ODE: ẍ₁ = −(2x₁ − x₂ + 0.5x₁³), ẍ₂ = −(2x₂ − x₁); the linear mode."""
+    def accel(x):
+        return np.array([-(2 * x[0] - x[1] + 0.5 * x[0] ** 3), -(2 * x[1] - x[0])])
+
+    def stiffness(x):
+        return np.array([[2 + 1.5 * x[0] ** 2, -1.0], [-1.0, 2.0]])
+
+    return accel, stiffness, np.array([1.0, 1.0 if mode == 0 else -1.0]), 0, (1.0 if mode == 0 else math.sqrt(3))
+
+
+BACKBONE_SETTINGS = [(1e-6, 1e-7), (1e-8, 1e-9), (1e-10, 1e-11)]  # vd.backbone's (tol, rtol)
+
+
+def backbone_case(S, name, system, mode, coordinate, amplitudes, ode, reference, reference_text):
+    """vd.backbone at BACKBONE_SETTINGS (the default last; the smoke run: only it) against ``reference`` (ω per
+    amplitude); the scipy shooting of :func:`scipy_backbone` at looser tolerances beside (no estimate)."""
+    runs = []
+    for tol, rtol in BACKBONE_SETTINGS[-1:] if S.smoke else BACKBONE_SETTINGS:
+        try:
+            bb, t, peak_mb = C.measure(lambda: vd.backbone(system, mode, amplitudes=amplitudes, coordinate=coordinate,
+                                                           tol=tol, rtol=rtol), S.repeat)
+        except vd.VibdynError as e:
+            runs.append(C.refused(f"vibdyn backbone tol={tol:g} rtol={rtol:g}", "vibdyn", e, 0.0))
+            continue
+        err = np.abs(bb.omega - reference)
+        runs.append(C.run_record(f"vibdyn backbone tol={tol:g} rtol={rtol:g}", "vibdyn", float(err.max()),
+                                 float(bb.error.max()), t, None, peak_mb, method="continuation + shooting",
+                                 tol=tol, rtol=rtol, points=bb.points, errors=err.tolist(), estimates=bb.error.tolist(),
+                                 amplitude_miss=float(np.abs(bb.amplitude - amplitudes).max()),
+                                 amplitude_estimate=float(bb.amplitude_error.max())))
+    for rtol in [] if S.smoke else [1e-6, 1e-8, 1e-10]:
+        w, t, _ = C.measure(lambda: scipy_backbone(*ode, amplitudes, rtol), 1, memory=False)
+        runs.append(C.run_record(f"scipy shooting rtol={rtol:g}", "scipy", float(np.abs(w - reference).max()), None,
+                                 t, None, None, method="hand-written ODE, DOP853, natural continuation", rtol=rtol,
+                                 note="brute force: the equations written by hand, no error estimate"))
+    return C.case_record(name, "nonlinear", reference_text, runs, unit="rad/s")
+
+
+def pendulum_backbone_case(S):
+    from scipy.special import ellipk
+
+    A = [1.0, 2.5]
+    w0 = vd.load_scene("rod_pivot").references["omega"][0]
+    exact = np.array([math.pi * w0 / (2 * float(ellipk(math.sin(a / 2) ** 2))) for a in A])
+    return backbone_case(S, "pendulum backbone ω at A = 1, 2.5 rad", vd.load_scene("rod_pivot").build(), 0, "rod",
+                         A, pendulum_ode(), exact, "π ω₀ / (2 K(sin²(A/2))) (scipy ellipk): "
+                         + ", ".join(f"{w:.12f}" for w in exact) + " rad/s")
+
+
+def two_mass_backbone_case(S, mode):
+    A = [0.1, 0.3, 0.5]
+    start = time.perf_counter()
+    ref = scipy_backbone(*two_mass_ode(mode), A, 1e-13, step=0.025)
+    t_ref = time.perf_counter() - start
+    return backbone_case(S, f"two-mass cubic backbone, {'in-phase' if mode == 0 else 'out-of-phase'} NNM: ω at x₁ "
+                         "amplitude 0.1, 0.3, 0.5 m", vd.load_scene("two_mass_cubic").build(), mode, "m1", A,
+                         two_mass_ode(mode), ref, "scipy DOP853 shooting at rtol 1e-13 on the hand-written ODE: "
+                         + ", ".join(f"{w:.12f}" for w in ref) + f" rad/s ({t_ref:.1f} s)")
+
+
 def run(S):
-    return [duffing_case(S), two_mass_case(S), pendulum_case(S)]
+    backbones = [pendulum_backbone_case(S)]
+    if not S.smoke:  # (~10 s each: the smoke run keeps the pendulum's)
+        backbones += [two_mass_backbone_case(S, 0), two_mass_backbone_case(S, 1)]
+    return [duffing_case(S), two_mass_case(S), pendulum_case(S), *backbones]
