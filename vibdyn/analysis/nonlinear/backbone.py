@@ -219,7 +219,7 @@ def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energi
     follower = _Follower(cons, q_eq, phi, c, float(modes.omega[k]), modes, k, requested, requests, rtol, tol)
     order = np.argsort(requests, kind="stable")
     solved = follower.run(requests[order], max_steps)
-    out = [None] * len(requests)
+    out: list[Any] = [None] * len(requests)
     for i, (z, slope) in zip(order, solved):
         out[i] = follower.request(z, slope, requests[i] if requested == "energy" else None)
     cols = [np.array([o[j] for o in out]) for j in range(6)]
