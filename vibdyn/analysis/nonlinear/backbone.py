@@ -221,7 +221,7 @@ def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energi
     solved = follower.run(requests[order], max_steps)
     out: list[Any] = [None] * len(requests)
     for i, (z, slope) in zip(order, solved):
-        out[i] = follower.request(z, slope, requests[i] if requested == "energy" else None)
+        out[i] = follower.request(z, slope, float(requests[i]))
     cols = [np.array([o[j] for o in out]) for j in range(6)]
     orbits = tuple(o[6] for o in out)
     if follower.jumps:
@@ -541,8 +541,10 @@ class _Follower:
         return out
 
     # ------------------------------------------------------------------ a request
-    def request(self, z, slope, energy_target):
-        """(ω, its error, amplitude, its error, energy, its error, PeriodicOrbit) at the branch point z."""
+    def request(self, z, slope, target):
+        """(ω, its error, amplitude, its error, energy, its error, PeriodicOrbit) at the branch point z solved for
+        the request ``target`` (J or m/rad): ω's error is that of ω at the request — the orbit's own, plus dω/dλ
+        times how far the orbit's energy or amplitude is from the request (the closing tolerance's share)."""
         q0, v0, T = self.state(z)
         name = self.system.coordinates[self.c]
         orbit = periodic_orbit(self.system, q0, v0, T, phase=name, tol=self.tol, rtol=self.rtol)
@@ -552,9 +554,10 @@ class _Follower:
         g = self.energy_gradient(orbit.q0, orbit.v0)
         e = self.energy(orbit.q0, orbit.v0)
         err_e = float(np.abs(g[:self.n]).sum() * orbit.error + np.abs(g[self.n:]).sum() * orbit.velocity_error)
-        if energy_target is not None:
-            err_e += abs(e - energy_target)
-        err_w += abs(slope) * (err_e if self.requested == "energy" else orbit.error)
+        if self.requested == "energy":
+            err_w += abs(slope) * (err_e + abs(e - target))
+        else:
+            err_w += abs(slope) * (orbit.error + abs(amp - target))
         return omega, err_w, amp, orbit.error, e, err_e, orbit
 
     def amplitude(self, orbit):
