@@ -159,7 +159,9 @@ class Backbone:
 
     def __str__(self):
         u = self.unit
-        lines = [f"backbone of mode {self.mode} (linear ω = {number(self.linear_omega, 'rad/s', digits=10)}, "
+        # (mode = index, counted from 0 as the API takes it; "mode n" elsewhere counts from 1, as `vibdyn modes`)
+        lines = [f"backbone of mode index {self.mode} (mode {self.mode + 1}; linear ω = "
+                 f"{number(self.linear_omega, 'rad/s', digits=10)}, "
                  f"{number(self.linear_omega / (2 * math.pi), 'Hz')}), amplitude of '{self.coordinate}', "
                  f"{len(self.omega)} {self.requested} requests, {self.points} branch points, {duration(self.elapsed)}"]
         rows = [[number(a, u, digits=10), number(e, "J", digits=10), number(w, "rad/s", digits=12), f"{de:.1e}",
@@ -174,7 +176,7 @@ class Backbone:
         return "\n".join(lines)
 
     def __repr__(self):
-        return summary("Backbone", f"mode {self.mode}", f"'{self.coordinate}'", f"{len(self.omega)} points",
+        return summary("Backbone", f"mode index {self.mode}", f"'{self.coordinate}'", f"{len(self.omega)} points",
                        f"ω {number(float(self.omega.min()), 'rad/s')} … {number(float(self.omega.max()), 'rad/s')}",
                        f"{len(self.resonances)} resonances", duration(self.elapsed))
 
