@@ -43,15 +43,17 @@ class Springs(TwoPoint):
         dx, L = self.geometry(d.fkin)
         for i in range(len(self.k)):
             ja, jb = int(self.ja[i]), int(self.jb[i])
-            Jrel = d.point(jb, self.pb[i]) - d.point(ja, self.pa[i])
+            Jrel = (d.point(jb, self.pb[i]) if ja == 0 else -d.point(ja, self.pa[i]) if jb == 0
+                    else d.point(jb, self.pb[i]) - d.point(ja, self.pa[i]))  # (an end on the world: no term)
+            k = self.k[i]
             if self.zero_l0[i]:
-                Fb, Ks = -self.k[i] * dx[i], self.k[i] * np.eye(3)
+                Fb, dF = -k * dx[i], -k * Jrel
             else:
+                # −Ks Jrel with Ks = k((1 − l0/L) I + (l0/L) u uᵀ), without forming Ks
                 u = dx[i] / L[i]
                 ratio = self.l0[i] / L[i]
-                Fb = -self.k[i] * (L[i] - self.l0[i]) * u
-                Ks = self.k[i] * ((1 - ratio) * np.eye(3) + ratio * np.outer(u, u))
-            dF = -Ks @ Jrel
+                Fb = -k * (L[i] - self.l0[i]) * u
+                dF = (-k * (1 - ratio)) * Jrel - (k * ratio) * np.outer(u, u @ Jrel)
             size = self.k[i] * np.abs(Jrel) if d.dFq_abs is not None else None  # (|Ks| ≤ k: its round-off)
             d.add_force(jb, self.pb[i], Fb, dF, None, size)
             d.add_force(ja, self.pa[i], -Fb, -dF, None, size)
