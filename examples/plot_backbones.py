@@ -48,13 +48,13 @@ fig
 #     ẍ₁ + (2x₁ − x₂) + 0.5 x₁³ = 0,   ẍ₂ + (2x₂ − x₁) = 0.
 #
 # Its linear modes are in phase (ω = 1 rad/s) and out of phase (√3 rad/s); the cubic spring hardens both NNMs.
-# (The bundled scene builds the springs between points: two ends meet when |x₁ − x₂| or |x₂| reach 1 m, which
-# bounds the energies shown here to a few tenths of a joule; the frequency–energy plot of Peeters et al. goes on
-# to the in-phase NNM's limit √2 rad/s at high energy, where the cubic spring holds m₁ and m₂ swings alone.)
+# At high energy the in-phase NNM tends to √2 rad/s (Peeters et al.'s frequency–energy plot): the cubic spring
+# all but holds m₁ and m₂ swings alone between two unit springs. On the way it meets a 2:1 internal resonance
+# with the out-of-phase mode (a tongue): vibdyn reports it and flags the orbits beyond (here unstable).
+# (The bundled scene's springs have zero free length: their forces −k·d stay linear at any amplitude.)
 two = vd.load_scene("two_mass_cubic").build()
-energies = [0.01, 0.05, 0.15, 0.4]
-nnm1 = vd.backbone(two, 0, energies=energies, coordinate="m1")
-nnm2 = vd.backbone(two, 1, energies=energies, coordinate="m1")
+nnm1 = vd.backbone(two, 0, energies=[0.01, 0.1, 1.0, 10.0, 100.0], coordinate="m1")
+nnm2 = vd.backbone(two, 1, energies=[0.01, 0.1, 1.0, 10.0], coordinate="m1")
 print(nnm1)
 print(nnm2)
 
@@ -77,15 +77,16 @@ for name, bb in (("in phase", nnm1), ("out of phase", nnm2)):
         bound = orbit.error + orbit.velocity_error + orbit.period_error * float(np.max(np.abs(kerschen(0, y0))))
         print(f"{name}, E = {E:.3g} J: ω = {orbit.omega:.10f} rad/s; Kerschen's equations close the orbit to "
               f"{gap:.1e} (vibdyn's estimate {bound:.1e})")
-        assert gap <= 2 * bound + 1e-11  # + scipy's own error at rtol 1e-12 over one period
+        assert gap <= 2 * bound + 1e-11 * max(1.0, float(np.max(np.abs(y0))))  # + scipy's own (rtol 1e-12)
+    assert bb.omega[-1] < (math.sqrt(2) if bb.mode == 0 else math.inf)  # the in-phase NNM stays below √2
 
 # %%
 # The frequency–energy plot
 # -------------------------
 # Both backbones on one plot (``mode`` 0 and 1: the API counts modes from 0, the plot from 1), the energy on a
-# log scale; the dotted lines are the linear frequencies. Every
-# orbit here is neutral (its Floquet multipliers on the unit circle within their error: an undamped, bounded
-# motion).
+# log scale; the dotted lines are the linear frequencies. The orbits are neutral (Floquet multipliers on the
+# unit circle within their error: an undamped, bounded motion) up to the 2:1 internal resonance, marked; the
+# in-phase orbit at 100 J, beyond it, is unstable (dashed).
 fig = vd.plots.frequency_energy([nnm1, nnm2])
 fig
 

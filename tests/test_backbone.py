@@ -76,8 +76,13 @@ L = 100.0  # the springs' free lengths (m): collinear point springs stay linear 
 
 @pytest.fixture(scope="module")
 def kerschen():
+    return kerschen_scene(L).build()
+
+
+def kerschen_scene(L):
     """Kerschen et al. (MSSP 2009), NLvib's example: m1 = m2 = 1 kg on sliders, springs ground–m1, m1–m2,
-    m2–ground of 1 N/m, a cubic 0.5 x1³ on m1: ẍ1 + 2x1 − x2 + 0.5x1³ = 0, ẍ2 + 2x2 − x1 = 0."""
+    m2–ground of 1 N/m and free length L (m) between points L apart, a cubic 0.5 x1³ on m1:
+    ẍ1 + 2x1 − x2 + 0.5x1³ = 0, ẍ2 + 2x2 − x1 = 0 while the springs keep a length."""
     sc = vd.Scene("kerschen")
     sc.add_body("m1", joint=vd.Slider(axis=(1, 0, 0), at=(L, 0, 0)), mass=1.0)
     sc.add_body("m2", joint=vd.Slider(axis=(1, 0, 0), at=(2 * L, 0, 0)), mass=1.0)
@@ -85,7 +90,7 @@ def kerschen():
     sc.add_spring("k2", "m1", "m2", 1.0, L)
     sc.add_spring("k3", "m2", ("world", (3 * L, 0, 0)), 1.0, L)
     sc.add_cubic_joint_spring("m1", 0.5)
-    return sc.build()
+    return sc
 
 
 def hand_shooting(energy, guess):
@@ -180,9 +185,10 @@ def test_a_scene_with_no_oscillating_mode_is_refused():
 
 
 def test_a_request_beyond_the_branch_names_how_far_it_went():
-    """The bundled two_mass_cubic has springs of free length 1 m: the out-of-phase NNM cannot grow past the
-    collapse of the middle spring; asking 10 J names the largest amplitude and energy reached and why."""
-    system = vd.load_scene("two_mass_cubic").build()
+    """Kerschen's system with springs of free length 1 m between points 1 m apart: the out-of-phase NNM cannot
+    grow past the collapse of the middle spring; asking 10 J names the largest amplitude and energy reached and
+    why."""
+    system = kerschen_scene(1.0).build()
     with pytest.raises(vd.ConvergenceError, match=r"beyond the followed branch: largest amplitude reached "
                                                   r"0\.\d+ m, largest energy 0\.\d+ J .*zero length"):
         vd.backbone(system, 1, energies=[0.1, 10.0])
