@@ -23,6 +23,7 @@ from .chart import make_ode
 # estimate sees as noise: held to 1e-10, van der Pol's Φ over a period takes 5600 steps instead of 70)
 DIFFERENCED_RTOL = 1e-9
 
+
 class StepError(Exception):
     """A step that cannot be taken; the message says why (the driver adds the time and the trajectory)."""
 
