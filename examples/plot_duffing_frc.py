@@ -33,7 +33,7 @@ F = ref["force"]
 one = vd.forced_response_curve(system, ("mass", F), (0.5, 2.0), "mass", harmonics=1)
 folds = sorted(one.folds, key=lambda f: f.omega)
 for f, w, a in zip(folds, ref["fold_omega"], ref["fold_amplitude"]):
-    print(f"fold (H = 1): Ω = {f.omega:.10f} rad/s ({f.hz:.8f} Hz), a = {f.amplitude:.9f} m; closed form "
+    print(f"fold (H = 1): Ω = {f.omega:.10f} rad/s ({f.frequency_hz:.8f} Hz), a = {f.amplitude:.9f} m; closed form "
           f"Ω = {w:.10f}, a = {a:.9f}")
     assert abs(f.omega - w) < 1e-8 and abs(f.amplitude - a) < 1e-8
 print(f"peak (H = 1): a = {one.peak.amplitude:.10f} m at Ω = {one.peak.omega:.10f} rad/s; closed form "

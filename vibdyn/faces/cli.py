@@ -1,5 +1,6 @@
 """The ``vibdyn`` command: ``info``, ``modes``, ``demo``, ``frf``, ``bench``, ``simulate``, ``view``,
-``campbell`` and the nonlinear ``frc``, ``floquet``, ``backbone`` (:mod:`vibdyn.faces.nonlinear_command`) (``vibdyn COMMAND --help``; ``COMMANDS`` below lists each one's parser and runner).
+``campbell`` and the nonlinear ``frc``, ``floquet``, ``backbone`` (:mod:`vibdyn.faces.nonlinear_command`)
+(``vibdyn COMMAND --help``; ``COMMANDS`` below lists each one's parser and runner).
 
 SCENE is a TOML scene file, a bundled model name, or ``robot:NAME`` for a robot of example-robot-data (e.g.
 ``robot:ur5``).

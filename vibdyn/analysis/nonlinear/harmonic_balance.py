@@ -88,7 +88,7 @@ class ResponseFold:
     omega_error: float = 0.0
 
     @property
-    def hz(self) -> float:
+    def frequency_hz(self) -> float:
         """Ω in Hz."""
         return self.omega / (2 * math.pi)
 
@@ -104,7 +104,7 @@ class ResponsePeak:
     omega_error: float = 0.0
 
     @property
-    def hz(self) -> float:
+    def frequency_hz(self) -> float:
         """Ω in Hz."""
         return self.omega / (2 * math.pi)
 
@@ -144,7 +144,7 @@ class ForcedResponseCurve:
     system: Any = field(default=None, repr=False)
 
     @property
-    def hz(self) -> np.ndarray:
+    def frequency_hz(self) -> np.ndarray:
         """Ω in Hz per point."""
         return self.omega / (2 * math.pi)
 
@@ -168,13 +168,13 @@ class ForcedResponseCurve:
                  f"H = {self.harmonics}, {len(self.omega)} points, Ω {number(self.omega[0])} … "
                  f"{number(self.omega[-1])} rad/s, {self.status} ({self.message}), {self.elapsed:.2f} s",
                  f"  peak: amplitude {number(self.peak.amplitude, u, digits=10)} ± {self.peak.error:.1e} at "
-                 f"Ω = {number(self.peak.omega, digits=10)} rad/s ({number(self.peak.hz, digits=8)} Hz)",
+                 f"Ω = {number(self.peak.omega, digits=10)} rad/s ({number(self.peak.frequency_hz, digits=8)} Hz)",
                  f"  truncation error ≤ {float(np.max(self.error)):.1e} {u}; "
                  f"{int(np.count_nonzero(~self.stable))} unstable points (Hill's method, |μ| to "
                  f"{float(np.max(self.multiplier_error)):.0e})"]
         for f in self.folds:
             lines.append(f"  fold: Ω = {number(f.omega, digits=10)} ± {f.omega_error:.1e} rad/s "
-                         f"({number(f.hz, digits=8)} Hz), amplitude {number(f.amplitude, u, digits=10)} ± "
+                         f"({number(f.frequency_hz, digits=8)} Hz), amplitude {number(f.amplitude, u, digits=10)} ± "
                          f"{f.error:.1e}")
         if not self.folds:
             lines.append("  no folds")

@@ -49,13 +49,13 @@ class ResponseOrbit:
         return 2 * math.pi / self.omega
 
     @property
-    def hz(self) -> float:
+    def frequency_hz(self) -> float:
         """Ω in Hz."""
         return self.omega / (2 * math.pi)
 
     def __repr__(self):
         return summary("ResponseOrbit", f"point {self.index}", f"Ω = {number(self.omega, 'rad/s', digits=8)} "
-                       f"({number(self.hz, 'Hz', digits=6)})", f"amplitude {number(self.amplitude, self.unit)} "
+                       f"({number(self.frequency_hz, 'Hz', digits=6)})", f"amplitude {number(self.amplitude, self.unit)} "
                        f"± {self.error:.1e}", self.stability)
 
 

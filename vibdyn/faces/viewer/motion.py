@@ -37,7 +37,8 @@ class ModeView:
     damped: bool = False  # from the state form (ω_d, ω_n, ζ) rather than the undamped problem (ω)
 
     @property
-    def hz(self):
+    def frequency_hz(self) -> float:
+        """ω in Hz (f or f_d)."""
         return self.omega / (2 * np.pi)
 
     @property
@@ -50,10 +51,10 @@ class ModeView:
             z = f", ζ = {self.zeta:.4g}" if self.damped else ""
             return f"{head}: {what} {abs(self.rate):.4g} 1/s (not a frequency){z}"
         if self.damped:
-            text = (f"ω_d = {self.omega:.4g} rad/s (f_d = {self.hz:.4g} Hz), ω_n = {self.omega_n:.4g} rad/s, "
-                    f"ζ = {self.zeta:.4g}")
+            text = (f"ω_d = {self.omega:.4g} rad/s (f_d = {self.frequency_hz:.4g} Hz), "
+                    f"ω_n = {self.omega_n:.4g} rad/s, ζ = {self.zeta:.4g}")
         else:
-            text = f"ω = {self.omega:.4g} rad/s (f = {self.hz:.4g} Hz), undamped"
+            text = f"ω = {self.omega:.4g} rad/s (f = {self.frequency_hz:.4g} Hz), undamped"
         if self.behaviour == "unstable":
             text += f", UNSTABLE: growth rate {self.rate:.4g} 1/s"
         return f"{head}: {text}"
@@ -303,8 +304,8 @@ def orbit_motion(obj):
                  f"Hz), {obj.stability}")
     elif isinstance(obj, ResponseOrbit):
         data = (np.asarray(obj.t, float), np.asarray(obj.q, float))
-        label = (f"forced response at Ω = {obj.omega:.6g} rad/s ({obj.hz:.4g} Hz): amplitude of {obj.coordinate} "
-                 f"{obj.amplitude:.6g} {obj.unit}, {obj.stability}")
+        label = (f"forced response at Ω = {obj.omega:.6g} rad/s ({obj.frequency_hz:.4g} Hz): amplitude of "
+                 f"{obj.coordinate} {obj.amplitude:.6g} {obj.unit}, {obj.stability}")
     else:
         return None
     period = float(data[0][-1] - data[0][0])
