@@ -553,3 +553,22 @@ def test_scenes_harmonic_balance_does_not_handle_are_refused():
     driven.add_drive("upper", vd.laws.Harmonic(0.1, 2.0))
     with pytest.raises(vd.ModelError, match="drives"):
         vd.forced_response_curve(driven.build(), ("lower", 1.0), (0.5, 1.6), "lower")
+
+
+def test_doubled_samples_are_exact_for_trig_polynomials_below_half_the_samples():
+    """The truncation step's 2H + 1 Jacobian takes the H balance's per-sample derivatives at twice the
+    samples: exact for a trig polynomial of degree < N/2 (a cubic force's 3x² at an H-harmonic x)."""
+    from vibdyn.analysis.nonlinear.balance import doubled
+
+    N = 12
+    rng = np.random.default_rng(4)
+    a, b = rng.standard_normal(6), rng.standard_normal(6)  # degree 5 < N/2 = 6
+
+    def f(tau):
+        k = np.arange(6)
+        return np.cos(np.multiply.outer(tau, k)) @ a + np.sin(np.multiply.outer(tau, k)) @ b
+
+    tau, fine = 2 * np.pi * np.arange(N) / N, np.pi * np.arange(2 * N) / N
+    samples = np.stack([f(tau), 2 * f(tau)], axis=-1)  # with a trailing axis, as K per sample
+    assert np.max(np.abs(doubled(samples)[:, 0] - f(fine))) <= 1e-13 * np.max(np.abs(f(fine)))
+    assert np.max(np.abs(doubled(samples)[:, 1] - 2 * f(fine))) <= 2e-13 * np.max(np.abs(f(fine)))

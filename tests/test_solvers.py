@@ -79,3 +79,39 @@ def test_newton_trust_region_expands_towards_a_far_root():
     assert not fixed.converged and fixed.x[0] == pytest.approx(50.0)
     grown = newton(lambda x: x - 1000.0, [0.0], max_step=1.0, max_iter=50, expand=True)
     assert grown.converged and grown.x[0] == pytest.approx(1000.0, abs=1e-10) and grown.iterations <= 12
+
+
+def test_newton_chord_keeps_a_jacobian_while_it_contracts_and_replaces_a_stale_one():
+    """The circle-and-diagonal system from near its root: chord steps (one Jacobian for several steps) reach
+    the same root; a Jacobian handed in that is far off (a neighbour's gone stale) is replaced, not trusted."""
+    def F(x):
+        return np.array([x[0] ** 2 + x[1] ** 2 - 4.0, x[0] - x[1]])
+
+    def J(x):
+        return np.array([[2 * x[0], 2 * x[1]], [1.0, -1.0]])
+
+    root = [math.sqrt(2)] * 2
+    full = newton(F, [1.5, 1.4], J, tol=1e-13)
+    chord = newton(F, [1.5, 1.4], J, tol=1e-13, chord=0.3)
+    assert full.converged and chord.converged and np.allclose(chord.x, root, atol=1e-13)
+    assert full.jacobians == full.iterations and chord.jacobians < chord.iterations
+    stale = newton(F, [1.5, 1.4], J, tol=1e-13, chord=0.3, jacobian0=np.array([[-5.0, 0.0], [0.0, 3.0]]))
+    assert stale.converged and np.allclose(stale.x, root, atol=1e-13) and stale.jacobians >= 1
+
+
+def test_continuation_with_chord_corrector_finds_the_same_branch_with_fewer_jacobians():
+    calls = {True: 0, False: 0}
+
+    def run(chord):
+        def jac(x, lam):
+            calls[chord] += 1
+            return np.array([[3 * x[0] ** 2 - 1.0, -1.0]])
+
+        return continuation(lambda x, lam: np.array([x[0] ** 3 - x[0] - lam]), [-1.3], -1.0, 1.0, step=0.05,
+                            jacobian=jac, chord=0.1 if chord else None)
+
+    plain, chord = run(False), run(True)
+    assert chord.status == "finished" and chord.lam[-1] == 1.0
+    assert np.abs(chord.x[:, 0] ** 3 - chord.x[:, 0] - chord.lam).max() <= 1e-10
+    assert sorted(f.lam for f in chord.folds) == pytest.approx(sorted(f.lam for f in plain.folds), abs=1e-10)
+    assert calls[True] < calls[False]

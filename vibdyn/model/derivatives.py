@@ -11,6 +11,7 @@ import pinocchio as pin
 
 from . import dynamics
 from .fd import steps, tangent_derivative, vector_derivative, world_point_jacobian
+from .points import skew
 
 _skew = pin.skew
 
@@ -23,7 +24,7 @@ class Derivatives:
     With ``magnitudes``, also ``dFq_abs``: the sizes of the terms summed into ``dFq`` (their round-off scale;
     a term that cancels, as the turning of a force that turns with its joint, leaves round-off of its size)."""
 
-    def __init__(self, system, q, v, a, t, need_velocity_derivatives, magnitudes=False):
+    def __init__(self, system, q, v, a, t, need_velocity_derivatives, magnitudes=False, points=True):
         model, data = system.model, system.data
         self.system, self.q, self.v, self.t = system, q, v, t
         self.nv = system.nv
@@ -33,7 +34,7 @@ class Derivatives:
         self.dFv = {j: np.zeros((6, self.nv)) for j in system.point_joints}
         self.dFq_abs = {j: np.zeros((6, self.nv)) for j in system.point_joints} if magnitudes else None
         self.J, self.R, self.u, self.dV = {}, {}, {}, {}
-        if not system.point_groups:  # joint-space groups need none of the point Jacobians
+        if not (points and system.point_groups):  # joint-space groups need none of the point Jacobians
             return
         pin.computeJointJacobians(model, data, q)
         pin.forwardKinematics(model, data, q, v)
@@ -135,6 +136,78 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None):
             C -= dv
     ws.differenced = d.differenced
     return K, C, terms, K_size
+
+
+class RowDerivatives:
+    """What a point group's ``derivatives_rows(d)`` uses, at B states at once: ``kin`` (a
+    :meth:`Kinematics.rows`), the world Jacobians of points (``points``), and ``add_forces``, which sums
+    the world forces' derivatives into ``K`` (B × nv × nv, ∂r/∂q of the point elements beyond RNEA's)."""
+
+    def __init__(self, kin, W):
+        self.kin, self.W = kin, W  # W: B × njoints × 6 × nv, LOCAL_WORLD_ALIGNED joint Jacobians
+        self.K = np.zeros((W.shape[0], W.shape[-1], W.shape[-1]))
+
+    def points(self, joints, local):
+        """World velocity Jacobians (B × n × 3 × nv) of points ``local`` (n × 3, joint frames) of ``joints``:
+        J_lin − [R r]× J_ang (zeros on the world)."""
+        rw = np.einsum("bnij,nj->bni", self.kin.R[:, joints], local)
+        W = self.W[:, joints]
+        return W[..., :3, :] - skew(rw) @ W[..., 3:, :]
+
+    def add_forces(self, joints, P, F, dF):
+        """World forces F (B × n × 3) at points of Jacobians P (B × n × 3 × nv) on ``joints``, with their
+        derivatives dF = ∂F/∂q (B × n × 3 × nv): K −= Σ Pᵀ (dF + [F]× W_ang) (the second term: the turning of
+        the joint frame the force is handed to RNEA in)."""
+        turning = skew(F) @ self.W[:, joints, 3:, :]
+        self.K -= np.einsum("bnai,bnaj->bij", P, dF + turning)
+
+
+def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
+    """(K, C) = (∂r/∂q, ∂r/∂v) at each row of Q, V, A (B × nq, B × nv, B × nv), t (a time or B of them, s)
+    and ``shift`` (None or B × n_supports × 6), as :func:`analytic_derivatives` gives them one by one: the
+    point groups with ``derivatives_rows`` at all rows at once, the others row by row."""
+    B, nv = len(Q), system.nv
+    ts = np.broadcast_to(np.asarray(t, float), (B,))
+    if not all(g.derivatives_rows is not None for g in system.point_groups):
+        K, C = np.empty((B, nv, nv)), np.empty((B, nv, nv))
+        for c in range(B):
+            K[c], C[c] = analytic_derivatives(system, Q[c], V[c], A[c], float(ts[c]),
+                                              shift=None if shift is None else shift[c])[:2]
+        return K, C
+    ws = system.workspace()
+    model, data = system.model, ws.data
+    K, C = np.empty((B, nv, nv)), np.empty((B, nv, nv))
+    if system.point_groups:
+        kin = dynamics.kinematics_rows(system, ws, Q, V if system.uses_point_velocities else None, t, shift)
+        Fx, Fq = np.zeros((B, model.njoints, 6)), np.zeros((B, nv))
+        for g in system.point_groups:
+            g.apply(t, Q, V, kin, Fq, Fx)
+        W = np.zeros((B, model.njoints, 6, nv))
+    for c in range(B):
+        if system.point_groups:
+            for j in system.point_joints:
+                ws.forces[j][:] = Fx[c, j]
+            out = pin.computeRNEADerivatives(model, data, Q[c], V[c], A[c], ws.fext)
+            pin.computeJointJacobians(model, data, Q[c])
+            for j in system.point_joints:
+                W[c, j] = pin.getJointJacobian(model, data, j, pin.LOCAL_WORLD_ALIGNED)
+        else:
+            out = pin.computeRNEADerivatives(model, data, Q[c], V[c], A[c])
+        K[c], C[c] = out[0], out[1]
+        if system.joint_groups:
+            d = Derivatives(system, Q[c], V[c], A[c], float(ts[c]), False, points=False)
+            for g in system.joint_groups:
+                dq, dv = g.derivatives(d)
+                if dq is not None:
+                    K[c] -= dq
+                if dv is not None:
+                    C[c] -= dv
+    if system.point_groups:
+        d = RowDerivatives(kin, W)
+        for g in system.point_groups:
+            g.derivatives_rows(d)
+        K += d.K
+    return K, C
 
 
 def linear_terms(system, q, v, t, a=None):

@@ -39,32 +39,53 @@ def point_forces(system, ws, q, v, t, Q, shift=None):
     return ws.fext
 
 
-def inverse_dynamics_rows(system, ws, Q, V, a, t):
-    """(τ, F): RNEA's M a + b (N or N·m) at each row of the configurations Q (B × nq) and velocities V
-    (B × nv; either may be one row for all, V also one nv-vector), with the point elements' forces, and the
-    joint-space force elements' generalized forces F (B × nv); the inverse dynamics is τ − F. One pass over
-    the rows: each joint-space group evaluates every row at once; with neither velocity nor acceleration,
-    RNEA reduces to the gravity term (nothing at all without gravity)."""
+def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
+    """(τ, F): RNEA's M a + b (N or N·m) at each row of the configurations Q (B × nq), velocities V and
+    accelerations a (B × nv; either may be one row for all, V and a also one nv-vector), with the point
+    elements' forces, and the joint-space force elements' generalized forces F (B × nv); the inverse dynamics
+    is τ − F. ``t``: a time (s), or one per row where no joint-space element depends on time; ``shift``: the
+    supports' offsets per row (B × n_supports × 6, see :func:`forces`). One pass over the rows: each
+    joint-space group, and each point group that can (``rows``), evaluates every row at once; with neither
+    velocity nor acceleration, RNEA reduces to the gravity term (nothing at all without gravity)."""
     nv = system.nv
-    B = max(len(Q), len(V) if V.ndim == 2 else 1)
+    B = max(len(Q), len(V) if V.ndim == 2 else 1, len(a) if np.ndim(a) == 2 else 1)
     if len(Q) < B:
         Q = np.broadcast_to(Q, (B, system.nq))
     if V.ndim == 2 and len(V) < B:
         V = np.broadcast_to(V, (B, nv))
+    if np.ndim(a) == 2 and len(a) < B:
+        a = np.broadcast_to(a, (B, nv))
     F = np.zeros((B, nv))
+    t_rows = np.ndim(t) > 0
     for g in system.joint_groups:
-        g.apply_rows(t, Q, V, F)
+        if t_rows and g.time_dependent:
+            for c in range(B):
+                g.apply(float(t[c]), Q[c], V[c] if V.ndim == 2 else V, None, F[c], None)
+        else:
+            g.apply_rows(float(t[0]) if t_rows else t, Q, V, F)
     model, data = system.model, ws.data
     tau = np.empty((B, nv))
-    rows_v = V.ndim == 2
+    rows_v, rows_a = V.ndim == 2, np.ndim(a) == 2
     if system.point_groups:
+        Vr = (V if rows_v else np.broadcast_to(V, (B, nv))) if system.uses_point_velocities else None
+        if all(g.rows for g in system.point_groups):
+            kin = kinematics_rows(system, ws, Q, Vr, t, shift)
+            Fx = np.zeros((B, model.njoints, 6))
+            for g in system.point_groups:
+                g.apply(t, Q, V, kin, F, Fx)
         for c in range(B):
             v = V[c] if rows_v else V
-            fext = point_forces(system, ws, Q[c], v, t, F[c])
-            tau[c] = pin.rnea(model, data, Q[c], v, a, fext)
+            tc = float(t[c]) if t_rows else t
+            if all(g.rows for g in system.point_groups):
+                for j in system.point_joints:
+                    ws.forces[j][:] = Fx[c, j]
+                fext = ws.fext
+            else:
+                fext = point_forces(system, ws, Q[c], v, tc, F[c], None if shift is None else shift[c])
+            tau[c] = pin.rnea(model, data, Q[c], v, a[c] if rows_a else a, fext)
     elif not is_gravity(system, V, a):
         for c in range(B):
-            tau[c] = pin.rnea(model, data, Q[c], V[c] if rows_v else V, a)
+            tau[c] = pin.rnea(model, data, Q[c], V[c] if rows_v else V, a[c] if rows_a else a)
     elif system.has_gravity:
         g = pin.computeGeneralizedGravity
         for c in range(B):
@@ -83,24 +104,44 @@ def is_gravity(system, v, a):
 def kinematics(system, ws, q, v=None, t=0.0, shift=None):
     """Poses (and velocities if ``v`` is given) of the joints point elements attach to, with the supports'
     displacements and velocities at t (:class:`vibdyn.model.forces.Kinematics`)."""
+    return Kinematics(system.model, ws, system.point_joints, q, v, supports_motion(system, t, shift))
+
+
+def kinematics_rows(system, ws, Q, V=None, t=0.0, shift=None):
+    """:func:`kinematics` at each row of Q (B × nq), V (B × nv or None), t (a time or B of them, s) and
+    ``shift`` (None or B × n_supports × 6): one :meth:`Kinematics.rows`."""
     supports = None
     if system.supports:
-        n = len(system.supports)
-        sp, sv = np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
-        for i, s in enumerate(system.supports):
-            for out, part in ((sp, "position"), (sv, "velocity")):
-                x = call_user(getattr(s.motion, part), (t,), f"support '{s.name}' {part}", t)
-                out[i] = finite_array(x, (3,), f"support '{s.name}': motion is not finite or not 3 numbers "
-                                               f"({part} at t = {t})")
-        if shift is not None:
-            sp[:n] += shift[:, :3]
-            sv[:n] += shift[:, 3:]
-        if not (np.all(np.isfinite(sp)) and np.all(np.isfinite(sv))):
-            bad = next(s.name for i, s in enumerate(system.supports)
-                       if not (np.all(np.isfinite(sp[i])) and np.all(np.isfinite(sv[i]))))
-            raise ModelError(f"support '{bad}': motion is not finite at t = {t}")
-        supports = (sp, sv)
-    return Kinematics(system.model, ws, system.point_joints, q, v, supports)
+        if np.ndim(t) == 0 and shift is None:
+            sp, sv = supports_motion(system, t, None)
+            supports = (np.broadcast_to(sp, (len(Q),) + sp.shape), np.broadcast_to(sv, (len(Q),) + sv.shape))
+        else:
+            ts = np.broadcast_to(t, (len(Q),))
+            rows = [supports_motion(system, ts[c], None if shift is None else shift[c]) for c in range(len(Q))]
+            supports = (np.array([r[0] for r in rows]), np.array([r[1] for r in rows]))
+    return Kinematics.rows(system.model, ws, system.point_joints, Q, V, supports)
+
+
+def supports_motion(system, t, shift=None):
+    """(sp, sv): the supports' displacements and velocities at t (m, m/s; one row per support and a last
+    zero row), offset by ``shift``; None without supports."""
+    if not system.supports:
+        return None
+    n = len(system.supports)
+    sp, sv = np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
+    for i, s in enumerate(system.supports):
+        for out, part in ((sp, "position"), (sv, "velocity")):
+            x = call_user(getattr(s.motion, part), (t,), f"support '{s.name}' {part}", t)
+            out[i] = finite_array(x, (3,), f"support '{s.name}': motion is not finite or not 3 numbers "
+                                           f"({part} at t = {t})")
+    if shift is not None:
+        sp[:n] += shift[:, :3]
+        sv[:n] += shift[:, 3:]
+    if not (np.all(np.isfinite(sp)) and np.all(np.isfinite(sv))):
+        bad = next(s.name for i, s in enumerate(system.supports)
+                   if not (np.all(np.isfinite(sp[i])) and np.all(np.isfinite(sv[i]))))
+        raise ModelError(f"support '{bad}': motion is not finite at t = {t}")
+    return sp, sv
 
 
 def gravity_term(system, ws, q):

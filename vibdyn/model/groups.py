@@ -16,6 +16,7 @@ class ForceGroup:
     needs_velocity_derivatives = False  # its derivatives need ∂(point velocities)/∂q
     velocity_dependent = False
     time_dependent = False
+    rows = False  # a point group whose apply takes many states at once (Kinematics.rows; Q, F with a row axis)
     joints: tuple = ()  # Pinocchio joints it applies forces to
 
     def apply(self, t, q, v, kin, Q, F):
@@ -31,6 +32,8 @@ class ForceGroup:
 
     def potential(self, q, kin):
         return 0.0
+
+    derivatives_rows = None  # a point group's derivatives at many states at once (RowDerivatives), if it has them
 
     def derivatives(self, d):
         """Analytic derivatives (see :mod:`vibdyn.model.derivatives`, whose ``d`` gives the point Jacobians,
@@ -63,22 +66,25 @@ class TwoPoint(ForceGroup):
 
     def end_velocities(self, kin):
         """World velocities (m/s) of the two ends, supports' motion included."""
-        return (kin.velocities(self.ja, self.pa) + kin.sv[self.sa],
-                kin.velocities(self.jb, self.pb) + kin.sv[self.sb])
+        return (kin.velocities(self.ja, self.pa) + kin.sv[..., self.sa, :],
+                kin.velocities(self.jb, self.pb) + kin.sv[..., self.sb, :])
 
     def geometry(self, kin):
         """(d, L): d = xb − xa between the world ends (m) and the lengths L (m); a length at or below ``tiny``
         is a ModelError naming the element."""
         d = self.ends.positions(kin)
         if self.on_supports:
-            d += kin.sp[self.sb] - kin.sp[self.sa]
+            d += kin.sp[..., self.sb, :] - kin.sp[..., self.sa, :]
         L = np.sqrt((d * d) @ ONES3)
-        zero = (L <= self.tiny).tolist()  # a list: faster than a numpy reduction on a few elements
+        zero = (L <= self.tiny).ravel().tolist()  # a list: faster than a numpy reduction on a few elements
         if True in zero:
-            i = zero.index(True)
-            xa = kin.points(self.ja[i:i + 1], self.pa[i:i + 1])[0] + kin.sp[self.sa[i]]
+            row, i = divmod(zero.index(True), len(self.names))
+            one = (lambda a: a) if L.ndim == 1 else (lambda a: a[row])  # (the row of many states it is met at)
+            sp = kin.sp if kin.sp.ndim == 2 else kin.sp[row]
+            xa = one(kin.points(self.ja[i:i + 1], self.pa[i:i + 1]))[0] + sp[self.sa[i]]
             raise ModelError(f"{self.kind} '{self.names[i]}' reached zero length at the configuration q = "
-                             f"{np.round(kin.q, 9).tolist()} (its two ends coincide at {np.round(xa, 12).tolist()} m):"
+                             f"{np.round(one(kin.q), 9).tolist()} (its two ends coincide at "
+                             f"{np.round(xa, 12).tolist()} m):"
                              " its direction, and so its force, is undefined there; start the analysis or the "
                              "motion away from it (q0=, or Scene.set_operating_point(start=...))")
         return d, L

@@ -13,9 +13,14 @@ _LEVI_CIVITA[0, 2, 1] = _LEVI_CIVITA[2, 1, 0] = _LEVI_CIVITA[1, 0, 2] = -1.0
 
 
 def cross(a, b):
-    """Row-wise cross product of (n, 3) arrays, (a × b)_i = ε_ijk a_j b_k in one einsum (numpy's own cross
+    """Row-wise cross product of (…, 3) arrays, (a × b)_i = ε_ijk a_j b_k in one einsum (numpy's own cross
     is slow on small arrays)."""
-    return np.einsum("ijk,nj,nk->ni", _LEVI_CIVITA, a, b)
+    return np.einsum("ijk,...j,...k->...i", _LEVI_CIVITA, a, b)
+
+
+def skew(a):
+    """[a]× of each row of a (…, 3): (…, 3, 3), [a]× b = a × b."""
+    return np.einsum("ijk,...j->...ik", _LEVI_CIVITA, a)
 
 
 _NO_SUPPORT = np.zeros((1, 3))
@@ -28,7 +33,9 @@ class Kinematics:
     identity at rest. Computed in the workspace ``ws`` (its Data, and its live views of the Data's joint
     poses and velocities, one per joint: ``rotations``, ``translations``, ``linear``, ``angular``), read
     after forward kinematics in one copy per array. ``R`` and ``p`` are views of one vector ``pose`` =
-    (R, p), of which point positions are linear functions (:class:`PointSet`)."""
+    (R, p), of which point positions are linear functions (:class:`PointSet`). :meth:`rows` makes them for
+    many configurations at once: every array with a leading axis of rows (the element groups' numpy takes
+    either)."""
 
     __slots__ = ("R", "p", "pose", "v", "w", "sp", "sv", "q")
 
@@ -48,14 +55,37 @@ class Kinematics:
         if v is not None:
             self.v, self.w = gather(ws.linear, joints, np.zeros((nj, 3))), gather(ws.angular, joints, np.zeros((nj, 3)))
 
+    @classmethod
+    def rows(cls, model, ws, joints, Q, V=None, supports=None):
+        """The poses (and velocities) at each row of Q (B × nq) and V (B × nv): ``R`` B × njoints × 3 × 3, …;
+        ``supports`` (sp, sv) of B × (n_supports + 1) × 3 each."""
+        kin = cls.__new__(cls)
+        B, nj = len(Q), len(ws.rotations)
+        kin.q = Q
+        kin.sp, kin.sv = supports if supports is not None else (_NO_SUPPORT, _NO_SUPPORT)
+        kin.pose = np.zeros((B, 12 * nj))
+        kin.R, kin.p = kin.pose[:, :9 * nj].reshape(B, nj, 3, 3), kin.pose[:, 9 * nj:].reshape(B, nj, 3)
+        if V is not None:
+            kin.v, kin.w = np.zeros((B, nj, 3)), np.zeros((B, nj, 3))
+        for c in range(B):
+            if V is None:
+                pin.forwardKinematics(model, ws.data, Q[c])
+            else:
+                pin.forwardKinematics(model, ws.data, Q[c], V[c])
+                gather(ws.linear, joints, kin.v[c])
+                gather(ws.angular, joints, kin.w[c])
+            gather(ws.rotations, joints, kin.R[c])
+            gather(ws.translations, joints, kin.p[c])
+        return kin
+
     def points(self, joints, local):
         """World positions (m) of points given in their joint frames."""
-        return np.einsum("nij,nj->ni", self.R[joints], local) + self.p[joints]
+        return np.einsum("...nij,nj->...ni", self.R[..., joints, :, :], local) + self.p[..., joints, :]
 
     def velocities(self, joints, local):
         """World velocities (m/s) of points given in their joint frames."""
-        lin = self.v[joints] + cross(self.w[joints], local)
-        return np.einsum("nij,nj->ni", self.R[joints], lin)
+        lin = self.v[..., joints, :] + cross(self.w[..., joints, :], local)
+        return np.einsum("...nij,...nj->...ni", self.R[..., joints, :, :], lin)
 
 
 def gather(views, joints, out):
@@ -98,15 +128,16 @@ class ScatteredPoints:
         self.D = None if D is None else np.asarray(D, dtype=float)
 
     def positions(self, kin):
-        """The combined world positions D x (m), n × 3."""
+        """The combined world positions D x (m), (rows ×) n × 3."""
         x = kin.points(self.joints, self.local)
         return x if self.D is None else self.D @ x
 
     def add_forces(self, F, kin, f):
-        """Accumulate the forces Dᵀ f (world axes; ``f`` n × 3) on the points into ``F``."""
+        """Accumulate the forces Dᵀ f (world axes; ``f`` (rows ×) n × 3) on the points into ``F``."""
         f = f if self.D is None else self.D.T @ f
-        fl = np.einsum("nji,nj->ni", kin.R[self.joints], f)  # Rᵀ f, in each point's joint frame
-        np.add.at(F, self.joints, np.concatenate([fl, cross(self.local, fl)], axis=1))
+        fl = np.einsum("...nji,...nj->...ni", kin.R[..., self.joints, :, :], f)  # Rᵀ f, in each joint frame
+        wrench = np.concatenate([fl, cross(self.local, fl)], axis=-1)
+        np.add.at(F, self.joints if F.ndim == 2 else (slice(None), self.joints), wrench)
 
 
 class PointSet:
@@ -145,13 +176,15 @@ class PointSet:
         self.K = K.reshape(54 * k, 3 * n)
 
     def positions(self, kin):
-        """The combined world positions D x (m), n × 3."""
-        return (self.G @ kin.pose).reshape(-1, 3)
+        """The combined world positions D x (m), (rows ×) n × 3."""
+        return (kin.pose @ self.G.T).reshape(kin.pose.shape[:-1] + (-1, 3))
 
     def add_forces(self, F, kin, f):
-        """Accumulate the forces Dᵀ f (world axes; ``f`` n × 3) on the points into ``F``."""
+        """Accumulate the forces Dᵀ f (world axes; ``f`` (rows ×) n × 3) on the points into ``F``."""
         s = self.span
-        R = kin.R[s]
-        F[s] += ((self.K @ f.ravel()).reshape(len(R), 6, 9) @ R.reshape(len(R), 9, 1)).reshape(len(R), 6)
+        R = kin.R[..., s, :, :]
+        lead = R.shape[:-2]  # (rows ×) joints of the span
+        C = (f.reshape(f.shape[:-2] + (-1,)) @ self.K.T).reshape(lead + (6, 9))
+        F[..., s, :] += (C @ R.reshape(lead + (9, 1))).reshape(lead + (6,))
 
 

@@ -50,7 +50,7 @@ class Branch:
 def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, step: float = 0.05,
                  jacobian: Callable | None = None, tol: float = 1e-10, max_steps: int = 2000,
                  min_step: float = 1e-9, max_step: float | None = None, scale: np.ndarray | None = None,
-                 stop: Callable | None = None) -> Branch:
+                 stop: Callable | None = None, chord: float | None = None) -> Branch:
     """Follow the branch of F(x, λ) = 0 from (x0, lam0) (x0 corrected first at λ = lam0) towards λ = lam_end.
 
     ``fun(x, lam)`` → ℝᵐ, m ≥ n (m > n: a consistent system with redundant rows, solved in least squares, as
@@ -61,7 +61,9 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     most ``max_step``; ``stop(x, lam)`` → True ends the branch there (a request reached). The point where λ
     crosses lam_end is solved exactly (its last point has λ = lam_end); where lam_end lies within the next step
     on a branch steep in λ (|t_λ| > 0.5), it is solved there directly from the predictor, kept only if λ did
-    not turn back on the way (no fold stepped over)."""
+    not turn back on the way (no fold stepped over). ``chord``: the corrector starts from the last point's
+    Jacobian and keeps it while each step cuts the residual ``chord`` times (:func:`.newton`): one Jacobian per
+    point where the branch is smooth (for Jacobians dearer than residuals)."""
     start = time.perf_counter()
     x0 = np.asarray(x0, dtype=float)
     n = x0.size
@@ -88,7 +90,8 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
                       f"no solution at λ = {lam0:g} near x0: {first.message}", 0, 0, time.perf_counter() - start,
                       first.residual)
     y = np.append(first.x, lam0 / w[n])
-    t = _tangent(J(y), None, np.sign(lam_end - lam0))
+    Jy = J(y)
+    t = _tangent(Jy, None, np.sign(lam_end - lam0))
     ys, ss, folds = [y.copy()], [0.0], []
     h, steps, rejected, status, message = step, 0, 0, "finished", f"reached λ = {lam_end:g}"
     residual = first.residual
@@ -112,8 +115,9 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
                     y, t = y_end, t_end
                     break
         yp = y + h * t
-        corr = newton(lambda z: np.append(F(z), t @ (z - yp)), yp,
-                      lambda z: np.vstack([J(z), t]), tol=tol, max_iter=8)
+        corr = newton(lambda z: np.append(F(z), t @ (z - yp)), yp, lambda z: np.vstack([J(z), t]), tol=tol,
+                      max_iter=8 if chord is None else 12, chord=chord,
+                      jacobian0=None if chord is None else np.vstack([Jy, t]))
         if not corr.converged:
             h *= 0.5
             rejected += 1
@@ -123,7 +127,8 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
                 break
             continue
         y_new = corr.x
-        t_new = _tangent(J(y_new), t, None)
+        Jy_new = J(y_new)
+        t_new = _tangent(Jy_new, t, None)
         steps += 1
         lam_old, lam_new = y[n] * w[n], y_new[n] * w[n]
         if t[n] * t_new[n] < 0:  # λ turned back: a fold between the two points
@@ -136,13 +141,13 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         ys.append(y_new.copy())
         ss.append(ss[-1] + float(np.linalg.norm(y_new - y)))
         residual = max(residual, corr.residual)
-        y, t = y_new, t_new
+        y, t, Jy = y_new, t_new, Jy_new
         if crossed:
             break
         if stop is not None and stop(y[:n] * w[:n], y[n] * w[n]):
             status, message = "stopped", f"stopped on request at λ = {y[n] * w[n]:.10g}"
             break
-        if corr.iterations <= 3:
+        if corr.iterations <= 3 if chord is None else corr.jacobians <= 1 and corr.iterations <= 6:
             h = min(1.5 * h, max_step)
     Y = np.array(ys)
     return Branch(Y[:, :n] * w[:n], Y[:, n] * w[n], np.array(ss), folds, status, message, steps, rejected,

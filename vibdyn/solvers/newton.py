@@ -19,7 +19,7 @@ from ..errors import ConvergenceError
 @dataclass(frozen=True)
 class NewtonResult:
     """``x`` the best point reached (least ‖F‖_∞), ``residual`` ‖F(x)‖_∞ there, ``iterations``, ``converged``
-    (residual ≤ tol), ``status`` ("converged"; "stagnated": steps at round-off with the residual within the
+    (residual ≤ tol), ``jacobians`` (how many were evaluated), ``status`` ("converged"; "stagnated": steps at round-off with the residual within the
     caller's ``stall`` factor of tol; "max_iter"; "no_decrease": no step reduces ‖F‖; "diverged": F became
     non-finite), ``message`` (why it stopped), ``elapsed`` (s)."""
 
@@ -30,6 +30,7 @@ class NewtonResult:
     message: str
     elapsed: float
     status: str = "converged"
+    jacobians: int = 0  # Jacobians evaluated (fewer than iterations with ``chord``)
 
 
 def fd_jacobian(fun: Callable, x: np.ndarray, f0: np.ndarray | None = None, h: float = 1e-7) -> np.ndarray:
@@ -47,7 +48,8 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
            tol: float = 1e-10, max_iter: int = 50, max_step: float | np.ndarray | None = None, rcond: float = 1e-12,
            raise_on_failure: bool = False, shape_step: Callable | None = None, on_no_decrease: str = "stop",
            min_alpha: float = 1e-4, stall: float | None = None, f0: np.ndarray | None = None,
-           jacobian0: np.ndarray | None = None, expand: bool = False, polish: bool = False) -> NewtonResult:
+           jacobian0: np.ndarray | None = None, expand: bool = False, polish: bool = False,
+           chord: float | None = None) -> NewtonResult:
     """Solve F(x) = 0 from x0 (F: ℝⁿ or a manifold → ℝᵐ, tangent steps of n components).
 
     ``jacobian(x)``: m × n (central differences if None); ``retract(x, dx)``: the point reached from x by
@@ -61,7 +63,10 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
     ``message`` says why, and with ``raise_on_failure`` a ConvergenceError carries the residual and the best
     point. ``f0``, ``jacobian0``: F and J at x0 if the caller has them already. ``expand``: the cap is a trust
     region that doubles after a capped step is taken whole (a far solution is reached in log₂ of the distance
-    steps) and falls back towards ``max_step`` after a step the line search had to cut."""
+    steps) and falls back towards ``max_step`` after a step the line search had to cut. ``chord``: a factor
+    κ < 1; a Jacobian is kept for the next step while each full step cuts ‖F‖ at least κ times (a chord
+    iteration: residuals only), evaluated afresh where one does not (or the line search fails on it); there
+    ``jacobian0`` may be a neighbouring point's."""
     start = time.perf_counter()
     retract = retract or (lambda x, dx: x + dx)
     x = np.array(x0, dtype=float)
@@ -69,7 +74,8 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
     res = float(np.abs(f).max(initial=0.0))
     best = (res, x)
     it, status, message = 0, "converged", "converged"
-    J, J_last, radius = jacobian0, None, 1.0
+    J, J_last, radius, evaluated = jacobian0, None, 1.0, 0
+    fresh = jacobian0 is not None and chord is None  # (with chord, jacobian0 may be a neighbour's)
     while res > tol:
         if it >= max_iter:
             status, message = "max_iter", f"no convergence in {max_iter} iterations (residual {best[0]:.3e}, " \
@@ -78,6 +84,7 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
         it += 1
         if J is None:
             J = jacobian(x) if jacobian is not None else fd_jacobian(fun, x, f)
+            fresh, evaluated = True, evaluated + 1
         dx = np.linalg.lstsq(J, -f, rcond=rcond)[0]
         if shape_step is not None:
             dx = np.asarray(shape_step(x, f, J, dx), float)
@@ -96,6 +103,9 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
                 break
             alpha *= 0.5
         finite = decreased or bool(np.all(np.isfinite(f_new)))
+        if not decreased and chord is not None and not fresh:  # a kept Jacobian gone stale: a fresh one
+            J = None
+            continue
         if not decreased and (on_no_decrease == "stop" or not finite):
             status = "no_decrease" if finite or on_no_decrease == "stop" else "diverged"
             message = (f"no step decreases the residual further (residual {best[0]:.3e}, tolerance {tol:.1e})"
@@ -103,8 +113,11 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
             break
         if expand:
             radius = min(2.0 * radius, 1024.0) if capped and alpha == 1.0 else max(1.0, radius * alpha)
-        x, f, J_last, J = x_new, f_new, J, None
+        res_old = res
+        x, f, J_last = x_new, f_new, J
         res = float(np.abs(f).max(initial=0.0))
+        kept = chord is not None and alpha == 1.0 and res <= chord * res_old
+        J, fresh = (J, False) if kept else (None, False)
         if res < best[0]:
             best = (res, x)
         if res <= tol:
@@ -124,7 +137,7 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
         if res_p < res:
             res, x = res_p, x_p
     out = NewtonResult(x, res, it, res <= tol, "converged" if res <= tol else message, time.perf_counter() - start,
-                       "converged" if res <= tol else status)
+                       "converged" if res <= tol else status, evaluated)
     if raise_on_failure and not out.converged:
         raise ConvergenceError(f"Newton: {out.message}", residual=res, best=x)
     return out

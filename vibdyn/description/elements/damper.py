@@ -16,6 +16,7 @@ class Dampers(TwoPoint):
     """Point-to-point viscous dampers: force on end b = −c (u·(v_b − v_a)) u."""
 
     kind = "damper"
+    rows = True
     uses_point_velocities = True
     needs_velocity_derivatives = True
     velocity_dependent = True
@@ -27,10 +28,10 @@ class Dampers(TwoPoint):
 
     def apply(self, t, q, v, kin, Q, F):
         d, L = self.geometry(kin)
-        u = d / L[:, None]
+        u = d / L[..., None]
         va, vb = self.end_velocities(kin)
-        rate = np.einsum("ni,ni->n", u, vb - va)
-        fb = (-self.c * rate)[:, None] * u
+        rate = np.einsum("...ni,...ni->...n", u, vb - va)
+        fb = (-self.c * rate)[..., None] * u
         self.ends.add_forces(F, kin, fb)  # fb on every end b, −fb on every end a
 
     def derivatives(self, d):

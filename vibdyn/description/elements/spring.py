@@ -17,6 +17,7 @@ class Springs(TwoPoint):
     """Point-to-point linear springs: force on end b = −k (L − l0) u, u from a to b."""
 
     kind = "spring"
+    rows = True
 
     def __init__(self, system, elements):
         super().__init__(system, elements)
@@ -32,7 +33,7 @@ class Springs(TwoPoint):
     def apply(self, t, q, v, kin, Q, F):
         d, L = self.geometry(kin)
         Ls = L if self.L_floor is None else np.maximum(L, self.L_floor)
-        fb = (self.minus_k * ((L - self.l0) / Ls))[:, None] * d
+        fb = (self.minus_k * ((L - self.l0) / Ls))[..., None] * d
         self.ends.add_forces(F, kin, fb)  # fb on every end b, −fb on every end a
 
     def potential(self, q, kin):
@@ -57,6 +58,24 @@ class Springs(TwoPoint):
             size = self.k[i] * np.abs(Jrel) if d.dFq_abs is not None else None  # (|Ks| ≤ k: its round-off)
             d.add_force(jb, self.pb[i], Fb, dF, None, size)
             d.add_force(ja, self.pa[i], -Fb, -dF, None, size)
+
+
+    def derivatives_rows(self, d):
+        dx, L = self.geometry(d.kin)  # B × n × 3, B × n
+        Pa, Pb = d.points(self.ja, self.pa), d.points(self.jb, self.pb)
+        Jrel = Pb - Pa
+        k = self.k[:, None, None]
+        if self.zero_l0.all():
+            Fb, dF = -self.k[:, None] * dx, -k * Jrel
+        else:  # −Ks Jrel with Ks = k((1 − l0/L) I + (l0/L) u uᵀ)
+            Ls = np.where(self.zero_l0, 1.0, L)
+            u = np.where(self.zero_l0[:, None], 0.0, dx / Ls[..., None])
+            ratio = np.where(self.zero_l0, 0.0, self.l0 / Ls)[..., None, None]
+            Fb = np.where(self.zero_l0[:, None], -self.k[:, None] * dx, (-self.k * (L - self.l0))[..., None] * u)
+            dF = -k * (1 - ratio) * Jrel - k * ratio * u[..., :, None] * np.einsum("bna,bnaj->bnj", u, Jrel)[
+                ..., None, :]
+        d.add_forces(self.jb, Pb, Fb, dF)
+        d.add_forces(self.ja, Pa, -Fb, -dF)
 
 
 def free_lengths(system, springs):
