@@ -162,7 +162,8 @@ def test_high_spin_state_eigenvalues_within_their_error_estimate(method):
     for lam, err in zip(modes.damped_eigenvalues, modes.eigenvalue_error):
         ref = exact[np.argmin(np.abs(exact - lam))]
         assert abs(lam - ref) <= max(err * abs(lam), 1e-9 * np.abs(exact).max())
-    assert modes.error < 1e-6 and st.stability == "stable"
+    # (FD: the 1e9 N/m spring's force, from world positions, rounds off by ε·k·|x| per evaluation: ~1e-6)
+    assert modes.error < (1e-6 if method == "analytic" else 1e-5) and st.stability == "stable"
 
 
 def test_equilibrium_far_away_in_a_scene_with_a_tiny_length_scale():

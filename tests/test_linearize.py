@@ -240,3 +240,49 @@ def test_fd_damping_error_counts_a_motor_law_vanishing_as_a_difference():
     fd, an = st.linearize(method="fd"), st.linearize(method="analytic")
     assert np.all(np.abs(fd.C - an.C) <= fd.C_error + an.C_error)
     assert np.all(np.abs(fd.K - an.K) <= fd.K_error + an.K_error)
+
+
+def storeys(angle, offset):
+    """Rao's three-storey shear building on sliders along a horizontal axis at ``angle`` (rad) from x, its
+    storey springs 10 m long along that axis, the whole scene moved by ``offset`` (m): K is the same
+    [[1e6, −4e5, 0], [−4e5, 6e5, −2e5], [0, −2e5, 2e5]] N/m for any angle and offset."""
+    import math
+
+    u, o = np.array([math.cos(angle), math.sin(angle), 0.0]), np.asarray(offset, float)
+    s = vd.Scene("storeys")
+    for i, m in enumerate([2000.0, 1500.0, 1000.0]):
+        s.add_body(f"floor{i + 1}", mass=m, joint=vd.Slider(axis=tuple(u), at=tuple(o + (0.0, 0.0, 3.0 * (i + 1)))))
+    for i, k in enumerate([6e5, 4e5, 2e5]):
+        a = ("world", tuple(o - 10 * u + (0, 0, 3.0))) if i == 0 else (f"floor{i}", tuple(-10 * u + (0, 0, 3.0)))
+        s.add_spring(f"storey{i + 1}", a, f"floor{i + 1}", stiffness=k, free_length=10.0)
+    return s.build()
+
+
+def test_fd_steps_are_powers_of_two_so_that_positions_move_by_exactly_them():
+    """Along x, a step that is a power of two adds exactly to the springs' 10 m offsets: the FD K is exact
+    (a step of 1.04e-4 m rounded in 10 + h biased every entry by 8e-13, which no estimate saw)."""
+    from vibdyn.model.fd import steps
+
+    system = storeys(0.0, (0.0, 0.0, 0.0))
+    h = steps(system, 1e-5)
+    assert np.all(np.exp2(np.round(np.log2(h))) == h) and np.all(np.abs(h / (1e-5 * system.coordinate_scales) - 1) < 0.42)
+    lin = system.linearize(method="fd")
+    K = np.array([[1e6, -4e5, 0], [-4e5, 6e5, -2e5], [0, -2e5, 2e5]])
+    assert np.array_equal(lin.K, K)
+
+
+@pytest.mark.parametrize("angle", [0.3, 1.1])
+@pytest.mark.parametrize("offset", [(0.0, 0.0, 0.0), (100.0, 50.0, 0.0), (1000.0, 700.0, 0.0)])
+def test_fd_modes_estimate_covers_springs_rounding_far_from_the_origin(angle, offset):
+    """Oblique springs 10 m long, up to 1.2 km from the origin: each force is computed from world positions
+    that round off by ε|x|, whatever the force; the FD modes' estimate carries it (each spring's part as a
+    rank-one term: a mode that does not stretch it takes none) and covers the error (it was up to 3× under)."""
+    from scipy.linalg import eigh
+
+    M = np.diag([2000.0, 1500.0, 1000.0])
+    K = np.array([[1e6, -4e5, 0], [-4e5, 6e5, -2e5], [0, -2e5, 2e5]])
+    exact = np.sqrt(eigh(K, M, eigvals_only=True))
+    lin = storeys(angle, offset).linearize(method="fd")
+    assert lin.K_error_terms is not None and np.all(np.abs(lin.K - K) <= lin.K_error)
+    modes = lin.modes()
+    assert np.all(np.abs(modes.omega - exact) <= modes.omega_error * exact)

@@ -406,7 +406,7 @@ def test_bad_inputs_are_model_errors():
         (lambda: lin.receptance(1.0, [("ghost", (0, 0, 0), X)]), "unknown body 'ghost'"),
         (lambda: lin.receptance(1.0, method="magic"), "unknown method"),
         (lambda: lin.receptance(1.0, damping="sticky"), "damping"),
-        (lambda: undamped.receptance(undamped.modes().omega[1]), "singular at ω = 3.46"),
+        (lambda: undamped.receptance(undamped.modes().omega[1]), "singular.* at ω = 3.46"),
         (lambda: lin.receptance(1.0).peaks(quantity="jerk"), "unknown quantity"),
         (lambda: lin.receptance(1.0).get("m3"), "unknown output"),
         (lambda: lin.free_response([1.0], [0.0]), "x0"),

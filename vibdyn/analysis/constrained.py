@@ -345,7 +345,8 @@ def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_ST
         K_err, C_err = aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN
     rank = system.nv - ind.size
     return ConstrainedLinearModel(IndependentView(system, ind), q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err,
-                                  tree.method, time.perf_counter() - start, evaluations, N, tree, lam, rank)
+                                  tree.method, time.perf_counter() - start, evaluations, basis=N, tree=tree,
+                                  multipliers=lam, rank=rank)
 
 
 def moving_terms(system, c, q0, v0, t0, ind, h, terms):

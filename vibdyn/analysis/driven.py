@@ -92,5 +92,7 @@ def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_ST
     parts = {"system": FreeView(system, f), "q0": q0, "v0": v0, "a0": a0, "t0": t0, "M": tree.M[ff],
              "C": tree.C[ff], "K": tree.K[ff], "K_error": tree.K_error[ff], "C_error": tree.C_error[ff],
              "method": tree.method, "elapsed": time.perf_counter() - start, "evaluations": tree.evaluations,
-             "basis": basis, "tree": tree, "multipliers": None, "rank": 0}
+             "basis": basis, "tree": tree, "multipliers": None, "rank": 0,
+             "K_error_terms": None if tree.K_error_terms is None else (tree.K_error_terms[0][:, f],
+                                                                       tree.K_error_terms[1][:, f])}
     return DrivenLinearModel(**{fl.name: parts[fl.name] for fl in fields(DrivenLinearModel)})

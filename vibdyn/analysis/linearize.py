@@ -26,7 +26,7 @@ if TYPE_CHECKING:  # result types of the entry points below (imported on call, n
     from .response import FRF, Appropriation, HarmonicResponse, TimeResponse
     from .statespace import StateSpace
 from ..model import dynamics
-from ..model.derivatives import analytic_derivatives
+from ..model.derivatives import analytic_derivatives, row_derivatives
 from ..model.fd import differences, displaced_vectors, point_jacobian, stencil, steps, vector_derivative
 
 
@@ -35,7 +35,10 @@ class LinearModel:
     """Linear model about (q0, v0, t0) with its error estimate and the time it took.
 
     ``K_error`` and ``C_error`` are elementwise estimates of the absolute error of K and C (zero for an
-    exact part); ``error`` is the largest of them relative to the norm of K (or C).
+    exact part); ``error`` is the largest of them relative to the norm of K (or C). ``K_error_terms``: None,
+    or (U, V) the part of ``K_error`` made of rank-one errors Σ_s u_s e_sᵀ with |e_s| ≤ v_s (rows of U, V;
+    the rounding of point springs' forces in finite differences): ``K_error`` holds Σ_s |u_s| v_sᵀ, and a
+    quadratic form φᵀ δK φ is bounded by Σ_s |u_s·φ| (v_s·|φ|) (zero for a mode that does not stretch s).
     """
 
     system: System = field(repr=False)
@@ -51,6 +54,7 @@ class LinearModel:
     method: str
     elapsed: float  # s
     evaluations: int  # residual evaluations (finite differences) or derivative calls
+    K_error_terms: tuple | None = field(default=None, repr=False)
 
     def __repr__(self):
         from .._format import duration, number, summary
@@ -307,8 +311,9 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
         if not all_finite(a0):
             system.check_mass_matrix(q0, "the operating point", M)
             raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t0})")
+    rounding = None
     if method == "fd":
-        K, C, K_err, C_err, n = _finite_differences(system, ws, q0, v0, a0, t0, step)
+        K, C, K_err, C_err, n, rounding = _finite_differences(system, ws, q0, v0, a0, t0, step)
     else:
         K, C, terms, K_size = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True)
         # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad), and of
@@ -326,7 +331,8 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
     for name, X in (("K", K), ("C", C)):
         if (X is K or np.count_nonzero(X)) and not all_finite(X):  # (a C of zeros needs no test)
             raise ModelError(f"linearize: {name} is not finite at the operating point")
-    return LinearModel(system, q0, v0, a0, t0, M, C, K, K_err, C_err, method, time.perf_counter() - start, n)
+    return LinearModel(system, q0, v0, a0, t0, M, C, K, K_err, C_err, method, time.perf_counter() - start, n,
+                       rounding)
 
 
 def jacobian_q(system, q0, v0, a0, t0, h):
@@ -369,6 +375,9 @@ def _finite_differences(system, ws, q0, v0, a0, t0, step):
     tau -= F
     K, T = st.derivatives(tau)
     K_err = fd_error(K, T, terms, h, st.round_off)
+    rounding = force_rounding(system, ws, q0, t0, h)
+    if rounding is not None:
+        K_err += np.abs(rounding[0]).T @ rounding[1]
     evaluations = 4 * system.nv + 1
     if system.depends_on_velocity or np.count_nonzero(v0):
         hv = h * np.maximum(1.0, np.abs(v0))
@@ -383,4 +392,17 @@ def _finite_differences(system, ws, q0, v0, a0, t0, step):
         evaluations += 4 * system.nv
     else:  # nothing depends on velocity and v0 = 0: C is exactly zero
         C, C_err = np.zeros(K.shape), np.zeros(K.shape)
-    return K, C, K_err, C_err, evaluations
+    return K, C, K_err, C_err, evaluations, rounding
+
+
+def force_rounding(system, ws, q0, t0, h):
+    """(U, V) of the point forces computed from rounded world positions (``force_rounding`` of their groups):
+    the columns of central differences with steps h carry each force's rounding s / h_j along u (N/m or
+    N·m/rad per coordinate): V = s ⊗ 1/h. None where no group has such forces."""
+    groups = [g for g in system.point_groups if g.force_rounding is not None]
+    if not groups:
+        return None
+    d = row_derivatives(system, ws, q0[None, :], None, t0)
+    parts = [g.force_rounding(d) for g in groups]
+    U = np.vstack([p[0] for p in parts])
+    return U, np.multiply.outer(np.concatenate([p[1] for p in parts]), 1.0 / h)

@@ -289,7 +289,14 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     LR = lapack.dtrtrs(L, R, lower=1)[0] if n else R
     A = np.abs(Phi)
     abs_Ks = np.abs(Ks)
-    quadratic = np.add.reduce(A * (((n * EPS) * abs_Ks + Ke) @ A))
+    terms = getattr(lin, "K_error_terms", None)
+    if terms is None:
+        quadratic = np.add.reduce(A * (((n * EPS) * abs_Ks + Ke) @ A))
+    else:  # rank-one parts of K's error: a mode that does not stretch a spring takes none of its rounding
+        U, V = terms
+        base = np.maximum(Ke - np.abs(U).T @ V, 0.0)
+        quadratic = np.add.reduce(A * (((n * EPS) * abs_Ks + base) @ A)) + np.add.reduce(
+            np.abs(U @ Phi) * (V @ A))
     with np.errstate(over="ignore"):  # squares past the float range: caught below and scaled, no warning
         uncertainty = np.sqrt(np.add.reduce(LR * LR))
     uncertainty += quadratic

@@ -178,36 +178,45 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
     model, data = system.model, ws.data
     K, C = np.empty((B, nv, nv)), np.empty((B, nv, nv))
     if system.point_groups:
-        kin = dynamics.kinematics_rows(system, ws, Q, V if system.uses_point_velocities else None, t, shift)
+        d = row_derivatives(system, ws, Q, V, t, shift)
         Fx, Fq = np.zeros((B, model.njoints, 6)), np.zeros((B, nv))
         for g in system.point_groups:
-            g.apply(t, Q, V, kin, Fq, Fx)
-        W = np.zeros((B, model.njoints, 6, nv))
+            g.apply(t, Q, V, d.kin, Fq, Fx)
     for c in range(B):
         if system.point_groups:
             for j in system.point_joints:
                 ws.forces[j][:] = Fx[c, j]
             out = pin.computeRNEADerivatives(model, data, Q[c], V[c], A[c], ws.fext)
-            pin.computeJointJacobians(model, data, Q[c])
-            for j in system.point_joints:
-                W[c, j] = pin.getJointJacobian(model, data, j, pin.LOCAL_WORLD_ALIGNED)
         else:
             out = pin.computeRNEADerivatives(model, data, Q[c], V[c], A[c])
         K[c], C[c] = out[0], out[1]
         if system.joint_groups:
-            d = Derivatives(system, Q[c], V[c], A[c], float(ts[c]), False, points=False)
+            dj = Derivatives(system, Q[c], V[c], A[c], float(ts[c]), False, points=False)
             for g in system.joint_groups:
-                dq, dv = g.derivatives(d)
+                dq, dv = g.derivatives(dj)
                 if dq is not None:
                     K[c] -= dq
                 if dv is not None:
                     C[c] -= dv
     if system.point_groups:
-        d = RowDerivatives(kin, W)
         for g in system.point_groups:
             g.derivatives_rows(d)
         K += d.K
     return K, C
+
+
+def row_derivatives(system, ws, Q, V=None, t=0.0, shift=None):
+    """The :class:`RowDerivatives` of the states (rows of Q, V; t and ``shift`` as
+    :func:`vibdyn.model.dynamics.kinematics_rows` takes them): their point elements' kinematics and the world
+    Jacobians of the joints those attach to."""
+    model, data, nv = system.model, ws.data, system.nv
+    kin = dynamics.kinematics_rows(system, ws, Q, V if system.uses_point_velocities else None, t, shift)
+    W = np.zeros((len(Q), model.njoints, 6, nv))
+    for c in range(len(Q)):
+        pin.computeJointJacobians(model, data, Q[c])
+        for j in system.point_joints:
+            W[c, j] = pin.getJointJacobian(model, data, j, pin.LOCAL_WORLD_ALIGNED).reshape(6, nv)
+    return RowDerivatives(kin, W)
 
 
 def linear_terms(system, q, v, t, a=None):

@@ -20,8 +20,13 @@ ESTIMATED = (1.0, 2.0, -1.0, -2.0)  # and those of the central difference with s
 
 
 def steps(system, step):
-    """Finite-difference step per tangent coordinate: ``step`` rad, or ``step`` × length scale m."""
-    return step * system.coordinate_scales
+    """Finite-difference step per tangent coordinate: ``step`` rad, or ``step`` × length scale m, each rounded to
+    the nearest power of two (within √2 of it)."""
+    # a power of two adds exactly to a coordinate or a point's position (|x| < 2⁴² × it: ulp(x) ≤ h): any
+    # other step is itself rounded in x + h, so the differences divide by an h the scene never moved by — a
+    # bias of ε|x|/h on every entry of K that no truncation or round-off estimate sees (8e-13 on a storey
+    # spring 10 m long, with h = 1.04e-4 m)
+    return np.exp2(np.round(np.log2(step * system.coordinate_scales)))
 
 
 class Stencil:

@@ -34,6 +34,10 @@ class ForceGroup:
         return 0.0
 
     derivatives_rows = None  # a point group's derivatives at many states at once (RowDerivatives), if it has them
+    # (U, s) = force_rounding(d) (d: a RowDerivatives of one state), where a force of the group is computed from
+    # world positions that round off: U (m × nv) the generalized force per unit of each such force, s (m,) the
+    # size of its rounding (N); None where the group's forces do not turn world-position round-off into force
+    force_rounding = None
 
     def derivatives(self, d):
         """Analytic derivatives (see :mod:`vibdyn.model.derivatives`, whose ``d`` gives the point Jacobians,

@@ -54,7 +54,8 @@ def reduced(model, free):
     """The model with only the coordinates ``free`` (the others prescribed)."""
     ix = np.ix_(free, free)
     lin = model.lin
-    sub = replace(lin, M=lin.M[ix], K=lin.K[ix], C=model.C[ix], K_error=lin.K_error[ix], C_error=lin.C_error[ix])
+    sub = replace(lin, M=lin.M[ix], K=lin.K[ix], C=model.C[ix], K_error=lin.K_error[ix], C_error=lin.C_error[ix],
+                  K_error_terms=None)  # (K_error[ix] holds them elementwise)
     return DampedModel(sub, model.C[ix], model.D[ix], model.damping)
 
 
