@@ -80,7 +80,8 @@ class TwoPoint(ForceGroup):
         if self.on_supports:
             d += kin.sp[..., self.sb, :] - kin.sp[..., self.sa, :]
         L = np.sqrt((d * d) @ ONES3)
-        zero = (L <= self.tiny).ravel().tolist()  # a list: faster than a numpy reduction on a few elements
+        zero = (L <= self.tiny).tolist() if L.ndim == 1 else (L <= self.tiny).ravel().tolist()  # (a list: faster
+        # than a numpy reduction on a few elements)
         if True in zero:
             row, i = divmod(zero.index(True), len(self.names))
             one = (lambda a: a) if L.ndim == 1 else (lambda a: a[row])  # (the row of many states it is met at)

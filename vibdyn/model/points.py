@@ -177,14 +177,20 @@ class PointSet:
 
     def positions(self, kin):
         """The combined world positions D x (m), (rows ×) n × 3."""
-        return (kin.pose @ self.G.T).reshape(kin.pose.shape[:-1] + (-1, 3))
+        if kin.pose.ndim == 1:
+            return (self.G @ kin.pose).reshape(-1, 3)
+        return (kin.pose @ self.G.T).reshape(len(kin.pose), -1, 3)
 
     def add_forces(self, F, kin, f):
         """Accumulate the forces Dᵀ f (world axes; ``f`` (rows ×) n × 3) on the points into ``F``."""
         s = self.span
-        R = kin.R[..., s, :, :]
-        lead = R.shape[:-2]  # (rows ×) joints of the span
-        C = (f.reshape(f.shape[:-2] + (-1,)) @ self.K.T).reshape(lead + (6, 9))
-        F[..., s, :] += (C @ R.reshape(lead + (9, 1))).reshape(lead + (6,))
+        if F.ndim == 2:
+            R = kin.R[s]
+            F[s] += ((self.K @ f.ravel()).reshape(len(R), 6, 9) @ R.reshape(len(R), 9, 1)).reshape(len(R), 6)
+            return
+        R = kin.R[:, s]
+        B, k = R.shape[:2]
+        C = (f.reshape(B, -1) @ self.K.T).reshape(B, k, 6, 9)
+        F[:, s] += (C @ R.reshape(B, k, 9, 1)).reshape(B, k, 6)
 
 
