@@ -373,8 +373,12 @@ def _verdict(r):
         if o["rigid"] != r["expected_zero_modes"]:
             problems.append(f"{method}: {o['rigid']} mode(s) zeroed as rigid (expected {r['expected_zero_modes']}), "
                             f"stability '{o['stability']}'")
-        if o["actual"] > max(o["estimate"], 1e-13):  # Modes.error covers ω and the damped eigenvalues
-            problems.append(f"{method}: error {o['actual']:.1e} > estimate {o['estimate']:.1e}")
+        # Modes.error covers ω and the damped eigenvalues; against the analytic model, that model's own error
+        # is part of the difference (a reference known to 1e-6 cannot show an error of 1e-7)
+        allowed = o["estimate"] + (r["analytic"]["estimate"] if r.get("reference") == "analytic" and
+                                   method == "fd" else 0.0)
+        if o["actual"] > max(allowed, 1e-13):
+            problems.append(f"{method}: error {o['actual']:.1e} > estimate {allowed:.1e}")
     return "right" if not problems else "WRONG: " + "; ".join(problems)
 
 
