@@ -114,14 +114,14 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
         else:
             t_check = time.perf_counter()
             check_cfg = replace(cfg, t_end=main.t[-1], events=None) if main.t else cfg
-            check = _integrate(system, check_cfg, "error estimate", reference=main)
-            runs.append(check)
-            coarse = None
-            if cfg.error == "richardson" and check.status == "finished":  # the observed order, from 4·dt
-                with np.errstate(over="ignore", invalid="ignore"):  # (4·dt may diverge: that is its answer)
+            with np.errstate(over="ignore", invalid="ignore"):  # (2·dt or 4·dt may diverge: that is its answer)
+                check = _integrate(system, check_cfg, "error estimate", reference=main)
+                runs.append(check)
+                coarse = None
+                if cfg.error == "richardson" and check.status == "finished":  # the observed order, from 4·dt
                     coarse = _integrate(system, replace(check_cfg, variational=False), "error estimate",
                                         reference=main, stride=4)
-                runs.append(coarse)
+                    runs.append(coarse)
             error_elapsed = time.perf_counter() - t_check
             q_err, v_err = _compare(system, main, check, cfg, coarse)
             if check.status != "finished":
