@@ -43,8 +43,8 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
     """(τ, F): RNEA's M a + b (N or N·m) at each row of the configurations Q (B × nq), velocities V and
     accelerations a (B × nv; either may be one row for all, V and a also one nv-vector), with the point
     elements' forces, and the joint-space force elements' generalized forces F (B × nv); the inverse dynamics
-    is τ − F. ``t``: a time (s), or one per row where no joint-space element depends on time; ``shift``: the
-    supports' offsets per row (B × n_supports × 6, see :func:`forces`). One pass over the rows: each
+    is τ − F. ``t``: a time (s), or one per row; ``shift``: the supports' offsets per row (B × n_supports × 6,
+    see :func:`forces`). One pass over the rows: each
     joint-space group, and each point group that can (``rows``), evaluates every row at once; with neither
     velocity nor acceleration, RNEA reduces to the gravity term (nothing at all without gravity)."""
     nv = system.nv
