@@ -21,8 +21,8 @@ Cases (references independent of the method measured):
   which jump over the resonance: its peak is off by 93 % (Duffing) and 38 % (two-mass), without a warning).
   vibdyn evaluates its multibody forces (three point springs) at all time samples of the alternating
   frequency–time loop in one pass, as pyHarm's cubic spring is one vectorised formula: at equal harmonics it is
-  the faster (H = 1: 0.26 s against 0.67 s, the same error), and the only one whose peak goes below pyHarm's
-  continuation resolution (~1e-5 m: vibdyn's H = 3 reaches 6.5e-6 in 0.39 s, pyHarm's best 1.2e-5 in 0.8 s).
+  the faster (H = 1: 0.25 s against 0.64 s, the same error), and the only one whose peak goes below pyHarm's
+  continuation resolution (~1e-5 m: vibdyn's H = 3 reaches 6.5e-6 in 0.37 s, pyHarm's best 1.2e-5 in 0.78 s).
 - **Pendulum orbits against the elliptic integral** (models/rod_pivot.toml, released from 2.5 rad): the
   period T = 4 K(sin²(A/2))/ω₀ of the nonlinear normal mode at that amplitude, ``vd.periodic_orbit`` at
   several flow tolerances (estimate: ``period_error``).
