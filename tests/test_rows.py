@@ -90,3 +90,21 @@ def test_a_spring_reaching_zero_length_in_one_row_is_named():
         dynamics.inverse_dynamics_rows(system, system.workspace(), Q, Z, Z, 0.0)
     with pytest.raises(vd.ModelError, match=r"spring 'k' reached zero length .* q = \[0\.5\]"):
         analytic_derivatives_rows(system, Q, Z, Z, 0.0)
+
+
+def test_rows_at_their_own_times_with_a_force_law_of_time():
+    """A time law on a joint (a joint-space group that depends on t) beside springs: each row at its own time
+    as the one-state function gives it (the law evaluated row by row, the springs all at once)."""
+    s = vd.load_scene("two_mass_cubic")
+    s.add_joint_force("m1", vd.laws.Harmonic(0.7, 3.0, phase=0.2))
+    system = s.build()
+    Q, V, A = states(system, 5, 11)
+    t = np.array([0.0, 0.3, 0.9, 1.4, 2.0])
+    r, K, C = one_by_one(system, Q, V, A, t)
+    tau, F = dynamics.inverse_dynamics_rows(system, system.workspace(), Q, V, A, t)
+    assert np.max(np.abs(tau - F - r)) <= 1e-13 * scale(system, Q, V, A)
+    # the rows' own times matter: all at t = 0 they differ by the law's change, 0.7 (sin(3t + 0.2) − sin 0.2)
+    tau0, F0 = dynamics.inverse_dynamics_rows(system, system.workspace(), Q, V, A, 0.0)
+    change = 0.7 * (np.sin(3.0 * t + 0.2) - np.sin(0.2))
+    assert np.max(np.abs((tau0 - F0)[:, 0] - r[:, 0] - change)) <= 1e-13 * scale(system, Q, V, A)
+    assert np.max(np.abs(change)) > 0.5
