@@ -63,9 +63,10 @@ class TwoPoint(ForceGroup):
         self.sb = system.support_indices([e.b for e in elements])
         self.joints = tuple(sorted(set(self.ja) | set(self.jb)))
         self.j_ends = np.concatenate([self.ja, self.jb])
+        self.p_ends = np.concatenate([self.pa, self.pb])
         self.on_supports = bool(np.any(self.sa >= 0) or np.any(self.sb >= 0))
         n = len(elements)
-        self.ends = point_set(self.j_ends, np.concatenate([self.pa, self.pb]), system.model.njoints,
+        self.ends = point_set(self.j_ends, self.p_ends, system.model.njoints,
                              np.hstack([-np.eye(n), np.eye(n)]))  # combined: xb − xa
 
     def end_velocities(self, kin):

@@ -62,8 +62,9 @@ class Springs(TwoPoint):
 
     def derivatives_rows(self, d):
         dx, L = self.geometry(d.kin)  # B × n × 3, B × n
-        Pa, Pb = d.points(self.ja, self.pa), d.points(self.jb, self.pb)
-        Jrel = Pb - Pa
+        n = len(self.k)
+        P = d.points(self.j_ends, self.p_ends)  # ends a, then b
+        Jrel = P[:, n:] - P[:, :n]
         k = self.k[:, None, None]
         if self.zero_l0.all():
             Fb, dF = -self.k[:, None] * dx, -k * Jrel
@@ -74,8 +75,7 @@ class Springs(TwoPoint):
             Fb = np.where(self.zero_l0[:, None], -self.k[:, None] * dx, (-self.k * (L - self.l0))[..., None] * u)
             dF = -k * (1 - ratio) * Jrel - k * ratio * u[..., :, None] * np.einsum("bna,bnaj->bnj", u, Jrel)[
                 ..., None, :]
-        d.add_forces(self.jb, Pb, Fb, dF)
-        d.add_forces(self.ja, Pa, -Fb, -dF)
+        d.add_forces(self.j_ends, P, np.concatenate([-Fb, Fb], axis=1), np.concatenate([-dF, dF], axis=1))
 
 
     def force_rounding(self, d):
