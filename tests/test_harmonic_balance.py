@@ -283,6 +283,23 @@ def test_linear_oscillator_is_the_receptance_without_folds():
     assert crv.harmonics == 3 and np.max(np.abs(crv.coefficients[:, 3:])) < 1e-12
     text = repr(crv)
     assert "\n" not in text and len(text) < 400 and "peak" in text
+    # the equilibrium given as the static OperatingPoint itself: the same curve about the same offset
+    system = s.build()
+    again = vd.forced_response_curve(system, ("cart", F), (1.0, 10.0), "cart",
+                                     equilibrium=system.equilibrium([0.09]))
+    assert again.q_eq[0] == crv.q_eq[0] and np.array_equal(again.amplitude, crv.amplitude)
+
+
+def test_an_operating_point_that_is_not_static_is_refused_as_the_equilibrium():
+    """A steady motion (a rotor at its speed) is no static equilibrium to vibrate about, for a forced response
+    or a backbone: a ModelError names the regime (the forced response took it for a start and crashed)."""
+    system = vd.load_scene("rotor_slider").build()
+    steady = system.steady_motion({"rotor": 5.0})
+    with pytest.raises(vd.ModelError, match="forced_response_curve: equilibrium must be a static one, got a "
+                                            "steady operating point"):
+        vd.forced_response_curve(system, ("slider", 0.1), (0.5, 1.6), "slider", equilibrium=steady)
+    with pytest.raises(vd.ModelError, match="backbone: equilibrium must be a static one, got a steady"):
+        vd.backbone(system, 0, amplitudes=[0.01], equilibrium=steady)
 
 
 def test_point_force_and_support_motion_are_the_same_excitations():

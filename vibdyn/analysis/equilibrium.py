@@ -123,6 +123,16 @@ def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX
     return _solve(system, q0, t, {}, tol, max_iter)
 
 
+def static_configuration(system, equilibrium: Any, what: str) -> np.ndarray:
+    """q of a static equilibrium (m and rad): ``equilibrium`` an OperatingPoint of regime "static" (any other
+    regime is a ModelError naming ``what``), or a configuration to search it from (None: the neutral one)."""
+    if isinstance(equilibrium, OperatingPoint):
+        if equilibrium.regime != "static":
+            raise ModelError(f"{what}: equilibrium must be a static one, got a {equilibrium.regime} operating point")
+        return np.array(equilibrium.q, dtype=float)
+    return np.array(system.equilibrium(equilibrium).q, dtype=float)
+
+
 def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, guess=1.0):
     """Steady motion: the coordinates named in ``v_cyclic`` turn at constant speed — a number (given) or
     None (found from the forces, starting from ``guess`` rad/s or m/s) — while the others rest.

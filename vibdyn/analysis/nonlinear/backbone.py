@@ -42,6 +42,7 @@ from ...model.groups import ForceGroup
 from ...simulation.simulate import SimulationError, simulate
 from ...solvers.continuation import continuation
 from ...solvers.newton import newton
+from ..equilibrium import static_configuration
 from .periodic import RTOL, STEP_RESOLUTION, TOL, periodic_orbit
 from .shooting import RCOND, Shooting, conservative
 
@@ -207,7 +208,7 @@ def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energi
     rtol = scalar(rtol, f"{what}: rtol", positive=True)
     max_steps = integer(max_steps, f"{what}: max_steps", minimum=1)
     cons, note = _conservative_part(system, what)
-    q_eq = _equilibrium(cons, equilibrium, what)
+    q_eq = static_configuration(cons, equilibrium, what)
     modes = cons.linearize(q_eq).modes()
     k = _mode_index(mode, modes, what)
     phi = np.asarray(modes.shapes[:, k], dtype=float)
@@ -291,14 +292,6 @@ def _velocity_dependent(element):
         return True
     group = type(element).group
     return group is not None and bool(getattr(group, "velocity_dependent", False) is True)
-
-
-def _equilibrium(system, equilibrium, what):
-    if equilibrium is not None and hasattr(equilibrium, "q"):
-        q = np.array(equilibrium.q, dtype=float)
-    else:
-        q = system.equilibrium(equilibrium).q
-    return np.array(q, dtype=float)
 
 
 def _mode_index(mode, modes, what):

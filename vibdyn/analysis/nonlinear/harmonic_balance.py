@@ -41,6 +41,7 @@ from ..._format import number
 from ...errors import ConvergenceError, ModelError
 from ...solvers.continuation import continuation
 from ...solvers.newton import newton
+from ..equilibrium import static_configuration
 from .balance import Balance, Excitation, PointForce, SupportMotion, embed
 
 __all__ = ["forced_response_curve", "ForcedResponseCurve", "ResponseFold", "ResponsePeak", "PointForce",
@@ -187,7 +188,7 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
     max_steps = integer(max_steps, "forced_response_curve: max_steps", minimum=1)
     _check_system(system)
     excitation = Excitation(system, force)
-    q_eq = _equilibrium(system, equilibrium)
+    q_eq = static_configuration(system, equilibrium, "forced_response_curve")
     H = harmonics or START_HARMONICS
     history: list = []
     X0 = None
@@ -270,16 +271,6 @@ def _check_system(system):
     if timed:
         raise ModelError(f"{what}: the scene's own forces depend on time ({', '.join(timed)}): they are not "
                          "periodic at Ω; remove them and give the excitation as `force`")
-
-
-def _equilibrium(system, equilibrium):
-    if equilibrium is not None and hasattr(equilibrium, "kind"):
-        if equilibrium.kind != "static":
-            raise ModelError(f"forced_response_curve: equilibrium must be a static one, got a {equilibrium.kind} "
-                             "operating point")
-        return np.array(equilibrium.q, dtype=float)
-    eq = system.equilibrium(equilibrium)
-    return np.array(eq.q, dtype=float)
 
 
 def _follow(bal, lo, hi, X0, step, max_steps):
