@@ -67,8 +67,9 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
     tau = np.empty((B, nv))
     rows_v, rows_a = V.ndim == 2, np.ndim(a) == 2
     if system.point_groups:
-        Vr = (V if rows_v else np.broadcast_to(V, (B, nv))) if system.uses_point_velocities else None
-        if all(g.rows for g in system.point_groups):
+        batched = all(g.rows for g in system.point_groups)
+        if batched:
+            Vr = (V if rows_v else np.broadcast_to(V, (B, nv))) if system.uses_point_velocities else None
             kin = kinematics_rows(system, ws, Q, Vr, t, shift)
             Fx = np.zeros((B, model.njoints, 6))
             for g in system.point_groups:
@@ -76,7 +77,7 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
         for c in range(B):
             v = V[c] if rows_v else V
             tc = float(t[c]) if t_rows else t
-            if all(g.rows for g in system.point_groups):
+            if batched:
                 for j in system.point_joints:
                     ws.forces[j][:] = Fx[c, j]
                 fext = ws.fext

@@ -463,9 +463,8 @@ def _compare(system, main, check, cfg, coarse=None):
         # its end (it diverged) the difference itself
         known = np.flatnonzero(both)
         if known.size and known.size < len(tm):
-            pos = np.clip(np.searchsorted(known, np.arange(len(tm))), 1, known.size)
-            near = np.minimum(factor[known[pos - 1]], factor[known[np.minimum(pos, known.size - 1)]])
-            factor = np.where(both, factor, near)
+            lo, hi = _neighbours(known, len(tm))
+            factor = np.where(both, factor, np.minimum(factor[lo], factor[hi]))
         if coarse.status != "finished":
             reached = coarse.t[-1] if coarse.t else cfg.t0
             factor = np.where(tm > reached, 1.0, factor)
@@ -473,8 +472,7 @@ def _compare(system, main, check, cfg, coarse=None):
     known = np.flatnonzero(~np.isnan(eq))
     if not known.size:
         return np.full(len(tm), np.inf), np.full(len(tm), np.inf)
-    pos = np.searchsorted(known, np.arange(len(tm)))
-    lo, hi = known[np.clip(pos - 1, 0, known.size - 1)], known[np.clip(pos, 0, known.size - 1)]
+    lo, hi = _neighbours(known, len(tm))
     for e in (eq, ev):
         fill = np.maximum(e[lo], e[hi])
         fill[np.arange(len(tm)) > known[-1]] = np.inf  # past the end of the check run
@@ -486,6 +484,13 @@ def _compare(system, main, check, cfg, coarse=None):
         np.maximum.accumulate(eq, out=eq)
         np.maximum.accumulate(ev, out=ev)
     return eq, ev
+
+
+def _neighbours(known, n):
+    """For each of n outputs, the known outputs before and after it (``known`` sorted, not empty; the first or
+    last known one beyond the ends)."""
+    pos = np.searchsorted(known, np.arange(n))
+    return known[np.clip(pos - 1, 0, known.size - 1)], known[np.clip(pos, 0, known.size - 1)]
 
 
 def _differences(system, tm, a, b, at=None):

@@ -114,6 +114,14 @@ class Excitation:
             return point_jacobian(self.system, q, [self.point]).T @ self.F * math.cos(tau)
         return np.zeros(self.system.nv)
 
+    def forces(self, Q, tau):
+        """:meth:`force` at each row of Q and τ (rows of N or N·m)."""
+        if self.kind == "joint":
+            f = np.zeros((len(tau), self.system.nv))
+            f[:, self.i] = self.P * np.cos(tau)
+            return f
+        return np.array([self.force(q, t) for q, t in zip(Q, tau)])
+
 
 def _nonzero(amplitude, what):
     a = scalar(amplitude, f"{what}: amplitude")
@@ -152,7 +160,7 @@ class Balance:
         Q[:, self.iq] += x[:, self.k]  # q_eq ⊕ x: a sum on these joints
         t, shift = self._times(omega)
         tau, F = dynamics.inverse_dynamics_rows(self.system, self.system.workspace(), Q, xd, xdd, t, shift)
-        return Q, xd, xdd, tau - F - self._forces(Q)
+        return Q, xd, xdd, tau - F - self.exc.forces(Q, self.tau)
 
     def _times(self, omega):
         """The samples' times t = τ/Ω (s) and the supports' offsets there (None: no support)."""
@@ -160,14 +168,6 @@ class Balance:
         if not self.system.supports:
             return t, None
         return t, np.array([self.exc.shift(tau, omega, tj) for tau, tj in zip(self.tau, t)])
-
-    def _forces(self, Q):
-        """The excitation's generalized force at each sample (N or N·m), rows."""
-        if self.exc.kind == "joint":
-            f = np.zeros((self.N, self.n))
-            f[:, self.exc.i] = self.exc.P * np.cos(self.tau)
-            return f
-        return np.array([self.exc.force(q, tau) for q, tau in zip(Q, self.tau)])
 
     def _state(self, x, xd, xdd):
         """(q, v, a) of the tangent coordinates x and their rates on a curved group: q = q_eq ⊕ x,
