@@ -26,8 +26,9 @@ if TYPE_CHECKING:  # result types of the entry points below (imported on call, n
     from .response import FRF, Appropriation, HarmonicResponse, TimeResponse
     from .statespace import StateSpace
 from ..model import dynamics
+from . import modal
 from ..model.derivatives import analytic_derivatives, row_derivatives
-from ..model.fd import differences, displaced_vectors, point_jacobian, stencil, steps, vector_derivative
+from ..model.fd import differences, displaced_vectors, point_jacobian, stencil, step_stencil, vector_derivative
 
 
 @dataclass(frozen=True, eq=False)
@@ -208,9 +209,7 @@ class LinearModel:
 
     def modes(self, **kwargs: Any) -> Modes:
         """Modal analysis of this linear model (see :func:`vibdyn.analysis.modal.modes`)."""
-        from .modal import modes
-
-        return modes(self, **kwargs)
+        return modal.modes(self, **kwargs)
 
     def with_damping(self, C: ArrayLike) -> LinearModel:
         """The same model with the damping matrix C (nv × nv) instead of its own."""
@@ -221,9 +220,7 @@ class LinearModel:
 
     def with_rayleigh(self, zeta: ArrayLike, omega: ArrayLike) -> LinearModel:
         """Rayleigh damping C = αM + βK_s giving ratios ``zeta`` = (ζ1, ζ2) at ``omega`` = (ω1, ω2) rad/s."""
-        from .modal import rayleigh
-
-        alpha, beta = rayleigh(zeta, omega)
+        alpha, beta = modal.rayleigh(zeta, omega)
         return self.with_damping(alpha * self.M + beta * self.K_s)
 
     def with_modal_damping(self, zeta: float | ArrayLike) -> LinearModel:
@@ -296,18 +293,21 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
     """:func:`linearize` of the tree itself (a mechanism's loops left open: its constrained linearisation
     builds on this one)."""
     start = time.perf_counter()
-    step = scalar(step, "linearize step", positive=True)
+    if step is not FD_STEP:
+        step = scalar(step, "linearize step", positive=True)
     if method not in ("fd", "analytic"):
         raise ModelError(f"linearize: unknown method {method!r} (use 'fd' or 'analytic')")
     q0, v0, t0 = reference_state(system, at, v, t)
     ws = system.workspace()
     M = dynamics.mass_matrix(system.model, ws.data, q0)
+    # the elements' forces at the operating point, evaluated once for the accelerations and the derivatives
+    applied = dynamics.forces(system, ws, q0, v0, t0) if method == "analytic" and system.drives is None else None
     if a is not None:
         a0 = system.check_velocity(a, "a")
     elif hasattr(at, "drive"):  # an equilibrium or steady motion: the reference motion does not accelerate
         a0 = np.zeros(system.nv)
     else:
-        a0 = dynamics.accelerations(system, ws, q0, v0, t0).copy()
+        a0 = dynamics.accelerations(system, ws, q0, v0, t0, applied).copy()
         if not all_finite(a0):
             system.check_mass_matrix(q0, "the operating point", M)
             raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t0})")
@@ -315,16 +315,21 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
     if method == "fd":
         K, C, K_err, C_err, n, rounding = _finite_differences(system, ws, q0, v0, a0, t0, step)
     else:
-        K, C, terms, K_size = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True)
+        K, C, terms, K_size = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True, applied=applied)
         # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad), and of
         # those summed into K by the point elements
-        scaled_terms = terms[:, None] / system.coordinate_scales
+        s = system.coordinate_scales
+        scaled_terms = terms[:, None] / s
         # and a floor common to every entry: the largest of those terms (N·m: per unit rad, or m × the length
         # scale) reaches each entry through the tree's transforms (a joint that gravity does not load still
         # has derivatives made of its neighbours' torques; a held robot's wrist read −4e-10 rad²/s² for 0)
-        s = system.coordinate_scales
-        floor = float((terms * s).max(initial=0.0)) / np.outer(s, s)
-        K_err = 16 * EPS * (np.abs(K) + scaled_terms + K_size + floor)
+        floor = (float((terms * s).max(initial=0.0)) / s)[:, None] / s
+        K_err = np.abs(K)
+        K_err += scaled_terms
+        K_err += floor
+        if system.point_groups:
+            K_err += K_size
+        K_err *= 16 * EPS
         C_err = 16 * EPS * (np.abs(C) + scaled_terms) if np.count_nonzero(C) else np.zeros(C.shape)
         n = 1
     system.check_mass_matrix(q0, "the operating point", M)  # (finite, and regular against the scene's scales)
@@ -358,7 +363,7 @@ def fd_error(D, T, terms, h, round_off=None):
     err = np.abs(D)
     err *= 4 * EPS
     err += np.abs(T)
-    err += np.multiply.outer(terms, 16 * EPS / h if round_off is None else round_off)
+    err += terms[:, None] * (16 * EPS / h if round_off is None else round_off)
     return err
 
 
@@ -366,8 +371,8 @@ def _finite_differences(system, ws, q0, v0, a0, t0, step):
     """K, C and their error estimates (:func:`fd_error`): every displaced configuration evaluated in one
     pass (:func:`vibdyn.model.dynamics.inverse_dynamics_rows`), the operating point's own evaluation first
     (its terms size the round-off), then the velocities if anything depends on them."""
-    h = steps(system, step)
-    st = stencil(system, ws, h, estimate=True)
+    st = step_stencil(system, ws, step, estimate=True)
+    h = st.h
     tau, F = dynamics.inverse_dynamics_rows(system, ws, st.configurations(system, q0), v0, a0, t0)
     tau0 = np.abs(tau[0])
     terms = tau0 + np.abs(F[0])

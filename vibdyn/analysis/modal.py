@@ -297,20 +297,21 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         base = np.maximum(Ke - np.abs(U).T @ V, 0.0)
         quadratic = np.add.reduce(A * (((n * EPS) * abs_Ks + base) @ A)) + np.add.reduce(
             np.abs(U @ Phi) * (V @ A))
-    with np.errstate(over="ignore"):  # squares past the float range: caught below and scaled, no warning
-        uncertainty = np.sqrt(np.add.reduce(LR * LR))
+    # (einsum's sum of squares overflows to inf without a warning: caught below and scaled)
+    uncertainty = np.sqrt(np.einsum("ij,ij->j", LR, LR))
     uncertainty += quadratic
     if not all_finite(uncertainty):  # the squares overflowed (huge ω²)? the same, column by column scaled
         r = np.abs(R).max(axis=0, initial=0.0)
         LR = lapack.dtrtrs(L, R / np.maximum(r, 1e-300), lower=1)[0]
         uncertainty = r * np.sqrt(np.add.reduce(LR * LR)) + quadratic
-    if not all_finite(uncertainty):
-        raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
-                         f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
+        if not all_finite(uncertainty):
+            raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
+                             f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
     abs_w2 = np.abs(w2)
     if tolerance is None:
         rigid = abs_w2 <= 10 * uncertainty
-        if lin.method == "fd" and np.count_nonzero(rigid):
+        n_rigid = np.count_nonzero(rigid)
+        if lin.method == "fd" and n_rigid:
             analytic = lin.relinearize("analytic")
             exact_rigid = _modes(analytic, rigid_only=True)  # (its undamped part only, to compare)
             if exact_rigid.sum() != rigid.sum():  # the analytic model resolves what FD could not
@@ -320,9 +321,10 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
                 return replace(exact, note="; ".join(x for x in (why, exact.note) if x))
     else:
         rigid = abs_w2 <= float(tolerance) * scale
+        n_rigid = np.count_nonzero(rigid)
     if rigid_only:
         return rigid
-    any_rigid = np.count_nonzero(rigid) > 0
+    any_rigid = n_rigid > 0
     if any_rigid:
         w2 = np.where(rigid, 0.0, w2)
         abs_w2 = np.abs(w2)
@@ -344,10 +346,10 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     if not damped and n:
         N2 = K - Kt
         np.abs(N2, out=N2)
-        E2 = Ke + Ke.T
-        E2 *= 10.0
-        N2 -= E2
-        damped = bool(np.maximum.reduce(N2, axis=None) > 2e-12 * np.maximum.reduce(abs_Ks, axis=None))
+        N2 *= 0.1
+        N2 -= Ke
+        N2 -= Ke.T
+        damped = bool(np.maximum.reduce(N2, axis=None) > 2e-13 * np.maximum.reduce(abs_Ks, axis=None))
     if damped:
         lam, lam_modes, shapes_c, lam_error, lam_abs, modes_abs = _state_modes(lin)
         mag = np.abs(lam_modes)

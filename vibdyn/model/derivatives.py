@@ -101,14 +101,15 @@ class Derivatives:
         return Q
 
 
-def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None):
+def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, applied=None):
     """(K, C, terms, K_size) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|, Σ |J|ᵀ |∂f|) at (q, v, a, t), analytically;
     ``terms`` (N or N·m per coordinate) is the size of what cancels in r, ``K_size`` (nv × nv) that of the
-    point elements' terms summed into K: the scales of their round-off (None unless ``with_terms``).
-    ``shift``: offsets of the supports' motion, as :func:`vibdyn.model.dynamics.forces` takes them."""
+    point elements' terms summed into K: the scales of their round-off (None unless ``with_terms``; 0.0
+    without point elements). ``shift``: offsets of the supports' motion, as :func:`vibdyn.model.dynamics.forces`
+    takes them; ``applied``: the forces at (q, v, t) as that function gives them, if already evaluated."""
     ws = system.workspace()
     model, data = system.model, ws.data
-    Q, fext = dynamics.forces(system, ws, q, v, t, shift)
+    Q, fext = dynamics.forces(system, ws, q, v, t, shift) if applied is None else applied
     out = (pin.computeRNEADerivatives(model, data, q, v, a) if fext is None
            else pin.computeRNEADerivatives(model, data, q, v, a, fext))
     K, C = out[0].copy(), out[1].copy()  # Pinocchio overwrites them on the next call
@@ -118,7 +119,7 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None):
         terms += np.abs(dynamics.gravity_term(system, ws, q))
     d = Derivatives(system, q, v, a, t, any(g.needs_velocity_derivatives for g in system.point_groups),
                     magnitudes=with_terms)
-    K_size = np.zeros_like(K) if with_terms else None
+    K_size = None if not with_terms else np.zeros(K.shape) if system.point_groups else 0.0
     if system.point_groups:
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t, shift)
         for g in system.point_groups:

@@ -48,15 +48,16 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
     joint-space group, and each point group that can (``rows``), evaluates every row at once; with neither
     velocity nor acceleration, RNEA reduces to the gravity term (nothing at all without gravity)."""
     nv = system.nv
-    B = max(len(Q), len(V) if V.ndim == 2 else 1, len(a) if np.ndim(a) == 2 else 1)
+    rows_v, rows_a = V.ndim == 2, np.ndim(a) == 2
+    B = max(len(Q), len(V) if rows_v else 1, len(a) if rows_a else 1)
     if len(Q) < B:
         Q = np.broadcast_to(Q, (B, system.nq))
-    if V.ndim == 2 and len(V) < B:
+    if rows_v and len(V) < B:
         V = np.broadcast_to(V, (B, nv))
-    if np.ndim(a) == 2 and len(a) < B:
+    if rows_a and len(a) < B:
         a = np.broadcast_to(a, (B, nv))
     F = np.zeros((B, nv))
-    t_rows = np.ndim(t) > 0
+    t_rows = not isinstance(t, float) and np.ndim(t) > 0
     for g in system.joint_groups:
         if t_rows and g.time_dependent:
             for c in range(B):
@@ -65,7 +66,6 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
             g.apply_rows(float(t[0]) if t_rows else t, Q, V, F)
     model, data = system.model, ws.data
     tau = np.empty((B, nv))
-    rows_v, rows_a = V.ndim == 2, np.ndim(a) == 2
     if system.point_groups:
         batched = all(g.rows for g in system.point_groups)
         if batched:
@@ -162,13 +162,14 @@ def inverse_dynamics(system, ws, q, v, a, t, shift=None):
     return tau - Q
 
 
-def accelerations(system, ws, q, v, t):
+def accelerations(system, ws, q, v, t, applied=None):
     """dv/dt (m/s², rad/s²) by ABA with gravity and every force element (with closed loops, the loops'
     constrained accelerations; with drives, a_d from the laws at t and a_f from the free rows, q and v as
-    given: :meth:`vibdyn.model.drives.Drives.accelerations`). May share memory with the workspace."""
+    given: :meth:`vibdyn.model.drives.Drives.accelerations`). May share memory with the workspace.
+    ``applied``: the elements' forces at (q, v, t) as :func:`forces` gives them, if already evaluated."""
     if system.drives is not None:
         return system.drives.accelerations(system, ws, q, v, t)
-    Q, fext = forces(system, ws, q, v, t)
+    Q, fext = forces(system, ws, q, v, t) if applied is None else applied
     model, data = system.model, ws.data
     a = pin.aba(model, data, q, v, Q) if fext is None else pin.aba(model, data, q, v, Q, fext)
     if system.constraints is not None:

@@ -80,6 +80,17 @@ def stencil(system, ws, h, estimate=False):
     return st
 
 
+def step_stencil(system, ws, step, estimate=False):
+    """The :class:`Stencil` of the steps :func:`steps` gives for ``step``, kept in the workspace by ``step``
+    (the steps' own computation skipped on every later use)."""
+    key = (float(step), estimate)
+    st = ws.stencils.get(key)
+    if st is None:
+        st = stencil(system, ws, steps(system, step), estimate)
+        ws.stencils[key] = st
+    return st
+
+
 def differences(Y, h):
     """(D, T) from evaluations Y at the rows of :func:`displaced_vectors` (outputs along Y's last axis): the
     central differences (outputs × nv) and, from ``estimate`` rows, their truncation estimates
