@@ -271,7 +271,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     # symmetric problem of L⁻¹ Ks L⁻ᵀ (QR iterations while small, divide and conquer beyond)
     L = M.copy(order="F")
     if n:
-        w2, Phi, info = (lapack.dsygv if n <= 32 else lapack.dsygvd)(Ks, L, overwrite_b=1)
+        w2, Phi, info = (lapack.dsygv if n <= 24 else lapack.dsygvd)(Ks, L, overwrite_b=1)
     else:
         w2, Phi, info = np.zeros(0), np.zeros((0, 0)), 0
     # finite inputs give finite shapes; a non-finite one shows in w2 or, through |Φ|, in the uncertainty below

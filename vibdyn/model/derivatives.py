@@ -115,10 +115,12 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
     K, C = out[0].copy(), out[1].copy()  # Pinocchio overwrites them on the next call
     terms = None
     if with_terms:
-        terms = np.abs(data.tau) + np.abs(Q)  # the derivatives' pass leaves RNEA's τ in data.tau
-        terms += np.abs(dynamics.gravity_term(system, ws, q))
-    d = Derivatives(system, q, v, a, t, any(g.needs_velocity_derivatives for g in system.point_groups),
-                    magnitudes=with_terms)
+        terms = np.abs(data.tau)  # the derivatives' pass leaves RNEA's τ in data.tau
+        # (+ |g|: RNEA's τ itself where it is the gravity term alone)
+        terms += terms if dynamics.is_gravity(system, v, a) else np.abs(dynamics.gravity_term(system, ws, q))
+        terms += np.abs(Q)
+    d = Derivatives(system, q, v, a, t, bool(system.point_groups) and any(
+        g.needs_velocity_derivatives for g in system.point_groups), magnitudes=with_terms)
     K_size = None if not with_terms else np.zeros(K.shape) if system.point_groups else 0.0
     if system.point_groups:
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t, shift)

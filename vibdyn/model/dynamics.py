@@ -19,12 +19,18 @@ def forces(system, ws, q, v, t, shift=None):
     """(Q, fext): the force elements' joint-space forces Q (N or N·m per coordinate, a new array) and, if
     the scene has point elements, the external forces (the workspace's buffer) for ABA/RNEA, else None.
     ``shift`` offsets the supports' displacements and velocities (n_supports × 6, m and m/s)."""
-    Q = np.zeros(system.nv)
-    for g in system.joint_groups:
-        g.apply(t, q, v, None, Q, None)
+    Q = joint_forces(system, q, v, t)
     if not system.point_groups:
         return Q, None
     return Q, point_forces(system, ws, q, v, t, Q, shift)
+
+
+def joint_forces(system, q, v, t):
+    """The joint-space force elements' generalized forces Q(q, v, t) (N or N·m per coordinate, a new array)."""
+    Q = np.zeros(system.nv)
+    for g in system.joint_groups:
+        g.apply(t, q, v, None, Q, None)
+    return Q
 
 
 def point_forces(system, ws, q, v, t, Q, shift=None):
@@ -89,8 +95,8 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
             tau[c] = pin.rnea(model, data, Q[c], V[c] if rows_v else V, a[c] if rows_a else a)
     elif system.has_gravity:
         g = pin.computeGeneralizedGravity
-        for c in range(B):
-            tau[c] = g(model, data, Q[c])
+        for c, q in enumerate(list(Q)):  # (a list of the rows: cheaper to walk than indexing the array)
+            tau[c] = g(model, data, q)
     else:
         tau[:] = 0.0
     return tau, F
@@ -176,6 +182,19 @@ def accelerations(system, ws, q, v, t, applied=None):
         a = a.copy()
         return system.constraints.accelerations(q, v, a, mass_matrix(model, data, q))
     return a
+
+
+def accelerations_function(system, ws):
+    """``accelerations(system, ws, q, v, t)`` as a function of (q, v, t) made once for this scene (the hot path
+    of time integration): a scene with neither drives, loops nor point elements runs ABA on its joint-space
+    forces alone, and on none without joint-space elements; any other scene, :func:`accelerations` itself."""
+    if system.drives is not None or system.constraints is not None or system.point_groups:
+        return lambda q, v, t: accelerations(system, ws, q, v, t)
+    model, data, aba = system.model, ws.data, pin.aba
+    if not system.joint_groups:
+        zero = np.zeros(system.nv)
+        return lambda q, v, t: aba(model, data, q, v, zero)
+    return lambda q, v, t: aba(model, data, q, v, joint_forces(system, q, v, t))
 
 
 def mass_matrix(model, data, q):

@@ -61,6 +61,7 @@ class VectorODE:
         self.work = work
         self.nfev = 0
         self.differenced = False  # a Jacobian so far differenced a user callable (exact to ~1e-10 only)
+        self.accelerations = dynamics.accelerations_function(system, self.ws)  # (q, v, t) → dv/dt
 
     def __call__(self, t, y):
         out = np.empty(self.n)
@@ -73,7 +74,7 @@ class VectorODE:
         nv = self.nv
         q, v = y[:nv], y[nv:2 * nv]
         out[:nv] = v
-        out[nv:2 * nv] = dynamics.accelerations(self.system, self.ws, q, v, t)
+        out[nv:2 * nv] = self.accelerations(q, v, t)
         if self.work:
             out[-1] = v @ pin.rnea(self.model, self.data, q, v, out[nv:2 * nv])
 
@@ -146,7 +147,7 @@ class ChartODE(VectorODE):
         xi, v = y[:nv], y[nv:2 * nv]
         q = pin.integrate(model, c, xi)
         out[:nv] = pin.dDifference(model, c, q, ARG1) @ v
-        out[nv:2 * nv] = dynamics.accelerations(self.system, self.ws, q, v, t)
+        out[nv:2 * nv] = self.accelerations(q, v, t)
         if self.work:
             out[-1] = v @ pin.rnea(model, self.data, q, v, out[nv:2 * nv])
 
