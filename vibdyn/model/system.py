@@ -219,8 +219,6 @@ class System:
                                               for i, p in enumerate(b.joint.periodic) if p], dtype=int)
         self.periodic_coordinates.flags.writeable = False
         self.inertia_scales = self._inertia_scales()
-        self._eye = np.eye(self.nv)
-        self._eye.flags.writeable = False
         self._zero_v = np.zeros(self.nv)
         self._zero_v.flags.writeable = False
         self._mass_weights = 1.0 / np.outer(np.sqrt(self.inertia_scales), np.sqrt(self.inertia_scales))
@@ -595,7 +593,7 @@ class System:
 
         L, info = lapack.dpotrf(Ms, lower=1)
         if info == 0:
-            Linv, info = lapack.dtrtrs(L, self._eye, lower=1)  # (the triangular solve modes() uses too)
+            Linv, info = lapack.dtrtri(L, lower=1, overwrite_c=1)  # (L's other triangle is zero: so is Linv's)
             x = Linv.ravel(order="K")  # (LAPACK's column order: a view)
             if info == 0 and (x @ x) * tol < 1.0:
                 return
