@@ -9,6 +9,7 @@ and the joint-space groups add −∂Q. ∂f_j/∂q includes the turning of join
 import numpy as np
 import pinocchio as pin
 
+from .._check import all_finite
 from . import dynamics
 from .fd import steps, tangent_derivative, vector_derivative, world_point_jacobian
 from .points import skew
@@ -220,6 +221,19 @@ def row_derivatives(system, ws, Q, V=None, t=0.0, shift=None):
         for j in system.point_joints:
             W[c, j] = pin.getJointJacobian(model, data, j, pin.LOCAL_WORLD_ALIGNED).reshape(6, nv)
     return RowDerivatives(kin, W)
+
+
+def solve_mass(M, B):
+    """M⁻¹B by Cholesky, LAPACK directly (once per stage of the variational equations: scipy's wrappers cost
+    more than the solve); a singular or non-finite M is a LinAlgError (the steppers' failure)."""
+    from scipy.linalg import lapack  # (on first use: not at `import vibdyn`)
+
+    L, info = lapack.dpotrf(M, lower=1)
+    if info == 0:
+        X, info = lapack.dpotrs(L, B, lower=1)
+        if info == 0 and all_finite(X):
+            return X
+    raise np.linalg.LinAlgError("the mass matrix is singular or not finite at this state")
 
 
 def linear_terms(system, q, v, t, a=None):

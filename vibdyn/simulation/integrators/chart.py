@@ -19,10 +19,8 @@ motion d(T + V_gravity)/dt = v · τ, the energy balance the simulation reports.
 
 import numpy as np
 import pinocchio as pin
-import scipy.linalg as sla
-
 from ...model import dynamics
-from ...model.derivatives import linear_terms
+from ...model.derivatives import linear_terms, solve_mass
 
 ARG1 = pin.ArgumentPosition.ARG1
 
@@ -109,22 +107,23 @@ class VectorODE:
         return self
 
     # ------------------------------------------------------------------ Jacobian for implicit methods
-    def jacobian(self, t, y):
+    def jacobian(self, t, y, a=None):
         """∂f/∂y from the analytic linearisation: ∂v̇/∂q = −M⁻¹K, ∂v̇/∂v = −M⁻¹C (in the tangent space at
-        q). The work row is left zero: w feeds nothing back, so the simplified Newton iteration converges."""
+        q). The work row is left zero: w feeds nothing back, so the simplified Newton iteration converges.
+        ``a``: the accelerations at (t, y) if already evaluated (rad/s², m/s²), else evaluated here."""
         nv = self.nv
         q, v = self.configuration(y), y[nv:2 * nv].copy()
-        MinvK, MinvC = self._minv_kc(q, v, t)
+        MinvK, MinvC = self._minv_kc(q, v, t, a)
         J = np.zeros((self.n, self.n))
         J[:nv, nv:2 * nv] = np.eye(nv)
         J[nv:2 * nv, :nv] = -MinvK
         J[nv:2 * nv, nv:2 * nv] = -MinvC
         return J
 
-    def _minv_kc(self, q, v, t):
-        M, K, C = linear_terms(self.system, q, v, t)
+    def _minv_kc(self, q, v, t, a=None):
+        M, K, C = linear_terms(self.system, q, v, t, a)
         self.differenced = self.differenced or self.ws.differenced
-        X = sla.cho_solve(sla.cho_factor(M), np.hstack([K, C]))
+        X = solve_mass(M, np.hstack([K, C]))
         return X[:, :self.nv], X[:, self.nv:]
 
 
@@ -138,7 +137,12 @@ class ChartODE(VectorODE):
         # rotational tangent components of the curved joints (where a chart's validity is limited)
         curved = [b for b in system.body_infos.values() if b.joint.chart_rotations]
         self.rotations = np.array([b.idx_v + i for b in curved for i in b.joint.chart_rotations], dtype=int)
-        self.curved_columns = np.array([b.idx_v + i for b in curved for i in range(b.nv)], dtype=int)
+        # the curved joints' tangent columns, grouped by their place in their joint (dDifference is block
+        # diagonal, one block per joint: the i-th column of every curved joint is differenced in one pass), each
+        # with the rows of its joint
+        width = max((b.nv for b in curved), default=0)
+        self.column_groups = [[(b.idx_v + i, slice(b.idx_v, b.idx_v + b.nv)) for b in curved if i < b.nv]
+                              for i in range(width)]
         self.centre = None
 
     def into(self, t, y, out):
@@ -175,14 +179,14 @@ class ChartODE(VectorODE):
         c.__dict__.update(self.__dict__)
         return c
 
-    def jacobian(self, t, y):
+    def jacobian(self, t, y, a=None):
         """As :meth:`VectorODE.jacobian`, mapped to the chart: ∂v̇/∂ξ = −M⁻¹K dIntegrate(ξ), ∂ξ̇/∂v =
         dexp⁻¹(ξ), and the chart's own term ∂(dexp⁻¹(ξ) v)/∂ξ by fourth-order differences on the curved joints'
         columns (it is zero on the others)."""
         nv, model, c = self.nv, self.model, self.centre
         xi, v = y[:nv], y[nv:2 * nv].copy()
         q = self.configuration(y)
-        MinvK, MinvC = self._minv_kc(q, v, t)
+        MinvK, MinvC = self._minv_kc(q, v, t, a)
         J = np.zeros((self.n, self.n))
         J[:nv, nv:2 * nv] = pin.dDifference(model, c, q, ARG1)
         J[nv:2 * nv, :nv] = -MinvK @ pin.dIntegrate(model, c, xi, ARG1)
@@ -190,11 +194,14 @@ class ChartODE(VectorODE):
         # fourth-order differences of a step 1e-3 (rad or m): truncation ~1e-14 and round-off ~1e-13 relative (a
         # plain central difference of 1e-7 leaves round-off of 1e-9, which the variational step control sees)
         eps = 1e-3
-        for k in self.curved_columns:
+        for group in self.column_groups:
             e = np.zeros(nv)
-            e[k] = eps
+            for k, _ in group:
+                e[k] = eps
             d = [pin.dDifference(model, c, pin.integrate(model, c, xi + s * e), ARG1) for s in (2, 1, -1, -2)]
-            J[:nv, k] = (8 * (d[1] - d[2]) - (d[0] - d[3])) @ v / (12 * eps)
+            column = (8 * (d[1] - d[2]) - (d[0] - d[3])) @ v / (12 * eps)
+            for k, rows in group:
+                J[rows, k] = column[rows]
         return J
 
 
@@ -241,7 +248,8 @@ class Variational:
         self.base.into(t, base, f)
         out[:m] = f[:m]
         out[m + m * m:] = f[m:]
-        out[m:m + m * m] = (self.base.jacobian(t, base)[:m, :m] @ Y).ravel()
+        # (the base's accelerations just evaluated at this state: the Jacobian need not evaluate them again)
+        out[m:m + m * m] = (self.base.jacobian(t, base, f[self.nv:m])[:m, :m] @ Y).ravel()
 
     def initial(self, q0, v0, w0=0.0):
         b = self.base.initial(q0, v0, w0)

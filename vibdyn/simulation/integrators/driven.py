@@ -2,9 +2,8 @@
 integrated (see :func:`driven_ode`)."""
 
 import numpy as np
-import scipy.linalg as sla
 
-from ...model.derivatives import linear_terms
+from ...model.derivatives import linear_terms, solve_mass
 
 
 def driven_ode(base):
@@ -39,17 +38,17 @@ def driven_ode(base):
             out[d.index] = 0.0
             out[self.nv + d.index] = 0.0
 
-        def _minv_kc(self, q, v, t):
+        def _minv_kc(self, q, v, t, a=None):  # (``a`` not used: the driven rows of the ODE's are zero)
             f, nv = self.system.drives.free, self.nv
             MinvK, MinvC = np.zeros((nv, nv)), np.zeros((nv, nv))
             if f.size:
                 M, K, C = linear_terms(self.system, q, v, t)
                 ff = np.ix_(f, f)
-                X = sla.cho_solve(sla.cho_factor(M[ff]), np.hstack([K[ff], C[ff]]))
+                X = solve_mass(M[ff], np.hstack([K[ff], C[ff]]))
                 MinvK[ff], MinvC[ff] = X[:, :f.size], X[:, f.size:]
             return MinvK, MinvC
 
-        def jacobian(self, t, y):
+        def jacobian(self, t, y, a=None):
             J = super().jacobian(t, self._impose(t, y))
             d = self.system.drives
             rows = np.concatenate([d.index, self.nv + d.index])

@@ -69,8 +69,9 @@ def projected_ode(base):
             dv = np.abs(c.scaled_phi(J @ v)).max(initial=0.0) / speed if speed > 0 else 0.0
             return max(float(np.abs(c.scaled_phi(phi)).max(initial=0.0)), float(dv))
 
-        def jacobian(self, t, y):
-            """∂f/∂y by central differences (steps 1e-6 × (1 rad or the length scale), per unit speed)."""
+        def jacobian(self, t, y, a=None):
+            """∂f/∂y by central differences (steps 1e-6 × (1 rad or the length scale), per unit speed); ``a``
+            is not used."""
             unit = self.system.coordinate_scales
             h = 1e-6 * np.concatenate([unit, unit, [1.0] * (self.n - 2 * self.nv)])
             J = np.zeros((self.n, self.n))
