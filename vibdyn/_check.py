@@ -64,7 +64,9 @@ def integer(value, what, *, minimum=None, maximum=None):
         raise ModelError(f"{what}: expected an integer, got {value!r}")
     n = int(value)
     if (minimum is not None and n < minimum) or (maximum is not None and n > maximum):
-        raise ModelError(f"{what}: must be in [{minimum}, {maximum}], got {n}")
+        bounds = (f"≥ {minimum}" if maximum is None else f"≤ {maximum}" if minimum is None
+                  else f"in [{minimum}, {maximum}]")
+        raise ModelError(f"{what}: must be {bounds}, got {n}")
     return n
 
 

@@ -250,7 +250,7 @@ def _requests(amplitudes, energies, what):
     bad = np.flatnonzero(~(np.isfinite(arr) & (arr > 0)))
     if bad.size:
         raise ModelError(f"{what}: {name} requests must be positive and finite: entry {int(bad[0])} is "
-                         f"{arr[bad[0]]!r}")
+                         f"{float(arr[bad[0]])!r}")
     return name, arr
 
 
