@@ -236,13 +236,14 @@ def solve_mass(M, B):
     raise np.linalg.LinAlgError("the mass matrix is singular or not finite at this state")
 
 
-def linear_terms(system, q, v, t, a=None):
+def linear_terms(system, q, v, t, a=None, applied=None):
     """(M, K, C) at (q, v, t) for the Newton iterations of implicit integrators: M by CRBA, K = ∂r/∂q and
-    C = ∂r/∂v analytically about the acceleration ``a`` (the free one if None), in the tree's coordinates.
-    No error estimate, no checks (the analyses' :func:`vibdyn.analysis.linearize.linearize` adds them)."""
+    C = ∂r/∂v analytically about the acceleration ``a`` (the free one if None), in the tree's coordinates;
+    ``applied``: the forces at (q, v, t) as :func:`vibdyn.model.dynamics.forces` gives them, if already
+    evaluated. No error estimate, no checks (the analyses' :func:`vibdyn.analysis.linearize.linearize` adds them)."""
     ws = system.workspace()
     if a is None:
-        a = dynamics.accelerations(system, ws, q, v, t).copy()
+        a = dynamics.accelerations(system, ws, q, v, t, applied).copy()
     M = dynamics.mass_matrix(system.model, ws.data, q)
-    K, C, _, _ = analytic_derivatives(system, q, v, a, t)
+    K, C, _, _ = analytic_derivatives(system, q, v, a, t, applied=applied)
     return M, K, C

@@ -184,12 +184,20 @@ def accelerations(system, ws, q, v, t, applied=None):
     return a
 
 
-def accelerations_function(system, ws):
+def accelerations_function(system, ws, keep=None):
     """``accelerations(system, ws, q, v, t)`` as a function of (q, v, t) made once for this scene (the hot path
     of time integration): a scene with neither drives, loops nor point elements runs ABA on its joint-space
-    forces alone, and on none without joint-space elements; any other scene, :func:`accelerations` itself."""
-    if system.drives is not None or system.constraints is not None or system.point_groups:
+    forces alone, and on none without joint-space elements; any other scene, :func:`accelerations` itself.
+    ``keep``: a one-item list in which a scene with point elements (and neither drives nor loops) leaves the
+    forces of each evaluation, as :func:`forces` gives them (a Jacobian at the same state reuses them)."""
+    if system.drives is not None or system.constraints is not None or (system.point_groups and keep is None):
         return lambda q, v, t: accelerations(system, ws, q, v, t)
+    if system.point_groups:
+        def kept(q, v, t):
+            keep[0] = applied = forces(system, ws, q, v, t)
+            return accelerations(system, ws, q, v, t, applied)
+
+        return kept
     model, data, aba = system.model, ws.data, pin.aba
     if not system.joint_groups:
         zero = np.zeros(system.nv)

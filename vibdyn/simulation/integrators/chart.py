@@ -59,7 +59,9 @@ class VectorODE:
         self.work = work
         self.nfev = 0
         self.differenced = False  # a Jacobian so far differenced a user callable (exact to ~1e-10 only)
-        self.accelerations = dynamics.accelerations_function(system, self.ws)  # (q, v, t) → dv/dt
+        # (q, v, t) → dv/dt; the point elements' forces of the last evaluation kept for the Jacobian at that state
+        self._applied = [None]
+        self.accelerations = dynamics.accelerations_function(system, self.ws, keep=self._applied)
 
     def __call__(self, t, y):
         out = np.empty(self.n)
@@ -110,7 +112,8 @@ class VectorODE:
     def jacobian(self, t, y, a=None):
         """∂f/∂y from the analytic linearisation: ∂v̇/∂q = −M⁻¹K, ∂v̇/∂v = −M⁻¹C (in the tangent space at
         q). The work row is left zero: w feeds nothing back, so the simplified Newton iteration converges.
-        ``a``: the accelerations at (t, y) if already evaluated (rad/s², m/s²), else evaluated here."""
+        ``a``: the accelerations the last :meth:`into` evaluated, at this very (t, y) (rad/s², m/s²; its forces
+        are reused too), else None: evaluated here."""
         nv = self.nv
         q, v = self.configuration(y), y[nv:2 * nv].copy()
         MinvK, MinvC = self._minv_kc(q, v, t, a)
@@ -121,7 +124,7 @@ class VectorODE:
         return J
 
     def _minv_kc(self, q, v, t, a=None):
-        M, K, C = linear_terms(self.system, q, v, t, a)
+        M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0])
         self.differenced = self.differenced or self.ws.differenced
         X = solve_mass(M, np.hstack([K, C]))
         return X[:, :self.nv], X[:, self.nv:]
