@@ -158,8 +158,9 @@ def damped_mass():
 @pytest.mark.parametrize("method", ["dop853", "radau", "bdf"])
 def test_non_finite_initial_derivative_is_a_simulation_error(method):
     """v0 = 1e300 with a damper and unit mass: the first acceleration −c v overflows in the step; before,
-    DOP853 looped forever and Radau raised a raw ValueError."""
-    with numpy_overflow(), pytest.raises(vd.SimulationError):
+    DOP853 looped forever and Radau raised a raw ValueError. The error comes without a numpy warning on its
+    way (the suite turns warnings into errors)."""
+    with pytest.raises(vd.SimulationError):
         damped_mass().simulate(1.0, v0=[1e300], method=method)
 
 

@@ -84,7 +84,7 @@ def test_non_finite_first_derivative_is_a_simulation_error(method):
 
 
 def test_initial_state_whose_energy_overflows_is_refused():
-    with numpy_overflow(), pytest.raises(vd.VibdynError, match="not finite|overflow"):
+    with pytest.raises(vd.VibdynError, match="not finite|overflow"):  # (and no numpy warning on the way)
         damped_mass().simulate(1.0, v0=[1e300])
 
 
@@ -197,7 +197,7 @@ def test_spin_energy_overflow_in_a_run_is_a_simulation_error():
     s = vd.Scene("spin")
     s.add_body("r", joint=vd.Pivot((0, 0, 1)), mass=1.0, inertia=np.eye(3))
     s.add_joint_force("r", lambda t, q, v: 1e307 * np.exp(t))
-    with numpy_overflow(), pytest.raises(vd.VibdynError, match="not finite|overflow|underflow"):
+    with pytest.raises(vd.VibdynError, match="not finite|overflow|underflow"):  # (no numpy warning on the way)
         s.build().simulate(1000.0, v0=[1e150])
 
 

@@ -69,14 +69,15 @@ class VectorODE:
         return out
 
     def into(self, t, y, out):
-        """f(t, y) written into ``out`` (the hot path of the explicit methods)."""
+        """f(t, y) written into ``out`` (the hot path of the explicit methods). The power v·τ by vdot: a trial
+        step that overflows is rejected by the stepper, and vdot (unlike @) warns of nothing on the way."""
         self.nfev += 1
         nv = self.nv
         q, v = y[:nv], y[nv:2 * nv]
         out[:nv] = v
         out[nv:2 * nv] = self.accelerations(q, v, t)
         if self.work:
-            out[-1] = v @ pin.rnea(self.model, self.data, q, v, out[nv:2 * nv])
+            out[-1] = np.vdot(v, pin.rnea(self.model, self.data, q, v, out[nv:2 * nv]))
 
     def initial(self, q0, v0, w0=0.0):
         y = np.zeros(self.n)
@@ -156,7 +157,7 @@ class ChartODE(VectorODE):
         out[:nv] = pin.dDifference(model, c, q, ARG1) @ v
         out[nv:2 * nv] = self.accelerations(q, v, t)
         if self.work:
-            out[-1] = v @ pin.rnea(model, self.data, q, v, out[nv:2 * nv])
+            out[-1] = np.vdot(v, pin.rnea(model, self.data, q, v, out[nv:2 * nv]))
 
     def initial(self, q0, v0, w0=0.0):
         self.centre = np.array(q0, dtype=float)
