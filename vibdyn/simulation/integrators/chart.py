@@ -19,6 +19,7 @@ motion d(T + V_gravity)/dt = v · τ, the energy balance the simulation reports.
 
 import numpy as np
 import pinocchio as pin
+
 from ...model import dynamics
 from ...model.derivatives import linear_terms, solve_mass
 
