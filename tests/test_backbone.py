@@ -4,6 +4,7 @@ Kerschen's two-mass oscillator with a cubic spring against an independent shooti
 result's own error estimate."""
 
 import json
+import re
 import math
 
 import numpy as np
@@ -192,3 +193,14 @@ def test_a_request_beyond_the_branch_names_how_far_it_went():
     with pytest.raises(vd.ConvergenceError, match=r"beyond the followed branch: largest amplitude reached "
                                                   r"0\.\d+ m, largest energy 0\.\d+ J .*zero length"):
         vd.backbone(system, 1, energies=[0.1, 10.0])
+
+
+def test_a_pendulum_past_its_separatrix_is_refused_near_pi_and_says_why():
+    """A rod on a pivot asked for a swing of 3.5 rad (beyond the separatrix at π, where the period becomes
+    infinite): the branch is followed up to within 0.01 rad of π, then ends where the shooting residual stalls
+    at its floor (not after halving its step down to the minimum), and the error names the separatrix."""
+    system = vd.load_scene("rod_pivot").build()
+    with pytest.raises(vd.ConvergenceError, match="separatrix") as info:
+        vd.backbone(system, 0, amplitudes=[3.5])
+    reached = float(re.search(r"largest amplitude reached ([\d.]+) rad", str(info.value)).group(1))
+    assert math.pi - 0.01 < reached < math.pi

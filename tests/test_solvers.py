@@ -115,3 +115,27 @@ def test_continuation_with_chord_corrector_finds_the_same_branch_with_fewer_jaco
     assert np.abs(chord.x[:, 0] ** 3 - chord.x[:, 0] - chord.lam).max() <= 1e-10
     assert sorted(f.lam for f in chord.folds) == pytest.approx(sorted(f.lam for f in plain.folds), abs=1e-10)
     assert calls[True] < calls[False]
+
+
+def test_continuation_ends_at_once_where_the_residual_has_a_floor_above_tol():
+    """Beyond λ = 0.5, F = x − λ² is evaluated only to a quantum q (|F| ≥ q/2 everywhere: no root): with
+    q/2 = 2·tol the corrector stalls just above tol however short the step, and the branch ends "failed" at
+    the floor after three such corrections, saying so, not after halving its step down to ``min_step``;
+    with q/2 below tol the same branch finishes."""
+    def quantised(q, calls):
+        def F(x, lam):
+            calls.append(lam)
+            r = x[0] - lam ** 2
+            return np.array([q * (math.floor(r / q) + 0.5) if lam > 0.5 else r])
+        return F
+
+    def jac(x, lam):
+        return np.array([[1.0, -2.0 * lam]])
+
+    calls: list = []
+    br = continuation(quantised(4e-10, calls), [0.0], 0.0, 1.0, step=0.05, tol=1e-10, jacobian=jac, min_step=1e-9)
+    assert br.status == "failed" and "stalls just above the tolerance" in br.message
+    assert 0.4 < br.lam[-1] <= 0.5 and np.abs(br.x[:, 0] - br.lam ** 2).max() <= 1e-10
+    assert br.rejected <= 3 and len(calls) < 150  # (halving down to min_step took 35 rejections, 587 calls)
+    br = continuation(quantised(1e-10, []), [0.0], 0.0, 1.0, step=0.05, tol=1e-10, jacobian=jac, min_step=1e-9)
+    assert br.status == "finished" and br.lam[-1] == 1.0

@@ -47,6 +47,9 @@ class Branch:
     residual: float = 0.0
 
 
+FLOOR_FACTOR = 10.0  # a corrector failing with ‖F‖ within this factor of tol has met F's own error floor
+
+
 def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, step: float = 0.05,
                  jacobian: Callable | None = None, tol: float = 1e-10, max_steps: int = 2000,
                  min_step: float = 1e-9, max_step: float | None = None, scale: np.ndarray | None = None,
@@ -58,7 +61,9 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     if None);
     ``step``: the first arclength step, in the variables scaled by ``scale`` (n + 1 positive numbers, default
     1: what "one unit" of each means), grown ×1.5 after an easy correction, halved after a failed one, at
-    most ``max_step``; ``stop(x, lam)`` → True ends the branch there (a request reached). The point where λ
+    most ``max_step``; a branch whose corrector stops three times in four just above ``tol`` (within
+    ``FLOOR_FACTOR``, no step decreasing ‖F‖) has met F's own error and ends "failed" at once, since smaller
+    steps cannot lower that floor; ``stop(x, lam)`` → True ends the branch there (a request reached). The point where λ
     crosses lam_end is solved exactly (its last point has λ = lam_end); where lam_end lies within the next step
     on a branch steep in λ (|t_λ| > 0.5), it is solved there directly from the predictor, kept only if λ did
     not turn back on the way (no fold stepped over). ``chord``: the corrector starts from the last point's
@@ -95,6 +100,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     ys, ss, folds = [y.copy()], [0.0], []
     h, steps, rejected, status, message = step, 0, 0, "finished", f"reached λ = {lam_end:g}"
     residual = first.residual
+    recent: list[bool] = []  # the last corrections: True for a failure at the residual's floor
     while True:
         if steps >= max_steps:
             status, message = "stopped", f"{max_steps} steps taken before λ = {lam_end:g}"
@@ -118,6 +124,17 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         corr = newton(lambda z: np.append(F(z), t @ (z - yp)), yp, lambda z: np.vstack([J(z), t]), tol=tol,
                       max_iter=8 if chord is None else 12, chord=chord,
                       jacobian0=None if chord is None else np.vstack([Jy, t]))
+        # a corrector that stops just above tol because no step decreases ‖F‖ has met the floor of F's own
+        # error (shooting near a separatrix: the flows' error times the orbit's sensitivity); smaller steps do
+        # not lower that floor, so a branch that meets it three times in four corrections ends there
+        recent = recent[-3:] + [not corr.converged and corr.status in ("no_decrease", "stagnated")
+                                and corr.residual <= FLOOR_FACTOR * tol]
+        if sum(recent) >= 3:
+            status, message = "failed", (f"the corrector's residual stalls just above the tolerance at λ = "
+                                         f"{y[n] * w[n]:.10g}: ‖F‖ = {corr.residual:.2g} against tol = {tol:.1e}, "
+                                         "and no step decreases it (F is not evaluated more accurately than that "
+                                         "here)")
+            break
         if not corr.converged:
             h *= 0.5
             rejected += 1
