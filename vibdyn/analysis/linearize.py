@@ -13,7 +13,6 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
 from .._check import all_finite, scalar, unknown_name
@@ -27,7 +26,7 @@ if TYPE_CHECKING:  # result types of the entry points below (imported on call, n
     from .statespace import StateSpace
 from ..model import dynamics
 from . import modal
-from ..model.derivatives import analytic_derivatives, row_derivatives
+from ..model.derivatives import analytic_derivatives, row_derivatives, solve_mass
 from ..model.fd import differences, displaced_vectors, point_jacobian, stencil, step_stencil, vector_derivative
 
 
@@ -244,10 +243,10 @@ class LinearModel:
     def solve_mass(self, B: ArrayLike) -> np.ndarray:
         """M⁻¹ B by Cholesky (B: nv × k); a singular M is a ModelError naming the body."""
         try:
-            return sla.cho_solve(sla.cho_factor(self.M), B)
-        except (np.linalg.LinAlgError, ValueError):
+            return solve_mass(self.M, np.asarray(B, dtype=float))
+        except np.linalg.LinAlgError:
             self.system.check_mass_matrix(self.q0, "the operating point")
-            raise
+            raise ModelError("the mass matrix of this linear model is singular or not finite") from None
 
 
 def reference_state(system, at=None, v=None, t=0.0):
@@ -318,15 +317,14 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
         K, C, terms, K_size = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True, applied=applied)
         # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad), and of
         # those summed into K by the point elements
-        s = system.coordinate_scales
+        s, per_unit = system.coordinate_scales, system.inverse_scale_products
         scaled_terms = terms[:, None] / s
         # and a floor common to every entry: the largest of those terms (N·m: per unit rad, or m × the length
         # scale) reaches each entry through the tree's transforms (a joint that gravity does not load still
         # has derivatives made of its neighbours' torques; a held robot's wrist read −4e-10 rad²/s² for 0)
-        floor = (float((terms * s).max(initial=0.0)) / s)[:, None] / s
         K_err = np.abs(K)
         K_err += scaled_terms
-        K_err += floor
+        K_err += float(np.maximum.reduce(terms * s, initial=0.0)) * per_unit
         if system.point_groups:
             K_err += K_size
         K_err *= 16 * EPS

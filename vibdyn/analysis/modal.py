@@ -448,9 +448,9 @@ def classify(rigid, unstable, eigenvalues, zero, uncertainty, ignore_zeros=0):
     bounded, so stable (in the linear sense).
     """
     if eigenvalues.size == 0:
-        if unstable.any():
+        if np.count_nonzero(unstable):
             return "unstable", None
-        return ("neutral" if rigid.sum() > ignore_zeros else "stable"), None
+        return ("neutral" if np.count_nonzero(rigid) > ignore_zeros else "stable"), None
     scale = max(np.abs(eigenvalues).max(initial=0.0), 1e-300)
     growth = eigenvalues.real > 1e-10 * scale
     if np.any(growth & ~zero & (eigenvalues.real > uncertainty)):

@@ -117,7 +117,8 @@ class System:
     :meth:`check_mass_matrix`; the compiled tables ``body_infos`` (name -> :class:`BodyInfo`),
     ``support_index`` (support name -> index in ``supports``), ``force_groups`` (force-element groups),
     ``point_groups``/``point_joints``/``uses_point_velocities`` (what point elements need), ``joint_groups``
-    (the others); ``coordinate_scales`` (1 for rad, the length scale for m), ``additive_coordinates`` and
+    (the others); ``coordinate_scales`` (1 for rad, the length scale for m) and ``inverse_scale_products``
+    (1/(s_i s_j), nv × nv), ``additive_coordinates`` and
     ``curved_coordinates`` (which tangent coordinates move by a sum, which by ``integrate``);
     ``model`` and ``model_without_gravity`` (pinocchio.Model, read only); ``drives`` (driven and free
     coordinates, the drives' values and forces: :class:`vibdyn.model.drives.Drives`; None without drives).
@@ -207,6 +208,8 @@ class System:
         # finite-difference scale per tangent coordinate: 1 rad, or the length scale for a length (m)
         self.coordinate_scales = np.array([self.length_scale if u == "m" else 1.0 for u in self.units])
         self.coordinate_scales.flags.writeable = False
+        self.inverse_scale_products = 1.0 / np.outer(self.coordinate_scales, self.coordinate_scales)
+        self.inverse_scale_products.flags.writeable = False
         # tangent coordinates of vector-space joints (nq = nv: integrate is the sum) with their index in q,
         # and the others (ball, planar, free), which move by integrate (vibdyn.model.fd.Stencil)
         additive = [(b.idx_v + i, b.idx_q + i) for b in self.body_infos.values() if b.nq == b.nv
