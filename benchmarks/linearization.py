@@ -12,6 +12,10 @@ closed forms (:func:`exact_chain`), so every path is compared with the exact nat
 Error: largest relative error of the natural frequencies over the modes. vibdyn's estimate: ``modes.error``.
 """
 
+import functools
+import json
+from pathlib import Path
+
 import numpy as np
 import scipy.linalg as sla
 
@@ -22,28 +26,42 @@ K_SPRING, L, MASS = 10.0, 0.1, 0.1
 MJ_DT = 1e-5  # MuJoCo transition step: its own discretisation error (ω dt)²/24 stays below the FD error
 
 
-REFERENCE_NOTE = ("The exact M and K are eigen-solved in double precision: from n ≈ 100 that solve's own round-off is "
-                  "of the size of vibdyn's estimate, and it limits the measured errors.")
+REFERENCE_NOTE = ("The exact M and K eigen-solved in 40-digit arithmetic (benchmarks/chain_reference.py): the errors are "
+                  "vibdyn's own (a double-precision reference was itself 2.6e-9 off at n = 100)")
 
 
-def exact_chain(n, k=K_SPRING, link=L, m=MASS):
+def exact_chain(n, k=K_SPRING, link=L, m=MASS, number=float):
     """Exact M and K (hanging, straight) of :func:`pendulum_chain`: joint i at depth i·L, centre of mass of
     link l at d_l = (l + ½) L, I_yy = m (0.02² + L²)/12. M_ij = Σ_{l ≥ max(i,j)} m (d_l − iL)(d_l − jL) + I_yy;
     K_ij = k δ_ij + g Σ_{l ≥ max(i,j)} m (d_l − max(i,j) L) (the height's Hessian is the lever arm below the
-    lower joint)."""
+    lower joint). ``number``: float (double precision), or a multiple-precision type such as mpmath's mpf
+    (the inputs, floats, taken exactly: object arrays)."""
     i = np.arange(n)
-    d = (i + 0.5) * link
-    Iyy = m * (0.02**2 + link**2) / 12
-    M, K = np.zeros((n, n)), np.diag(np.full(n, float(k)))
+    k, link, m, g = number(k), number(link), number(m), number(C.G)
+    d = np.array([(j + number(0.5)) * link for j in range(n)], dtype=object if number is not float else float)
+    Iyy = m * (number(0.02) ** 2 + link ** 2) / 12
+    dtype = float if number is float else object
+    M, K = np.full((n, n), number(0), dtype=dtype), np.full((n, n), number(0), dtype=dtype)
+    K[i, i] = k
     for l_ in range(n):
         r = d[l_] - i[: l_ + 1] * link
         M[: l_ + 1, : l_ + 1] += m * np.outer(r, r) + Iyy
         mx = np.maximum.outer(i[: l_ + 1], i[: l_ + 1])
-        K[: l_ + 1, : l_ + 1] += C.G * m * (d[l_] - mx * link)
+        K[: l_ + 1, : l_ + 1] += g * m * (d[l_] - mx * link)
     return M, K
 
 
+REFERENCE = Path(__file__).parent / "data" / "chain_omega.json"  # ω of the chains in 40 digits (chain_reference.py)
+
+
+@functools.cache
 def exact_omega(n):
+    """The chain's natural frequencies (rad/s, ascending): those solved in 40-digit arithmetic from the exact
+    M and K where :mod:`benchmarks.chain_reference` stored them (n = 10, 30, 100, 300), else eigh in double
+    precision (whose own round-off reaches 2.6e-9 at n = 100: of the size of the errors measured)."""
+    stored = json.loads(REFERENCE.read_text())["omega"] if REFERENCE.exists() else {}
+    if str(n) in stored:
+        return np.array([float(w) for w in stored[str(n)]])
     M, K = exact_chain(n)
     return np.sqrt(sla.eigh(K, M, eigvals_only=True))
 

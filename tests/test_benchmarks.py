@@ -91,3 +91,24 @@ def test_vibdyn_bench_without_the_suite_is_a_clear_error(monkeypatch, tmp_path, 
     assert main(["bench", "--smoke"]) == 2
     err = capsys.readouterr().err
     assert "no benchmark suite" in err and "VIBDYN_BENCHMARKS" in err
+
+
+def test_the_stored_chain_reference_is_this_chains_and_finer_than_double_precision():
+    """benchmarks/data/chain_omega.json (40-digit ω of the linearisation benchmarks' chains) belongs to the chain
+    that linearization.exact_chain describes: double-precision eigh of its exact M and K agrees with it to that
+    solve's own round-off at n = 10 and 30 (a changed link, mass or spring without a new reference fails here),
+    and the stored digits go far beyond double precision."""
+    import numpy as np
+    import scipy.linalg as sla
+
+    from benchmarks.linearization import REFERENCE, exact_chain, exact_omega
+
+    stored = json.loads(REFERENCE.read_text())
+    assert stored["digits"] >= 30 and sorted(map(int, stored["omega"])) == [10, 30, 100, 300]
+    for n, tol in ((10, 1e-12), (30, 1e-10)):
+        M, K = exact_chain(n)
+        w = np.sqrt(sla.eigh(K, M, eigvals_only=True))
+        ref = exact_omega(n)
+        assert ref.shape == (n,) and np.all(np.diff(ref) > 0)
+        assert np.abs(w - ref).max() <= tol * ref.max()
+        assert all(len(x.replace(".", "").lstrip("0")) >= 20 for x in stored["omega"][str(n)])
