@@ -177,9 +177,14 @@ def pyharm_runs(S, runs, a_ref, folds_h1=None, **kw):
         import os
         import tempfile
 
-        # pyHarm keeps a "kernel state" file, by default ./.pyHarm/context.json: out of the working tree
-        os.environ.setdefault("PYHARM_CONTEXT_FILE", os.path.join(tempfile.gettempdir(), "vibdyn-pyharm",
-                                                                  "context.json"))
+        # pyHarm keeps a "kernel state" file, by default ./.pyHarm/context.json: out of the working tree, one
+        # per process (two test workers running the smoke suite at once would read each other's half-written file)
+        if "PYHARM_CONTEXT_FILE" not in os.environ:
+            import atexit
+
+            path = os.path.join(tempfile.gettempdir(), "vibdyn-pyharm", f"context-{os.getpid()}.json")
+            os.environ["PYHARM_CONTEXT_FILE"] = path
+            atexit.register(lambda: os.path.exists(path) and os.remove(path))
         import pyHarm  # noqa: F401
     except ImportError as e:  # said in the case (a run of its own would be "new" against the baseline)
         return f"pyHarm not run: pyharm-os is not installed here ({e}); pip install pyharm-os"
