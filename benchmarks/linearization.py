@@ -26,8 +26,8 @@ K_SPRING, L, MASS = 10.0, 0.1, 0.1
 MJ_DT = 1e-5  # MuJoCo transition step: its own discretisation error (ω dt)²/24 stays below the FD error
 
 
-REFERENCE_NOTE = ("The exact M and K eigen-solved in 40-digit arithmetic (benchmarks/chain_reference.py): the errors are "
-                  "vibdyn's own (a double-precision reference was itself 2.6e-9 off at n = 100)")
+REFERENCE_NOTE = ("The exact M and K eigen-solved in 40-digit arithmetic (benchmarks/chain_reference.py): the "
+                  "errors are vibdyn's own (a double-precision reference was itself 2.6e-9 off at n = 100)")
 
 
 def exact_chain(n, k=K_SPRING, link=L, m=MASS, number=float):

@@ -63,10 +63,10 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     1: what "one unit" of each means), grown ×1.5 after an easy correction, halved after a failed one, at
     most ``max_step``; a branch whose corrector stops three times in four just above ``tol`` (within
     ``FLOOR_FACTOR``, no step decreasing ‖F‖) has met F's own error and ends "failed" at once, since smaller
-    steps cannot lower that floor; ``stop(x, lam)`` → True ends the branch there (a request reached). The point where λ
-    crosses lam_end is solved exactly (its last point has λ = lam_end); where lam_end lies within the next step
-    on a branch steep in λ (|t_λ| > 0.5), it is solved there directly from the predictor, kept only if λ did
-    not turn back on the way (no fold stepped over). ``chord``: the corrector starts from the last point's
+    steps cannot lower that floor; ``stop(x, lam)`` → True ends the branch there (a request reached). The
+    point where λ crosses lam_end is solved exactly (its last point has λ = lam_end); where lam_end lies within
+    the next step on a branch steep in λ (|t_λ| > 0.5), it is solved there directly from the predictor, kept
+    only if λ did not turn back on the way (no fold stepped over). ``chord``: the corrector starts from the last point's
     Jacobian and keeps it while each step cuts the residual ``chord`` times (:func:`.newton`): one Jacobian per
     point where the branch is smooth (for Jacobians dearer than residuals)."""
     start = time.perf_counter()
