@@ -169,3 +169,34 @@ def test_initial_step_of_a_state_too_large_for_the_arithmetic_is_a_step_error():
     s.add_body("r", joint=vd.Pivot((0, 0, 1)), mass=1.0, inertia=np.eye(3))
     with pytest.raises(vd.VibdynError):
         s.build().simulate(1e-3, v0=[1e160])
+
+
+def test_a_ball_joints_chart_term_in_closed_form_matches_pinocchios_hessian_and_its_limit():
+    """∂(J_r⁻¹(ξ) v)/∂ξ, the chart's own term in the Jacobian of a ball joint (variational equations, implicit
+    steps): equal to Pinocchio's Hlog3(exp3 ξ, v)ᵀ Jexp3(−ξ) where that is finite (θ ≥ 0.05 rad, to 1e-12), to
+    −½[v]× at ξ = 0 (where Hlog3 is NaN: every step's chart starts there), continuous across the series' threshold,
+    and the derivative of Pinocchio's Jlog3 · v by fourth-order differences at rotations where Jlog3 is exact."""
+    import pinocchio as pin
+
+    from vibdyn.simulation.integrators.chart import SERIES_BELOW, so3_chart_term
+
+    rng = np.random.default_rng(7)
+    for theta in (0.05, 0.19, 0.21, 0.5, 1.0, 2.0, 3.0):
+        u, v = rng.standard_normal(3), rng.standard_normal(3)
+        xi = theta * u / np.linalg.norm(u)
+        ref = pin.Hlog3(pin.exp3(xi), v).T @ pin.Jexp3(-xi)
+        assert np.abs(so3_chart_term(xi, v) - ref).max() <= 1e-12 * max(1.0, np.abs(ref).max())
+
+        def f(x):
+            return pin.Jlog3(pin.exp3(x)) @ v
+
+        h = 1e-3
+        fd = np.array([(8 * (f(xi + h * e) - f(xi - h * e)) - (f(xi + 2 * h * e) - f(xi - 2 * h * e))) / (12 * h)
+                       for e in np.eye(3)]).T
+        assert np.abs(so3_chart_term(xi, v) - fd).max() <= 1e-10 * max(1.0, np.abs(fd).max())
+    v = rng.standard_normal(3)
+    assert np.array_equal(so3_chart_term(np.zeros(3), v), pin.skew(-0.5 * v))
+    assert not np.all(np.isfinite(pin.Hlog3(np.eye(3), v)))  # (why the closed form is ours)
+    u = rng.standard_normal(3)
+    below, above = (SERIES_BELOW * (1 + s * 1e-12) * u / np.linalg.norm(u) for s in (-1, 1))
+    assert np.abs(so3_chart_term(below, v) - so3_chart_term(above, v)).max() <= 1e-13

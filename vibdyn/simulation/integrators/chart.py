@@ -24,6 +24,30 @@ from ...model import dynamics
 from ...model.derivatives import linear_terms, solve_mass
 
 ARG1 = pin.ArgumentPosition.ARG1
+SERIES_BELOW = 0.2  # rad: the SO(3) chart term's coefficients by their series below this rotation
+
+
+def so3_chart_term(xi, v):
+    """∂(J_r⁻¹(ξ) v)/∂ξ (3 × 3, 1/s): the chart's own term of a ball joint, with J_r⁻¹(ξ) = I + ½[ξ]× + c(θ)[ξ]×²
+    (Pinocchio's Jlog3 of exp3(ξ)), c(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ), θ = |ξ|, ξ (rad) and v (rad/s) the
+    joint's chart and velocity. Pinocchio's Hlog3 is not finite at ξ = 0, where every step's chart starts:
+    c and c′(θ)/θ are taken from their series there."""
+    t2 = float(xi @ xi)
+    if t2 < SERIES_BELOW ** 2:
+        c = 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
+        d = 1 / 360 + t2 * (1 / 7560 + t2 * (1 / 201600 + t2 * (1 / 5987520 + t2 / 189243758)))
+    else:
+        t = t2 ** 0.5
+        sin, cos = np.sin(t), np.cos(t)
+        c = 1 / t2 - (1 + cos) / (2 * t * sin)
+        d = -2 / (t2 * t2) + (t * sin * sin + (1 + cos) * (sin + t * cos)) / (2 * t2 * t * sin * sin)
+    # f = v + ½ ξ × v + c (ξ (ξ·v) − θ² v): ∂f/∂ξ = −½[v]× + c((ξ·v) I + ξ vᵀ − 2 v ξᵀ) + (ξ (ξ·v) − θ² v) c′/θ ξᵀ
+    xv = float(xi @ v)
+    out = np.multiply.outer(c * xi, v)
+    out += np.multiply.outer(d * xv * xi - (d * t2) * v - 2 * c * v, xi)
+    out += pin.skew(-0.5 * v)
+    out.flat[::4] += c * xv
+    return out
 
 
 
@@ -145,8 +169,11 @@ class ChartODE(VectorODE):
         # the curved joints' tangent columns, grouped by their place in their joint (dDifference is block
         # diagonal, one block per joint: the i-th column of every curved joint is differenced in one pass), each
         # with the rows of its joint
-        width = max((b.nv for b in curved), default=0)
-        self.column_groups = [[(b.idx_v + i, slice(b.idx_v, b.idx_v + b.nv)) for b in curved if i < b.nv]
+        # ball joints' term in closed form (so3_chart_term), the others' (free, planar) by differences
+        self.so3_blocks = [slice(b.idx_v, b.idx_v + 3) for b in curved if b.joint.group == "SO3"]
+        differenced = [b for b in curved if b.joint.group != "SO3"]
+        width = max((b.nv for b in differenced), default=0)
+        self.column_groups = [[(b.idx_v + i, slice(b.idx_v, b.idx_v + b.nv)) for b in differenced if i < b.nv]
                               for i in range(width)]
         self.centre = None
 
@@ -186,8 +213,9 @@ class ChartODE(VectorODE):
 
     def jacobian(self, t, y, a=None):
         """As :meth:`VectorODE.jacobian`, mapped to the chart: ∂v̇/∂ξ = −M⁻¹K dIntegrate(ξ), ∂ξ̇/∂v =
-        dexp⁻¹(ξ), and the chart's own term ∂(dexp⁻¹(ξ) v)/∂ξ by fourth-order differences on the curved joints'
-        columns (it is zero on the others)."""
+        dexp⁻¹(ξ), and the chart's own term ∂(dexp⁻¹(ξ) v)/∂ξ: in closed form for ball joints
+        (:func:`so3_chart_term`), by fourth-order differences on the columns of free and planar joints (zero on
+        the others)."""
         nv, model, c = self.nv, self.model, self.centre
         xi, v = y[:nv], y[nv:2 * nv].copy()
         q = self.configuration(y)
@@ -207,6 +235,8 @@ class ChartODE(VectorODE):
             column = (8 * (d[1] - d[2]) - (d[0] - d[3])) @ v / (12 * eps)
             for k, rows in group:
                 J[rows, k] = column[rows]
+        for b in self.so3_blocks:
+            J[b, b] = so3_chart_term(xi[b], v[b])
         return J
 
 
