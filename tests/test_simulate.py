@@ -628,3 +628,22 @@ def test_an_overflowing_trial_step_is_rejected_without_a_warning():
     assert np.isfinite(tr.energy_balance[-1])
     assert np.abs(system.difference(oracle.q[-1], tr.q[-1])).max() <= 2 * (tr.q_error[-1] + oracle.q_error[-1])
     assert np.abs(tr.v[-1] - oracle.v[-1]).max() <= 2 * (tr.v_error[-1] + oracle.v_error[-1])
+
+
+def test_runs_that_agree_to_the_last_bit_still_estimate_their_round_off():
+    """x'' = −4x from x = 1 with max_step = 1e-3 (10 001 steps, far below what rtol 1e-6 asks): the main run and
+    its rerun at rtol/100 both take the max_step, agree to the last bit, and their difference is 0. The
+    estimate is then the round-off the steps commit, ε per step in |x| (at each output: the steps so far), not
+    0, and it covers the actual error against cos 2t; the initial state's estimate stays 0."""
+    s = vd.Scene("m")
+    s.add_body("m", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_joint_spring("m", 4.0)
+    tr = s.build().simulate(10.0, [1.0], [0.0], rtol=1e-6, max_step=1e-3, t_eval=np.linspace(0, 10, 11),
+                            progress=False)
+    err = np.abs(tr.q[:, 0] - np.cos(2 * tr.t))
+    eps = np.finfo(float).eps
+    assert tr.accepted >= 10000 and tr.q_error[0] == 0.0
+    assert np.all(err <= tr.q_error) and tr.error > 0
+    # the floor itself: ε × the steps taken so far × the largest |x| so far (1, the start)
+    assert tr.q_error[-1] == pytest.approx(tr.accepted * eps, rel=1e-12)
+    assert np.all(tr.q_error[1:] <= tr.accepted * eps * (1 + 1e-12))

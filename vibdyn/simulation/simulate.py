@@ -39,11 +39,12 @@ integrates nothing extra (W_nc = 0).
 import math
 import sys
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .._check import finite_array, scalar
+from ..defaults import EPS
 from ..errors import ModelError, VibdynError
 from ..model.groups import ForceGroup
 from ..model.system import Energy
@@ -123,7 +124,7 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
                                         reference=main, stride=4)
                     runs.append(coarse)
             error_elapsed = time.perf_counter() - t_check
-            q_err, v_err = _compare(system, main, check, cfg, coarse)
+            q_err, v_err = _round_off_floor(main, *_compare(system, main, check, cfg, coarse))
             if check.status != "finished":
                 main.message = f"reached t_end = {cfg.t_end:g} s; error estimate incomplete: {check.message}"
     elif main.local is not None:  # a run that stopped early: its summed local errors are all there is
@@ -293,6 +294,7 @@ class _Run:
     events: object = None  # vibdyn.simulation.events.Events
     transition: np.ndarray | None = None  # the state transition at the end (variational runs)
     system: object = None
+    steps: list = field(default_factory=list)  # accepted steps at each output
 
     @property
     def local(self):
@@ -348,6 +350,7 @@ def _t_reached(run):
 
 
 def _record(run, t, q, v, w, local=None):
+    run.steps.append(run.stepper.accepted)
     run.t.append(t)
     run.q.append(q)
     run.v.append(v)
@@ -484,6 +487,16 @@ def _compare(system, main, check, cfg, coarse=None):
         np.maximum.accumulate(eq, out=eq)
         np.maximum.accumulate(ev, out=ev)
     return eq, ev
+
+
+def _round_off_floor(run, q_err, v_err):
+    """The estimates held at or above the round-off the steps commit, ε per step in each part's size (the largest
+    |q| and |v| so far; a quaternion's components count for a rotation's): two runs that agree to the last bit
+    (both bound by a max_step) still carry it, and their difference, zero, says nothing of it."""
+    n = np.asarray(run.steps, dtype=float) * EPS
+    q_size = np.maximum.accumulate(np.abs(np.asarray(run.q)).max(axis=1, initial=0.0))
+    v_size = np.maximum.accumulate(np.abs(np.asarray(run.v)).max(axis=1, initial=0.0))
+    return np.maximum(q_err, n * q_size), np.maximum(v_err, n * v_size)
 
 
 def _neighbours(known, n):
