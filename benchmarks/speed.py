@@ -131,6 +131,35 @@ def compiled_path(system, q0):
     return run
 
 
+def unchecked_path(system, q0):
+    """vibdyn's analytic linearise + modes with its checks and error estimates left out, for the decision they
+    cost (stop 28's option 3): the same building blocks (CRBA, the elements' forces, ABA, the RNEA derivatives
+    with the groups' own, sygv and the shapes' sign convention) and the LinearModel they fill, nothing else.
+    Not a vibdyn path: a measurement of what the checks and estimates take."""
+    from scipy.linalg import lapack
+
+    from vibdyn.analysis.linearize import LinearModel
+    from vibdyn.model import dynamics
+    from vibdyn.model.derivatives import analytic_derivatives
+
+    n = system.nv
+    zero, v0 = np.zeros((n, n)), np.zeros(n)
+    sygv = lapack.dsygv if n <= QR_LIMIT else lapack.dsygvd
+
+    def run():
+        ws = system.workspace()
+        M = dynamics.mass_matrix(system.model, ws.data, q0)
+        applied = dynamics.forces(system, ws, q0, v0, 0.0)
+        a0 = dynamics.accelerations(system, ws, q0, v0, 0.0, applied).copy()
+        K, C, _, _ = analytic_derivatives(system, q0, v0, a0, 0.0, applied=applied)
+        lin = LinearModel(system, q0, v0, a0, 0.0, M, C, K, zero, zero, "analytic", 0.0, 1)
+        w2, Phi, _ = sygv(0.5 * (K + K.T), M.copy(order="F"), overwrite_b=1)
+        Phi *= np.copysign(1.0, np.minimum.reduce(Phi) + np.maximum.reduce(Phi))
+        return lin, w2, Phi
+
+    return run
+
+
 def case_floor(S):
     """The analytic and FD paths (linearise + all modes) against raw Pinocchio at n = 10, 30, 100: the
     ratio, interleaved, and where the analytic path's time goes: linearise and modes apart, and the compiled
@@ -144,7 +173,7 @@ def case_floor(S):
         fns = {"fd": lambda: lin_modes(system, q0, "fd"), "analytic": lambda: lin_modes(system, q0, "analytic"),
                "raw": raw_pinocchio(system, q0), "raw shapes": raw_pinocchio(system, q0, shapes=True),
                "linearize": lambda: system.linearize(q0, method="analytic"), "modes": lin0.modes,
-               "compiled": compiled_path(system, q0)}
+               "compiled": compiled_path(system, q0), "unchecked": unchecked_path(system, q0)}
         if C.mujoco() is not None:
             fns["inverseFD"] = MuJoCoLinear(scene, system).inverse
         best = interleaved(fns, {"smoke": 3, "quick": 50 if n < 100 else 10, "full": 200 if n < 100 else 30}[S.mode])
@@ -159,10 +188,13 @@ def case_floor(S):
                 inverse.append(f"{method} {r['ratio_to_inverseFD']:.2f} at n={n}")
             if method == "analytic":
                 r.update(linearize_s=best["linearize"], modes_s=best["modes"], compiled_s=best["compiled"],
-                         python_s=best[method] - best["compiled"])
+                         python_s=best[method] - best["compiled"], unchecked_s=best["unchecked"],
+                         unchecked_ratio_to_raw_pinocchio=best["unchecked"] / best["raw"])
                 where.append(f"n={n}: linearise {best['linearize'] * 1e6:.0f} + modes {best['modes'] * 1e6:.0f} µs, "
                              f"of which compiled calls {best['compiled'] * 1e6:.0f} µs "
-                             f"({best['compiled'] / best['raw shapes']:.2f}× the raw floor with shapes)")
+                             f"({best['compiled'] / best['raw shapes']:.2f}× the raw floor with shapes); the same "
+                             f"path without its checks and error estimates {best['unchecked'] * 1e6:.0f} µs "
+                             f"({best['unchecked'] / best['raw']:.2f}× the raw floor)")
             runs.append(r)
         runs.append(C.run_record(f"raw pinocchio, n={n}", "pinocchio", omega_error(np.sqrt(np.abs(fns["raw"]())), ref),
                                  None, best["raw"], 1, verdict_=C.UNCHECKED, note="floor"))
