@@ -37,10 +37,10 @@ def exact_chain(n, k=K_SPRING, link=L, m=MASS, number=float):
     lower joint). ``number``: float (double precision), or a multiple-precision type such as mpmath's mpf
     (the inputs, floats, taken exactly: object arrays)."""
     i = np.arange(n)
-    k, link, m, g = number(k), number(link), number(m), number(C.G)
-    d = np.array([(j + number(0.5)) * link for j in range(n)], dtype=object if number is not float else float)
-    Iyy = m * (number(0.02) ** 2 + link ** 2) / 12
     dtype = float if number is float else object
+    k, link, m, g = number(k), number(link), number(m), number(C.G)
+    d = np.array([(j + number(0.5)) * link for j in range(n)], dtype=dtype)
+    Iyy = m * (number(0.02) ** 2 + link ** 2) / 12
     M, K = np.full((n, n), number(0), dtype=dtype), np.full((n, n), number(0), dtype=dtype)
     K[i, i] = k
     for l_ in range(n):

@@ -166,10 +166,10 @@ class ChartODE(VectorODE):
         # rotational tangent components of the curved joints (where a chart's validity is limited)
         curved = [b for b in system.body_infos.values() if b.joint.chart_rotations]
         self.rotations = np.array([b.idx_v + i for b in curved for i in b.joint.chart_rotations], dtype=int)
-        # the curved joints' tangent columns, grouped by their place in their joint (dDifference is block
-        # diagonal, one block per joint: the i-th column of every curved joint is differenced in one pass), each
+        # the chart's own term: ball joints' in closed form (so3_chart_term), the others' (free, planar) by
+        # differences of their tangent columns, grouped by their place in their joint (dDifference is block
+        # diagonal, one block per joint: the i-th column of every such joint is differenced in one pass), each
         # with the rows of its joint
-        # ball joints' term in closed form (so3_chart_term), the others' (free, planar) by differences
         self.so3_blocks = [slice(b.idx_v, b.idx_v + 3) for b in curved if b.joint.group == "SO3"]
         differenced = [b for b in curved if b.joint.group != "SO3"]
         width = max((b.nv for b in differenced), default=0)
