@@ -54,7 +54,7 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
     joint-space group, and each point group that can (``rows``), evaluates every row at once; with neither
     velocity nor acceleration, RNEA reduces to the gravity term (nothing at all without gravity)."""
     nv = system.nv
-    rows_v, rows_a = V.ndim == 2, np.ndim(a) == 2
+    rows_v, rows_a = V.ndim == 2, getattr(a, "ndim", 0) == 2
     B = max(len(Q), len(V) if rows_v else 1, len(a) if rows_a else 1)
     if len(Q) < B:
         Q = np.broadcast_to(Q, (B, system.nq))
@@ -91,12 +91,15 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
                 fext = point_forces(system, ws, Q[c], v, tc, F[c], None if shift is None else shift[c])
             tau[c] = pin.rnea(model, data, Q[c], v, a[c] if rows_a else a, fext)
     elif not is_gravity(system, V, a):
-        for c in range(B):
-            tau[c] = pin.rnea(model, data, Q[c], V[c] if rows_v else V, a[c] if rows_a else a)
+        rnea = pin.rnea
+        if rows_v or rows_a:
+            for c in range(B):
+                tau[c] = rnea(model, data, Q[c], V[c] if rows_v else V, a[c] if rows_a else a)
+        else:  # (one list built and copied in at once: cheaper than a row assignment per call)
+            tau[:] = [rnea(model, data, q, V, a) for q in Q]
     elif system.has_gravity:
         g = pin.computeGeneralizedGravity
-        for c, q in enumerate(list(Q)):  # (a list of the rows: cheaper to walk than indexing the array)
-            tau[c] = g(model, data, q)
+        tau[:] = [g(model, data, q) for q in Q]
     else:
         tau[:] = 0.0
     return tau, F
