@@ -378,7 +378,7 @@ def _finite_differences(system, ws, q0, v0, a0, t0, step):
     tau -= F
     K, T = st.derivatives(tau)
     K_err = fd_error(K, T, terms, h, st.round_off)
-    rounding = force_rounding(system, ws, q0, t0, h) if system.point_groups else None
+    rounding = force_rounding(system, ws, q0, t0, h)
     if rounding is not None:
         K_err += np.abs(rounding[0]).T @ rounding[1]
     evaluations = 4 * system.nv + 1

@@ -6,6 +6,7 @@ rad, t in s, forces in N and N·m. Results may share memory with the workspace: 
 """
 
 import functools
+from itertools import repeat
 
 import numpy as np
 import pinocchio as pin
@@ -91,12 +92,9 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
                 fext = point_forces(system, ws, Q[c], v, tc, F[c], None if shift is None else shift[c])
             tau[c] = pin.rnea(model, data, Q[c], v, a[c] if rows_a else a, fext)
     elif not is_gravity(system, V, a):
-        rnea = pin.rnea
-        if rows_v or rows_a:
-            for c in range(B):
-                tau[c] = rnea(model, data, Q[c], V[c] if rows_v else V, a[c] if rows_a else a)
-        else:  # (one list built and copied in at once: cheaper than a row assignment per call)
-            tau[:] = [rnea(model, data, q, V, a) for q in Q]
+        rnea = pin.rnea  # (one list built and copied in at once: cheaper than a row assignment per call)
+        tau[:] = [rnea(model, data, q, v, acc) for q, v, acc in zip(Q, V if rows_v else repeat(V),
+                                                                      a if rows_a else repeat(a))]
     elif system.has_gravity:
         g = pin.computeGeneralizedGravity
         tau[:] = [g(model, data, q) for q in Q]
