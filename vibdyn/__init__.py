@@ -48,6 +48,8 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.nonlinear.periodic": ("periodic_orbit", "floquet", "PeriodicOrbit"),
     "analysis.nonlinear.backbone": ("backbone", "Backbone"),
     "simulation.simulate": ("Trajectory", "SimulationError"),
+    "analysis.sensitivity": ("sensitivity", "Sensitivity"),
+    "studies.updating": ("update", "Update"),
     "studies.sweeps": ("sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked"),
     "analysis.nonlinear.harmonic_balance": ("forced_response_curve", "ForcedResponseCurve", "PointForce",
                                             "SupportMotion"),
@@ -146,4 +148,5 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html",
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
-           "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone"]
+           "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
+           "update", "Update"]

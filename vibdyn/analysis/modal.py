@@ -116,6 +116,14 @@ class Modes:
         ``omega_error`` and ``eigenvalue_error``)."""
         return float(max(self.omega_error.max(initial=0.0), self.eigenvalue_error.max(initial=0.0)))
 
+    def sensitivity(self, params: Any) -> Any:
+        """How each mode moves with each named scene parameter (``["k1.stiffness", "m1.mass"]``): a
+        :class:`vibdyn.analysis.sensitivity.Sensitivity` (∂ω/∂p in rad/s per the parameter's unit, ∂ζ/∂p,
+        shape derivatives, each with its absolute error)."""
+        from .sensitivity import sensitivity
+
+        return sensitivity(self, params)
+
     def participation(self, direction: ArrayLike, rotation: bool = False,
                       point: ArrayLike = (0.0, 0.0, 0.0)) -> np.ndarray:
         """Participation factor of each mode in a base excitation: Γ_r = φ_rᵀ L / φ_rᵀ M φ_r, with L the

@@ -1,0 +1,248 @@
+"""Design sensitivities (issue 35): closed forms, the whole pipeline differenced, repeated frequencies, bad input."""
+
+import numpy as np
+import pytest
+
+import vibdyn as vd
+from vibdyn.errors import ModelError
+
+
+def oscillator(k=50.0, m=2.0, c=0.0):
+    sc = vd.Scene("osc")
+    sc.add_body("m1", joint=vd.Slider(axis=(1, 0, 0)), mass=m)
+    sc.add_joint_spring("m1", stiffness=k, name="k1")
+    if c:
+        sc.add_joint_damper("m1", damping=c, name="c1")
+    return sc
+
+
+def two_masses(m1=1.0, m2=2.0, k1=100.0, k2=60.0):
+    sc = vd.Scene("chain2")
+    sc.add_body("m1", joint=vd.Slider(axis=(1, 0, 0)), mass=m1)
+    sc.add_body("m2", parent="m1", joint=vd.Slider(axis=(1, 0, 0)), mass=m2)
+    sc.add_joint_spring("m1", stiffness=k1, name="k1")
+    sc.add_joint_spring("m2", stiffness=k2, name="k2")
+    return sc
+
+
+def test_one_dof_closed_forms():
+    k, m = 50.0, 2.0
+    s = oscillator(k, m).build().operating_point().linearize().modes().sensitivity(["k1.stiffness", "m1.mass"])
+    assert s.params == ("k1.stiffness", "m1.mass") and s.units == ("N/m", "kg")
+    exact = np.array([[1 / (2 * np.sqrt(k * m)), -np.sqrt(k / m) / (2 * m)]])
+    assert np.all(np.abs(s.omega - exact) <= s.omega_error)
+    assert np.all(s.omega_error < 1e-6 * np.abs(exact))  # an estimate that says something
+    assert np.allclose(s.normalised, [[0.5, -0.5]], atol=1e-6)
+
+
+def test_two_dof_chain_against_characteristic_polynomial():
+    """Relative coordinates: x1 and the stretch of k2; det(K − xM) = P(x) with x = ω², ∂x/∂p = −P_p/P_x."""
+    m1, m2, k1, k2 = 1.0, 2.0, 100.0, 60.0
+    s = two_masses(m1, m2, k1, k2).build().operating_point().linearize().modes().sensitivity(
+        ["k1.stiffness", "k2.stiffness", "m1.mass", "m2.mass"])
+
+    def P(x, m1, m2, k1, k2):  # absolute displacements: the same frequencies
+        return np.linalg.det(np.array([[k1 + k2, -k2], [-k2, k2]]) - x * np.diag([m1, m2]))
+
+    p = np.array([k1, k2, m1, m2])
+    order = [2, 3, 0, 1]  # P's argument order (m1, m2, k1, k2) from the parameters' (k1, k2, m1, m2)
+    for i, w in enumerate(s.omega0):
+        x = w**2
+        args = p[order]
+        hx = 1e-6 * x
+        Px = (P(x + hx, *args) - P(x - hx, *args)) / (2 * hx)
+        for j in range(4):
+            dp = np.zeros(4)
+            dp[j] = 1e-6 * p[j]
+            Pp = (P(x, *(p + dp)[order]) - P(x, *(p - dp)[order])) / (2 * dp[j])
+            dw = -Pp / Px / (2 * w)
+            # the oracle's own differences: ~1e-9 relative
+            assert abs(s.omega[i, j] - dw) <= s.omega_error[i, j] + 1e-8 * abs(dw), (i, j)
+
+
+def pendulum(length=0.8):
+    """A point mass hanging by a weld below a massless pivot link: ω = √(g/l), l the weld's placement."""
+    sc = vd.Scene("pendulum", gravity=(0, 0, -9.81))
+    sc.add_body("link", joint=vd.Pivot(axis=(0, 1, 0)), mass=0.0)
+    sc.add_body("bob", parent="link", joint=vd.Fixed(at=(0.0, 0.0, -length)), mass=1.5)
+    return sc
+
+
+def test_pendulum_length_through_the_joint_placement():
+    l, g = 0.8, 9.81
+    s = pendulum(l).build().operating_point().linearize().modes().sensitivity(["bob.joint.at.z", "gravity"])
+    w = np.sqrt(g / l)
+    assert abs(s.omega0[0] - w) < 1e-9 * w
+    # l = −at.z: ∂ω/∂at.z = −∂ω/∂l = ω/(2l); ∂ω/∂g = ω/(2g)
+    assert abs(s.omega[0, 0] - w / (2 * l)) <= s.omega_error[0, 0]
+    assert abs(s.omega[0, 1] - w / (2 * g)) <= s.omega_error[0, 1]
+    assert s.units == ("m", "m/s²")
+
+
+def test_campbell_slope_of_the_gimbal_rotor():
+    """It ω² ∓ Ip Ω ω − k = 0 (forward/backward whirl): ∂ω/∂Ω = ±Ip ω / (2 It ω ∓ Ip Ω)."""
+    It, Ip, k, W = 0.08, 0.12, 300.0, 100.0
+    m = vd.load_scene("gimbal_rotor").build().operating_point().linearize().modes()
+    s = m.sensitivity(["rotor.speed"])
+    assert s.units == ("rad/s",)
+    flexible = ~m.damped_zero
+    got = s.eigenvalues[flexible, 0].imag
+    err = s.eigenvalues_error[flexible, 0]
+    exact = []
+    for sgn in (-1, +1):  # ascending: backward whirl first
+        w = (sgn * Ip * W + np.sqrt((Ip * W) ** 2 + 4 * It * k)) / (2 * It)
+        exact.append(sgn * Ip * w / (2 * It * w - sgn * Ip * W))
+    assert np.all(np.abs(got - exact) <= err)
+    assert np.allclose(s.omega_n[flexible, 0], exact, atol=0, rtol=1e-6)
+
+
+def pipeline_difference(make, name, p, h, modes_of):
+    """∂(sorted ω, ζ)/∂p of the whole pipeline (rebuild, operating point, linearise, modes) at step h."""
+    a, b = modes_of(make(p + h)), modes_of(make(p - h))
+    return [(x - y) / (2 * h) for x, y in zip(a, b)]
+
+
+def test_every_sensitivity_against_the_whole_pipeline_at_two_steps():
+    """The trailer (cart on a spring, damped rod on a pivot, gravity): ∂ω, ∂ζ, ∂ω_n for masses, stiffness,
+    damping, a centre of mass, a spring end; the pipeline differenced at two steps, Richardson-combined,
+    agrees within the stated error plus the pipeline's own difference error."""
+    base = vd.load_scene("trailer")
+    params = ["trailer.mass", "wall_spring.stiffness", "rod.damper.damping", "rod.com.z", "rod.inertia.yy"]
+    s = base.build().operating_point().linearize().modes().sensitivity(params)
+    from vibdyn.description.parameters import parameters, with_values
+
+    plist = parameters(base, params)
+
+    def modes_of(sc):
+        m = sc.build().operating_point().linearize(method="analytic").modes()
+        return np.asarray(m.omega), np.asarray(m.zeta), np.asarray(m.omega_n)
+
+    for j, p in enumerate(plist):
+        h = 1e-3 * max(abs(p.value), 0.1)
+        make = lambda x, p=p: with_values(base, [p], [x])  # noqa: E731
+        d1 = pipeline_difference(make, p.name, p.value, h, modes_of)
+        d2 = pipeline_difference(make, p.name, p.value, 2 * h, modes_of)
+        for got, err, a, b in ((s.omega[:, j], s.omega_error[:, j], d1[0], d2[0]),
+                               (s.zeta[:, j], s.zeta_error[:, j], d1[1], d2[1]),
+                               (s.omega_n[:, j], s.omega_n_error[:, j], d1[2], d2[2])):
+            rich = a + (a - b) / 3
+            assert np.all(np.abs(got - rich) <= err + np.abs(a - b) / 3 + 1e-9 * np.abs(rich)), (p.name, got, rich)
+    assert np.any(np.abs(s.zeta[:, params.index("rod.damper.damping")]) > 0)
+
+
+def spherical_pendulum():
+    sc = vd.Scene("spherical", gravity=(0, 0, -9.81))
+    sc.add_body("rod", joint=vd.Ball(), mass=2.0, com=(0, 0, -1.0),
+                inertia=[[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.02]])
+    return sc
+
+
+def test_repeated_frequency_of_a_symmetric_spherical_pendulum():
+    """Two equal frequencies: their derivatives are the subspace's eigenvalues; a change that breaks the
+    symmetry (Ixx) moves one mode only, against one-sided differences of the sorted frequencies."""
+    base = spherical_pendulum()
+    m = base.build().operating_point().linearize().modes()
+    flexible = np.flatnonzero(m.omega > 0)
+    assert len(flexible) == 2 and abs(m.omega[flexible[0]] - m.omega[flexible[1]]) < 1e-9 * m.omega[flexible[0]]
+    s = m.sensitivity(["rod.inertia.xx", "gravity"])
+    assert s.repeated[flexible].all() and "repeated" in s.note
+    from vibdyn.description.parameters import parameters, with_values
+
+    for j, name in enumerate(("rod.inertia.xx", "gravity")):
+        p = parameters(base, [name])[0]
+        h = 1e-4 * p.value
+        w = [np.sort(with_values(base, [p], [p.value + k * h]).build().operating_point().linearize(
+            method="analytic").modes().omega)[-2:] for k in (0, 1, 2)]
+        forward = (-3 * w[0] + 4 * w[1] - w[2]) / (2 * h)  # second order, one side: the split's ascending order
+        got = s.omega[flexible, j]
+        assert np.all(np.abs(got - forward) <= s.omega_error[flexible, j] + 1e-5 * np.abs(forward).max()), (name, got, forward)
+    # Ixx moves the mode about x alone (one derivative ≈ 0); gravity both equally
+    assert min(abs(s.omega[flexible, 0])) < 1e-6 * max(abs(s.omega[flexible, 0]))
+    assert abs(s.omega[flexible[0], 1] - s.omega[flexible[1], 1]) <= s.omega_error[flexible, 1].sum()
+
+
+def test_nelson_shape_derivatives_against_differences():
+    base = two_masses()
+    s = base.build().operating_point().linearize().modes().sensitivity(["k2.stiffness"])
+    from vibdyn.description.parameters import parameters, with_values
+
+    p = parameters(base, ["k2.stiffness"])[0]
+    h = 1e-4 * p.value
+
+    def shapes(x):
+        return with_values(base, [p], [x]).build().operating_point().linearize(method="analytic").modes().shapes
+
+    d = (shapes(p.value + h) - shapes(p.value - h)) / (2 * h)
+    assert np.all(np.abs(s.shapes[:, :, 0] - d) <= s.shapes_error[:, :, 0] + 1e-6 * np.abs(d).max())
+    assert np.abs(s.shapes).max() > 0
+
+
+def test_builder_form_matches_names():
+    def build(k1, k2):
+        return two_masses(k1=k1, k2=k2)
+
+    a = vd.sensitivity(build, {"k1": 100.0, "k2": 60.0})
+    b = two_masses().build().operating_point().linearize().modes().sensitivity(["k1.stiffness", "k2.stiffness"])
+    assert np.all(np.abs(a.omega - b.omega) <= a.omega_error + b.omega_error)
+
+
+def test_bad_input():
+    m = two_masses().build().operating_point().linearize().modes()
+    with pytest.raises(ModelError, match="did you mean 'k1.stiffness'"):
+        m.sensitivity(["k1.stifness"])
+    with pytest.raises(ModelError, match="unknown parameter"):
+        m.sensitivity(["nobody.mass"])
+    with pytest.raises(ModelError, match="does not change the linear model"):
+        m.sensitivity(["m1.com.y"])  # a slider's mass off its axis: nothing moves with it
+    with pytest.raises(ModelError, match="named twice"):
+        m.sensitivity(["k1.stiffness", "k1.stiffness"])
+    with pytest.raises(ModelError, match="finite"):
+        vd.sensitivity(lambda k1: two_masses(k1=k1), {"k1": float("nan")})
+
+
+# ------------------------------------------------------------------------------------------ model updating
+def building(k1, k2, k3):
+    sc = vd.load_scene("three_storey_building")
+    from vibdyn.description.parameters import parameters, with_values
+
+    plist = parameters(sc, ["storey1.stiffness", "storey2.stiffness", "storey3.stiffness"])
+    return with_values(sc, plist, [k1, k2, k3])
+
+
+def test_update_recovers_a_synthetic_building_within_its_standard_deviations():
+    truth = {"k1": 6e5, "k2": 4e5, "k3": 2e5}
+    w_true = building(**truth).build().operating_point().linearize().modes().omega
+    rng = np.random.default_rng(20261127)
+    inside, total = 0, 0
+    for _ in range(20):
+        noisy = w_true * (1 + 0.005 * rng.standard_normal(3))
+        fit = vd.update(building, {"k1": 5e5, "k2": 5e5, "k3": 3e5}, noisy, sigma=0.005 * w_true)
+        for k in truth:
+            z = abs(fit.values[k] - truth[k]) / fit.std[k]
+            assert z < 4.0, (k, fit.values[k], fit.std[k])
+            inside += z <= 2.0
+            total += 1
+        assert np.all(np.abs(fit.residuals) < 1e-3 * noisy + 5 * fit.sigma)
+    assert inside >= 0.85 * total  # 2σ holds 95 % of normal draws
+
+
+def test_update_refuses_springs_in_series_from_one_frequency():
+    def series(ka, kb):
+        sc = vd.Scene("series")
+        sc.add_body("mid", joint=vd.Slider(axis=(1, 0, 0)), mass=1e-3)
+        sc.add_body("m", parent="mid", joint=vd.Slider(axis=(1, 0, 0)), mass=2.0)
+        sc.add_joint_spring("mid", stiffness=ka, name="ka")
+        sc.add_joint_spring("m", stiffness=kb, name="kb")
+        return sc
+
+    with pytest.raises(ModelError, match="ka, kb cannot be identified"):
+        vd.update(series, {"ka": 100.0, "kb": 100.0}, [np.sqrt(50.0 / 2.0)])
+
+
+def test_update_bad_input():
+    with pytest.raises(ModelError, match="only 3 flexible modes"):
+        vd.update(building, {"k1": 5e5, "k2": 5e5, "k3": 3e5}, [10.0, 20.0, 30.0, 40.0])
+    with pytest.raises(ModelError, match="not a finite number"):
+        vd.update(building, {"k1": 5e5, "k2": 5e5, "k3": 3e5}, [10.0, float("nan"), 30.0])
+    with pytest.raises(ModelError, match="unknown parameter 'k4'"):
+        vd.update(building, {"k1": 5e5, "k2": 5e5, "k3": 3e5}, [10.0, 20.0, 30.0], bounds={"k4": (0, 1)})

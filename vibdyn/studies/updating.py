@@ -1,0 +1,192 @@
+"""Model updating: the parameters of a scene fitted so that its natural frequencies (and, where given, its
+mode shapes, paired by MAC) match measured ones.
+
+Weighted least squares (``scipy.optimize.least_squares``, trust region within bounds) on the residuals
+(ω_model − ω_measured)/σ, with the Jacobian from :func:`vibdyn.analysis.sensitivity.sensitivity`; the
+model's modes are paired with the measured ones at every step (by MAC where shapes are given, else in
+ascending order of the flexible modes). The fitted values' standard deviations come from the Jacobian and
+the measurement uncertainty σ: cov = (JᵀJ)⁻¹ with J = ∂r/∂p; a parameter set the data cannot identify (a
+rank-deficient J) is refused, naming the parameters that move together.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import ConvergenceError, ModelError
+
+
+@dataclass(frozen=True, eq=False)
+class Update:
+    """A fitted model: ``values`` and ``std`` (dicts name -> value, in the builder's units), ``covariance``
+    (n_params × n_params), ``omega`` the fitted model's paired natural frequencies (rad/s), ``measured``
+    (rad/s), ``residuals`` ω_model − ω_measured per measured mode (rad/s), ``normalised_residuals`` (the same
+    over σ), ``pairs`` the model mode paired with each measured one (0-based), ``mac`` (n_measured × n_model
+    modes, empty without measured shapes), ``iterations`` (Jacobian evaluations), ``cost`` ½Σ(r/σ)², and
+    ``elapsed`` (s)."""
+
+    values: dict
+    std: dict
+    covariance: np.ndarray
+    omega: np.ndarray
+    measured: np.ndarray
+    sigma: np.ndarray
+    residuals: np.ndarray
+    pairs: np.ndarray
+    mac: np.ndarray
+    iterations: int
+    cost: float
+    elapsed: float
+    message: str = ""
+
+    @property
+    def normalised_residuals(self) -> np.ndarray:
+        return self.residuals / self.sigma
+
+    def __str__(self) -> str:
+        from .._format import table
+
+        rows = [[k, f"{v:.8g}", f"{self.std[k]:.3g}"] for k, v in self.values.items()]
+        out = table(["parameter", "fitted", "std (1σ)"], rows)
+        rows = [[str(i + 1), f"{m:.8g}", f"{w:.8g}", f"{r:.3g}", f"{r / s:.3g}"]
+                for i, (m, w, r, s) in enumerate(zip(self.measured, self.omega, self.residuals, self.sigma))]
+        out += [""] + table(["measured mode", "ω measured (rad/s)", "ω model (rad/s)", "residual (rad/s)",
+                             "residual / σ"], rows)
+        return "\n".join(out) + f"\n{self.iterations} Jacobians, {self.elapsed:.2f} s"
+
+    def __repr__(self) -> str:
+        from .._format import duration, summary
+
+        vals = ", ".join(f"{k} = {v:.6g} ± {self.std[k]:.2g}" for k, v in self.values.items())
+        return summary("Update", vals, f"cost {self.cost:.3g}", duration(self.elapsed))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"values": dict(self.values), "std": dict(self.std), "covariance": self.covariance.tolist(),
+                "omega_rad_s": self.omega.tolist(), "measured_rad_s": self.measured.tolist(),
+                "sigma_rad_s": self.sigma.tolist(), "residuals_rad_s": self.residuals.tolist(),
+                "pairs": self.pairs.tolist(), "mac": self.mac.tolist(), "iterations": self.iterations,
+                "cost": self.cost, "elapsed_s": self.elapsed}
+
+
+def _vector(x, n, what):
+    a = np.atleast_1d(np.asarray(x, dtype=float)) if x is not None else None
+    if a is None or a.ndim != 1 or (n is not None and a.size not in (1, n)):
+        raise ModelError(f"update: {what} must be {'one number or ' if n else ''}a list of "
+                         f"{n if n else ''} numbers, got {x!r}")
+    if not np.all(np.isfinite(a)):
+        raise ModelError(f"update: {what} has a value that is not a finite number: {x!r}")
+    return np.broadcast_to(a, (n,)).copy() if n else a
+
+
+def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bounds: dict | None = None, *,
+           shapes: Any = None, relative_sigma: float = 0.005, max_iter: int = 30) -> Update:
+    """Fit the parameters of ``build(**params)`` (a function returning a Scene, as :func:`vibdyn.sweep` takes
+    it) from ``start`` so that its natural frequencies match ``measured`` (rad/s, ascending, the lowest flexible
+    modes unless ``shapes`` pairs them).
+
+    ``sigma``: the measurements' standard deviations (rad/s, one or one per mode; default
+    ``relative_sigma`` × measured); ``bounds``: {name: (lower, upper)} (default: positive for a positive start);
+    ``shapes``: measured mode shapes (nv × n_measured, in the model's coordinates) to pair modes by MAC.
+    """
+    t0 = time.perf_counter()
+    from ..analysis.sensitivity import sensitivity
+    from ..solvers.tracking import mac as mac_of
+
+    if not callable(build):
+        raise ModelError(f"update: build must be a function build(**params) returning a Scene, got {build!r}")
+    if not isinstance(start, dict) or not start:
+        raise ModelError("update: start must be a dict {parameter: value} of build's keyword arguments")
+    names = list(start)
+    p0 = _vector([start[k] for k in names], len(names), "start")
+    w_meas = _vector(measured, None, "measured (rad/s)")
+    if np.any(w_meas <= 0):
+        raise ModelError(f"update: measured natural frequencies must be positive (rad/s), got {w_meas.tolist()}")
+    m = len(w_meas)
+    sig = (_vector(sigma, m, "sigma (rad/s)") if sigma is not None else relative_sigma * w_meas)
+    if np.any(sig <= 0):
+        raise ModelError(f"update: sigma must be positive (rad/s), got {sig.tolist()}")
+    bounds = bounds or {}
+    unknown = [k for k in bounds if k not in start]
+    if unknown:
+        from .._check import unknown_name
+
+        raise unknown_name(unknown[0], names, "parameter", "parameters (start's keys)", "update bounds")
+    lo = np.array([bounds.get(k, (0.0 if p0[i] > 0 else -np.inf, np.inf))[0] for i, k in enumerate(names)], float)
+    hi = np.array([bounds.get(k, (0.0 if p0[i] > 0 else -np.inf, np.inf))[1] for i, k in enumerate(names)], float)
+    if np.any(lo >= hi) or np.any(p0 < lo) or np.any(p0 > hi):
+        raise ModelError(f"update: each start must lie within its bounds (lower < upper): start {start}, "
+                         f"bounds {bounds}")
+    meas_shapes = None if shapes is None else np.asarray(shapes, dtype=float)
+    scale = np.where(p0 != 0, np.abs(p0), 1.0)
+    cache: dict = {}
+
+    def model(x):
+        key = tuple(np.round(x, 15))
+        if key not in cache:
+            values = dict(zip(names, (x * scale).tolist()))
+            sens = sensitivity(build, values)
+            cache.clear()
+            cache[key] = sens
+        return cache[key]
+
+    def paired(sens):
+        flexible = np.flatnonzero(sens.omega0 > 0)
+        if len(flexible) < m:
+            raise ModelError(f"update: {m} measured frequencies, but the model has only {len(flexible)} flexible "
+                             f"modes (ω = {np.round(sens.omega0, 6).tolist()} rad/s)")
+        if meas_shapes is None:
+            return flexible[:m], np.zeros((m, 0))
+        phi = sens.modes.shapes
+        if meas_shapes.shape != (phi.shape[0], m):
+            raise ModelError(f"update: shapes must be nv × n_measured = {phi.shape[0]} × {m}, got "
+                             f"{meas_shapes.shape}")
+        table = np.array([[mac_of(meas_shapes[:, i], phi[:, j]) for j in range(phi.shape[1])] for i in range(m)])
+        from scipy.optimize import linear_sum_assignment
+
+        cost = -table[:, flexible]
+        rows, cols = linear_sum_assignment(cost)
+        return flexible[cols[np.argsort(rows)]], table
+
+    def residual(x):
+        sens = model(x)
+        idx, _ = paired(sens)
+        return (sens.omega0[idx] - w_meas) / sig
+
+    def jacobian(x):
+        sens = model(x)
+        idx, _ = paired(sens)
+        return sens.omega[idx] * scale[None, :] / sig[:, None]
+
+    from scipy.optimize import least_squares
+
+    try:
+        fit = least_squares(residual, p0 / scale, jac=jacobian, bounds=(lo / scale, hi / scale), method="trf",
+                            x_scale="jac", max_nfev=max_iter, xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    except ModelError as e:
+        raise ModelError(f"update: the model could not be analysed along the fit: {e}") from None
+    x = fit.x
+    sens = model(x)
+    idx, mac_table = paired(sens)
+    J = sens.omega[idx] / sig[:, None]  # ∂r/∂p in the builder's units
+    u, s, vt = np.linalg.svd(J, full_matrices=True)
+    rank = int(np.sum(s > 1e-8 * max(s.max(initial=0.0), 1e-300)))
+    if rank < len(names):
+        null = vt[rank:]
+        involved = [names[i] for i in np.flatnonzero(np.abs(null).max(axis=0) > 1e-3)]
+        raise ModelError(f"update: the parameters {', '.join(involved)} cannot be identified from the "
+                         f"{m} measured frequenc{'y' if m == 1 else 'ies'}: they change the paired frequencies only "
+                         "together (the Jacobian has rank "
+                         f"{rank} < {len(names)}); fix some of them, or measure more modes")
+    cov = vt.T @ np.diag(1.0 / s[:len(names)] ** 2) @ vt
+    std = np.sqrt(np.diag(cov))
+    if fit.status <= 0:
+        raise ConvergenceError(f"update: the fit did not converge in {max_iter} evaluations ({fit.message})",
+                               best=dict(zip(names, (x * scale).tolist())))
+    omega = sens.omega0[idx]
+    return Update(dict(zip(names, (x * scale).tolist())), dict(zip(names, std.tolist())), cov, omega, w_meas, sig,
+                  omega - w_meas, idx, mac_table, int(fit.njev or 0), float(fit.cost), time.perf_counter() - t0,
+                  str(fit.message))
