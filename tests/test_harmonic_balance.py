@@ -589,3 +589,19 @@ def test_doubled_samples_are_exact_for_trig_polynomials_below_half_the_samples()
     samples = np.stack([f(tau), 2 * f(tau)], axis=-1)  # with a trailing axis, as K per sample
     assert np.max(np.abs(doubled(samples)[:, 0] - f(fine))) <= 1e-13 * np.max(np.abs(f(fine)))
     assert np.max(np.abs(doubled(samples)[:, 1] - 2 * f(fine))) <= 2e-13 * np.max(np.abs(f(fine)))
+
+
+def test_flat_peak_frequency_error_includes_the_optimisers_resolution():
+    """m ẍ + c ẋ + k x = F cos Ωt (m = 2, k = 50, c = 0.4): the peak at ω_n √(1 − 2ζ²), of
+    F / (c ω_n √(1 − ζ²)). The maximum is flat: the amplitude's last digits locate Ω only to about √ε, and
+    the stated Ω error says so (the truncation alone is ~1e-16 here, the Ω found 2.6e-10 from the truth)."""
+    m, k, c, F = 2.0, 50.0, 0.4, 1.0
+    crv = vd.forced_response_curve(duffing_scene(c=c, k3=0.0, k=k, m=m).build(), ("cart", F), (1.0, 10.0), "cart")
+    wn, zeta = math.sqrt(k / m), c / (2 * math.sqrt(k * m))
+    peak = crv.peak
+    exact = wn * math.sqrt(1 - 2 * zeta**2)
+    assert abs(peak.omega - exact) <= peak.omega_error
+    assert peak.omega_error < 1e-6 * exact  # still a located peak: ~√ε, not the continuation's step
+    amplitude = F / (c * wn * math.sqrt(1 - zeta**2))
+    rounding = 4 * np.finfo(float).eps * amplitude  # the closed form's own
+    assert abs(peak.amplitude - amplitude) <= peak.error + rounding

@@ -91,12 +91,13 @@ class HalfPower:
                 "quantity": self.quantity, "elapsed_s": self.elapsed}
 
 
-def extrema(omega, values, function=None, which="max"):
+def extrema(omega, values, function=None, which="max", precision=0.0):
     """Local maxima (``which`` "max") or minima ("min") of sampled values, refined between the neighbouring
     samples: by bounded Brent search on ``function`` (ω ↦ value) if given, else on a cubic spline through
     the samples. Returns (positions, values, errors): the errors estimate the positions' absolute error
-    (Brent's tolerance, or the spline's difference from a three-point parabola). End samples are no
-    extrema."""
+    (Brent's tolerance plus the flat extremum's resolution √(2 δa / |a''|), δa the values' precision —
+    ``precision`` relative, at least a few ε — or the spline's difference from a three-point parabola). End
+    samples are no extrema."""
     from scipy.optimize import minimize_scalar
 
     w, a = _curve(omega, values, "extrema")
@@ -117,7 +118,7 @@ def extrema(omega, values, function=None, which="max"):
         if function is None:  # data only: compare with the vertex of the parabola through three samples
             e = abs(x - _parabola(w[j - 1:j + 2], a[j - 1:j + 2])[0])
         else:
-            e = 2 * (math.sqrt(EPS) * abs(x) + 1e-12 * hi)  # Brent's stopping tolerance
+            e = 2 * (math.sqrt(EPS) * abs(x) + 1e-12 * hi) + _flatness(f, x, hi - lo, precision)
         if pos and j - last <= 2 and abs(x - pos[-1]) <= max(e, err[-1]) + 1e-6 * abs(x):
             continue  # the same extremum reached from two overlapping brackets
         last = j
@@ -125,6 +126,19 @@ def extrema(omega, values, function=None, which="max"):
         val.append(float(f(x)))
         err.append(e)
     return np.array(pos), np.array(val), np.array(err)
+
+
+def _flatness(f, x, width, precision):
+    """How far from x (rad/s) an extremum of f looks alike when f's values are known to a relative
+    ``precision`` (plus 4ε): √(2 δa / |a''|), a'' by a second difference over width/8; ``width`` where f
+    is not curved there or not finite (a pole: there the maximum is the pole, found exactly)."""
+    h = width / 8
+    a0, am, ap = f(x), f(x - h), f(x + h)
+    if not all(map(math.isfinite, (a0, am, ap))):
+        return 0.0
+    curvature = abs(ap + am - 2 * a0) / h**2
+    da = (precision + 4 * EPS) * abs(a0)
+    return math.sqrt(2 * da / curvature) if curvature > 0 else width
 
 
 def half_power(omega, amplitude, quantity="receptance", function=None):

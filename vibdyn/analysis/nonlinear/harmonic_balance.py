@@ -38,11 +38,12 @@ import numpy as np
 
 from ..._check import integer, scalar
 from ..._format import number
+from ...defaults import EPS
 from ...errors import ConvergenceError, ModelError
 from ...solvers.continuation import continuation
 from ...solvers.newton import newton
 from ..equilibrium import static_configuration
-from .balance import Balance, Excitation, PointForce, SupportMotion, embed
+from .balance import Balance, Excitation, PointForce, SupportMotion, basis, embed
 
 __all__ = ["forced_response_curve", "ForcedResponseCurve", "ResponseFold", "ResponsePeak", "PointForce",
            "SupportMotion"]
@@ -312,7 +313,12 @@ def _follow(bal, lo, hi, X0, step, max_steps):
 
 def _peak(bal, run, amp, c):
     """The largest amplitude along the branch, refined between the neighbours of the best point: amplitude
-    maximised over the arclength s, each point solved on the hyperplane normal to the tangent there."""
+    maximised over the arclength s, each point solved on the hyperplane normal to the tangent there.
+
+    Errors: the truncation estimate, plus (near a flat maximum A(s) ≈ A* − ½|A''| (s − s*)² every s within
+    √(2 δA / |A''|) of s* looks alike) the optimiser's resolution from the amplitude's own precision δA — the
+    points' residuals carried to A, and its rounding — and the bracket the optimiser stops in; the peak's Ω
+    error is that s range times |dΩ/ds|."""
     i = int(np.argmax(amp))
     y_i = np.append(run.x[i], run.lam[i])
     if 0 < i < len(amp) - 1:
@@ -326,17 +332,45 @@ def _peak(bal, run, amp, c):
         cache = {}
 
         def solve(s):
-            res = newton(lambda y: np.append(bal.residual(y[:-1], y[-1]), t @ (y - y_i) - s), y_i + s * t,
-                         lambda y: np.vstack([bal.jacobian(y[:-1], y[-1]), t]), tol=CONTINUATION_TOL, max_iter=20)
-            cache[s] = res
+            res = cache.get(s)
+            if res is None:
+                res = cache[s] = newton(lambda y: np.append(bal.residual(y[:-1], y[-1]), t @ (y - y_i) - s),
+                                        y_i + s * t, lambda y: np.vstack([bal.jacobian(y[:-1], y[-1]), t]),
+                                        tol=CONTINUATION_TOL, max_iter=20)
             return -bal.amplitude(res.x[:-1], c) if res.converged else -amp[i]
 
-        opt = minimize_scalar(solve, bounds=(lo_s, hi_s), method="bounded",
-                              options={"xatol": 1e-10 * max(hi_s - lo_s, 1e-300)})
+        xatol = 1e-10 * max(hi_s - lo_s, 1e-300)
+        opt = minimize_scalar(solve, bounds=(lo_s, hi_s), method="bounded", options={"xatol": xatol})
         res = cache.get(opt.x)
         if res is not None and res.converged and -opt.fun >= amp[i]:
-            y = res.x
+            y, A = res.x, -opt.fun
             e = bal.truncation(y[:-1], y[-1], c)
-            return ResponsePeak(float(y[-1]), float(-opt.fun), e[0], e[1])
+            residual = max(r.residual for r in cache.values() if r.converged)
+            dA = _amplitude_precision(bal, y, t, c, A, residual)
+            # the optimiser's s: within 2 (√ε |s| + xatol/3) of the maximum of what it saw (scipy's bounded
+            # Brent), and every s within √(2 δA / |A''|) of it looks alike; A'', dΩ/ds, d²Ω/ds² by differences
+            h = (hi_s - lo_s) / 8
+            (Am, wm), (Ap, wp) = ((-solve(opt.x + d), cache[opt.x + d].x[-1]) for d in (-h, h))
+            A2, w1, w2 = (Ap + Am - 2 * A) / h**2, (wp - wm) / (2 * h), (wp + wm - 2 * y[-1]) / h**2
+            curved = A2 < 0 and cache[opt.x - h].converged and cache[opt.x + h].converged
+            ds = 2 * (math.sqrt(EPS) * abs(opt.x) + xatol / 3)
+            ds += math.sqrt(2 * dA / -A2) if curved else hi_s - lo_s  # (else: the bracket)
+            dw = abs(w1) * ds + 0.5 * abs(w2) * ds**2
+            return ResponsePeak(float(y[-1]), float(A), float(e[0] + dA), float(e[1] + dw))
     e = bal.truncation(run.x[i], run.lam[i], c)
     return ResponsePeak(float(run.lam[i]), float(amp[i]), e[0], e[1])
+
+
+def _amplitude_precision(bal, y, t, c, A, residual):
+    """The amplitude's precision (m or rad) at the solved point y = (X, Ω) of the hyperplane t·y = s: the
+    residual ‖R‖_∞ carried to A = |x_c(τ*)| through the bordered Jacobian (|gᵀ [J; t]⁻¹|₁ ‖R‖), plus A's
+    rounding."""
+    H, n = bal.H, bal.n
+    grid = np.linspace(0, 2 * np.pi, max(64, 16 * (2 * H + 1)), endpoint=False)
+    E = basis(grid, H)[0]
+    x_c = E @ y[:-1].reshape(2 * H + 1, n)[:, c]
+    j = int(np.argmax(np.abs(x_c)))
+    g = np.zeros(y.size)
+    g[:-1].reshape(2 * H + 1, n)[:, c] = np.sign(x_c[j]) * E[j]
+    z = np.linalg.lstsq(np.vstack([bal.jacobian(y[:-1], y[-1]), t]).T, g, rcond=None)[0]
+    return float(np.sum(np.abs(z))) * residual + EPS * (2 * H + 1) * A

@@ -134,8 +134,8 @@ class FRF:
 
         start = time.perf_counter()
         w, a, f, poles = self._curve(output, input, quantity)
-        wr, ar, er = extrema(w, a, f, "max")
-        wa, aa, ea = extrema(w, a, f, "min")
+        wr, ar, er = extrema(w, a, f, "max", self.condition * EPS)
+        wa, aa, ea = extrema(w, a, f, "min", self.condition * EPS)
         if poles.size:  # Brent closes in on a pole: that maximum is the pole itself, exactly
             near = np.array([np.any(np.abs(x - poles) <= 1e-6 * x) for x in wr], dtype=bool)
             wr, ar, er = (np.concatenate([wr[~near], poles]), np.concatenate([ar[~near], np.full(poles.size, np.inf)]),
