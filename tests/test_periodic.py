@@ -374,3 +374,106 @@ def test_the_result_reads_and_serialises(rod):
     d = json.loads(json.dumps(orbit.to_dict()))
     assert d["period_s"] == orbit.period and len(d["multipliers"]) == 2
     assert orbit.omega == pytest.approx(2 * math.pi / orbit.period) and orbit.exponents.shape == (2,)
+
+
+# ---------------------------------------------------------------------------------------------- 7. forcing period
+def forced_oscillator(*forces, m=2.0, k=8.0, c=0.4):
+    """m x'' + c x' + k x = Σ F cos(Ω t) (harmonic joint forces (F, Ω), phase π/2 turning sin into cos)."""
+    s = vd.Scene("forced")
+    s.add_body("m", joint=vd.Slider((1, 0, 0)), mass=m)
+    s.add_joint_spring("m", k)
+    s.add_joint_damper("m", c)
+    for i, (force, omega) in enumerate(forces):
+        s.add_joint_force("m", vd.laws.Harmonic(force, omega, phase=math.pi / 2), name=f"f{i}")
+    return s
+
+
+def damped_multipliers(period, m=2.0, k=8.0, c=0.4):
+    """exp((−ζω₀ ± iω_d) T): the multipliers of a linear damped oscillator over T, whatever forces it."""
+    w0, zeta = math.sqrt(k / m), c / (2 * math.sqrt(k * m))
+    mu = np.exp((-zeta * w0 + 1j * w0 * math.sqrt(1 - zeta**2)) * period)
+    return np.sort_complex(np.array([mu, mu.conjugate()]))
+
+
+def check_linear_orbit(orbit, forces, m=2.0, k=8.0, c=0.4):
+    """The orbit's start against Σ X cos(φ) (X = F/√((k − mΩ²)² + (cΩ)²), tan φ = cΩ/(k − mΩ²)) and its
+    multipliers against :func:`damped_multipliers`, within the orbit's own errors."""
+    x = sum(f / math.hypot(k - m * w**2, c * w) * math.cos(math.atan2(c * w, k - m * w**2)) for f, w in forces)
+    v = sum(f / math.hypot(k - m * w**2, c * w) * w * math.sin(math.atan2(c * w, k - m * w**2)) for f, w in forces)
+    assert abs(orbit.q0[-1] - x) <= orbit.error and abs(orbit.v0[-1] - v) <= orbit.velocity_error
+    got = np.sort_complex(orbit.multipliers)
+    assert np.abs(got - damped_multipliers(orbit.period, m, k, c)).max() <= orbit.multiplier_error.max()
+
+
+def test_a_forced_scene_takes_only_multiples_of_its_forcing_period():
+    """Issue 32 (4): a harmonic force at Ω = 3 rad/s makes the scene 2π/3-periodic. period = 1 s (or 2.0944 s,
+    a rounded 2π/3) is refused naming both periods; two forcing periods are taken (the orbit is the same, its
+    multipliers those over 4π/3); without a period the forcing's is named."""
+    system = forced_oscillator((1.5, 3.0)).build()
+    for wrong in (1.0, 2.0944):
+        with pytest.raises(vd.ModelError, match=rf"floquet: period {wrong:g} s is not a whole multiple of the "
+                                                r"scene's forcing period 2\.094395102 s \(ω = 3 rad/s \('f0'\)\)"):
+            vd.floquet(system, wrong, [0.0], [0.0])
+    with pytest.raises(vd.ModelError, match=r"period \(s\) is required: the scene's forcing period 2\.094395102 s"):
+        vd.floquet(system, None, [0.0], [0.0])
+    orbit = vd.floquet(system, 2 * (2 * math.pi / 3), [0.0], [0.0])
+    assert orbit.period == 4 * math.pi / 3
+    check_linear_orbit(orbit, [(1.5, 3.0)])
+    near = vd.floquet(system, 2.094395102, [0.0], [0.0])  # its printed 10 digits: the exact period is used
+    assert near.period == 2 * math.pi / 3.0
+    check_linear_orbit(near, [(1.5, 3.0)])
+
+
+def test_commensurate_forcings_share_their_common_period(tmp_path):
+    """Forces at 3 and 4.5 rad/s repeat together every 4π/3 s (3·(2π/4.5) = 2·(2π/3)): the orbit is the sum of
+    both linear responses; 2π/3 (the first force's alone) is refused; `vibdyn floquet` takes the common period."""
+    import contextlib
+    import io
+
+    from vibdyn.faces.cli import main
+
+    forces = [(1.5, 3.0), (0.7, 4.5)]
+    scene = forced_oscillator(*forces)
+    system = scene.build()
+    with pytest.raises(vd.ModelError, match=r"period 2\.094395102 s is not a whole multiple of the scene's forcing "
+                                            r"period 4\.188790205 s \(ω = 3 rad/s \('f0'\), ω = 4\.5 rad/s \('f1'\)\)"):
+        vd.floquet(system, 2 * math.pi / 3, [0.0], [0.0])
+    orbit = vd.floquet(system, 4 * math.pi / 3, [0.0], [0.0])
+    check_linear_orbit(orbit, forces)
+    path = tmp_path / "two_forces.toml"
+    scene.save(path)
+    with contextlib.redirect_stdout(io.StringIO()) as out:
+        assert main(["floquet", str(path), "--json"]) == 0
+    data = json.loads(out.getvalue())
+    assert data["period_source"] == "the forcing's common period"
+    assert abs(data["period_s"] - 4 * math.pi / 3) <= 1e-15 * data["period_s"]
+
+
+def test_incommensurate_forcings_are_refused():
+    """Forces at 3 and π rad/s never repeat together: the motion is quasi-periodic, with no period to give."""
+    system = forced_oscillator((1.5, 3.0), (0.7, math.pi)).build()
+    with pytest.raises(vd.ModelError, match=r"not commensurate \(ω = 3 rad/s \('f0'\), ω = 3\.141592654 rad/s "
+                                            r"\('f1'\)\).*quasi-periodic"):
+        vd.floquet(system, 2 * math.pi / 3, [0.0], [0.0])
+
+
+def test_supports_and_drives_set_the_forcing_period_too():
+    """A slider held by a spring to a support moving at 2 rad/s, beside a carriage driven at 3 rad/s: the scene
+    repeats every 2π s. π s (the support's period) is refused; over 2π s the slider's multipliers are those of
+    its own damped oscillation (the carriage is given)."""
+    m, k, c = 2.0, 8.0, 0.4
+    s = vd.Scene("support and drive")
+    s.add_body("cart", joint=vd.Slider((0, 0, 1), at=(0, 5, 0)), mass=1.0)
+    s.add_drive("cart", vd.laws.Harmonic(0.1, 3.0))
+    s.add_support("base", vd.laws.HarmonicMotion((0.05, 0.0, 0.0), 2.0))
+    s.add_body("m", joint=vd.Slider((1, 0, 0)), mass=m)
+    s.add_spring("k", ("base", (-1.0, 0.0, 0.0)), "m", k, 1.0)
+    s.add_joint_damper("m", c)
+    system = s.build()
+    with pytest.raises(vd.ModelError, match=r"period 3\.141592654 s is not a whole multiple of the scene's forcing "
+                                            r"period 6\.283185307 s .*'cart\.drive'.*'base'"):
+        vd.floquet(system, math.pi, [0.0, 0.0], [0.0, 0.0])
+    orbit = vd.floquet(system, 2 * math.pi, [0.0, 0.0], [0.0, 0.0])
+    assert orbit.coordinates == ("m",)
+    got = np.sort_complex(orbit.multipliers)
+    assert np.abs(got - damped_multipliers(2 * math.pi, m, k, c)).max() <= orbit.multiplier_error.max()

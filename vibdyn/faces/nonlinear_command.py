@@ -44,19 +44,6 @@ def omega_range(text):
     return lo, hi
 
 
-def forcing_period(scene):
-    """2π/ω (s) of the scene's harmonic drives, supports and forces when they share one ω, else None."""
-    omegas = set()
-    for e in scene.elements.values():
-        for part in ("motion", "value", "force", "torque"):
-            w = getattr(getattr(e, part, None), "omega", None)
-            if w is not None and getattr(getattr(e, part), "time_dependent", True):
-                omegas.add(float(w))
-    if len(omegas) == 1 and next(iter(omegas)) > 0:
-        return 2 * math.pi / omegas.pop()
-    return None
-
-
 # ---------------------------------------------------------------------------------------------- frc
 def _add_frc(sub):
     frc = sub.add_parser("frc", help="forced-response curve of a nonlinear scene (harmonic balance): folds, "
@@ -155,6 +142,7 @@ def floquet_command(scene, args, out=None):
     """``vibdyn floquet``: the orbit through the scene's start state (period, multipliers |μ| ± their error,
     verdict, Liouville's check), or JSON."""
     from ..analysis.nonlinear.periodic import floquet, periodic_orbit
+    from ..model.forcing import forcing
 
     p = _p(out)
     system = scene.build()
@@ -168,10 +156,13 @@ def floquet_command(scene, args, out=None):
     period, source = args.period, "given"
     if system.depends_on_time:
         if period is None:
-            period, source = forcing_period(scene), "the forcing's 2π/ω"
-        if period is None:
-            raise ModelError(f"floquet: scene '{system.name}' depends on time without one harmonic frequency: give "
-                             "--period (s)")
+            f = forcing(system)
+            period = f.period if f.complete else None
+            source = "the forcing's 2π/ω" if len(f.harmonic) == 1 else "the forcing's common period"
+            if period is None and f.commensurate:
+                timed = ", ".join(f"'{n}'" for n, w in f.sources if w is None)
+                raise ModelError(f"floquet: scene '{system.name}' depends on time through laws that declare no "
+                                 f"frequency ({timed}): give --period (s)")
         orbit = floquet(system, period, q0, v0, args.t0)
     else:
         if period is None:

@@ -25,6 +25,7 @@ from ..._check import integer, scalar
 from ..._format import duration, html_table, number, summary, table
 from ...errors import ConvergenceError, ModelError
 from ...model.derivatives import linear_terms
+from ...model.forcing import forcing
 from ...simulation.simulate import SimulationError, simulate
 from .shooting import (MAX_SEGMENTS, RCOND, Shooting, conservative, first_return, free_indices, growth_segments,
                        motion_scales)
@@ -32,6 +33,7 @@ from .shooting import (MAX_SEGMENTS, RCOND, Shooting, conservative, first_return
 __all__ = ["PeriodicOrbit", "Liouville", "periodic_orbit", "floquet"]
 TOL = 1e-10  # default closing tolerance (scaled residual: rad, length scales, velocities per 2π/T)
 RTOL = 1e-11  # default relative tolerance of the flows (DOP853)
+PERIOD_RTOL = 1e-9  # a forced scene's period: how close (relative) to a multiple of the forcing's
 POINTS = 128  # outputs per period of the orbit's trajectory (equally spaced: the Liouville quadrature)
 STEP_RESOLUTION = 0.5  # steps of the flows at most this / ω (ω: the start's fastest linear frequency or 2π/T)
 SAMPLES = 8  # perturbations of Φ that measure the spread of clustered multipliers
@@ -271,11 +273,38 @@ def floquet(system: Any, period: float, q0: Any = None, v0: ArrayLike | None = N
             **kwargs: Any) -> PeriodicOrbit:
     """Floquet multipliers of the orbit of period ``period`` (s) through (q0, v0) at ``t0`` (s), converged
     first if it is not yet periodic (an autonomous orbit's period is then refined from ``period``): the same
-    result as :func:`periodic_orbit` (keywords as there)."""
+    result as :func:`periodic_orbit` (keywords as there). A scene forced in time: ``period`` must be a whole
+    multiple of the forcing's (:func:`vibdyn.model.forcing.forcing`; callables of time declare none)."""
+    if period is not None:
+        period = scalar(period, "floquet: period (s)", positive=True)
+    if system.depends_on_time:
+        period = forcing_multiple(system, period, "floquet")
     if period is None:
         raise ModelError("floquet: period (s) is required (periodic_orbit finds it for an autonomous scene)")
-    period = scalar(period, "floquet: period (s)", positive=True)
     return periodic_orbit(system, q0, v0, period, t0, **kwargs)
+
+
+def forcing_multiple(system: Any, period: float | None, what: str) -> float | None:
+    """``period`` (s) of a scene forced in time, checked against the forcing's common period T_f: the whole
+    multiple k·T_f it equals within PERIOD_RTOL (returned exact); as given where the forcing declares no
+    frequency (callables of time). ModelError, naming both periods, for any other period (None included, where
+    T_f is known), and where the forcing's frequencies are not commensurate (quasi-periodic: no period)."""
+    f = forcing(system)
+    if not f.commensurate:
+        raise ModelError(f"{what}: the scene's forcing frequencies are not commensurate ({f.describe()}): its "
+                         "motion is quasi-periodic, with no period")
+    if f.period is None:
+        return period
+    part = "" if f.complete else " harmonic"
+    if period is None:
+        raise ModelError(f"{what}: period (s) is required: the scene's{part} forcing period "
+                         f"{number(f.period, 's', digits=10)} ({f.describe()}) or a multiple of it")
+    k = round(period / f.period)
+    if k >= 1 and abs(period - k * f.period) <= PERIOD_RTOL * period:
+        return k * f.period
+    raise ModelError(f"{what}: period {number(period, 's', digits=10)} is not a whole multiple of the scene's"
+                     f"{part} forcing period {number(f.period, 's', digits=10)} ({f.describe()}): give "
+                     f"{number(f.period, 's', digits=10)} or a multiple of it")
 
 
 # ---------------------------------------------------------------------------------------------- set-up
