@@ -142,3 +142,23 @@ def test_modes_of_the_spinning_gimbal_print_no_round_off_noise():
         assert main(["modes", "gimbal_rotor"]) == 0
     text = out.getvalue()
     assert "0 ± 21.824584i" in text and "0 ± 171.82458i" in text and "e-10" not in text
+
+
+def test_slow_precession_at_extreme_spin_is_not_rounded_to_zero():
+    """It θ̈ + b φ̇ + k θ = 0, It φ̈ − b θ̇ + k φ = 0 (b = Ip Ω): It ω² ∓ b ω − k = 0, so the slow precession
+    2k / (b + √(b² + 4 It k)) (written without cancellation) and the nutation (b + √(b² + 4 It k)) / (2 It). At
+    1e6 rad/s the precession is 2.5e-3 rad/s, far below √ε of the nutation but with an error of its own ~1e-17:
+    it once came out as 0 ± 1.5e-6 (taken for the split zero of the spin)."""
+    speeds = np.array([1e3, 1e5, 1e6])
+    c = vd.campbell(gimbal(), "rotor", speeds)
+    b = IP * speeds
+    root = np.sqrt(b**2 + 4 * IT * K)
+    slow, fast = 2 * K / (b + root), (b + root) / (2 * IT)
+    eps = np.finfo(float).eps
+    for i in range(len(speeds)):
+        order = np.argsort(c.frequencies[i])
+        f, e = c.frequencies[i][order], c.error[i][order]
+        assert f[0] == 0.0  # the spin: cyclic
+        assert abs(f[1] - slow[i]) <= e[1] + 4 * eps * slow[i]  # (the closed form's own rounding)
+        assert abs(f[2] - fast[i]) <= e[2] + 4 * eps * fast[i]
+        assert e[1] < 1e-6 * slow[i] and e[2] < 1e-6 * fast[i]

@@ -232,27 +232,30 @@ def _speed_modes(system, spin: str, speed: float, q0, method: str) -> SpeedModes
     m = lin.modes()
     n = lin.nv
     if m.eigenvalues.size:
-        lam, shapes, lam_err = m.damped_eigenvalues, m.complex_shapes, m.eigenvalue_error
+        lam, shapes, lam_err, zero = m.damped_eigenvalues, m.complex_shapes, m.eigenvalue_error, m.damped_zero
     else:  # undamped and not gyroscopic: real modes, λ = ±iω (or ±ω when unstable)
         lam = np.where(m.unstable, m.omega + 0j, 1j * m.omega)
-        shapes, lam_err = m.shapes.astype(complex), m.omega_error
-    # a cyclic coordinate's double zero is a Jordan block: round-off δ in M⁻¹K splits it by ±√δ, with
-    # δ ≈ ε·max|λ|², so frequencies below 10·√ε·max|λ| are that split, not an oscillation
-    zero = max(m.zero_threshold, 10 * np.sqrt(np.finfo(float).eps) * np.abs(lam).max(initial=0.0))
-    osc = (np.abs(lam.imag) > zero) & (lam.imag > 0)
-    real = ~osc
+        shapes, lam_err, zero = m.shapes.astype(complex), m.omega_error, m.rigid
+    # zeros are the modes' own verdict (within 10 × their uncertainty of 0): a cyclic coordinate's double
+    # zero is a Jordan block, which round-off splits by ±√δ — its uncertainty says so —, while a slow
+    # precession (2.5e-3 rad/s beside a spin of 1e6) is an imaginary pair with its own small error
+    osc = ~zero & (lam.imag > 0)
     # 2nv state eigenvalues = 2·(oscillating modes) + (real ones): the real ones pair into modes of
-    # frequency 0, taken smallest |λ| first (their shapes pair the same way)
-    idx_real = np.flatnonzero(real)
+    # frequency 0, taken smallest |λ| first (their shapes pair the same way); a zero split into ±iδ is one
+    split = zero & (lam.imag > 0)
+    idx_real = np.flatnonzero(~osc & ~split)
     idx_real = idx_real[np.argsort(np.abs(lam[idx_real]), kind="stable")]
     pairs = [idx_real[k:k + 2] for k in range(0, len(idx_real), 2)] if m.eigenvalues.size else \
         [np.array([k]) for k in idx_real]
+    pairs += [np.array([k]) for k in np.flatnonzero(split)]
     idx_osc = np.flatnonzero(osc)
     freq = np.concatenate([np.abs(lam[idx_osc].imag), np.zeros(len(pairs))])
     mag = np.abs(lam[idx_osc])
     zeta = np.concatenate([-lam[idx_osc].real / np.where(mag > 0, mag, 1.0),
                            [_real_pair_zeta(lam[p]) for p in pairs]])
-    err = np.concatenate([lam_err[idx_osc] * mag, [m.zero_threshold] * len(pairs)])
+    # a frequency rounded to 0 is wrong by at least what was rounded away
+    err = np.concatenate([lam_err[idx_osc] * mag,
+                          [max(m.zero_threshold, float(np.abs(lam[p].imag).max())) for p in pairs]])
     vecs = np.concatenate([shapes[:, idx_osc], np.stack([shapes[:, p[0]] for p in pairs], axis=1)
                            if pairs else np.zeros((n, 0), complex)], axis=1)
     if freq.size != n:
