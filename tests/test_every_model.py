@@ -1,4 +1,4 @@
-"""Every bundled model works with every CLI command (``info``, ``modes``, ``frf``, ``simulate``).
+"""Every bundled model works with every CLI command (``info``, ``modes``, ``frf``, ``simulate``, ``sensitivity``).
 
 Each command must exit 0, or give one of the explained refusals listed in ``REFUSALS`` (exit 2, a
 ``vibdyn: error:`` line containing the listed words, no traceback). ``frf`` uses the model's first
@@ -16,7 +16,7 @@ import vibdyn as vd
 from vibdyn.faces.cli import main
 
 FILES = sorted(MODELS.glob("*.toml"))
-COMMANDS = ("info", "modes", "frf", "simulate")
+COMMANDS = ("info", "modes", "frf", "simulate", "sensitivity")
 # Andrews' squeezer turns at hundreds of rad/s: its benchmark spans 0.03 s (1 s would take minutes)
 SIM_T = {"andrews_squeezer": "0.003"}
 

@@ -246,3 +246,23 @@ def test_update_bad_input():
         vd.update(building, {"k1": 5e5, "k2": 5e5, "k3": 3e5}, [10.0, float("nan"), 30.0])
     with pytest.raises(ModelError, match="unknown parameter 'k4'"):
         vd.update(building, {"k1": 5e5, "k2": 5e5, "k3": 3e5}, [10.0, 20.0, 30.0], bounds={"k4": (0, 1)})
+
+
+def test_cli_table_and_json():
+    import contextlib
+    import io
+    import json
+
+    from vibdyn.faces.cli import main
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["sensitivity", "three_storey_building", "--param", "storey1.stiffness", "--json"]) == 0
+    d = json.loads(out.getvalue())
+    assert d["params"] == ["storey1.stiffness"] and d["units"] == ["N/m"]
+    # ω₁ grows with the first storey's stiffness: (k/ω) ∂ω/∂k between 0 and 1/2 for every mode
+    assert all(0 < r[0] < 0.5 for r in d["normalised"])
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        assert main(["sensitivity", "three_storey_building", "--param", "storey1.stifness"]) == 2
+    assert "did you mean 'storey1.stiffness'" in err.getvalue()

@@ -138,7 +138,9 @@ class _Pipeline:
     def __call__(self, values):
         scene, speeds = self.make_scene(values)
         system = scene.build()
-        if self.regime == "steady":
+        if self.regime == "declared":
+            op = system.operating_point()
+        elif self.regime == "steady":
             op = system.steady_motion(speeds, q0=self.q0)
         elif self.regime == "static":
             op = system.equilibrium(q0=self.q0)
@@ -152,12 +154,14 @@ class _Pipeline:
         except ModelError:
             lin = system.linearize(op, method="fd") if self.regime != "pose" else \
                 system.linearize(op, v=self.v0, method="fd")
-        return lin
+        return getattr(lin, "reduced", lin)  # a mechanism's: in its independent motions
 
 
 def _regime(system, lin):
     """How the base linear model's point is found again: "steady" (held speeds), "held", "static" or "pose"."""
     op = system.scene.operating_point or {}
+    if system.drives is not None:  # a driven scene: its declared operating point (the drives' motion)
+        return "declared", {}
     if op.get("held"):
         return "held", {}
     if np.any(lin.v0):
@@ -336,21 +340,24 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
 
 
 # ------------------------------------------------------------------------------------------ entry point
-def sensitivity(source: Any, params: Any, *, modes: Any = None) -> Sensitivity:
+def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivity:
     """Derivatives of the modes with respect to ``params``.
 
     ``source``: a :class:`~vibdyn.analysis.modal.Modes` (what ``modes.sensitivity(params)`` passes), a
     LinearModel, a System or a Scene (its operating point), with ``params`` names ``"<body or
     element>.<attribute>"`` (:mod:`vibdyn.description.parameters`; ``"<coordinate>.speed"`` for a held speed
     of a steady motion, rad/s or m/s); or a callable ``build(**values)`` returning a Scene, with ``params`` a
-    dict {keyword: value} (its units are the builder's). See the module docstring for the method.
+    dict {keyword: value} (its units are the builder's). A parameter no mode depends on is refused, or with
+    ``unused="drop"`` left out and named in ``note``. See the module docstring for the method.
     """
+    if unused not in ("raise", "drop"):
+        raise ModelError(f"sensitivity: unused must be 'raise' or 'drop', got {unused!r}")
     start = time.perf_counter()
     from .modal import Modes
 
     if callable(source) and not hasattr(source, "build") and not isinstance(source, Modes) \
             and not hasattr(source, "linearize"):
-        return _of_builder(source, params, start)
+        return _of_builder(source, params, start, unused)
     if hasattr(source, "build") and not hasattr(source, "linearize"):  # a Scene
         source = source.build()
     if isinstance(source, Modes):
@@ -398,10 +405,13 @@ def sensitivity(source: Any, params: Any, *, modes: Any = None) -> Sensitivity:
 
     pipeline = _Pipeline(make_scene, system, lin.q0, lin.v0, regime, speeds, names)
     steps = np.array([_step(None, values[j], units[j], system.length_scale) for j in range(len(names))])
-    return _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, start)
+    # the base model again through the pipeline: M, C, K, modes in the coordinates the differences are in (a
+    # mechanism's independent motions), analytic
+    lin = pipeline(values)
+    return _assemble(pipeline, lin.modes(), lin, names, units, values, steps, nonneg, start, unused)
 
 
-def _of_builder(build, params, start):
+def _of_builder(build, params, start, unused):
     if not isinstance(params, dict) or not params:
         raise ModelError("sensitivity: with a builder, params must be a dict {keyword: value} of build(**params)")
     names = list(params)
@@ -419,30 +429,43 @@ def _of_builder(build, params, start):
 
     pipeline = _Pipeline(make_scene, system, lin.q0, lin.v0, regime, speeds, names)
     steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
-    return _assemble(pipeline, base_modes, lin, names, ["(the builder's)"] * len(names), values, steps,
-                     [False] * len(names), start)
+    lin = pipeline(values)
+    return _assemble(pipeline, lin.modes(), lin, names, ["(the builder's)"] * len(names), values, steps,
+                     [False] * len(names), start, unused)
 
 
-def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, start):
+def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, start, unused="raise"):
     n_p, nv = len(names), lin.nv
     dM, dC, dK = (np.zeros((n_p, nv, nv)) for _ in range(3))
     eM, eC, eK = (np.zeros((n_p, nv, nv)) for _ in range(3))
     for j in range(n_p):
         one_sided = nonneg[j] and values[j] - 2 * steps[j] < 0
         (dM[j], dC[j], dK[j]), (eM[j], eC[j], eK[j]) = _differences(pipeline, values, j, steps[j], one_sided)
-    for j in range(n_p):  # a parameter nothing depends on cannot be fitted nor designed with: say so
-        scale = max(abs(values[j]), steps[j])
-        if all(np.abs(d).max(initial=0.0) * scale <= 1e-12 * np.abs(X).max(initial=0.0)
-               for d, X in ((dM[j], lin.M), (dC[j], lin.C), (dK[j], lin.K))):
-            raise ModelError(f"sensitivity: parameter '{names[j]}' does not change the linear model (M, C and K "
-                             "are the same for nearby values): no mode depends on it")
+    # a parameter nothing depends on cannot be designed with nor fitted: refused, or left out and named
+    unchanged = [j for j in range(n_p) if all(
+        np.abs(d).max(initial=0.0) * max(abs(values[j]), steps[j]) <= 1e-12 * np.abs(X).max(initial=0.0)
+        for d, X in ((dM[j], lin.M), (dC[j], lin.C), (dK[j], lin.K)))]
+    dropped = ""
+    if unchanged:
+        listed = ", ".join(f"'{names[j]}'" for j in unchanged)
+        if unused == "raise":
+            raise ModelError(f"sensitivity: parameter {listed} does not change the linear model (M, C and K are "
+                             "the same for nearby values): no mode depends on it")
+        keep = [j for j in range(n_p) if j not in unchanged]
+        if not keep:
+            raise ModelError(f"sensitivity: no parameter named changes the linear model ({listed})")
+        dropped = f"left out, as no mode depends on them: {listed}"
+        names, units = [names[j] for j in keep], [units[j] for j in keep]
+        values, steps = np.asarray(values)[keep], np.asarray(steps)[keep]
+        dM, dC, dK, eM, eC, eK = (x[keep] for x in (dM, dC, dK, eM, eC, eK))
     d_w2, e_w2, d_w, e_w, d_phi, e_phi, repeated = _undamped(base_modes, dM, dK, eM, eK)
     d_l, e_l, d_wn, e_wn, d_z, e_z = _damped(base_modes, lin, dM, dC, dK, eM, eC, eK)
-    note = ""
+    note = dropped
     if repeated.any():
-        note = (f"modes {', '.join(str(i + 1) for i in np.flatnonzero(repeated))} have repeated frequencies: their "
-                "derivatives are those of the subspace's eigenvalues (ascending), their shape derivatives are not "
-                "unique (given as 0)")
+        listed = ", ".join(str(i + 1) for i in np.flatnonzero(repeated))
+        note += ("; " if note else "") + (
+            f"modes {listed} have repeated frequencies: their derivatives are those of the subspace's eigenvalues "
+            "(ascending), their shape derivatives are not unique (given as 0)")
     if np.isinf(e_w).any():
         note += ("; " if note else "") + "a rigid mode leaves zero: its ∂ω/∂p is unbounded (see omega2, rad²/s² per unit)"
     for name, arr in (("∂ω/∂p", d_w), ("∂ζ/∂p", d_z)):

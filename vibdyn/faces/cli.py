@@ -535,6 +535,18 @@ def _run_campbell(args):
     command(load(args.scene).build(), args)
 
 
+def _add_sensitivity(sub):
+    from .sensitivity_command import add
+
+    add(sub, SCENE_HELP)
+
+
+def _run_sensitivity(args):
+    from .sensitivity_command import command
+
+    command(load(args.scene), args)
+
+
 def _run_nonlinear(args):
     from .nonlinear_command import RUNNERS
 
@@ -545,6 +557,7 @@ def _run_nonlinear(args):
 COMMANDS = {"info": (_add_info, _run_info), "modes": (_add_modes, _run_modes), "demo": (_add_demo, _run_demo),
             "frf": (_add_frf, _run_frf), "bench": (_add_bench, None), "simulate": (_add_simulate, _run_simulate),
             "view": (_add_view, _run_view), "campbell": (_add_campbell, _run_campbell),
+            "sensitivity": (_add_sensitivity, _run_sensitivity),
             **{name: (add, _run_nonlinear) for name, add in NONLINEAR.items()}}
 
 
