@@ -2,6 +2,7 @@
 step's interpolant, and the tangent-space variational equations (the state transition), against closed forms."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -137,3 +138,44 @@ def test_the_time_layer_refuses_what_it_cannot_do():
     looped = vd.load_scene(MODELS / "four_bar.toml").build()
     with pytest.raises(vd.ModelError, match="variational equations: not available for a mechanism with closed"):
         looped.simulate(0.1, variational=True)
+
+
+@pytest.mark.parametrize("kw", [{"rtol": 1e-10}, {"method": "rk4", "dt": 2e-3}, {"method": "radau", "rtol": 1e-9}])
+def test_an_event_function_that_fails_only_near_its_crossing_is_named(kw):
+    """x(t) = 0.1 cos 2t crosses 0 at π/4 s; the event function is NaN (or raises) only within 1e-6 m of it,
+    where no step ends but the root search goes: a vibdyn error naming the event function, not scipy's raw
+    ValueError from inside brentq."""
+    system = oscillator(k=8.0, m=2.0)
+
+    def nan_near_zero(t, q, v):
+        return float("nan") if abs(q[0]) < 1e-6 else q[0]
+
+    def raises_near_zero(t, q, v):
+        if abs(q[0]) < 1e-6:
+            raise ZeroDivisionError("too close")
+        return q[0]
+
+    for f, what in ((nan_near_zero, "not finite"), (raises_near_zero, "ZeroDivisionError")):
+        with pytest.raises(vd.VibdynError, match=f"event function 0.*{what}") as info:
+            system.simulate(1.0, [0.1], [0.0], events=[f], **kw)
+        t = float(re.search(r"event function 0.* at t = ([0-9.e+-]+) s", str(info.value)).group(1))
+        assert abs(t - math.pi / 4) < 1e-3  # where it failed: at the crossing
+
+
+@pytest.mark.parametrize("method", ["radau", "bdf"])
+def test_an_element_failing_inside_scipys_implicit_solvers_is_named_as_such(method):
+    """A ModelError is a ValueError: the implicit solvers' guard against scipy's LU of a non-finite Jacobian
+    once caught it and called it a non-finite state."""
+    s = vd.Scene("pushed")
+    s.add_body("m", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_joint_spring("m", 4.0)
+
+    def push(t, *_):
+        if t > 0.2:
+            raise RuntimeError("sensor lost")
+        return 0.0
+
+    s.add_joint_force("m", push)
+    with pytest.raises(vd.VibdynError, match=r"simulation stopped at .*: joint force 'm.force' failed") as info:
+        s.build().simulate(1.0, [0.1], [0.0], method=method)
+    assert "not finite" not in str(info.value)

@@ -35,15 +35,18 @@ class Events:
         self._last = None
 
     def _values(self, t, q, v):
-        out = np.empty(len(self.functions))
-        for k, f in enumerate(self.functions):
-            g = call_user(f, (t, q, v), f"event function {k}", t)
-            try:
-                out[k] = float(g)
-            except (TypeError, ValueError):
-                raise ModelError(f"event function {k}: expected a number, got {g!r}") from None
-            if not math.isfinite(out[k]):
-                raise ModelError(f"event function {k}: not finite at t = {t:g} s")
+        return np.array([self._value(k, t, q, v) for k in range(len(self.functions))])
+
+    def _value(self, k, t, q, v):
+        """Event function k at (t, q, v): a finite number, or a ModelError naming it (at a step's end and
+        inside the root search alike)."""
+        g = call_user(self.functions[k], (t, q, v), f"event function {k}", t)
+        try:
+            out = float(g)
+        except (TypeError, ValueError):
+            raise ModelError(f"event function {k}: expected a number, got {g!r} at t = {t:g} s") from None
+        if not math.isfinite(out):
+            raise ModelError(f"event function {k}: not finite at t = {t:g} s")
         return out
 
     def start(self, t, q, v):
@@ -65,9 +68,15 @@ class Events:
             if g1[k] == 0.0:
                 s = t
             else:
-                f = self.functions[k]
-                s = brentq(lambda x, f=f, k=k: float(call_user(f, (x, *state_at(x)), f"event function {k}", x)),
-                           t0, t, xtol=4 * np.finfo(float).eps * max(abs(t), 1.0), rtol=4 * np.finfo(float).eps)
+                def g(x, k=k):
+                    return self._value(k, x, *state_at(x))
+
+                ga, gb = g(t0), g(t)
+                if ga * gb > 0:  # the interpolant's ends round to one side: the crossing is at the nearer one
+                    s = t0 if abs(ga) < abs(gb) else t
+                else:
+                    s = brentq(g, t0, t, xtol=4 * np.finfo(float).eps * max(abs(t), 1.0),
+                               rtol=4 * np.finfo(float).eps)
             found.append((s, k))
         for s, k in sorted(found):
             if self.stop is not None:

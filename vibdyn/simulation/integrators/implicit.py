@@ -11,6 +11,7 @@ error-controlled (its absolute tolerance is infinite): it feeds nothing back. sc
 
 import numpy as np
 
+from ...errors import VibdynError
 from .base import Interpolant, ODEStepper, StepError
 
 RECENTRE = 1.0  # rad
@@ -64,6 +65,8 @@ class Implicit(ODEStepper):
         s = self.solver
         try:
             message = s.step()
+        except VibdynError:  # an element of the scene that failed (a ModelError is a ValueError too)
+            raise
         except ValueError as e:  # scipy's LU of a non-finite Jacobian: a blow-up
             raise StepError(f"{self.cls.__name__}: the state or its Jacobian is not finite ({e})") from None
         if s.status == "failed":
