@@ -51,9 +51,14 @@ def test_a_file_here_wins_over_the_bundled_model_of_its_name(tmp_path, monkeypat
 
 def test_a_path_is_a_path(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    for path in (tmp_path / "four_bar.toml", "./four_bar.toml", "sub/four_bar"):
-        with pytest.raises(vd.SceneFileError, match="no such scene file$"):
+    for path in (tmp_path / "four_bar.toml", "./four_bar.toml", "sub/four_bar", "models/four_bar.toml"):
+        with pytest.raises(vd.SceneFileError) as e:
             vd.load_scene(path)
+        # not loaded as the bundled model, but the error says how to load it (a checkout's path, installed)
+        assert str(e.value) == (f"file {Path(path)}: no such scene file; the bundled model 'four_bar' loads by its bare "
+                                "name: vd.load_scene('four_bar') (vibdyn modes four_bar on the command line)")
+    with pytest.raises(vd.SceneFileError, match="no such scene file$"):
+        vd.load_scene("sub/no_model_of_this_name.toml")
     shutil.copy(MODELS / "helical.toml", tmp_path / "four_bar.toml")
     assert vd.load_scene(tmp_path / "four_bar.toml").to_dict() == vd.load_scene("helical").to_dict()
 

@@ -1,14 +1,15 @@
 """Every ```python block of README.md runs as written, top to bottom, as one session (later blocks may use
-names from earlier ones), in a temporary directory where the repository's models/ are reachable; the README
-stays a first visit's page (at most 12 000 characters) whose links and picture exist. The material that moved
-out of it is in docs/, whose code tests/test_docs.py runs."""
+names from earlier ones), in a temporary directory with no models/ folder (the bundled models load by name, as
+where vibdyn is installed); the README stays a first visit's page (at most 12 000 characters) whose links and
+picture exist. The material that moved out of it is in docs/, whose code tests/test_docs.py runs. The blocks run
+again in a fresh venv holding the base install alone (.ci/wheel-check, through :func:`blocks` run as a script)."""
 
 import fnmatch
-import os
 import re
+import sys
+from pathlib import Path
 
-from conftest import ROOT
-
+ROOT = Path(__file__).resolve().parents[1]  # (conftest's, not imported from it: the script needs no pytest)
 README = ROOT / "README.md"
 BLOCK = re.compile(r"^```python[^\n]*\n(.*?)^```", re.S | re.M)
 
@@ -17,6 +18,27 @@ def blocks():
     """(line number, source) of every ```python block of README.md."""
     text = README.read_text(encoding="utf-8")
     return [(text[:m.start(1)].count("\n") + 1, m.group(1)) for m in BLOCK.finditer(text)]
+
+
+def run_blocks():
+    """Run every block of :func:`blocks` in the current directory, top to bottom as one session, off screen
+    (matplotlib's Agg); an exception names the block's README line. Returns the number of blocks."""
+    import matplotlib  # a base dependency: the tour draws plots
+
+    import matplotlib.pyplot as plt
+
+    matplotlib.use("Agg")
+    namespace = {"__name__": "__readme__"}
+    try:
+        for line, source in blocks():
+            code = compile("\n" * (line - 1) + source, str(README), "exec")  # tracebacks give README lines
+            try:
+                exec(code, namespace)
+            except Exception as exc:  # noqa: BLE001 - say which block failed, keep the cause
+                raise AssertionError(f"README.md block at line {line} raised {type(exc).__name__}: {exc}") from exc
+    finally:
+        plt.close("all")
+    return len(blocks())
 
 
 def test_readme_has_python_blocks():
@@ -35,27 +57,19 @@ def test_readme_is_short_and_its_links_exist():
 
 
 def test_readme_blocks_run_top_to_bottom(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    os.symlink(ROOT / "models", tmp_path / "models")
-    import matplotlib  # a test dependency: the tour draws plots, off screen
-
-    import matplotlib.pyplot as plt
-
-    matplotlib.use("Agg")
-    namespace = {"__name__": "__readme__"}
-    try:
-        for line, source in blocks():
-            code = compile("\n" * (line - 1) + source, str(README), "exec")  # tracebacks give README lines
-            try:
-                exec(code, namespace)
-            except Exception as exc:  # noqa: BLE001 - say which block failed, keep the cause
-                raise AssertionError(f"README.md block at line {line} raised {type(exc).__name__}: {exc}") from exc
-    finally:
-        plt.close("all")
+    monkeypatch.chdir(tmp_path)  # no models/ folder here: the README loads the bundled models by name, as installed
+    assert run_blocks() == len(blocks())
     # what the tour wrote is covered by .gitignore (simple glob lines there), so it never lands in a commit
     ignored = [line.strip() for line in (ROOT / ".gitignore").read_text().splitlines()
                if line.strip() and not line.startswith(("#", "!"))]
-    written = [p.name for p in tmp_path.iterdir() if p.name != "models"]
+    written = [p.name for p in tmp_path.iterdir()]
     assert written, "the tour writes files (a01.csv, bode.png, ...): were they moved?"
     uncovered = [name for name in written if not any(fnmatch.fnmatch(name, g.rstrip("/")) for g in ignored)]
     assert not uncovered, f"README examples write files .gitignore does not cover: {uncovered}"
+
+
+if __name__ == "__main__":  # .ci/wheel-check: python tests/test_readme.py, from a folder outside the checkout
+    import vibdyn
+
+    print(f"README.md: {run_blocks()} python blocks ran with vibdyn {vibdyn.__version__} from "
+          f"{Path(vibdyn.__file__).parent}", file=sys.stderr)

@@ -12,7 +12,7 @@ from importlib import metadata as _metadata
 from typing import Any
 
 from .description import inertia, laws
-from .description.elements import WORLD
+from .description.elements import WORLD as _WORLD
 from .description.joints import (
     Ball,
     Cylindrical,
@@ -27,6 +27,11 @@ from .description.joints import (
 from .description.scene import Body, Scene
 from .errors import ConvergenceError, ModelError, SceneFileError, VibdynError
 from .model.system import BodyInfo, Energy, Reactions, System
+
+#: ``"world"``: the name of the fixed frame. A body whose ``parent`` is WORLD (the default) is joined to the ground,
+#: and an attachment ``(WORLD, (x, y, z))`` is a point fixed in space, in world coordinates (m): e.g.
+#: ``scene.add_spring("k", (vd.WORLD, (-1, 0, 0)), "cart", stiffness=100.0)``. No body may take this name.
+WORLD = _WORLD
 
 try:  # one source: the version in pyproject.toml, as installed
     __version__ = _metadata.version("vibdyn")

@@ -230,7 +230,10 @@ def load_robot(name, floating=None, servo=None, **kwargs):
     if name not in ROBOTS:
         raise unknown_name(name, known_robots(), "robot", "known robots")
     rel, free, srdf, posture = ROBOTS[name]
-    root = robots_dir()
+    try:
+        root = robots_dir()
+    except ModelError as e:
+        raise ModelError(f"robot {name!r}: {e}") from None
     path = root / rel
     if not path.is_file():
         raise ModelError(f"robot {name!r}: file {path} is missing from this example-robot-data installation")
@@ -327,8 +330,9 @@ def robots_dir():
         if c.is_dir():
             _ROBOTS_DIR.append(c.resolve())
             return _ROBOTS_DIR[0]
-    raise ModelError("example-robot-data is not installed (no share/example-robot-data/robots folder found); "
-                     "install it with `pip install example-robot-data`")
+    raise ModelError("the robots of example-robot-data are not installed (no share/example-robot-data/robots folder "
+                     "found): they come with the robots extra, pip install 'vibdyn[robots]' (URDF and MJCF files of "
+                     "your own load without it: vd.load_urdf, vd.load_mjcf)")
 
 
 # ====================================================================== conversion

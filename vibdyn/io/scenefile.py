@@ -165,7 +165,11 @@ def load_scene(path):
             raise SceneFileError(f"too large (more than {MAX_FILE_BYTES} bytes)", path=str(p))
         text = raw.decode("utf-8")
     except FileNotFoundError:
-        raise SceneFileError("no such scene file", path=str(p)) from None
+        # a checkout's path to a bundled model (models/rod_pivot.toml), used where vibdyn is installed
+        stem = p.name.removesuffix(".toml")
+        hint = (f"; the bundled model '{stem}' loads by its bare name: vd.load_scene('{stem}') (vibdyn modes {stem} "
+                "on the command line)") if bundled_model(stem) is not None else ""
+        raise SceneFileError("no such scene file" + hint, path=str(p)) from None
     except IsADirectoryError:
         raise SceneFileError("is a directory, not a scene file", path=str(p)) from None
     except UnicodeDecodeError as e:
