@@ -8,6 +8,9 @@ The site is served on 127.0.0.1 and every page is opened in the browser. Checked
 - every internal link, image, iframe, stylesheet and script of every page resolves (HTTP 200), and every
   ``#anchor`` of an internal link exists on its target page;
 - every image on every page has loaded (``naturalWidth > 0``), and every gallery page shows at least one;
+- no gallery page shows the same figure twice (two of its pictures with the same bytes) nor an object's default
+  repr in its outputs (``<matplotlib.legend.Legend object at 0x…>``): :func:`gallery_problems`, read from the
+  files, without the browser;
 - the site's own search (``search.html?q=...``, Sphinx's JavaScript) answers four newcomer's questions with
   the right page among its first three results (:data:`SEARCHES`).
 
@@ -194,6 +197,32 @@ def search(browser: Browser, base: str, query: str) -> list[str]:
     return [urllib.parse.urlparse(h).path.lstrip("/") for h in hrefs]
 
 
+#: an object's default repr, as an output shows it: what a block's last expression leaves when nothing prints it
+OBJECT_REPR = re.compile(r"&lt;[\w.]+ object at 0x[0-9a-fA-F]+&gt;")
+
+
+def gallery_problems(root: str | Path, pages: list[str]) -> list[str]:
+    """Problems of the gallery pages ``pages`` (paths under ``root``) read from their HTML: a picture shown twice
+    (two images with the same bytes) and an object's default repr in the outputs."""
+    import hashlib
+
+    root, problems = Path(root), []
+    for page in pages:
+        html = (root / page).read_text(encoding="utf-8", errors="replace")
+        for m in sorted(set(OBJECT_REPR.findall(html))):
+            problems.append(f"{page}: an object's repr in its output: {m.replace('&lt;', '<').replace('&gt;', '>')}")
+        seen: dict[str, str] = {}
+        for src in re.findall(r'<img [^>]*src="([^"]*sphx_glr[^"]*)"', html):
+            path = (root / page).parent / urllib.parse.unquote(src)
+            if not path.is_file():
+                continue  # (a missing image is reported by the browser's check)
+            digest = hashlib.sha256(path.read_bytes()).hexdigest()
+            if digest in seen and seen[digest] != src:
+                problems.append(f"{page}: the same figure shown twice ({seen[digest]} and {src})")
+            seen.setdefault(digest, src)
+    return problems
+
+
 def check(root: str | Path, gallery: bool = True, searches=SEARCHES, exe: str | None = None,
           only: list[str] | None = None) -> tuple[list, dict]:
     """Problems found on the site built at ``root`` (an empty list when none) and a summary of what was
@@ -229,6 +258,8 @@ def check(root: str | Path, gallery: bool = True, searches=SEARCHES, exe: str | 
                 problems.append(f"{page}: a gallery page without its figure")
         if gallery and not gallery_pages and only is None:
             problems.append("no gallery page (auto_examples/plot_*.html) in the site")
+        if gallery:
+            problems += gallery_problems(root, gallery_pages)
         for page, url in targets:
             parts = urllib.parse.urlparse(url)
             path = parts.path.lstrip("/") or "index.html"

@@ -62,4 +62,7 @@ sphinx_gallery_conf = {
     "abort_on_example_error": True,
     "only_warn_on_example_error": False,
     "min_reported_time": 1,
+    # no block's last value shown: an example prints what it means to show (a Legend, a Figure or a path left
+    # as a block's last expression printed <matplotlib.legend.Legend object at 0x…> on the four-bar's page)
+    "capture_repr": (),
 }

@@ -54,7 +54,10 @@ class VibdynScraper:
         seen = self._figures.setdefault(str(src), [])
         images = []
         for value in list(block_vars["example_globals"].values()):
-            if isinstance(value, Figure) and value.canvas.manager is None and not any(value is f for f in seen):
+            # a pyplot figure (it has a number, kept after pyplot closes it) is the matplotlib scraper's: taken
+            # here too once pyplot had closed it, it was shown twice (the four-bar's potential energy)
+            if (isinstance(value, Figure) and value.canvas.manager is None and getattr(value, "number", None) is None
+                    and not any(value is f for f in seen)):
                 seen.append(value)
                 path = next(block_vars["image_path_iterator"])
                 value.savefig(path, dpi=100)
