@@ -238,21 +238,28 @@ def test_pictures_draw_closed_loops_that_meet_full_lengths_and_planar_scenes_fac
     assert np.ptp(pts[:, 2]) == pytest.approx(2.0, rel=1e-12)
 
 
-def test_a_collinear_scene_draws_its_deformed_shape_beside_the_undeformed_one():
-    """The quarter car's two masses move on one vertical line: the deformed drawing is set beside the
-    undeformed one instead of on top of it (where nothing would show)."""
+def test_a_scene_moving_along_its_own_line_draws_its_modes_as_bar_charts():
+    """The quarter car's two masses move on their own vertical line, a chain of sliders along its line: a deformed
+    drawing would lie on the undeformed one, so modes.plot() draws each mode as a labelled bar chart of its
+    coordinates (vd.plots.mode_shapes: a panel per mode, bars = the mass-normalised shape); a pendulum is still
+    drawn as its deformed skeleton."""
     pytest.importorskip("matplotlib")
-    from vibdyn.faces.viewer.pictures import skeleton
-
-    system, m = quarter_car_modes()
-    n = len(skeleton(system, m.linear.q0)[0])  # segments of one drawing (the tyre, spring and damper)
+    system, m = quarter_car_modes()  # damped, not classically: complex shapes, titled with ω_d, ω_n and ζ
     fig = m.plot()
-    for k in range(m.n):
-        lines = drawn_lines(fig, k)
-        base_x = {round(float(x), 9) for s in lines[:n] for x in s[:, 0]}
-        assert len(base_x) == 1  # the undeformed one: a single vertical line
-        moved = np.vstack(lines[n:])
-        assert np.abs(moved[:, 0] - base_x.pop()).min() > 0.1  # m: beside it, not on it
+    assert len(fig.axes) == m.n
+    for k, a in enumerate(fig.axes):
+        phi = m.complex_shapes[:, k]  # as two phases: 0 (plain bars) and 90° later (hatched)
+        assert [p.get_height() for p in a.patches] == pytest.approx(np.r_[phi.real, phi.imag], rel=1e-12)
+        assert [bool(p.get_hatch()) for p in a.patches] == [False] * 2 + [True] * 2
+        assert a.get_ylabel() == f"mode {k + 1}" and f"ω_n = {m.omega_n[k]:.4g} rad/s" in a.get_title()
+    assert [t.get_text() for t in fig.axes[-1].get_xticklabels()] == list(system.coordinates)
+    chain = vd.load_scene("chain5_fixed_free").build().operating_point().linearize().modes()  # undamped
+    fig = chain.plot(which=[0, 1])
+    assert len(fig.axes) == 2 and f"ω = {chain.omega[1]:.4g} rad/s" in fig.axes[1].get_title()
+    assert [p.get_height() for p in fig.axes[1].patches] == pytest.approx(chain.shapes[:, 1], rel=1e-12)
+    trailer = vd.load_scene("trailer").build().operating_point().linearize().modes()
+    fig = trailer.plot()
+    assert not fig.axes[0].patches and len(drawn_lines(fig)) >= 2  # the cart and rod, over their rest position
 
 
 # ------------------------------------------------------------------ small defects, each with its test

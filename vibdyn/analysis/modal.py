@@ -172,9 +172,10 @@ class Modes:
 
     def plot(self, path: str | None = None, which: Any = None, amplitude: float | None = None, dpi: int = 100) -> Any:
         """Draw each mode (or those of ``which``, 0-based) as the deformed scene over the undeformed one, a
-        panel per mode with its frequency (Hz, rad/s) in the title; saved as PNG when ``path`` is given.
-        ``amplitude``: largest point displacement (m; default 10 % of the scene's size). Needs matplotlib;
-        returns the Figure (see :func:`vibdyn.faces.viewer.pictures.plot_modes`)."""
+        panel per mode with its frequency (Hz, rad/s) in the title; saved as PNG when ``path`` is given. A scene
+        that moves along its own line only (a chain of sliders on that line, a quarter car) is drawn as bar charts
+        of its coordinates instead. ``amplitude``: largest point displacement (m; default 10 % of the scene's
+        size). Returns the matplotlib Figure (see :func:`vibdyn.faces.viewer.pictures.plot_modes`)."""
         from ..faces.viewer.pictures import plot_modes
 
         return plot_modes(self, path=path, which=which, amplitude=amplitude, dpi=dpi)

@@ -1,6 +1,7 @@
 """Plots with matplotlib: Bode and Nyquist diagrams of a frequency response, mode-shape bar charts, time
-histories. matplotlib is imported only inside these functions (``pip install 'vibdyn[plot]'``); figures are
-drawn on the Agg canvas (no display needed, no pyplot state) and saved as PNG when ``path`` is given.
+histories. matplotlib (a base dependency) is imported only inside these functions (``import vibdyn`` does not
+load it); figures are drawn on the Agg canvas (no display needed, no pyplot state) and saved as PNG when
+``path`` is given.
 
 Each function returns the matplotlib ``Figure``.
 """
@@ -20,7 +21,8 @@ def figure(nrows=1, ncols=1, size=(7.0, 5.0), **kwargs):
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
     except ImportError:  # pragma: no cover - depends on the installation
-        raise ModelError("plots need matplotlib: pip install 'vibdyn[plot]'") from None
+        raise ModelError("plots need matplotlib, a dependency of vibdyn missing from this environment: "
+                         "pip install matplotlib") from None
     fig = Figure(figsize=size, layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(nrows, ncols, squeeze=False, **kwargs)

@@ -50,6 +50,8 @@ def plot_modes(modes, path=None, which=None, amplitude=None, dpi=100, columns=3)
         raise ModelError(f"plot: modes must be indices from 0 to {len(views) - 1}, got {which!r}")
     d = drawing(system, q0)
     J = lin.point_jacobian(d.probes) if d.probes else np.zeros((0, lin.nv))
+    if one_dimensional(J, skeleton(system, q0)):  # masses sliding along their own line: drawn on top of it
+        return _bar_charts(modes, views, idx, path, dpi)
     # face-on to the plane the modes move in (a planar mechanism is drawn in its own plane), up against gravity
     axes3 = projection(plane_normal(np.concatenate([(J @ views[i].shape).reshape(-1, 3) for i in idx])),
                        -np.asarray(system.scene.gravity, float))
@@ -74,6 +76,57 @@ def plot_modes(modes, path=None, which=None, amplitude=None, dpi=100, columns=3)
         a.set_yticks([])
         a.set_title(_wrap(v.label), fontsize="small")
     return save(fig, path, dpi)
+
+
+def _bar_charts(modes, views, idx, path, dpi):
+    """The modes of a scene moving along one line as bar charts of their coordinates, a panel per mode (as
+    :func:`vibdyn.faces.plots.mode_shapes`), titled as the skeleton pictures are (ω, f; ζ, ω_n, ω_d when damped):
+    a complex (non-classically damped) shape as its two phases, 0 and 90° later (hatched)."""
+    from ..plots import figure, save
+
+    labels = list(modes.linear.coordinates)
+    fig, ax = figure(len(idx), 1, size=(7.0, 1.2 + 1.9 * len(idx)), sharex=True)
+    pos = np.arange(len(labels))
+    for a, i in zip(ax[:, 0], idx):
+        v = views[i]
+        phases = [(v.shape.real, "phase 0")]
+        if np.any(v.shape.imag != 0):
+            phases.append((v.shape.imag, "90° later"))
+        width = 0.8 / len(phases)
+        for k, (values, label) in enumerate(phases):
+            a.bar(pos + (k - (len(phases) - 1) / 2) * width, values, width=width, label=label,
+                  color=np.where(values >= 0, "C0", "C3"), hatch="//" if k else None, edgecolor="white" if k else None)
+        a.axhline(0, color="0.4", lw=0.8)
+        a.set_ylabel(f"mode {i + 1}")
+        a.set_title(v.label, fontsize="small")
+        a.grid(True, axis="y", alpha=0.3)
+        if len(phases) > 1:
+            a.legend(loc="best", fontsize="x-small")
+    ax[-1, 0].set_xticks(pos)
+    ax[-1, 0].set_xticklabels(labels, rotation=30, ha="right")
+    return save(fig, path, dpi)
+
+
+def one_dimensional(J, skeleton_at_rest, tol=1e-9):
+    """Whether the scene moves along one line only: every point's motion (the rows of the point Jacobian ``J``,
+    3 per point) along one direction u and the skeleton at rest (segments, centres of mass) on one line along u
+    (a chain of sliders on a line, a quarter car). Its deformed drawing would lie on the undeformed one: such a
+    scene's modes are drawn as bar charts of their coordinates (:func:`vibdyn.faces.plots.mode_shapes`)."""
+    motions = np.asarray(J, float).reshape(-1, 3, J.shape[1]).transpose(0, 2, 1).reshape(-1, 3)
+    motions = motions[np.linalg.norm(motions, axis=1) > 0]
+    if not len(motions):
+        return False
+    _, sv, Vt = np.linalg.svd(motions, full_matrices=False)
+    if sv.size > 1 and sv[1] > tol * sv[0]:
+        return False
+    u = Vt[0]
+    segs, masses = skeleton_at_rest
+    pts = np.concatenate([np.asarray(segs, float).reshape(-1, 3), np.asarray(masses, float).reshape(-1, 3)])
+    if len(pts) < 2:
+        return True
+    c = pts - pts.mean(axis=0)
+    across = c - np.outer(c @ u, u)
+    return bool(np.abs(across).max() <= tol * max(np.abs(c).max(), 1e-300))
 
 
 def projection(direction, up=None):
