@@ -9,6 +9,7 @@ import re
 
 import numpy as np
 import pytest
+from test_harmonic_balance import duffing_scene
 
 import vibdyn as vd
 
@@ -16,15 +17,6 @@ import vibdyn as vd
 def err(*parts, kind=vd.ModelError):
     """pytest.raises(kind) whose message holds every part, in this order."""
     return pytest.raises(kind, match="(?s)" + ".*".join(re.escape(p) for p in parts))
-
-
-def oscillator(m, k, c):
-    """m ẍ + c ẋ + k x = f on a slider."""
-    s = vd.Scene("oscillator")
-    s.add_body("cart", joint=vd.Slider((1, 0, 0)), mass=m)
-    s.add_joint_spring("cart", k)
-    s.add_joint_damper("cart", c)
-    return s
 
 
 # ---------------------------------------------------------------------- a flat peak's frequency
@@ -35,9 +27,74 @@ def test_receptance_peak_of_a_heavily_damped_oscillator_is_within_its_tolerance(
     m, k = 2.0, 50.0
     wn = math.sqrt(k / m)
     for zeta in (0.3, 0.5, 0.69):
-        f = oscillator(m, k, 2 * zeta * math.sqrt(k * m)).build().equilibrium().linearize().receptance(
-            np.linspace(0.1, 10.0, 120))
+        scene = duffing_scene(c=2 * zeta * math.sqrt(k * m), k3=0.0, k=k, m=m)  # m ẍ + c ẋ + k x = f
+        f = scene.build().equilibrium().linearize().receptance(np.linspace(0.1, 10.0, 120))
         p = f.peaks()
         exact = wn * math.sqrt(1 - 2 * zeta**2)
         assert abs(p.resonances[0] - exact) <= p.tolerance
         assert p.tolerance < 1e-6 * wn
+
+
+# ---------------------------------------------------------------------- absurd but finite inputs
+def rod_and_cart(free_length=0.5, stiffness=100.0, mass=1.0, inertia=1e-2, point=(0.0, 0.0, 1.0), at=(0.0, 0.0, 0.0),
+                 com=(0.0, 0.0, -0.5), force_at=(0.0, 0.0, 0.0), damper_point=(0.0, 0.0, 1.0), rest=0.0):
+    """A pivoting rod carrying a cart on a slider, a spring and a damper from the ground to the cart, a force
+    on the rod and a joint spring on the cart: each argument is one number or point a caller may make absurd."""
+    s = vd.Scene("absurd", gravity=(0.0, 0.0, -9.81))
+    s.add_body("rod", joint=vd.Pivot((0, 1, 0), at=at), mass=mass, com=com, inertia=np.eye(3) * inertia)
+    s.add_body("cart", parent="rod", joint=vd.Slider((0, 0, 1)), mass=1.0)
+    s.add_spring("spring", ("world", point), ("cart", (0, 0, 0)), stiffness=stiffness, free_length=free_length)
+    s.add_damper("damper", ("world", damper_point), ("cart", (0, 0, 0)), damping=0.1)
+    s.add_force("push", "rod", (1.0, 0.0, 0.0), at=force_at)
+    s.add_joint_spring("cart", 10.0, rest=rest)
+    return s
+
+
+BIG, TINY = 1e300, 1e-300
+ABSURD = [  # (argument, value, the element a refusal must name)
+    ("free_length", BIG, "spring 'spring'"), ("free_length", TINY, "spring 'spring'"),
+    ("free_length", 1e150, "spring 'spring'"),
+    ("stiffness", BIG, "spring 'spring'"), ("stiffness", TINY, "spring 'spring'"),
+    ("mass", BIG, "body 'rod'"), ("mass", TINY, "body 'rod'"),
+    ("mass", 1e150, "body 'cart'"),  # (beside 1e150 kg the 1 kg cart is refused as without inertia: it is named)
+    ("inertia", BIG, "body 'rod'"), ("inertia", TINY, "body 'rod'"),
+    ("point", (BIG, 0.0, 1.0), "spring 'spring'"), ("point", (TINY, 0.0, 1.0), "spring 'spring'"),
+    ("point", (0.0, -BIG, 1.0), "spring 'spring'"),
+    ("damper_point", (BIG, 0.0, 1.0), "damper 'damper'"),
+    ("force_at", (0.0, 0.0, BIG), "'push'"), ("force_at", (0.0, 0.0, TINY), "'push'"),
+    ("at", (BIG, 0.0, 0.0), "body 'rod'"), ("at", (TINY, 0.0, 0.0), "body 'rod'"),
+    ("at", (0.0, 0.0, -1e150), "body 'rod'"),
+    ("com", (BIG, 0.0, 0.0), "body 'rod'"), ("com", (0.0, 0.0, -TINY), "body 'rod'"),
+    ("rest", BIG, "cart"), ("rest", TINY, "cart"),
+]
+
+
+@pytest.mark.parametrize("argument, value, element", ABSURD, ids=[f"{a}={v}" for a, v, _ in ABSURD])
+def test_absurd_but_finite_input_works_or_is_refused_naming_its_element(argument, value, element):
+    """Each absurd but finite input either builds and analyses with finite results (accelerations, the
+    linear model, its modes) or raises a ModelError naming the element — never a raw exception (a free
+    length of 1e300 m once raised OverflowError from the inertia scales), never a result through overflow."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow on the way to a result is a failure too
+        try:
+            system = rod_and_cart(**{argument: value}).build()
+            q = system.neutral()
+            a = system.accelerations(q, np.zeros(system.nv))
+            lin = system.linearize(q)
+            modes = lin.modes()
+        except vd.ModelError as e:
+            assert element in str(e), str(e)
+            return
+    assert np.all(np.isfinite(a)) and np.all(np.isfinite(lin.K)) and np.all(np.isfinite(lin.M))
+    assert np.all(np.isfinite(modes.omega)) and np.all(np.isfinite(modes.omega_error))
+
+
+def test_a_spring_free_length_of_1e300_m_is_refused_at_the_scene_not_at_build():
+    with err("spring 'spring' free_length", "1e+300 m", "at most 1e+100 m"):
+        rod_and_cart(free_length=1e300)
+    with err("body 'rod' mass", "1e+300 kg"):
+        rod_and_cart(mass=1e300)
+    with err("body 'rod' joint 'at'", "1e+300 m"):
+        rod_and_cart(at=(0.0, 1e300, 0.0))

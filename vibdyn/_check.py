@@ -58,6 +58,21 @@ def scalar(value, what, *, positive=False, nonnegative=False):
     return x
 
 
+# Magnitudes no scene has, refused where they enter (naming the element): the model's scales square the
+# lengths and multiply them by the masses, and Pinocchio's mass matrix overflowed with two bodies of 1e300 kg
+# (not with 1e150). The observable universe spans ~1e27 m and holds ~1e53 kg.
+MAX_LENGTH = 1e100  # m
+MAX_MASS = 1e150  # kg
+
+
+def bounded(value, limit, what, unit):
+    """``value`` (finite numbers) unchanged if every |x| ≤ ``limit``, else ModelError naming ``what``."""
+    if np.max(np.abs(value), initial=0.0) > limit:
+        raise ModelError(f"{what}: {np.max(np.abs(value)):.3g} {unit} is beyond what a scene can hold (at most "
+                         f"{limit:g} {unit})")
+    return value
+
+
 def integer(value, what, *, minimum=None, maximum=None):
     """An int (not a bool, not a float with a fraction) within [minimum, maximum], else ModelError."""
     if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)):

@@ -14,6 +14,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._check import (
+    MAX_LENGTH,
+    MAX_MASS,
+    bounded,
     finite_array,
     scalar,
     unknown_name,
@@ -116,10 +119,11 @@ class Scene:
             raise ModelError(f"{what}: joint name 'world' is reserved for the fixed frame")
         if joint.name and (joint.name in self.elements or self.find_body(joint.name) is not None):
             raise ModelError(f"{what}: duplicate name '{joint.name}' for its joint")
-        m = scalar(mass, f"{what} mass")
+        bounded(joint.at, MAX_LENGTH, f"{what} joint 'at'", "m")
+        m = bounded(scalar(mass, f"{what} mass"), MAX_MASS, f"{what} mass", "kg")
         if m < 0:
             raise ModelError(f"{what}: negative mass {m} kg")
-        c = vector3(com, f"{what} com")
+        c = bounded(vector3(com, f"{what} com"), MAX_LENGTH, f"{what} com", "m")
         I = np.zeros((3, 3)) if inertia is None else finite_array(inertia, (3, 3), f"{what} inertia")
         if inertia_about is not None:
             I = _inertia.to_com(I, m, c, vector3(inertia_about, f"{what} inertia_about"))

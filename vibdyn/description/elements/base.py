@@ -15,7 +15,7 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 
-from ..._check import finite_array, vector3
+from ..._check import MAX_LENGTH, bounded, finite_array, vector3
 from ...errors import ModelError
 
 WORLD = "world"
@@ -86,7 +86,7 @@ def attachment(value, what):
         raise ModelError(f"{what}: expected (body, (x, y, z)), got {value!r}") from None
     if not isinstance(body, str):
         raise ModelError(f"{what}: body name must be a string, got {body!r}")
-    return body, tuple(float(x) for x in vector3(point, what))
+    return body, tuple(float(x) for x in bounded(vector3(point, what), MAX_LENGTH, f"{what} point", "m"))
 
 
 def file_attachment(a):

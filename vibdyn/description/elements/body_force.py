@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..._check import call_user, user_callable, value_string, value_vec3, vector3
+from ..._check import MAX_LENGTH, bounded, call_user, user_callable, value_string, value_vec3, vector3
 from ..._format import vector
 from ...errors import ModelError
 from ...model.groups import ForceGroup
@@ -160,7 +160,7 @@ class BodyForce(ElementKind):
             raise ModelError(f"{what}: frame must be 'world' or 'body', got {frame!r}")
         f = vector_or_callable(force, f"{what} force")
         tq = vector_or_callable(torque, f"{what} torque")
-        p = tuple(map(float, vector3(at, f"{what} at")))
+        p = tuple(map(float, bounded(vector3(at, f"{what} at"), MAX_LENGTH, f"{what} at", "m")))
         return scene.add_element(cls(name, b.name, p, f, tq, frame))
 
     def to_dict(self):

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..._check import scalar, value_attachment, value_nonnegative, value_string
+from ..._check import MAX_LENGTH, bounded, scalar, value_attachment, value_nonnegative, value_string
 from ..._format import number
 from ...errors import ModelError
 from ...model.groups import TwoPoint
@@ -148,7 +148,8 @@ class Spring(ElementKind):
         scene.check_new_name(name, "element")
         a, b = scene.resolve_attachment(a, what + " end a"), scene.resolve_attachment(b, what + " end b")
         k = scalar(stiffness, f"{what} stiffness", nonnegative=True)
-        l0 = None if free_length is None else scalar(free_length, f"{what} free_length", nonnegative=True)
+        l0 = None if free_length is None else bounded(scalar(free_length, f"{what} free_length", nonnegative=True),
+                                                      MAX_LENGTH, f"{what} free_length", "m")
         return scene.add_element(cls(name, a, b, k, l0))
 
     @classmethod
