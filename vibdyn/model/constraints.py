@@ -43,6 +43,7 @@ class Constraints:
     def __init__(self, system, loops):
         self.system = system
         self.closed = None
+        self._assembly = None  # the described pose's Assembly (or its ConvergenceError), once searched
         self.dof_closed = None
         self.loops = tuple(loops)
         self._ends = []
@@ -304,15 +305,16 @@ class Constraints:
             k += n
         return out
 
-    def assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0"):
+    def assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0", record=True):
         """The consistent configuration near q0: Gauss–Newton with minimum-norm steps (SVD) in the tangent
         space, each at most :data:`MAX_STEP` (rad, or × the length scale), configurations moved with
         ``pin.integrate``; dimensionless residual ≤ tol. Angles of pivots (and the periodic coordinates of
         cylindrical and universal joints) end within π of q0's. ``start`` names q0 in the error (a
-        ConvergenceError naming the loop and the residual reached from it)."""
-        return self._assemble(q0, tol, max_iter, start)[0]
+        ConvergenceError naming the loop and the residual reached from it). ``record``: False for a trial
+        closure (a search's), never kept as :attr:`closed`."""
+        return self._assemble(q0, tol, max_iter, start, record)[0]
 
-    def _assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0"):
+    def _assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0", record=True):
         """(q, Φ(q), Φ_q(q)) of :meth:`assemble`; Φ_q is None where it was not evaluated at q. The solver
         kit's Newton (:func:`vibdyn.solvers.newton.newton`) in the dimensionless metric: minimum-norm
         least-squares steps on the rank of Φ_q, each at most MAX_STEP, moved by ``pin.integrate``."""
@@ -341,7 +343,7 @@ class Constraints:
         best = (out.residual, out.x)
         if best[0] <= tol:
             phi, J = (last["phi"], last["J"]) if last.get("q") is out.x else (None, None)
-            return self._closed_at(best[1], q0, start), phi, J
+            return self._closed_at(best[1], q0, start, record), phi, J
         phi = self.scaled_phi(self.phi(best[1]))
         worst = self.loop_of_row(int(np.argmax(np.abs(phi))))
         raise ConvergenceError(f"assembly from {start}: the loops cannot be closed near it: loop '{worst}' "
@@ -350,18 +352,43 @@ class Constraints:
                                "(q0=, or Scene.set_operating_point(start=...))",
                                residual=float(np.abs(phi).max()), best=best[1])
 
-    def _closed_at(self, q, q0, start):
+    def _closed_at(self, q, q0, start, record=True):
         """q with its periodic angles within π of q0's; the first closed configuration met is kept
-        (:attr:`closed`, where the mobility is taken) after the check that no loop locks the mechanism."""
+        (:attr:`closed`, where the mobility is taken; not with ``record`` False) after the check that no loop
+        locks the mechanism."""
         iq = self.system.periodic_coordinates
         if iq.size:
             d = q[iq] - q0[iq]
             q[iq] = q0[iq] + (d - 2 * np.pi * np.round(d / (2 * np.pi)))
-        if self.closed is None:
+        if self.closed is None and record:
             self.check_mobility(q)
             self.dof_closed = self.system.nv - self.rank(q)
             self.closed = (q.copy(), start)
         return q
+
+    def assembly(self):
+        """The :class:`~vibdyn.model.assembly.Assembly` of the described pose: the closure of the loops nearest
+        the neutral configuration (searched once, then kept; a ConvergenceError naming the loop that stays
+        open and its residual if there is none)."""
+        from .assembly import assemble_described
+
+        if self._assembly is None:
+            try:
+                self._assembly = assemble_described(self)
+            except ConvergenceError as e:
+                self._assembly = e
+        a = self._assembly
+        if isinstance(a, ConvergenceError):
+            raise ConvergenceError(str(a), residual=a.residual, best=a.best)
+        return a
+
+    def start(self):
+        """(q, what) where a scene without a declared start begins: its :meth:`assembly`; a ModelError naming
+        the loop if that closure is a singular position of the mechanism (refused where it is met)."""
+        a = self.assembly()
+        if a.singular:
+            raise ModelError(a.note)
+        return a.q.copy(), a.where
 
     @property
     def dof(self):
@@ -483,13 +510,16 @@ class Constraints:
 def compile_loops(system):
     """The :class:`Constraints` of a system's scene. Nothing here assumes that the neutral configuration
     closes the loops: the mobility is taken at the first closed configuration met (:attr:`closed`), tried
-    here from the system's start (the declared one, else neutral; a start that does not close leaves it to
-    the first analysis, which names its own start if it fails). A loop that locks the mechanism there is a
-    ModelError naming it."""
+    here from the declared start, else by the assembly of the described pose (:meth:`Constraints.assembly`;
+    a start that does not close, or a closure at a singular position, is left to the first analysis, which
+    names it). A loop that locks the mechanism there is a ModelError naming it."""
     c = Constraints(system, system.scene.loops.values())
     try:
-        q, label = system.start_configuration()
-        c.assemble(q, start=label)
+        if (system.scene.operating_point or {}).get("start") is None:
+            c.assembly()
+        else:
+            q, label = system.start_configuration()
+            c.assemble(q, start=label)
     except ConvergenceError:
         pass
     return c

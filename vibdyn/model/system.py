@@ -243,10 +243,10 @@ class System:
 
     def start_configuration(self) -> tuple[Vector, str]:
         """(q, what): the configuration analyses start from when given none (the scene's declared start,
-        :meth:`Scene.set_operating_point`, else neutral) and how error messages name it."""
+        :meth:`Scene.set_operating_point`, else neutral: with loops, their closure nearest it) and its name."""
         start = (self.scene.operating_point or {}).get("start")
-        if start is None:
-            return self.neutral(), "the neutral configuration"
+        if start is None:  # (with loops: vibdyn.model.assembly)
+            return (self.neutral(), "the neutral configuration") if self.constraints is None else self.constraints.start()
         try:
             q = self.configuration(start)
         except ModelError as e:

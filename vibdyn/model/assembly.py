@@ -1,0 +1,277 @@
+"""Assembly of a looped scene from its described pose: with no declared start, analyses begin at the closure
+of the loops nearest the neutral configuration (every joint at its zero, as the scene was drawn).
+
+1. Trust-region least squares (scipy's ``least_squares``) on the dimensionless loop residual Φ in the chart
+   q(x) = integrate(q_d, s·x) at the described pose q_d (s: 1 for angles, the length scale for
+   translations), polished to round-off by the loops' Gauss–Newton (:meth:`Constraints.assemble`).
+2. Where that fails (a linkage laid flat is a stationary point of |Φ|²), restarts from perturbed poses:
+   ±r along each coordinate for each r of :data:`RESTART_RADII`, then seeded random poses; the first round
+   that closes the loops ends the search.
+3. Each closure found is slid along the loops to the closure nearest q_d (steps towards q_d projected on
+   the null space of Φ_q, each closed again); the nearest of them is taken. Ties (the mirror images of a
+   symmetric description) go to the closure whose first differing coordinate is larger, and are noted.
+4. The mobility is taken there. A singular position (rank of Φ_q below its rank at the closures beside it:
+   a change point) is kept in the :class:`Assembly` and refused as a start, naming the loop; a closure
+   where the scene's forces are undefined (a spring whose ends meet) is left along the mechanism's motion,
+   the first coordinate that moves increasing.
+"""
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import ConvergenceError, ModelError
+
+#: radii (rad, or × the length scale) of the restarts along ± each coordinate, one round each
+RESTART_RADII = (0.25, 1.0, np.pi / 2)
+RANDOM_RESTARTS = 8  # the last round: seeded random poses, half with std 1, half with std 2 (dimensionless)
+OPEN_TOL = 1e-6  # a least-squares result with dimensionless |Φ| below this is polished by Gauss–Newton
+SLIDE_TOL, SLIDE_ITER = 1e-10, 300  # the slide to the nearest closure: last projected step (dimensionless)
+SAME = 1e-6  # closures nearer each other than this (dimensionless) are one
+TIE_RTOL = 1e-7  # distances within this (relative) are a tie
+BESIDE = 1e-3  # step to the closures beside one, for the rank there (dimensionless)
+LEAVE = (1e-3, 1e-2, 1e-1)  # steps along the motion off a closure where the forces are undefined
+WHERE = "the closure nearest the neutral configuration"
+
+
+@dataclass(frozen=True, eq=False)
+class Assembly:
+    """The closure of a scene's loops nearest its described (neutral) pose, where analyses start when no
+    start is declared. ``q`` the configuration, ``where`` its name in messages; ``constraint_residual`` the
+    largest |Φ(q)| (dimensionless: m / length scale, or rad: its error); ``offsets`` (m or rad per
+    coordinate) and ``distance`` (dimensionless) from the neutral configuration; ``dof`` = nv − ``rank`` the
+    mobility found there, ``generic_rank`` the rank of Φ_q at the closures beside it; ``singular`` when
+    rank < generic_rank (a change point: refused as a start); ``starts`` the least-squares runs; ``note``
+    what was chosen and why (ties, a start moved off a singular force, the singular position); ``elapsed``
+    (s)."""
+
+    q: np.ndarray = field(repr=False)
+    where: str
+    constraint_residual: float
+    offsets: np.ndarray = field(repr=False)
+    distance: float
+    dof: int
+    rank: int
+    generic_rank: int
+    singular: bool
+    starts: int
+    note: str
+    elapsed: float
+
+    def __repr__(self):
+        state = "SINGULAR" if self.singular else f"dof {self.dof}"
+        return (f"Assembly({self.where}: residual {self.constraint_residual:.1e}, distance {self.distance:.4g}, "
+                f"{state} (rank {self.rank}), {self.starts} starts" + (", see .note)" if self.note else ")"))
+
+
+def _chart(c, qd):
+    """(q(x), Φ̃(x), Φ̃_x(x)): the chart at qd in dimensionless tangent coordinates and the dimensionless
+    loop residual and its Jacobian there."""
+    model, cs = c.system.model, c.col_scale
+
+    def at(x):
+        return pin.integrate(model, qd, cs * x)
+
+    def fun(x):
+        return c.scaled_phi(c.phi(at(x)))
+
+    def jac(x):
+        D = pin.dIntegrate(model, qd, cs * x, pin.ARG1)
+        return c.row_scale[:, None] * (c.jacobian(at(x)) @ D) * cs[None, :]
+
+    return at, fun, jac
+
+
+def _rounds(nv):
+    """The starts (dimensionless offsets from the described pose), round by round."""
+    yield [np.zeros(nv)]
+    for r in RESTART_RADII:
+        yield [s * r * e for e in np.eye(nv) for s in (1.0, -1.0)]
+    rng = np.random.default_rng(0)
+    yield [r * rng.standard_normal(nv) for r in (1.0, 2.0) for _ in range(RANDOM_RESTARTS // 2)]
+
+
+def _wrapped(system, q, qd):
+    """q with its periodic angles within π of qd's (the same pose)."""
+    iq = system.periodic_coordinates
+    if iq.size:
+        q = q.copy()
+        d = q[iq] - qd[iq]
+        q[iq] = qd[iq] + (d - 2 * np.pi * np.round(d / (2 * np.pi)))
+    return q
+
+
+def _close(c, q, qd):
+    """The closure by Gauss–Newton from q (a trial: not recorded), angles within π of qd's; None if none."""
+    try:
+        return _wrapped(c.system, c.assemble(q, start="a trial pose", record=False), qd)
+    except ConvergenceError:
+        return None
+
+
+def _offsets(c, qd, q):
+    return pin.difference(c.system.model, qd, q) / c.col_scale
+
+
+def _nearest(c, qd, q):
+    """The closure nearest qd reached from the closure q along the loops: the step towards qd projected on
+    the null space of Φ_q (dimensionless metric), closed again, until it vanishes or stops shortening."""
+    model, cs = c.system.model, c.col_scale
+    dist = np.linalg.norm(_offsets(c, qd, q))
+    for _ in range(SLIDE_ITER):
+        rank, _, _, Vt = c.decompose(c.jacobian(q))
+        V0 = Vt[rank:]
+        step = V0.T @ (V0 @ (pin.difference(model, q, qd) / cs))
+        if np.abs(step).max(initial=0.0) <= SLIDE_TOL:
+            break
+        q1 = _close(c, pin.integrate(model, q, cs * step), qd)
+        if q1 is None:
+            break
+        d1 = np.linalg.norm(_offsets(c, qd, q1))
+        if d1 > dist * (1 + 1e-9):  # (near the nearest the distance changes by step², below its round-off)
+            break
+        q, dist = q1, d1
+    return q
+
+
+def _closures(c, qd):
+    """(closures found, starts tried, (best open residual, its q)): least squares from the described pose,
+    then from each round of perturbed poses until one closes the loops."""
+    from scipy.optimize import least_squares
+
+    at, fun, jac = _chart(c, qd)
+    found, tried, best = [], 0, (np.inf, qd)
+    for starts in _rounds(c.system.nv):
+        for x0 in starts:
+            tried += 1
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    r = least_squares(fun, x0, jac, method="trf", xtol=1e-10, ftol=1e-10, gtol=1e-10)
+            except ValueError:  # (a start where Φ is not finite)
+                continue
+            res = float(np.abs(r.fun).max(initial=0.0))
+            if res < best[0]:
+                best = (res, at(r.x))
+            q = _close(c, at(r.x), qd) if res <= OPEN_TOL else None
+            if q is not None:
+                found.append(q)
+        if found:
+            break
+    return found, tried, best
+
+
+def _beside_ranks(c, q, qd):
+    """Ranks of Φ_q (the first k rows, for each loop's last row k) at the closures BESIDE q along ± each
+    null-space direction: their largest, per loop."""
+    model, cs = c.system.model, c.col_scale
+    rank, _, _, Vt = c.decompose(c.jacobian(q))
+    ends = np.cumsum(c.sizes)
+    out = np.zeros(len(ends), dtype=int)
+    for v in Vt[rank:]:
+        for s in (1.0, -1.0):
+            q1 = _close(c, pin.integrate(model, q, cs * (s * BESIDE * v)), qd)
+            if q1 is not None:
+                J = c.jacobian(q1)
+                out = np.maximum(out, [c.decompose(J[:k])[0] for k in ends])
+    return out
+
+
+def _coordinate_text(system, q):
+    x = system.difference(system.neutral(), q)
+    return ", ".join(f"{n} = {v:.6g} {u}" for n, v, u in zip(system.coordinates, x, system.units))
+
+
+def _leave(c, q, qd):
+    """(q, note): q itself where the scene's forces are defined; else the first closure, LEAVE steps along
+    the motion, where they are (the first coordinate that moves increasing), with why."""
+    system, model, cs = c.system, c.system.model, c.col_scale
+    zero = np.zeros(system.nv)
+    try:
+        system.generalized_forces(q, zero)
+        return q, ""
+    except ModelError as e:
+        why = str(e).split(" at the configuration")[0].split(":")[0]
+    rank, _, _, Vt = c.decompose(c.jacobian(q))
+    V0 = Vt[rank:]
+    for k in range(system.nv):
+        p = V0.T @ V0[:, k]  # e_k projected on the motions: moving along it increases coordinate k
+        if np.linalg.norm(p) > 1e-6:
+            break
+    else:
+        return q, ""
+    p = p / np.linalg.norm(p)
+    for h in LEAVE:
+        q1 = _close(c, pin.integrate(model, q, cs * (h * p)), qd)
+        if q1 is None:
+            continue
+        try:
+            system.generalized_forces(q1, zero)
+        except ModelError:
+            continue
+        return q1, (f"{why} at the nearest closure: the start is moved {h:g} (dimensionless) along the "
+                    f"mechanism's motion, '{system.coordinates[k]}' increasing")
+    return q, ""
+
+
+def assemble_described(c):
+    """The :class:`Assembly` of the described pose of the loops ``c`` (a :class:`Constraints`); see the
+    module. A ConvergenceError naming the loop left most open, and by how much, if no start closes them."""
+    start = time.perf_counter()
+    system = c.system
+    qd = system.neutral()
+    found, tried, (res, q_open) = _closures(c, qd)
+    if not found:
+        phi = c.scaled_phi(c.phi(q_open))
+        worst = c.loop_of_row(int(np.argmax(np.abs(phi))))
+        raise ConvergenceError(
+            f"assembly from the neutral configuration: the loops cannot be closed near it nor from {tried - 1} "
+            f"perturbed poses (trust-region least squares): loop '{worst}' stays open by {res:.3e} at best "
+            f"(dimensionless: m / length scale {system.length_scale:g} m, or rad), at {_coordinate_text(system, q_open)}"
+            ": its bodies cannot reach each other as described (check the loop's points and the links' lengths), "
+            "or declare a start near a closed configuration (Scene.set_operating_point(start=...))",
+            residual=res, best=q_open)
+    unique = []
+    for q in (_nearest(c, qd, q) for q in found):
+        x = _offsets(c, qd, q)
+        if all(np.abs(x - y).max() > SAME for _, y, _ in unique):
+            unique.append((float(np.linalg.norm(x)), x, q))
+    d_min = min(d for d, _, _ in unique)
+    tied = [u for u in unique if u[0] <= d_min * (1 + TIE_RTOL) + SAME]
+    chosen, k = tied[0], 0
+    for other in tied[1:]:
+        k = int(np.flatnonzero(np.abs(other[1] - chosen[1]) > SAME)[0])
+        if other[1][k] > chosen[1][k]:
+            chosen = other
+    notes = []
+    if len(tied) > 1:
+        i = int(np.flatnonzero(np.abs(tied[0][1] - tied[1][1]) > SAME)[0])
+        notes.append(f"{len(tied)} closures at the same distance {d_min:.6g} (mirror images of a symmetric "
+                     f"description): took the one with the larger '{system.coordinates[i]}' (the first coordinate "
+                     "where they differ); declare a start to take another")
+    q = chosen[2]
+    J = c.jacobian(q)
+    ends = np.cumsum(c.sizes)
+    here = np.array([c.decompose(J[:k])[0] for k in ends])
+    beside = _beside_ranks(c, q, qd)
+    for _, _, other in unique:
+        Jo = c.jacobian(other)
+        beside = np.maximum(beside, [c.decompose(Jo[:k])[0] for k in ends])
+    rank, generic = int(here[-1]), int(max(beside[-1], here[-1]))
+    singular = rank < generic
+    if singular:
+        lost = int(np.flatnonzero(here < beside)[0])
+        notes.append(f"loop '{c.loops[lost].name}': {WHERE} ({_coordinate_text(system, q)}) is a singular position "
+                     f"of the mechanism: the loops' Jacobian has rank {rank} there and {generic} at the closures beside "
+                     f"it (mobility {system.nv - rank} there, {system.nv - generic} elsewhere: branches of the motion "
+                     "cross there); declare a start off it (Scene.set_operating_point(start=...), or q0=)")
+    else:
+        q, why = _leave(c, q, qd)
+        if why:
+            notes.append(why)
+        q = c.assemble(q, start=WHERE)  # (recorded: the mobility is taken here; a locking loop is named)
+    phi = float(np.abs(c.scaled_phi(c.phi(q))).max(initial=0.0))
+    x = _offsets(c, qd, q)
+    return Assembly(q, WHERE, phi, x * c.col_scale, float(np.linalg.norm(x)), system.nv - rank, rank, generic,
+                    singular, tried, "; ".join(notes), time.perf_counter() - start)
