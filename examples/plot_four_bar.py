@@ -49,9 +49,22 @@ scene.add_loop("C", ("coupler", (b, 0, 0)), ("rocker", (c, 0, 0)), joint=vd.Pivo
 
 
 # %%
-# An assembled start, from the closed-form position analysis
-# ----------------------------------------------------------
-# With the crank at θ, C is where the circles of radius b about B and c about D meet (the upper branch).
+# Assembled from the drawing
+# --------------------------
+# No start is given: the loop is open as drawn (every angle zero), and vibdyn assembles the mechanism at the
+# closure nearest that pose (least squares, restarts where the flat drawing leaves it stuck, the nearest
+# closure kept; as near below the ground line as above, it takes the larger crank angle and says so).
+system = scene.build()
+assembly = system.constraints.assembly()
+print(assembly)
+print(assembly.note)
+print("coordinates", system.coordinates, "| loop equations", system.constraint_jacobian(assembly.q).shape[0],
+      "| mobility", system.dof)
+
+
+# %%
+# The closed-form position analysis checks it: with the crank at θ, C is where the circles of radius b about B
+# and c about D meet (the upper branch).
 def position(theta):
     """Each link's (mass, J about its centre, centre (2,), angle) with the crank at ``theta`` (rad)."""
     B, D = a * np.array([math.cos(theta), math.sin(theta)]), np.array([d, 0.0])
@@ -65,11 +78,12 @@ def position(theta):
             (masses["rocker"], masses["rocker"] * c**2 / 12, D + (C - D) / 2, phi_c)]
 
 
-links = position(1.0)
-scene.set_operating_point(start={"crank": 1.0, "coupler": links[1][3] - 1.0, "rocker": links[2][3]})
-system = scene.build()
-print("coordinates", system.coordinates, "| loop equations", system.constraint_jacobian(system.assemble()).shape[0],
-      "| mobility", system.dof)
+theta_a, coupler_a, rocker_a = system.difference(system.neutral(), assembly.q)
+_, link_b, link_c = position(theta_a)
+print(f"assembled: θ = {theta_a:.6f} rad, coupler {coupler_a:.6f}, rocker {rocker_a:.6f} rad; closed form "
+      f"{link_b[3] - theta_a:.6f}, {link_c[3]:.6f}; closure residual {assembly.constraint_residual:.1e}")
+tol = 10 * (assembly.constraint_residual + 1e-16) / system.constraints.conditioning(assembly.q)  # rad, from Φ
+assert abs(coupler_a - (link_b[3] - theta_a)) <= tol and abs(rocker_a - link_c[3]) <= tol
 
 # %%
 # Equilibrium and frequency
