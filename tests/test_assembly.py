@@ -154,3 +154,29 @@ def test_a_change_point_four_bar_is_refused_at_its_singular_nearest_closure(tmp_
     scene.set_operating_point(start={"crank": 1.0, "coupler": cpl, "rocker": rck})
     system = scene.build()
     assert system.dof == 1 and system.constraints.closed[1].startswith("the declared start")
+
+
+def test_a_spatial_linkage_with_a_ball_joint_assembles_at_a_local_nearest_closure():
+    """RSSR (crank pivot, coupler on a ball joint: a quaternion, rocker pivot about y, ball loop): the assembly
+    works in the tangent space of the ball joint; its closure is a unit quaternion on the loops, and the
+    closures beside it along ± each motion the loops allow are farther from the described pose."""
+    s = vd.Scene("rssr", gravity=(0, -9.81, 0))
+    s.add_body("crank", joint=vd.Pivot((0, 0, 1)), mass=1.0, com=(0.05, 0, 0), inertia=np.diag([1e-4, 1e-3, 1e-3]))
+    s.add_body("coupler", parent="crank", joint=vd.Ball(at=(0.1, 0, 0)), mass=0.5, com=(0.15, 0, 0),
+               inertia=np.diag([1e-4, 4e-3, 4e-3]))
+    s.add_body("rocker", joint=vd.Pivot((0, 1, 0), at=(0.3, 0, 0.05)), mass=0.8, com=(0.125, 0, 0),
+               inertia=np.diag([1e-4, 4e-3, 4e-3]))
+    s.add_loop("S", ("coupler", (0.3, 0, 0)), ("rocker", (0.25, 0, 0)), joint=vd.Ball())
+    system = s.build()
+    a = system.constraints.assembly()
+    assert a.dof == system.dof == 2 and a.distance > 0.1  # (the coupler's spin about its own axis is free)
+    quaternion = a.q[1:5]
+    assert abs(np.linalg.norm(quaternion) - 1.0) <= 1e-14
+    assert np.abs(system.constraint_residual(a.q)).max() <= ASSEMBLY_TOL * system.length_scale
+    c, neutral = system.constraints, system.neutral()
+    N = c.null_space(a.q)
+    for v in N.T:
+        for sign in (1.0, -1.0):
+            beside = system.assemble(system.integrate(a.q, sign * 1e-3 * v / np.linalg.norm(v / c.col_scale)))
+            x = system.difference(neutral, beside) / c.col_scale
+            assert np.linalg.norm(x) >= a.distance - 1e-12
