@@ -85,3 +85,82 @@ def test_the_site_check_finds_a_figure_shown_twice_and_an_object_repr(tmp_path):
     assert check_site.gallery_problems(tmp_path, ["auto_examples/plot_x.html"]) == [
         "auto_examples/plot_x.html: the same figure shown twice (../_images/sphx_glr_plot_x_a.png and "
         "../_images/sphx_glr_plot_x_b.png)"]
+
+
+def _distance(points, line, scale):
+    """Largest distance (scaled) from each of ``points`` (n × 2) to the polyline ``line`` (m × 2)."""
+    import numpy as np
+
+    P, L = np.asarray(points) / scale, np.asarray(line) / scale
+    A, AB = L[:-1], np.diff(L, axis=0)
+    worst = 0.0
+    for p in P:
+        t = np.clip(((p - A) * AB).sum(1) / np.maximum((AB * AB).sum(1), 1e-300), 0.0, 1.0)
+        worst = max(worst, float(np.min(np.linalg.norm(A + t[:, None] * AB - p, axis=1))))
+    return worst
+
+
+def test_a_forced_response_curve_is_drawn_as_a_curve_through_its_points():
+    """Duffing's curve with a coarse step (24 points): the drawn curve (splines of the harmonic coefficients along
+    the arc) stays within 1 % of the plot's scale of the curve computed with a fine step (143 points), 4 times
+    nearer than the polyline through the coarse points; the coarse points lie on it."""
+    import numpy as np
+
+    duffing = vd.load_scene("duffing").build()
+    coarse = vd.forced_response_curve(duffing, ("mass", 0.1), (0.5, 2.0), "mass", harmonics=5, step=0.1)
+    fine = vd.forced_response_curve(duffing, ("mass", 0.1), (0.5, 2.0), "mass", harmonics=5, step=0.005)
+    assert len(coarse.omega) < 30 < 100 < len(fine.omega)
+    fig = coarse.plot()
+    drawn = [line.get_xydata() for line in fig.axes[0].lines if line.get_linestyle() in ("-", "--")
+             and len(line.get_xydata()) > 2]
+    curve = np.vstack(drawn)
+    assert len(curve) >= 10 * len(coarse.omega)
+    scale = np.array([np.ptp(coarse.omega), coarse.amplitude.max()])
+    truth = np.c_[fine.omega, fine.amplitude]
+    dense, polyline = _distance(truth, curve, scale), _distance(truth, np.c_[coarse.omega, coarse.amplitude], scale)
+    assert dense < 0.01 and dense < polyline / 4, (dense, polyline)
+    assert _distance(np.c_[coarse.omega, coarse.amplitude], curve, scale) < 1e-12
+
+
+def test_a_backbone_is_drawn_as_a_curve_through_its_requests():
+    """The frequency–energy plot draws ω as a shape-preserving cubic of log energy through the requested orbits:
+    through each of them, densely, and without overshoot between two of them."""
+    import types
+
+    import numpy as np
+
+    e, w = np.array([0.01, 0.1, 1.0, 10.0]), np.array([1.0009, 1.0090, 1.0659, 1.2069])
+    bb = types.SimpleNamespace(energy=e, omega=w, stability=("neutral within the error",) * 4, linear_omega=1.0,
+                               mode=0, coordinate="m1", resonances=(), error=np.full(4, 1e-12),
+                               system=types.SimpleNamespace(name="two_mass_cubic"))
+    fig = vd.plots.frequency_energy(bb)
+    (line,) = [ln for ln in fig.axes[0].lines if ln.get_linestyle() == "-" and len(ln.get_xydata()) > 4]
+    x, y = line.get_xydata().T
+    assert len(x) >= 24 * 3 and np.all(np.diff(x) > 0)
+    assert np.interp(e, x, y) == pytest.approx(w, rel=1e-12)  # through the requests
+    assert np.all(np.diff(y) >= 0)  # monotone requests: a monotone curve (no overshoot)
+
+
+@pytest.mark.parametrize("argv", [
+    ["frc", "duffing", "--force", "mass:0.1", "--omega", "0.5:2", "--harmonics", "3", "--png", "{bad}"],
+    ["frf", "receptance_damped", "--input", "m1", "--output", "m1", "--points", "50", "--png", "{bad}"],
+    ["modes", "trailer", "--png", "{bad}"],
+], ids=["frc", "frf", "modes"])
+def test_a_picture_that_cannot_be_written_keeps_the_printed_results(argv, tmp_path, monkeypatch):
+    """`vibdyn frc duffing ... --png frc.png` printed only the error when the picture failed and threw the curve
+    away: the table is printed first, then the error names the picture (exit status 2)."""
+    import contextlib
+    import io
+
+    from vibdyn.faces.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    bad = str(tmp_path / "no_such_folder" / "picture.png")
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([bad if a == "{bad}" else a for a in argv])
+    assert code == 2
+    assert err.getvalue().startswith(f"vibdyn: error: picture {bad}: no such directory")
+    assert "the results above were computed and printed" in err.getvalue()
+    header = {"frc": "Ω rad/s", "frf": "rad/s", "modes": "rad/s"}[argv[0]]
+    assert header in out.getvalue() and len(out.getvalue().splitlines()) > 5 and "saved" not in out.getvalue()

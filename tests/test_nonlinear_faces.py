@@ -292,10 +292,12 @@ def test_frequency_energy_plot(tmp_path, pendulum_backbone):
     assert any("Hz" in a.get_ylabel() for a in fig.axes[1:] + [c for c in ax.child_axes])
     dotted = [line for line in ax.lines if line.get_linestyle() == ":"]
     assert any(np.allclose(line.get_ydata(), bb.linear_omega) for line in dotted)
-    # ω falls with the swing: the drawn curve is the backbone's own numbers
-    (drawn,) = [line for line in ax.lines if line.get_marker() == "o"]
-    assert np.allclose(drawn.get_xdata(), bb.energy) and np.allclose(drawn.get_ydata(), bb.omega)
-    assert drawn.get_linestyle() == "-" and bb.stability == ("neutral within the error",) * 2
+    # ω falls with the swing: the marked points are the backbone's own numbers, the solid curve passes through them
+    (marked,) = [line for line in ax.lines if line.get_marker() == "o"]
+    assert np.allclose(marked.get_xdata(), bb.energy) and np.allclose(marked.get_ydata(), bb.omega)
+    (drawn,) = [line for line in ax.lines if line.get_linestyle() == "-" and len(line.get_xdata()) > 2]
+    assert np.allclose(np.interp(bb.energy, drawn.get_xdata(), drawn.get_ydata()), bb.omega, rtol=1e-12)
+    assert bb.stability == ("neutral within the error",) * 2
     fig2 = vd.plots.frequency_energy([bb, bb], path=tmp_path / "two.png")
     assert_png(tmp_path / "two.png")
     assert len(fig2.axes[0].get_legend().get_texts()) == 3  # two backbones and the one verdict

@@ -32,12 +32,14 @@ def command(system, args, out=None):
     except ValueError:
         raise ModelError(f"--orders: expected numbers separated by commas, got '{args.orders}'") from None
     c = campbell(system, args.spin, speed_list(args.speeds), orders, method=args.method)
-    if args.png:
-        c.plot(args.png)
+    from .nonlinear_command import write_files  # the picture after the table: a failure to write it keeps the table
+
+    files = [(args.png, lambda: c.plot(args.png))]
     if args.json:
         import json
 
         p(json.dumps(c.to_dict(), indent=1))
+        write_files(p, files, announce=False)
         return c
     m = c.frequencies.shape[1]
     p(f"Campbell diagram of {system.name}: {len(c.speeds)} speeds of '{c.spin}', {m} modes tracked by MAC "
@@ -55,6 +57,5 @@ def command(system, args, out=None):
         for k in crit:
             p(f"order {o:g}: critical speed {k.speed:.10g} rad/s ({k.speed_rpm:.6g} rpm), mode {k.mode}, "
               f"{k.whirl or 'no'} whirl, ± {k.error:.1e} rad/s")
-    if args.png:
-        p(f"saved {args.png}")
+    write_files(p, files)
     return c

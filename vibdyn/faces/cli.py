@@ -411,10 +411,9 @@ def _run_modes(args):
         print(json.dumps(report[3], indent=1))
     else:
         print_modes(system, args.method, report=report)
-    if args.png:
-        report[2].plot(args.png)
-        if not args.json:
-            print(f"saved {args.png}")
+    from .nonlinear_command import write_files  # the picture after the table: a failure keeps the table
+
+    write_files(print, [(args.png, lambda: report[2].plot(args.png))], announce=not args.json)
 
 
 def _add_demo(sub):
@@ -447,22 +446,17 @@ def _run_frf(args):
     from .frf_command import frf_report, print_frf
 
     frf, peaks, hp, data = frf_report(system, args.input, args.output, args.w0, args.w1, args.points, args.method)
-    if args.png or args.nyquist:
-        from . import plots
-
-        if args.png:
-            plots.bode(frf, path=args.png)
-        if args.nyquist:
-            plots.nyquist(frf, path=args.nyquist)
     if args.json:
         import json
 
         print(json.dumps(data, indent=1))
     else:
         print_frf(frf, peaks, hp, notes=data["notes"])
-        for path in (args.png, args.nyquist):
-            if path:
-                print(f"saved {path}")
+    from . import plots
+    from .nonlinear_command import write_files  # the pictures after the table: a failure keeps the table
+
+    write_files(print, [(args.png, lambda: plots.bode(frf, path=args.png)),
+                        (args.nyquist, lambda: plots.nyquist(frf, path=args.nyquist))], announce=not args.json)
 
 
 def _add_bench(sub):

@@ -23,6 +23,26 @@ def _p(out):
     return lambda *a: print(*a, file=out or sys.stdout)
 
 
+def write_files(p, files, announce=True):
+    """Write each ``(path, write)`` of ``files`` whose path was given, after the results were printed: a picture
+    or page that cannot be written (a missing folder, matplotlib missing) never throws away what was computed —
+    the others are still written, then the first failure is raised (the CLI prints it and exits 2).
+    ``announce``: print "saved PATH" for each file written (not with --json)."""
+    failed = []
+    for path, write in files:
+        if not path:
+            continue
+        try:
+            write()
+        except ModelError as e:
+            failed.append(e)
+            continue
+        if announce:
+            p(f"saved {path}")
+    if failed:
+        raise ModelError(f"{failed[0]} (the results above were computed and printed; nothing else was lost)")
+
+
 def _pair(text, option, what, sep=":"):
     """Two numbers A{sep}B (``--omega LO:HI``), or the force NAME:AMPLITUDE (a name and one number)."""
     a, s, b = text.rpartition(sep)
@@ -93,16 +113,18 @@ def frc_command(scene, args, out=None):
                          f"{', '.join(system.coordinates)})")
     curve = forced_response_curve(system, (name, amplitude), omega_range(args.omega), coordinate, args.harmonics,
                                   tol=args.tol)
-    if args.png:
-        curve.plot(args.png)
-    if args.html:
+
+    def html():
         from .viewer import export_html
 
         export_html(curve.orbit(int(np.argmax(curve.amplitude))), args.html)
+
+    files = [(args.png, lambda: curve.plot(args.png)), (args.html, html)]
     if args.json:
         import json
 
         p(json.dumps(frc_dict(system, curve), indent=1))
+        write_files(p, files, announce=False)
         return curve
     p(str(curve))
     u = curve.unit
@@ -115,9 +137,7 @@ def frc_command(scene, args, out=None):
       "|μ| = 1 within it")
     for line in table(["Ω rad/s", "Ω/2π Hz", f"amplitude {u}", "±", "max |μ|", "± |μ|", "stability"], rows):
         p("  " + line)
-    for path in (args.png, args.html):
-        if path:
-            p(f"saved {path}")
+    write_files(p, files)
     return curve
 
 
@@ -168,15 +188,18 @@ def floquet_command(scene, args, out=None):
         if period is None:
             source = "found from the first return"
         orbit = periodic_orbit(system, q0, v0, period, args.t0, phase=args.phase)
-    if args.html:
+
+    def html():
         from .viewer import export_html
 
         export_html(orbit, args.html)
+
     if args.json:
         import json
 
         p(json.dumps(json_ready({"scene": system.name, "start": where, "period_source": source,
                                  **orbit.to_dict()}), indent=1))
+        write_files(p, [(args.html, html)], announce=False)
         return orbit
     driven = "; driven coordinates follow their drives" if system.depends_on_time else ""
     p(f"scene {system.name}: orbit through {where}, velocities {_state(system, v0)}{driven}; period {source}")
@@ -184,8 +207,7 @@ def floquet_command(scene, args, out=None):
     g, e = orbit.growth
     verdict = " (within the error)" if abs(g) <= e else ""
     p(f"largest |μ| − 1 = {g:.3e} ± {e:.1e}{verdict}: {orbit.stability}")
-    if args.html:
-        p(f"saved {args.html}")
+    write_files(p, [(args.html, html)])
     return orbit
 
 
@@ -259,18 +281,23 @@ def backbone_command(scene, args, out=None):
         if "mode" not in str(e):
             raise
         raise ModelError(f"{e} (--mode {args.mode} is vd.backbone's mode index {args.mode - 1})") from None
-    if args.png:
+
+    def png():
         from .plots import frequency_energy
 
         frequency_energy(bb, path=args.png)
-    if args.html:
+
+    def html():
         from .viewer import export_html
 
         export_html(bb, args.html)
+
+    files = [(args.png, png), (args.html, html)]
     if args.json:
         import json
 
         p(json.dumps(json_ready({"scene": system.name, "mode_number": args.mode, **bb.to_dict()}), indent=1))
+        write_files(p, files, announce=False)
         return bb
     u, lin = bb.unit, bb.linear_omega
     requests = energies if energies is not None else amplitudes
@@ -294,9 +321,7 @@ def backbone_command(scene, args, out=None):
     if not bb.resonances:
         p("no internal resonance or fold met on the branch")
     p(f"note: {bb.note}")
-    for path in (args.png, args.html):
-        if path:
-            p(f"saved {path}")
+    write_files(p, files)
     return bb
 
 

@@ -207,15 +207,58 @@ def _runs(flags):
     return [(a, min(b + 1, len(flags))) for a, b in zip(edges[:-1], edges[1:])]
 
 
+def dense_response(curve, per_step=16):
+    """A forced-response curve drawn densely: (s, Ω, amplitude) at ``per_step`` samples per continuation step and
+    ``s_points``, the arclength of each computed point. Between the points the harmonic-balance coefficients of
+    the reported coordinate and Ω are cubic splines of the chord length (coefficients scaled by the largest
+    amplitude, Ω by the swept range) and the amplitude max over a period of |x(τ)| is taken from the interpolated
+    coefficients; at the points it is the curve's own. None when the curve has fewer than 3 points or no
+    system."""
+    from scipy.interpolate import CubicSpline
+
+    w, amp, X = np.asarray(curve.omega, float), np.asarray(curve.amplitude, float), np.asarray(curve.coefficients)
+    if len(w) < 3 or curve.system is None:
+        return None
+    a = X[:, :, curve.system.coordinate_index(curve.coordinate)]  # points × (2H + 1): c0, a1, b1, a2, b2, …
+    ref = max(float(np.max(amp)), 1e-300)
+    span = max(float(np.ptp(w)), 1e-300)
+    step = np.sqrt(np.sum((np.diff(X.reshape(len(w), -1), axis=0) / ref) ** 2, axis=1) + (np.diff(w) / span) ** 2)
+    if not np.all(step > 0):
+        return None
+    s_pts = np.concatenate([[0.0], np.cumsum(step)])
+    s = np.unique(np.concatenate([np.linspace(s0, s1, per_step + 1) for s0, s1 in zip(s_pts[:-1], s_pts[1:])]))
+    s = np.union1d(s, s_pts)
+    coef = CubicSpline(s_pts, a, axis=0)(s)
+    H = (a.shape[1] - 1) // 2
+    tau = np.linspace(0.0, 2 * np.pi, max(512, 32 * (2 * H + 1)), endpoint=False)
+    k = np.arange(1, H + 1)
+    E = np.ones((tau.size, 2 * H + 1))
+    E[:, 1::2], E[:, 2::2] = np.cos(np.multiply.outer(tau, k)), np.sin(np.multiply.outer(tau, k))
+    sampled = np.abs(E @ coef.T).max(axis=0)
+    at_points = np.abs(E @ a.T).max(axis=0)
+    # the sampled maximum misses the refined one by O((π/N)²): the points' own difference, carried between them
+    dense_amp = sampled + np.interp(s, s_pts, amp - at_points)
+    return s, CubicSpline(s_pts, w)(s), dense_amp, s_pts
+
+
 def forced_response(curve, *, path=None, dpi=100):
     """A forced-response curve (:func:`vibdyn.forced_response_curve`): the amplitude max over a period of
-    |q − q_eq| of its coordinate (m or rad) against the excitation's Ω (rad/s; Hz on the top axis), stable
-    points solid, unstable dashed (Hill's method), folds marked ×, the peak marked ▼."""
+    |q − q_eq| of its coordinate (m or rad) against the excitation's Ω (rad/s; Hz on the top axis), drawn densely
+    through the computed points (:func:`dense_response`: splines of the harmonic coefficients along the arc),
+    the points marked; stable stretches solid, unstable dashed (Hill's method), folds marked ×, the peak ▼."""
     fig, ax = figure(1, 1, size=(7.0, 4.8))
     a = ax[0, 0]
     w, amp = curve.omega, curve.amplitude
+    dense = dense_response(curve)
     for i, j in _runs(curve.stable):
-        a.plot(w[i:j], amp[i:j], "-" if curve.stable[i] else "--", color="C0", lw=1.6)
+        style = "-" if curve.stable[i] else "--"
+        if dense is None:
+            a.plot(w[i:j], amp[i:j], style, color="C0", lw=1.6)
+        else:
+            s, dw, da, s_pts = dense
+            inside = (s >= s_pts[i]) & (s <= s_pts[j - 1])
+            a.plot(dw[inside], da[inside], style, color="C0", lw=1.6)
+    a.plot(w, amp, "o", color="C0", ms=2.5, label=f"computed points ({len(w)})")
     a.plot([], [], "-", color="C0", label="stable")
     if not np.all(curve.stable):
         a.plot([], [], "--", color="C0", label="unstable (Hill)")
@@ -247,11 +290,13 @@ _VERDICT_LABEL = {"stable": "stable (attracting)", "neutral within the error": "
 
 def frequency_energy(backbones, *, path=None, ax=None, dpi=100):
     """Frequency–energy plot of one or several backbones (:func:`vibdyn.backbone`): the nonlinear normal mode's
-    fundamental ω (rad/s; Hz on the right axis) against its energy above the equilibrium (J, log scale); by each
-    orbit's Floquet verdict, stable or neutral within the error (|μ| = 1 within its uncertainty: the bounded
-    orbits of an undamped scene) solid, unstable dashed, anything else dotted; the linear ω
-    of each mode as a thin dotted line; internal resonances (tongues) marked ◆ and labelled. Draws on ``ax``
-    if given (a matplotlib Axes), else on a new figure; returns the Figure."""
+    fundamental ω (rad/s; Hz on the right axis) against its energy above the equilibrium (J, log scale), each
+    requested orbit marked ● and the curve drawn through them smoothly (ω a shape-preserving cubic of log energy:
+    the backbone keeps only its requests, not the branch between them); by each orbit's Floquet verdict, stable
+    or neutral within the error (|μ| = 1 within its uncertainty: the bounded orbits of an undamped scene) solid,
+    unstable dashed, anything else dotted; the linear ω of each mode as a thin dotted line; internal resonances
+    (tongues) marked ◆ and labelled. Draws on ``ax`` if given (a matplotlib Axes), else on a new figure; returns
+    the Figure."""
     items = list(backbones) if isinstance(backbones, (list, tuple)) else [backbones]
     if not items:
         raise ModelError("frequency_energy: no backbone to plot")
@@ -267,10 +312,16 @@ def frequency_energy(backbones, *, path=None, ax=None, dpi=100):
         order = np.argsort(e)
         e, w = e[order], w[order]
         kinds = np.asarray(bb.stability, dtype=object)[order]
+        through = _through(e, w)
         for i, j in _runs(kinds):
             style = _VERDICT_STYLE.get(kinds[i], ":")
             styles_used.add(kinds[i])
-            a.plot(e[i:j], w[i:j], style, color=color, lw=1.6, marker="o", ms=3)
+            if through is None:
+                a.plot(e[i:j], w[i:j], style, color=color, lw=1.6)
+            else:
+                dense = np.geomspace(e[i], e[j - 1], 24 * (j - i) + 1)
+                a.plot(dense, through(np.log(dense)), style, color=color, lw=1.6)
+        a.plot(e, w, "o", color=color, ms=3.5, zorder=4)  # the requests: each orbit solved exactly
         a.axhline(bb.linear_omega, color=color, lw=0.8, ls=":", alpha=0.7)
         a.plot([], [], "-", color=color, lw=1.6, label=f"NNM of mode {bb.mode + 1} (amplitude of {bb.coordinate}); "
                f"linear ω = {bb.linear_omega:.6g} rad/s ⋯")
@@ -294,6 +345,17 @@ def frequency_energy(backbones, *, path=None, ax=None, dpi=100):
     a.set_title(f"frequency–energy plot of {', '.join(names)}: backbones (nonlinear normal modes, undamped)\n"
                 f"ω by shooting, error ≤ {err:.1e} rad/s", fontsize="small")
     return save(fig, path, dpi)
+
+
+def _through(e, w):
+    """ω as a smooth function of log energy through the requests (energies increasing, positive): a
+    shape-preserving cubic (PCHIP: no overshoot between the points, monotone where they are), so that a backbone
+    is drawn as a curve on the log-energy axis; None when it cannot be (fewer than 2 points, a repeated energy)."""
+    if len(e) < 2 or not np.all(e > 0) or not np.all(np.diff(e) > 0):
+        return None
+    from scipy.interpolate import PchipInterpolator
+
+    return PchipInterpolator(np.log(e), w)
 
 
 def _resonance_label(r):
