@@ -129,6 +129,7 @@ def test_a_four_bar_that_cannot_close_is_refused_naming_its_loop_and_its_gap(tmp
         with pytest.raises(vd.ConvergenceError, match=r"assembly from the neutral configuration: the loops cannot "
                                                       r"be closed .*loop 'pin' stays open by") as info:
             ask()
+    assert f"loop 'pin' stays open by {gap:.4g} m at best" in str(info.value)
     assert info.value.residual * system.length_scale == pytest.approx(gap, abs=1e-6)
     assert np.abs(system.constraint_residual(info.value.best)).max() == pytest.approx(gap, abs=1e-6)
 

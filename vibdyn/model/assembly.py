@@ -223,12 +223,13 @@ def assemble_described(c):
     qd = system.neutral()
     found, tried, (res, q_open) = _closures(c, qd)
     if not found:
-        phi = c.scaled_phi(c.phi(q_open))
-        worst = c.loop_of_row(int(np.argmax(np.abs(phi))))
+        phi = c.phi(q_open)
+        i = int(np.argmax(np.abs(c.scaled_phi(phi))))
         raise ConvergenceError(
             f"assembly from the neutral configuration: the loops cannot be closed near it nor from {tried - 1} "
-            f"perturbed poses (trust-region least squares): loop '{worst}' stays open by {res:.3e} at best "
-            f"(dimensionless: m / length scale {system.length_scale:g} m, or rad), at {_coordinate_text(system, q_open)}"
+            f"perturbed poses (trust-region least squares): loop '{c.loop_of_row(i)}' stays open by "
+            f"{abs(phi[i]):.4g} {c.row_units[i]} at best ({res:.3e} dimensionless: m / length scale "
+            f"{system.length_scale:g} m, or rad), at {_coordinate_text(system, q_open)}"
             ": its bodies cannot reach each other as described (check the loop's points and the links' lengths), "
             "or declare a start near a closed configuration (Scene.set_operating_point(start=...))",
             residual=res, best=q_open)

@@ -63,8 +63,9 @@ class Constraints:
         self.m = sum(self.sizes)
         L = system.length_scale
         # dimensionless scaling: position rows / L, translation columns × L
-        self.row_scale = np.concatenate([self._row_units(lp) for lp in self.loops]) if self.loops else np.zeros(0)
-        self.row_scale = np.where(self.row_scale == 1, 1.0 / L, 1.0)
+        units = np.concatenate([self._row_units(lp) for lp in self.loops]) if self.loops else np.zeros(0)
+        self.row_units = tuple("m" if u == 1 else "rad" for u in units)  # the unit of each equation
+        self.row_scale = np.where(units == 1, 1.0 / L, 1.0)
         self.col_scale = system.coordinate_scales
 
     @staticmethod
