@@ -8,6 +8,8 @@
   spring from Pinocchio's joint Jacobians (tests/oracles.py); "estimate": 1e3 ε × the force scale (the
   evaluation is exact to round-off).
 
+Sensitivities of all modes of the 30-link chain to its 30 stiffnesses: ≤ 10× one linearise + modes.
+
 The third target (10-link chain simulated to 1e-8 against MuJoCo RK4 at equal error) is the
 ``equal_error`` figure of simulation.py's chain cases.
 """
@@ -311,6 +313,44 @@ def case_scale(S):
     return case
 
 
+SENSITIVITY_TARGET_RATIO = 10.0  # issue 35: all modes × 30 stiffnesses ≤ 10× one linearise + modes
+
+
+def case_sensitivity(S):
+    """Sensitivities of all modes of the 30-link chain to its 30 torsion-spring stiffnesses against one
+    linearise + modes (both analytic, interleaved). Reference: the exact chain's M, K (linearization.py),
+    eigh, and ∂ω_m/∂k_i = φ_im²/(2ω_m) (∂K/∂k_i = e_i e_iᵀ at the hanging pose, which no spring loads)."""
+    import scipy.linalg as sla
+
+    from .linearization import exact_chain
+
+    n = 30
+    system = pendulum_chain(n).build()
+    q0 = system.neutral()
+    names = [f"l{i}.spring.stiffness" for i in range(n)]
+    base = system.linearize(q0, method="analytic").modes()
+    fns = {"linearise + modes": lambda: system.linearize(q0, method="analytic").modes(),
+           "sensitivity": lambda: base.sensitivity(names)}
+    best = interleaved(fns, {"smoke": 3, "quick": 30, "full": 100}[S.mode])
+    s = fns["sensitivity"]()
+    M, K = exact_chain(n)
+    w2, Phi = sla.eigh(K, M)
+    ref = (Phi**2 / (2 * np.sqrt(w2))[None, :]).T  # modes × stiffnesses
+    scale = np.abs(ref).max()
+    err = float(np.abs(s.omega - ref).max() / scale)
+    est = float(s.omega_error.max() / scale)
+    ratio = best["sensitivity"] / best["linearise + modes"]
+    runs = [C.run_record("vibdyn sensitivity, 30 modes × 30 stiffnesses", "vibdyn", err, est, best["sensitivity"],
+                         1, method=s.method, ratio_to_linearise_modes=ratio),
+            C.run_record("vibdyn linearise + modes (analytic)", "vibdyn", None, None, best["linearise + modes"], 1,
+                         verdict_=C.UNCHECKED, note="the unit of the target")]
+    case = C.case_record("target: sensitivities of all modes to 30 stiffnesses, chain n=30", "speed",
+                         "exact M, K + eigh: ∂ω/∂k_i = φ_i²/(2ω)", runs, unit="relative",
+                         target=f"≤ {SENSITIVITY_TARGET_RATIO:g}× one linearise + modes", ratio=ratio)
+    case["target_met"] = ratio <= SENSITIVITY_TARGET_RATIO
+    return case
+
+
 def run(S):
-    cases = [case_lin10(S), case_floor(S), case_point_elements(S)]
+    cases = [case_lin10(S), case_floor(S), case_point_elements(S), case_sensitivity(S)]
     return cases if S.smoke else cases + [case_scale(S)]

@@ -96,38 +96,63 @@ def test_campbell_slope_of_the_gimbal_rotor():
     assert np.allclose(s.omega_n[flexible, 0], exact, atol=0, rtol=1e-6)
 
 
-def pipeline_difference(make, name, p, h, modes_of):
-    """∂(sorted ω, ζ)/∂p of the whole pipeline (rebuild, operating point, linearise, modes) at step h."""
-    a, b = modes_of(make(p + h)), modes_of(make(p - h))
-    return [(x - y) / (2 * h) for x, y in zip(a, b)]
+def pipeline_difference(make, p, h, modes_of):
+    """(∂(sorted ω, ζ, ω_n)/∂p, their noise) of the whole pipeline (rebuild, operating point, linearise, modes)
+    at step h: central differences, and the values' own errors over the step (their sizes, not differences)."""
+    (a, ea), (b, eb) = modes_of(make(p + h)), modes_of(make(p - h))
+    return [(x - y) / (2 * h) for x, y in zip(a, b)], [(x + y) / (2 * h) for x, y in zip(ea, eb)]
+
+
+def check_against_pipeline(base, params):
+    """Every ∂ω, ∂ζ, ∂ω_n against the whole pipeline differenced at two steps (Richardson-combined), within the
+    stated error plus the pipeline's own difference error; returns the sensitivities."""
+    from vibdyn.description.parameters import parameters, with_values
+
+    s = base.build().operating_point().linearize().modes().sensitivity(params)
+
+    def modes_of(sc):
+        m = sc.build().operating_point().linearize(method="analytic").modes()
+        # (with each quantity's own error: ω, ζ and ω_n to their modes' relative estimates)
+        return ((np.asarray(m.omega), np.asarray(m.zeta), np.asarray(m.omega_n)),
+                (m.omega_error * m.omega, m.eigenvalue_error, m.eigenvalue_error * m.omega_n))
+
+    for j, p in enumerate(parameters(base, params)):
+        h = 1e-3 * max(abs(p.value), 0.1)
+        make = lambda x, p=p: with_values(base, [p], [x])  # noqa: E731
+        (d1, n1), (d2, _) = pipeline_difference(make, p.value, h, modes_of), pipeline_difference(
+            make, p.value, 2 * h, modes_of)
+        for k, (got, err) in enumerate(((s.omega[:, j], s.omega_error[:, j]), (s.zeta[:, j], s.zeta_error[:, j]),
+                                        (s.omega_n[:, j], s.omega_n_error[:, j]))):
+            a, b = d1[k], d2[k]
+            rich = a + (a - b) / 3
+            # the oracle's own error: its truncation (|a − b|/3) and its values' error over the step
+            assert np.all(np.abs(got - rich) <= err + np.abs(a - b) / 3 + 2 * n1[k]), (p.name, got, rich)
+    return s
 
 
 def test_every_sensitivity_against_the_whole_pipeline_at_two_steps():
     """The trailer (cart on a spring, damped rod on a pivot, gravity): ∂ω, ∂ζ, ∂ω_n for masses, stiffness,
-    damping, a centre of mass, a spring end; the pipeline differenced at two steps, Richardson-combined,
-    agrees within the stated error plus the pipeline's own difference error."""
-    base = vd.load_scene("trailer")
+    damping, a centre of mass, an inertia."""
     params = ["trailer.mass", "wall_spring.stiffness", "rod.damper.damping", "rod.com.z", "rod.inertia.yy"]
-    s = base.build().operating_point().linearize().modes().sensitivity(params)
-    from vibdyn.description.parameters import parameters, with_values
-
-    plist = parameters(base, params)
-
-    def modes_of(sc):
-        m = sc.build().operating_point().linearize(method="analytic").modes()
-        return np.asarray(m.omega), np.asarray(m.zeta), np.asarray(m.omega_n)
-
-    for j, p in enumerate(plist):
-        h = 1e-3 * max(abs(p.value), 0.1)
-        make = lambda x, p=p: with_values(base, [p], [x])  # noqa: E731
-        d1 = pipeline_difference(make, p.name, p.value, h, modes_of)
-        d2 = pipeline_difference(make, p.name, p.value, 2 * h, modes_of)
-        for got, err, a, b in ((s.omega[:, j], s.omega_error[:, j], d1[0], d2[0]),
-                               (s.zeta[:, j], s.zeta_error[:, j], d1[1], d2[1]),
-                               (s.omega_n[:, j], s.omega_n_error[:, j], d1[2], d2[2])):
-            rich = a + (a - b) / 3
-            assert np.all(np.abs(got - rich) <= err + np.abs(a - b) / 3 + 1e-9 * np.abs(rich)), (p.name, got, rich)
+    s = check_against_pipeline(vd.load_scene("trailer"), params)
+    assert s.method.startswith("element (2 parameters)")  # stiffness and damping: no rebuild
     assert np.any(np.abs(s.zeta[:, params.index("rod.damper.damping")]) > 0)
+
+
+def test_a_stiffness_that_moves_the_pose():
+    """Torsion springs loaded by a tilted gravity: a stiffness moves the equilibrium, and K through it (the
+    element path's pose term) — against the pipeline, which finds the equilibrium again."""
+    sc = vd.Scene("tilted", gravity=(-4.0, 0.0, -9.0))
+    sc.add_body("l0", joint=vd.Pivot(axis=(0, 1, 0)), mass=1.0, com=(0, 0, -0.5),
+                inertia=vd.inertia.rod(1.0, 1.0, axis=(0, 0, 1)))
+    sc.add_body("l1", parent="l0", joint=vd.Pivot(axis=(0, 1, 0), at=(0, 0, -1.0)), mass=0.5, com=(0, 0, -0.4),
+                inertia=vd.inertia.rod(0.5, 0.8, axis=(0, 0, 1)))
+    sc.add_joint_spring("l0", stiffness=20.0)
+    sc.add_joint_spring("l1", stiffness=8.0)
+    op = sc.build().operating_point()
+    assert np.abs(op.q).max() > 0.1  # the springs are loaded
+    s = check_against_pipeline(sc, ["l0.spring.stiffness", "l1.spring.stiffness"])
+    assert s.method == "element"
 
 
 def spherical_pendulum():

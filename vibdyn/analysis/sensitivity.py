@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, Callable
 
 import numpy as np
@@ -55,8 +56,6 @@ class Sensitivity:
     omega_error: np.ndarray
     omega2: np.ndarray
     omega2_error: np.ndarray
-    shapes: np.ndarray
-    shapes_error: np.ndarray
     repeated: np.ndarray  # per mode: its frequency is repeated (derivatives over the subspace)
     eigenvalues: np.ndarray  # ∂λ/∂p of the damped eigenvalues (n_damped × n_params, 1/s per unit)
     eigenvalues_error: np.ndarray
@@ -75,6 +74,22 @@ class Sensitivity:
     elapsed: float = 0.0  # s
     note: str = ""
     modes: Any = field(default=None, repr=False)  # the base modes the derivatives are of
+    nelson: Any = field(default=None, repr=False)  # () -> (∂φ, its error): computed on first use
+
+    @cached_property
+    def _shape_derivatives(self):
+        return self.nelson()
+
+    @property
+    def shapes(self) -> np.ndarray:
+        """∂φ/∂p of the mass-normalised shapes (nv × n_modes × n_params, per the parameter's unit; 0 where
+        ``repeated`` or rigid), by Nelson's method (computed on first use)."""
+        return self._shape_derivatives[0]
+
+    @property
+    def shapes_error(self) -> np.ndarray:
+        """Absolute error of :attr:`shapes` (same shape)."""
+        return self._shape_derivatives[1]
 
     @property
     def normalised(self) -> np.ndarray:
@@ -167,6 +182,13 @@ def _regime(system, lin):
     if np.any(lin.v0):
         speeds = {system.coordinates[i]: float(lin.v0[i]) for i in np.flatnonzero(lin.v0)}
         return "steady", speeds
+    # an equilibrium to the solver's own tolerance already (one inverse dynamics), else solved for again
+    from ..defaults import EQUILIBRIUM_TOL
+
+    unit = system.coordinate_scales
+    r = system.inverse_dynamics(lin.q0, np.zeros(system.nv), np.zeros(system.nv), lin.t0)
+    if np.abs(r).max(initial=0.0) <= EQUILIBRIUM_TOL * (np.abs(np.diag(lin.K)) * unit).max(initial=0.0):
+        return "static", {}
     try:
         eq = system.equilibrium(q0=lin.q0)
     except (ConvergenceError, ModelError):
@@ -226,7 +248,9 @@ def _clusters(w2, dw2):
 
 
 def _undamped(modes, dM, dK, eM, eK):
-    """(∂ω², its error, ∂ω, its error, ∂φ, its error, repeated) over the parameters."""
+    """(∂ω², its error, ∂ω, its error, repeated, the shapes' derivatives as a function) over the parameters:
+    every parameter at once (modal projections of all ∂K, ∂M as one batched product); a repeated frequency's
+    cluster by the eigenvalues of its subspace's projection."""
     M, Ks, Phi, w2, _ = modes.eigenproblem
     w2 = np.where(modes.rigid, 0.0, w2)
     n_m, n_p = len(w2), len(dK)
@@ -236,32 +260,37 @@ def _undamped(modes, dM, dK, eM, eK):
                         2 * modes.omega_error * np.abs(w2))
     groups = _clusters(w2, dw2_base)
     repeated = np.zeros(n_m, bool)
+    cluster = np.arange(n_m)  # each mode's cluster label
+    for g in groups:
+        cluster[g] = g[0]
+        repeated[g] = len(g) > 1
+    dKs = 0.5 * (dK + dK.transpose(0, 2, 1))
+    eKs = 0.5 * (eK + eK.transpose(0, 2, 1))
+    G = Phi.T @ dKs @ Phi  # n_p × n_m × n_m: Φᵀ ∂K_s Φ
+    mass = bool(np.any(dM)) or bool(np.any(eM))  # (a stiffness or a damping leaves M as it is)
+    H = Phi.T @ dM @ Phi if mass else np.zeros_like(G)  # Φᵀ ∂M Φ
+    T = G - H * w2[None, None, :] if mass else G  # column i: Φᵀ(∂K_s − ω_i² ∂M)φ_i
+    d_w2 = np.diagonal(T, axis1=1, axis2=2).T.copy()  # n_m × n_p
     for g in groups:
         if len(g) > 1:
-            repeated[g] = True
-    A = np.abs(Phi)
-    d_w2, e_w2 = np.zeros((n_m, n_p)), np.zeros((n_m, n_p))
-    d_phi, e_phi = np.zeros((Phi.shape[0], n_m, n_p)), np.zeros((Phi.shape[0], n_m, n_p))
-    gaps = np.full(n_m, np.inf)
-    for g in groups:  # distance to the nearest other cluster
-        others = [k for k in range(n_m) if k not in g]
-        if others:
-            gaps[g] = np.abs(w2[others][None, :] - w2[g][:, None]).min(axis=1)
-    for j in range(n_p):
-        dKs = 0.5 * (dK[j] + dK[j].T)
-        eKs = 0.5 * (eK[j] + eK[j].T)
-        for g in groups:
             wbar = float(np.mean(w2[g]))
-            P = Phi[:, g]
-            S = P.T @ (dKs - wbar * dM[j]) @ P
-            vals = np.linalg.eigvalsh(0.5 * (S + S.T)) if len(g) > 1 else np.diag(S)
-            d_w2[g, j] = vals
-            quad = np.einsum("ik,ik->k", A[:, g], (eKs + abs(wbar) * eM[j]) @ A[:, g])
-            # conditioning: the shapes are known to δω²/gap, coupling this mode to its neighbours' terms
-            coupling = np.abs(Phi.T @ (dKs - wbar * dM[j]) @ P)
-            coupling[g, :] = 0.0
-            cond = 2 * dw2_base[g] / np.where(np.isfinite(gaps[g]), gaps[g], np.inf) * coupling.max(axis=0, initial=0.0)
-            e_w2[g, j] = quad + dw2_base[g] * np.abs(np.diag(P.T @ dM[j] @ P)) + cond + 8 * EPS * np.abs(vals)
+            for j in range(n_p):
+                S = G[j][np.ix_(g, g)] - wbar * H[j][np.ix_(g, g)]
+                d_w2[g, j] = np.linalg.eigvalsh(0.5 * (S + S.T))
+    A = np.abs(Phi)
+    quad = np.diagonal(A.T @ eKs @ A, axis1=1, axis2=2).T
+    if mass:
+        quad = quad + np.abs(w2)[:, None] * np.diagonal(A.T @ eM @ A, axis1=1, axis2=2).T
+    # conditioning: each shape is known to δω²/gap (gap: to the nearest other cluster), which couples the mode to
+    # its neighbours' terms of Φᵀ(∂K_s − ω² ∂M)Φ
+    gaps = np.abs(w2[:, None] - w2[None, :])
+    same = cluster[:, None] == cluster[None, :]
+    gaps[same] = np.inf
+    gap = gaps.min(axis=1, initial=np.inf)
+    coupling = np.where(same[None, :, :], 0.0, np.abs(T)).max(axis=1, initial=0.0).T  # n_m × n_p
+    cond = np.where(np.isfinite(gap), 2 * dw2_base / np.where(np.isfinite(gap), gap, 1.0), 0.0)[:, None] * coupling
+    e_w2 = (quad + dw2_base[:, None] * np.abs(np.diagonal(H, axis1=1, axis2=2).T) + cond
+            + 8 * EPS * np.abs(d_w2))
     d_w, e_w = np.zeros((n_m, n_p)), np.zeros((n_m, n_p))
     pos = omega > 0
     d_w[pos] = d_w2[pos] / (2 * omega[pos, None])
@@ -269,32 +298,40 @@ def _undamped(modes, dM, dK, eM, eK):
     zero = ~pos
     leaves = zero[:, None] & (np.abs(d_w2) > e_w2)
     e_w[zero] = np.where(leaves[zero], np.inf, 0.0)
-    # shapes: Nelson's method for distinct, non-rigid modes
-    K_w = Ks
-    for i in range(n_m):
-        if repeated[i] or not pos[i]:
-            continue
+
+    def shapes():
+        return _nelson(M, Ks, Phi, w2, dKs, dM, eKs, eM, d_w2, e_w2, dw2_base, repeated | ~pos)
+
+    return d_w2, e_w2, d_w, e_w, repeated, shapes
+
+
+def _nelson(M, Ks, Phi, w2, dKs, dM, eKs, eM, d_w2, e_w2, dw2_base, skip):
+    """(∂φ, its error) by Nelson's method for every mode not in ``skip`` (repeated or rigid: zeros)."""
+    nv, n_m = Phi.shape
+    n_p = len(dKs)
+    d_phi, e_phi = np.zeros((nv, n_m, n_p)), np.zeros((nv, n_m, n_p))
+    aM = np.abs(M)
+    for i in np.flatnonzero(~skip):
         phi = Phi[:, i]
         k = int(np.argmax(np.abs(phi)))
-        keep = np.arange(len(phi)) != k
-        A_i = (K_w - w2[i] * M)[np.ix_(keep, keep)]
+        keep = np.arange(nv) != k
+        A_i = (Ks - w2[i] * M)[np.ix_(keep, keep)]
         try:
-            lu = sla.lu_factor(A_i)
-            Ainv_abs = np.abs(sla.lu_solve(lu, np.eye(A_i.shape[0])))
+            lu = sla.lu_factor(A_i, check_finite=False)
         except (ValueError, np.linalg.LinAlgError):
             continue
-        for j in range(n_p):
-            dKs = 0.5 * (dK[j] + dK[j].T)
-            F = -(dKs - w2[i] * dM[j] - d_w2[i, j] * M) @ phi
-            v = np.zeros_like(phi)
-            v[keep] = sla.lu_solve(lu, F[keep])
-            c = -phi @ M @ v - 0.5 * phi @ dM[j] @ phi
-            d_phi[:, i, j] = v + c * phi
-            eF = (0.5 * (eK[j] + eK[j].T) + abs(w2[i]) * eM[j] + e_w2[i, j] * np.abs(M)) @ np.abs(phi)
-            ev = np.zeros_like(phi)
-            ev[keep] = Ainv_abs @ eF[keep] + Ainv_abs @ (dw2_base[i] * np.abs(M[np.ix_(keep, keep)]) @ np.abs(v[keep]))
-            e_phi[:, i, j] = ev + (np.abs(phi) @ np.abs(M) @ ev + 0.5 * np.abs(phi) @ eM[j] @ np.abs(phi)) * np.abs(phi)
-    return d_w2, e_w2, d_w, e_w, d_phi, e_phi, repeated
+        Ainv_abs = np.abs(sla.lu_solve(lu, np.eye(nv - 1), check_finite=False))
+        F = -((dKs - w2[i] * dM) @ phi - d_w2[i][:, None] * (M @ phi)[None, :])  # n_p × nv
+        v = np.zeros((n_p, nv))
+        v[:, keep] = sla.lu_solve(lu, F[:, keep].T, check_finite=False).T
+        c = -(v @ (M @ phi)) - 0.5 * (dM @ phi) @ phi
+        d_phi[:, i, :] = (v + c[:, None] * phi[None, :]).T
+        a = np.abs(phi)
+        eF = (eKs + abs(w2[i]) * eM) @ a + e_w2[i][:, None] * (aM @ a)[None, :]  # n_p × nv
+        ev = np.zeros((n_p, nv))
+        ev[:, keep] = (Ainv_abs @ (eF[:, keep].T + dw2_base[i] * (aM[np.ix_(keep, keep)] @ np.abs(v[:, keep]).T))).T
+        e_phi[:, i, :] = (ev + ((ev @ aM) @ a + 0.5 * (eM @ a) @ a)[:, None] * a[None, :]).T
+    return d_phi, e_phi
 
 
 def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
@@ -353,14 +390,12 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
     if unused not in ("raise", "drop"):
         raise ModelError(f"sensitivity: unused must be 'raise' or 'drop', got {unused!r}")
     start = time.perf_counter()
-    from .modal import Modes
-
-    if callable(source) and not hasattr(source, "build") and not isinstance(source, Modes) \
-            and not hasattr(source, "linearize"):
+    is_modes = hasattr(source, "eigenproblem")  # (Modes: named by what it has, modal.py imports this module)
+    if callable(source) and not hasattr(source, "build") and not is_modes and not hasattr(source, "linearize"):
         return _of_builder(source, params, start, unused)
     if hasattr(source, "build") and not hasattr(source, "linearize"):  # a Scene
         source = source.build()
-    if isinstance(source, Modes):
+    if is_modes:
         base_modes = source
     elif hasattr(source, "modes") and hasattr(source, "K"):  # a LinearModel
         base_modes = source.modes()
@@ -405,10 +440,68 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
 
     pipeline = _Pipeline(make_scene, system, lin.q0, lin.v0, regime, speeds, names)
     steps = np.array([_step(None, values[j], units[j], system.length_scale) for j in range(len(names))])
-    # the base model again through the pipeline: M, C, K, modes in the coordinates the differences are in (a
-    # mechanism's independent motions), analytic
-    lin = pipeline(values)
-    return _assemble(pipeline, lin.modes(), lin, names, units, values, steps, nonneg, start, unused)
+    direct = {}
+    if system.constraints is None and system.drives is None and regime in ("static", "pose", "held"):
+        # a tree about a point it holds or finds again: the analytic model is the base, and a parameter a force
+        # is proportional to (a stiffness, a damping) is differentiated on its element alone, no rebuild
+        if lin.method != "analytic":
+            lin = lin.relinearize("analytic")
+            base_modes = lin.modes()
+        for j, (p, _) in enumerate(entries):
+            col = _linear_column(system, lin, p, regime) if p is not None else None
+            if col is not None:
+                direct[j] = col
+    else:  # the base model again through the pipeline: in the coordinates the differences are in (a mechanism's
+        lin = pipeline(values)  # independent motions), analytic
+        base_modes = lin.modes()
+    return _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, start, unused, direct)
+
+
+def _linear_column(system, lin, p, regime):
+    """(∂M, ∂C, ∂K, and their errors) along a parameter the force of one element is proportional to, from that
+    element alone with the parameter 1 (no rebuild); at a static equilibrium the pose moves by
+    dq/dp = K⁻¹ Q₁ (Q₁: the unit element's force there), and M, C, K along it (analytic models at q ± ε dq/dp
+    and ± 2ε, differenced). None where the parameter is not such a one, or the pose's motion is singular."""
+    import dataclasses
+
+    from ..model.derivatives import element_terms
+
+    element = system.scene.elements.get(p.owner)
+    if element is None or p.attribute not in type(element).linear_in:
+        return None
+    old = getattr(element, p.attribute)
+    unit = 1.0 if not isinstance(old, tuple) else tuple(
+        1.0 if p.index is None or i == p.index else 0.0 for i in range(len(old)))
+    group = type(element).group(system, [dataclasses.replace(element, **{p.attribute: unit})])
+    Q1, K1, C1 = element_terms(system, [group], lin.q0, lin.v0, lin.t0)
+    n = lin.nv
+    noise = 4 * n * EPS
+    dM, dC, dK = np.zeros((n, n)), C1, K1
+    eM, eC, eK = np.zeros((n, n)), noise * np.abs(C1), noise * np.abs(K1)
+    if regime == "static" and np.any(Q1):
+        try:
+            dq = np.linalg.solve(lin.K, Q1)
+        except np.linalg.LinAlgError:
+            return None
+        if not np.all(np.isfinite(dq)) or np.any(np.abs(lin.K @ dq - Q1) > 1e-8 * np.abs(Q1).max()):
+            return None  # (a rigid or cyclic direction: the pipeline finds the pose again)
+        scale = np.where(np.array([u == "m" for u in system.units]), system.length_scale, 1.0)
+        eps = 1e-4 / max(float(np.max(np.abs(dq) / scale)), 1e-300)
+        zero = np.zeros(n)
+        at = {k: system.linearize(system.integrate(lin.q0, k * eps * dq), a=zero, method="analytic")
+              for k in (-2, -1, 1, 2)}
+        for name, (D, E) in (("M", (dM, eM)), ("C", (dC, eC)), ("K", (dK, eK))):
+            X = {k: getattr(at[k], name) for k in at}
+            d1 = (X[1] - X[-1]) / (2 * eps)
+            d2 = (X[2] - X[-2]) / (4 * eps)
+            err = np.abs(d1 - d2) / 3 + (at[1].K_error if name == "K" else 0.0) / eps + EPS * np.abs(X[1]) / eps
+            if name == "M":
+                dM, eM = d1, err
+            elif name == "C":
+                dC, eC = dC + d1, eC + err
+            else:
+                dK, eK = dK + d1, eK + err
+    return dM, dC, dK, eM, eC, eK
 
 
 def _of_builder(build, params, start, unused):
@@ -434,17 +527,24 @@ def _of_builder(build, params, start, unused):
                      [False] * len(names), start, unused)
 
 
-def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, start, unused="raise"):
+def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, start, unused="raise", direct=None):
     n_p, nv = len(names), lin.nv
     dM, dC, dK = (np.zeros((n_p, nv, nv)) for _ in range(3))
     eM, eC, eK = (np.zeros((n_p, nv, nv)) for _ in range(3))
+    direct = direct or {}
     for j in range(n_p):
+        if j in direct:
+            dM[j], dC[j], dK[j], eM[j], eC[j], eK[j] = direct[j]
+            continue
         one_sided = nonneg[j] and values[j] - 2 * steps[j] < 0
         (dM[j], dC[j], dK[j]), (eM[j], eC[j], eK[j]) = _differences(pipeline, values, j, steps[j], one_sided)
+    method = ("element" if len(direct) == n_p else "pipeline" if not direct else
+              f"element ({len(direct)} parameters), pipeline ({n_p - len(direct)})")
     # a parameter nothing depends on cannot be designed with nor fitted: refused, or left out and named
-    unchanged = [j for j in range(n_p) if all(
-        np.abs(d).max(initial=0.0) * max(abs(values[j]), steps[j]) <= 1e-12 * np.abs(X).max(initial=0.0)
-        for d, X in ((dM[j], lin.M), (dC[j], lin.C), (dK[j], lin.K)))]
+    moved = np.zeros(n_p, bool)
+    for d, X in ((dM, lin.M), (dC, lin.C), (dK, lin.K)):
+        moved |= np.abs(d).max(axis=(1, 2)) * np.maximum(np.abs(values), steps) > 1e-12 * np.abs(X).max(initial=0.0)
+    unchanged = np.flatnonzero(~moved).tolist()
     dropped = ""
     if unchanged:
         listed = ", ".join(f"'{names[j]}'" for j in unchanged)
@@ -458,7 +558,7 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
         names, units = [names[j] for j in keep], [units[j] for j in keep]
         values, steps = np.asarray(values)[keep], np.asarray(steps)[keep]
         dM, dC, dK, eM, eC, eK = (x[keep] for x in (dM, dC, dK, eM, eC, eK))
-    d_w2, e_w2, d_w, e_w, d_phi, e_phi, repeated = _undamped(base_modes, dM, dK, eM, eK)
+    d_w2, e_w2, d_w, e_w, repeated, nelson = _undamped(base_modes, dM, dK, eM, eK)
     d_l, e_l, d_wn, e_wn, d_z, e_z = _damped(base_modes, lin, dM, dC, dK, eM, eC, eK)
     note = dropped
     if repeated.any():
@@ -472,5 +572,5 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
         if not np.all(np.isfinite(arr)):
             raise ModelError(f"sensitivity: {name} is not finite (the scene's scales are too extreme)")
     return Sensitivity(tuple(names), tuple(units), np.asarray(values, float), base_modes.omega.copy(), d_w, e_w,
-                       d_w2, e_w2, d_phi, e_phi, repeated, d_l, e_l, d_wn, e_wn, d_z, e_z, dM, dC, dK, eM, eC, eK,
-                       np.asarray(steps), "pipeline", time.perf_counter() - start, note, base_modes)
+                       d_w2, e_w2, repeated, d_l, e_l, d_wn, e_wn, d_z, e_z, dM, dC, dK, eM, eC, eK,
+                       np.asarray(steps), method, time.perf_counter() - start, note, base_modes, nelson)

@@ -96,14 +96,25 @@ def _numbers(element):
     """The numeric attributes of an element: name -> value (a float or a tuple of them)."""
     out = {}
     for f in dataclasses.fields(element):
-        v = getattr(element, f.name)
-        if f.name in ("a", "b") and isinstance(v, tuple) and len(v) == 2:
-            out[f.name] = tuple(v[1])
-        elif isinstance(v, (int, float)) and not isinstance(v, bool):
-            out[f.name] = float(v)
-        elif isinstance(v, tuple) and v and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
-            out[f.name] = tuple(map(float, v))
+        v = _number(element, f.name)
+        if v is not None:
+            out[f.name] = v
     return out
+
+
+def _number(element, attr):
+    """The element's attribute ``attr`` as a float or a tuple of floats (an end: its point), None if it is no
+    number (or no field)."""
+    if attr not in element.__dataclass_fields__:
+        return None
+    v = getattr(element, attr)
+    if attr in ("a", "b") and isinstance(v, tuple) and len(v) == 2:
+        return tuple(v[1])
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return float(v)
+    if isinstance(v, tuple) and v and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+        return tuple(map(float, v))
+    return None
 
 
 def _component(name, value, key, what):
@@ -166,14 +177,15 @@ def _resolve(scene, name):
                 raise ModelError(f"parameter '{name}': an inertia's components are {', '.join(_INERTIA)}")
             return [Parameter(name, owner, "inertia", _INERTIA[rest[0]], "kg·m²", float(I[_INERTIA[rest[0]]]))]
         raise unknown_name(name, _names(scene), "parameter", "parameters", "sensitivity")
-    numbers = _numbers(element)
     attr = parts[1]
-    if attr not in numbers or len(parts) > 3:
+    value = _number(element, attr)
+    if value is None or len(parts) > 3:
         raise unknown_name(name, _names(scene), "parameter", "parameters", "sensitivity")
     unit = _unit(scene, element, attr)
-    index, value = _component(name, numbers[attr], parts[2] if len(parts) == 3 else None, f"{element.name}.{attr}")
+    whole = value
+    index, value = _component(name, whole, parts[2] if len(parts) == 3 else None, f"{element.name}.{attr}")
     if index == "each":
-        return _expand(name, owner, attr, numbers[attr], unit)
+        return _expand(name, owner, attr, whole, unit)
     return [Parameter(name, owner, attr, index, unit, float(value))]
 
 

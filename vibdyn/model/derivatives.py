@@ -247,3 +247,35 @@ def linear_terms(system, q, v, t, a=None, applied=None):
     M = dynamics.mass_matrix(system.model, ws.data, q)
     K, C, _, _ = analytic_derivatives(system, q, v, a, t, applied=applied)
     return M, K, C
+
+
+def element_terms(system, groups, q, v, t):
+    """(Q, K, C) of some compiled force groups alone at (q, v, t): their generalized force Q (N or N·m per
+    coordinate; point forces through the joints' Jacobians) and their part of the linear model, K = −∂Q/∂q and
+    C = −∂Q/∂v (what a parameter that enters those groups linearly, a stiffness or a damping, changes)."""
+    nv = system.nv
+    point = [g for g in groups if g.uses_points]
+    Q, K, C = np.zeros(nv), np.zeros((nv, nv)), np.zeros((nv, nv))
+    d = Derivatives(system, q, v, np.zeros(nv), t, any(g.needs_velocity_derivatives for g in point),
+                    points=bool(point))
+    if point:
+        ws = system.workspace()
+        d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t)
+        F = np.zeros((system.model.njoints, 6))
+        for g in point:
+            g.apply(t, q, v, d.fkin, Q, F)
+            g.derivatives(d)
+        for j in system.point_joints:
+            Q += d.J[j].T @ F[j]
+            K -= d.J[j].T @ d.dFq[j]
+            C -= d.J[j].T @ d.dFv[j]
+    for g in groups:
+        if g.uses_points:
+            continue
+        g.apply(t, q, v, None, Q, None)
+        dq, dv = g.derivatives(d)
+        if dq is not None:
+            K -= dq
+        if dv is not None:
+            C -= dv
+    return Q, K, C

@@ -31,6 +31,9 @@ class ElementKind:
     keys: ClassVar[dict[str, Any]] = {}  # scene-file key -> value check (vibdyn._check's value_* functions)
     required: ClassVar[tuple[str, ...]] = ()
     group: ClassVar[type | None] = None  # compiled evaluation of all members (None: no force of its own)
+    #: attributes the element's force is proportional to (a stiffness, a damping): a design sensitivity to
+    #: one of them is the force of the element with that attribute 1, no rebuild
+    linear_in: ClassVar[tuple[str, ...]] = ()
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

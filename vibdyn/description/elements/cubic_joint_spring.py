@@ -57,6 +57,7 @@ class CubicJointSpring(ElementKind):
             "name": value_string}
     required = ("body", "k3")
     group = CubicJointSprings
+    linear_in = ("k3",)
 
     name: str
     body: str

@@ -61,6 +61,7 @@ class Damper(ElementKind):
     keys = {"name": value_string, "a": value_attachment, "b": value_attachment, "damping": value_nonnegative}
     required = ("name", "a", "b", "damping")
     group = Dampers
+    linear_in = ("damping",)
 
     name: str
     a: tuple

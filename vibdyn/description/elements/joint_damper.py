@@ -44,6 +44,7 @@ class JointDamper(ElementKind):
     keys = {"body": value_string, "damping": value_nonnegative_number_or_list, "name": value_string}
     required = ("body", "damping")
     group = JointDampers
+    linear_in = ("damping",)
 
     name: str
     body: str

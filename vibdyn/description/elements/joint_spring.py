@@ -56,12 +56,14 @@ class _Layer(ForceGroup):
     def __init__(self, system, elements):
         model = system.model
         self.names = [e.name for e in elements]
-        self.q_rest = system.neutral()
+        neutral = system.neutral()
+        self.q_rest = neutral.copy()
         iv, k, curved = [], [], []
         for e in elements:
             b = system.body_info(e.body)
             iq = list(range(b.idx_q, b.idx_q + b.nq))
-            self.q_rest[iq] = pin.integrate(model, system.neutral(), tangent(model, b, e.rest))[iq]
+            if any(e.rest):  # (a rest at neutral is neutral's own coordinates)
+                self.q_rest[iq] = pin.integrate(model, neutral, tangent(model, b, e.rest))[iq]
             iv += list(range(b.idx_v, b.idx_v + b.nv))
             k += list(e.stiffness)
             # SE(2)/SE(3) joints and anisotropic ball springs need the Jacobian of the difference
@@ -142,6 +144,7 @@ class JointSpring(ElementKind):
             "name": value_string}
     required = ("body", "stiffness")
     group = JointSprings
+    linear_in = ("stiffness",)
 
     name: str
     body: str

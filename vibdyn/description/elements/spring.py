@@ -135,6 +135,7 @@ class Spring(ElementKind):
             "free_length": value_nonnegative}
     required = ("name", "a", "b", "stiffness")
     group = Springs
+    linear_in = ("stiffness",)
 
     name: str
     a: tuple
