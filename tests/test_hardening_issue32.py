@@ -98,3 +98,23 @@ def test_a_spring_free_length_of_1e300_m_is_refused_at_the_scene_not_at_build():
         rod_and_cart(mass=1e300)
     with err("body 'rod' joint 'at'", "1e+300 m"):
         rod_and_cart(at=(0.0, 1e300, 0.0))
+
+
+def test_far_reaching_spring_does_not_size_the_bodies_inertia():
+    """A spring whose free length dwarfs the bodies (radial, from the pivot: it never changes length, so no
+    torque): 1e3 and 1e6 m analyse to the bare pendulum's ω = √(m g c / I_O) (they were refused as "body
+    'rod' has no inertia": the spring's length sized the inertia check); 1e20 m, where 1 m is below the
+    force's precision, is refused naming the spring and its free length."""
+    def rod(free_length):
+        sc = vd.Scene("s", gravity=(0, 0, -9.81))
+        sc.add_body("rod", joint=vd.Pivot(axis=(0, 1, 0)), mass=1.0, com=(0, 0, -0.5),
+                    inertia=vd.inertia.rod(1.0, 1.0, axis=(0, 0, 1)))
+        sc.add_spring("k", ("world", (0, 0, 0.0)), ("rod", (0, 0, -1.0)), stiffness=10.0, free_length=free_length)
+        return sc
+
+    w = np.sqrt(9.81 * 0.5 / (1 / 3))
+    for L in (1e3, 1e6):
+        m = rod(L).build().operating_point().linearize().modes()
+        assert abs(m.omega[0] - w) <= 10 * m.omega_error[0] * w
+    with pytest.raises(vd.ModelError, match="spring 'k'.*free length is too large"):
+        rod(1e20).build().operating_point().linearize()

@@ -204,7 +204,7 @@ class System:
         self.drives = compile_drives(self)
         self.depends_on_time = any(g.time_dependent for g in self.force_groups) or bool(self.supports or self.drives)
         self._lower.flags.writeable = self._upper.flags.writeable = False
-        self.length_scale = self._length_scale()
+        self.length_scale, extent = self._length_scale()
         # finite-difference scale per tangent coordinate: 1 rad, or the length scale for a length (m)
         self.coordinate_scales = np.array([self.length_scale if u == "m" else 1.0 for u in self.units])
         self.coordinate_scales.flags.writeable = False
@@ -221,7 +221,7 @@ class System:
         self.periodic_coordinates = np.array([b.idx_q + i for b in self.body_infos.values()
                                               for i, p in enumerate(b.joint.periodic) if p], dtype=int)
         self.periodic_coordinates.flags.writeable = False
-        self.inertia_scales = self._inertia_scales()
+        self.inertia_scales = self._inertia_scales(extent)
         self._zero_v = np.zeros(self.nv)
         self._zero_v.flags.writeable = False
         self._mass_weights = 1.0 / np.outer(np.sqrt(self.inertia_scales), np.sqrt(self.inertia_scales))
@@ -268,16 +268,17 @@ class System:
     def _length_scale(self):
         """A characteristic length of the scene (m): the largest distance of a body origin, centre of mass
         or spring end from the world origin at the neutral configuration, or a spring's free length (at least
-        1 mm); ``length_scale``."""
+        1 mm); ``length_scale``, and the bodies' own extent (without the elements: what sizes their inertia)."""
         data = self.data
         pin.forwardKinematics(self.model, data, self.neutral())
         pts = [np.zeros(3)]
         for b in self.body_infos.values():
             M = data.oMi[b.joint_id] * b.body_in_joint
             pts += [M.translation, M.act(np.array(self.scene.bodies[b.name].com))]
-        pts += [np.array(p, dtype=float) for e in self.scene.elements.values() for p in e.reference_points()]
+        extent = max(1e-3, float(np.max(np.linalg.norm(pts, axis=1))))
+        pts = [np.array(p, dtype=float) for e in self.scene.elements.values() for p in e.reference_points()]
         lengths = [float(x) for e in self.scene.elements.values() for x in e.reference_lengths()]
-        return max(1e-3, float(np.max(np.linalg.norm(pts, axis=1))), *lengths)
+        return max([extent, *(float(np.linalg.norm(p)) for p in pts), *lengths]), extent
 
     def configuration(self, offsets: ArrayLike | Mapping[str, float]) -> Vector:
         """Configuration at tangent offsets from neutral (m or rad): one per coordinate, or a dict
@@ -557,12 +558,13 @@ class System:
     def __repr__(self):
         return f"System({self.name!r}, nq={self.nq}, nv={self.nv}, {len(self.force_groups)} force groups)"
 
-    def _inertia_scales(self):
-        """Per coordinate, the scene's scale of M's diagonal: its total mass (kg, for m) or total mass ×
-        length scale² plus the bodies' rotational inertias (kg·m², for rad); ``inertia_scales``."""
+    def _inertia_scales(self, extent):
+        """Per coordinate, the scene's scale of M's diagonal: its total mass (kg, for m) or total mass × the
+        bodies' extent² plus their rotational inertias (kg·m², for rad; a spring's far end or free length
+        does not size a body's inertia); ``inertia_scales``."""
         bodies = self.scene.bodies.values()
         mass = sum(b.mass for b in bodies)
-        rot = mass * self.length_scale**2 + sum(float(np.trace(np.array(b.inertia))) for b in bodies)
+        rot = mass * extent**2 + sum(float(np.trace(np.array(b.inertia))) for b in bodies)
         scales = np.array([mass if u == "m" else rot for u in self.units])
         scales.flags.writeable = False
         return scales
