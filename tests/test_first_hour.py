@@ -164,3 +164,40 @@ def test_a_picture_that_cannot_be_written_keeps_the_printed_results(argv, tmp_pa
     assert "the results above were computed and printed" in err.getvalue()
     header = {"frc": "Ω rad/s", "frf": "rad/s", "modes": "rad/s"}[argv[0]]
     assert header in out.getvalue() and len(out.getvalue().splitlines()) > 5 and "saved" not in out.getvalue()
+
+
+def test_a_forced_response_curves_harmonics_by_number():
+    """The coefficients are interleaved c₀, a₁, b₁, a₂, b₂, …: curve.harmonic(k) picks the k-th; the sampled
+    motion c₀ + Σ a_k cos kτ + b_k sin kτ reaches the curve's amplitude."""
+    import numpy as np
+
+    curve = vd.forced_response_curve(vd.load_scene("duffing").build(), ("mass", 0.1), (0.5, 2.0), "mass",
+                                     harmonics=3, step=0.1)
+    c0 = curve.harmonic(0, "mass")
+    pairs = [curve.harmonic(k, "mass") for k in (1, 2, 3)]
+    tau = np.linspace(0, 2 * np.pi, 4001)
+    x = c0[:, None] + sum(a[:, None] * np.cos(k * tau) + b[:, None] * np.sin(k * tau)
+                          for k, (a, b) in enumerate(pairs, 1))
+    assert np.abs(x).max(axis=1) == pytest.approx(curve.amplitude, rel=1e-6)
+    a1, b1 = curve.harmonic(1)
+    assert a1.shape == (len(curve.omega), 1) and np.all(np.abs(a1[:, 0]) + np.abs(b1[:, 0]) > 0)
+    assert np.abs(pairs[1][0]).max() < 1e-12 < np.abs(pairs[2][0]).max()  # a cubic force: odd harmonics only
+    with pytest.raises(vd.ModelError, match=r"ForcedResponseCurve.harmonic: k: must be in \[0, 3\], got 4"):
+        curve.harmonic(4)
+
+
+def test_a_start_in_degrees_is_named():
+    """A start more than a full turn from neutral in a rotation coordinate is more often degrees than turns:
+    simulate warns (and runs), a mechanism's equilibrium search that fails says so; a start within a turn is
+    silent (warnings are errors in this suite)."""
+    rod = vd.load_scene("rod_pivot").build()
+    rod.simulate(0.05, [1.0])
+    with pytest.warns(UserWarning, match=r"^simulate: q0: rod = 90 rad, more than a full turn \(2π\) from neutral: "
+                                         r"degrees by mistake\? 90° is 1.5708 rad$"):
+        traj = rod.simulate(0.05, [90.0])
+    assert traj.q[0, 0] == 90.0  # (the motion itself is still computed: a pendulum may be wound 14 turns)
+    four_bar = vd.load_scene("four_bar").build()
+    with pytest.raises(vd.ConvergenceError) as e:
+        four_bar.equilibrium(q0=[57.0, 30.0, 80.0], max_iter=20)
+    assert "start nearer an equilibrium (q0=); the start has crank = 57 rad, coupler = 30 rad, rocker = 80 rad, " \
+           "more than a full turn (2π) from neutral: degrees by mistake? 57° is 0.994838 rad" in str(e.value)

@@ -114,6 +114,20 @@ def unit_axis(value, what):
     return a / np.linalg.norm(a)
 
 
+def turns_hint(system, q):
+    """"" or what a start ``q`` of ``system`` (a System) has in it more than a full turn (2π) from neutral in a
+    rotation coordinate (rad), as a hint that degrees were given for radians: "rod = 90 rad, more than a full turn
+    (2π) from neutral: degrees by mistake? 90° is 1.5708 rad"."""
+    offsets = system.difference(system.neutral(), q)
+    big = [(c, float(x)) for c, u, x in zip(system.coordinates, system.units, offsets)
+           if u == "rad" and abs(x) > 2 * np.pi]
+    if not big:
+        return ""
+    names = ", ".join(f"{c} = {x:g} rad" for c, x in big)
+    degrees = ", ".join(f"{x:g}° is {np.radians(x):.6g} rad" for _, x in big)
+    return f"{names}, more than a full turn (2π) from neutral: degrees by mistake? {degrees}"
+
+
 def rotation_matrix(value, what):
     """A 3×3 rotation matrix, or a rotation vector (axis × angle in rad) of 3 numbers; None is identity."""
     if value is None:

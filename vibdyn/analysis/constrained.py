@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 import pinocchio as pin
 
-from .._check import scalar
+from .._check import scalar, turns_hint
 from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
@@ -66,7 +66,13 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
     speeds = speeds or {}
     what = "steady motion" if speeds else "static equilibrium"
     q, origin = system.start_configuration() if q0 is None else (system.check_configuration(q0, "q0"), "q0")
-    q = c.assemble(q, start=origin)
+    turns = turns_hint(system, q)  # (said if the search fails: a start in degrees is far from everything)
+    try:
+        q = c.assemble(q, start=origin)
+    except ConvergenceError as e:
+        if not turns:
+            raise
+        raise ConvergenceError(f"{e}; the start has {turns}", residual=e.residual, best=e.best) from None
     v = zero.copy()
     for i, s in speeds.items():
         v[i] = s
@@ -141,7 +147,8 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
     if out.status not in ("converged", "stagnated"):
         raise ConvergenceError(f"{what} of the mechanism with loops did not converge in {max_iter} "
                                f"iterations: reduced residual {out.residual:.3e} (target {target:.3e}); "
-                               "start nearer an equilibrium (q0=)", residual=out.residual, best=out.x)
+                               "start nearer an equilibrium (q0=)" + (f"; the start has {turns}" if turns else ""),
+                               residual=out.residual, best=out.x)
     q, it = out.x, out.iterations
     b = at(q)
     ind, N, J, r = b["ind"], b["N"], b["J"], b["r"]

@@ -39,11 +39,12 @@ integrates nothing extra (W_nc = 0).
 import math
 import sys
 import time
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .._check import finite_array, scalar
+from .._check import finite_array, scalar, turns_hint
 from ..defaults import EPS
 from ..errors import ModelError, VibdynError
 from ..model.groups import ForceGroup
@@ -219,8 +220,12 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
     if system.constraints is not None and not stepper.supports_loops:
         raise ModelError(f"{what}: method '{method}' does not handle closed loops; use "
                          f"{', '.join(m for m, c in METHODS.items() if c.supports_loops)} (projected onto the loops)")
+    given = q0 is not None
     q0, start = system.start_configuration() if q0 is None and system.constraints is not None else (
         system.neutral() if q0 is None else system.check_configuration(q0, f"{what}: q0"), "q0")
+    turns = turns_hint(system, q0) if given else ""
+    if turns:  # a start may wind a pendulum many turns, but it is more often degrees given for radians
+        warnings.warn(f"{what}: q0: {turns}", stacklevel=4)
     v0 = np.zeros(system.nv) if v0 is None else system.check_velocity(v0, f"{what}: v0")
     if system.drives is not None:  # the driven entries of q0 and v0 are the laws' at t0
         if not stepper.supports_drives:

@@ -95,9 +95,9 @@ class ForcedResponseCurve:
     """A forced-response curve (:func:`forced_response_curve`).
 
     Per point: ``omega`` (Ω, rad/s), ``amplitude`` (max over a period of |q_c − q_c,eq|, m or rad),
-    ``error`` (its harmonic-truncation estimate, same unit), ``coefficients`` (points × (2H + 1) × nv: the
-    constant, then cos kΩt and sin kΩt for k = 1..H, of each tangent coordinate's displacement from
-    ``q_eq``), ``multipliers`` (points × 2nv complex Floquet multipliers by Hill's method, by decreasing
+    ``error`` (its harmonic-truncation estimate, same unit), ``coefficients`` (points × (2H + 1) × nv: each tangent
+    coordinate's displacement from ``q_eq``, x(τ) = c₀ + Σ_k a_k cos kτ + b_k sin kτ with τ = Ωt, its rows
+    interleaved c₀, a₁, b₁, a₂, b₂, …, a_H, b_H; :meth:`harmonic` picks one harmonic), ``multipliers`` (points × 2nv complex Floquet multipliers by Hill's method, by decreasing
     modulus), ``multiplier_error`` (the largest error of their moduli, from Hill's method with 2H + 1
     harmonics), ``stable`` (all |μ| < 1) and ``stability`` ("stable", "unstable", or "within the error" where
     the largest |μ| is within its error of 1, as at a fold). ``folds`` and ``peak``; ``harmonics`` H;
@@ -128,6 +128,16 @@ class ForcedResponseCurve:
     def frequency_hz(self) -> np.ndarray:
         """Ω in Hz per point."""
         return self.omega / (2 * math.pi)
+
+    def harmonic(self, k: int, coordinate: str | None = None) -> Any:
+        """The k-th harmonic per point: for k = 0 the constant c₀ (points × nv), for k = 1..H the pair (a_k, b_k)
+        of cos kΩt and sin kΩt coefficients (each points × nv; m or rad); ``coordinate`` (a name) keeps its
+        column alone (arrays of one value per point)."""
+        k = integer(k, "ForcedResponseCurve.harmonic: k", minimum=0, maximum=self.harmonics)
+        X = self.coefficients
+        if coordinate is not None:
+            X = X[:, :, self.system.coordinate_index(coordinate)]
+        return X[:, 0].copy() if k == 0 else (X[:, 2 * k - 1].copy(), X[:, 2 * k].copy())
 
     def orbit(self, i: int, points: int = 64) -> Any:
         """The steady motion at point ``i`` over one period, q(t) = q_eq ⊕ x(Ωt) (a ResponseOrbit, animated by
