@@ -291,3 +291,24 @@ def test_cli_table_and_json():
     with contextlib.redirect_stderr(err):
         assert main(["sensitivity", "three_storey_building", "--param", "storey1.stifness"]) == 2
     assert "did you mean 'storey1.stiffness'" in err.getvalue()
+
+
+def test_update_pairs_measured_modes_by_mac_at_named_points():
+    """Only the first and third modes measured, their shapes as floor drifts: the fit pairs them by MAC (in
+    ascending order it would take mode 2 for the second measurement) and recovers two stiffnesses."""
+    truth = {"k1": 6e5, "k2": 4e5, "k3": 2e5}
+    m = building(**truth).build().operating_point().linearize().modes()
+    floors = ["floor1", "floor2", "floor3"]
+    drifts = m.point_shapes(floors, direction=(1, 0, 0))[:, [0, 2]]
+
+    def two(k1, k3):
+        return building(k1, 4e5, k3)
+
+    fit = vd.update(two, {"k1": 5e5, "k3": 3e5}, m.omega[[0, 2]], sigma=1e-6 * m.omega[[0, 2]], shapes=drifts,
+                    points=floors, direction=(1, 0, 0))
+    assert list(fit.pairs) == [0, 2]
+    assert fit.mac.shape == (2, 3) and np.all(fit.mac[[0, 1], [0, 2]] > 0.999)
+    for k in ("k1", "k3"):
+        assert abs(fit.values[k] - truth[k]) <= 5 * fit.std[k] + 1e-9 * truth[k]
+    with pytest.raises(ModelError, match="shapes must be 3 points × 2"):
+        vd.update(two, {"k1": 5e5, "k3": 3e5}, m.omega[[0, 2]], shapes=drifts[:2], points=floors, direction=(1, 0, 0))

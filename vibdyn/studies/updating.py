@@ -83,14 +83,17 @@ def _vector(x, n, what):
 
 
 def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bounds: dict | None = None, *,
-           shapes: Any = None, relative_sigma: float = 0.005, max_iter: int = 30) -> Update:
+           shapes: Any = None, points: Any = None, direction: Any = None, relative_sigma: float = 0.005,
+           max_iter: int = 30) -> Update:
     """Fit the parameters of ``build(**params)`` (a function returning a Scene, as :func:`vibdyn.sweep` takes
     it) from ``start`` so that its natural frequencies match ``measured`` (rad/s, ascending, the lowest flexible
     modes unless ``shapes`` pairs them).
 
     ``sigma``: the measurements' standard deviations (rad/s, one or one per mode; default
     ``relative_sigma`` × measured); ``bounds``: {name: (lower, upper)} (default: positive for a positive start);
-    ``shapes``: measured mode shapes (nv × n_measured, in the model's coordinates) to pair modes by MAC.
+    ``shapes``: measured mode shapes to pair modes by MAC: at ``points`` (body names or (body, point) pairs, as
+    :meth:`Modes.point_shapes` takes them; n_points × n_measured displacements along ``direction``, or
+    n_points × 3 × n_measured without), else in the model's coordinates (nv × n_measured).
     """
     t0 = time.perf_counter()
     from ..analysis.sensitivity import sensitivity
@@ -121,6 +124,10 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
         raise ModelError(f"update: each start must lie within its bounds (lower < upper): start {start}, "
                          f"bounds {bounds}")
     meas_shapes = None if shapes is None else np.asarray(shapes, dtype=float)
+    if meas_shapes is not None and not np.all(np.isfinite(meas_shapes)):
+        raise ModelError("update: the measured shapes have a value that is not a finite number")
+    if points is not None and meas_shapes is None:
+        raise ModelError("update: points name where measured shapes are: give shapes= too")
     scale = np.where(p0 != 0, np.abs(p0), 1.0)
     cache: dict = {}
 
@@ -140,11 +147,13 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
                              f"modes (ω = {np.round(sens.omega0, 6).tolist()} rad/s)")
         if meas_shapes is None:
             return flexible[:m], np.zeros((m, 0))
-        phi = sens.modes.shapes
-        if meas_shapes.shape != (phi.shape[0], m):
-            raise ModelError(f"update: shapes must be nv × n_measured = {phi.shape[0]} × {m}, got "
-                             f"{meas_shapes.shape}")
-        table = np.array([[mac_of(meas_shapes[:, i], phi[:, j]) for j in range(phi.shape[1])] for i in range(m)])
+        phi = sens.modes.shapes if points is None else sens.modes.point_shapes(points, direction)
+        if meas_shapes.shape[:-1] != phi.shape[:-1] or meas_shapes.shape[-1] != m:
+            where = "nv" if points is None else f"{len(points)} points" + ("" if direction is not None else " × 3")
+            raise ModelError(f"update: shapes must be {where} × {m} measured modes, "
+                             f"{phi.shape[:-1] + (m,)}, got {meas_shapes.shape}")
+        a, b = meas_shapes.reshape(-1, m), phi.reshape(-1, phi.shape[-1])
+        table = np.array([[mac_of(a[:, i], b[:, j]) for j in range(b.shape[1])] for i in range(m)])
         from scipy.optimize import linear_sum_assignment
 
         cost = -table[:, flexible]
