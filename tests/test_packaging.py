@@ -113,3 +113,25 @@ def test_ci_runs_the_readme_test_command():
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
     assert tests.split(" && ", 1)[1] in ci
     assert ".ci/wheel-check python3" in ci
+
+
+def test_the_base_install_is_what_the_readme_runs_on():
+    """matplotlib is a base dependency (the README's first example draws), example-robot-data the robots extra
+    (the test and docs extras include it), [plot] an empty alias kept for old commands; .ci/wheel-check installs
+    the wheel with no extra, runs the README's python blocks there (this suite's extractor, as a script) and
+    holds the install to the size the README states."""
+    import re
+
+    project = PYPROJECT["project"]
+    base = [re.split(r"[<>=;\[ ]", d, 1)[0] for d in project["dependencies"]]
+    extras = project["optional-dependencies"]
+    assert "matplotlib" in base and "example-robot-data" not in base
+    assert extras["plot"] == [] and [re.split(r"[<>=]", d, 1)[0] for d in extras["robots"]] == ["example-robot-data"]
+    for extra in ("test", "docs"):  # the suite and the gallery load robots
+        assert any(d.startswith("example-robot-data") for d in extras[extra]), extra
+    check = (ROOT / ".ci" / "wheel-check").read_text(encoding="utf-8")
+    assert '/bin/pip" install -q "$wheel"\n' in check and '"$repo/tests/test_readme.py"' in check
+    limit = int(re.search(r"limit_mb=\$\{BASE_LIMIT_MB:-(\d+)\}", check).group(1))
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    stated = int(re.search(r"meshcat, (\d+) MB of site-packages in a fresh venv", readme).group(1))
+    assert stated <= limit
