@@ -9,10 +9,13 @@ per coordinate pair, C in N·s/m or N·m·s/rad, M in kg, kg·m or kg·m².
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from .._check import all_finite, scalar, unknown_name
@@ -272,8 +275,12 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     (a given speed is held by its drive), else the free acceleration at (q, v, t).
     ``method``: "fd" (central differences with steps ``step`` × scale, scale 1 rad or the scene's length
     scale; error estimated from a second step 2h) or "analytic" (Pinocchio's RNEA derivatives plus the
-    force elements' derivatives). A mechanism with loops is linearised in its independent motions
-    (:func:`vibdyn.analysis.constrained.linearize`), a scene with drives in its free coordinates
+    force elements' derivatives; the columns of joints whose type Pinocchio gets wrong, a universal joint's,
+    by central differences, their error added to the estimate). The analytic K and C are checked against
+    central differences of the residual along a fixed pseudo-random direction of (q, v) (:func:`guard`): a
+    disagreement beyond the differences' own error estimate warns (UserWarning naming the scene's joint types)
+    and falls back to "fd" (the result's ``method`` says so). A mechanism with loops is linearised in its
+    independent motions (:func:`vibdyn.analysis.constrained.linearize`), a scene with drives in its free coordinates
     (:func:`vibdyn.analysis.driven.linearize`).
     """
     if system.constraints is not None:  # a mechanism with loops: in its independent motions
@@ -314,7 +321,8 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
     if method == "fd":
         K, C, K_err, C_err, n, rounding = _finite_differences(system, ws, q0, v0, a0, t0, step)
     else:
-        K, C, terms, K_size = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True, applied=applied)
+        K, C, terms, K_size, differenced = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True,
+                                                                applied=applied)
         # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad), and of
         # those summed into K by the point elements
         s, per_unit = system.coordinate_scales, system.inverse_scale_products
@@ -330,12 +338,107 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
         K_err *= 16 * EPS
         C_err = 16 * EPS * (np.abs(C) + scaled_terms) if np.count_nonzero(C) else np.zeros(C.shape)
         n = 1
+        if differenced is not None:  # columns differenced (joints Pinocchio gets wrong): their FD error
+            k, h, T_q, hv, T_v = differenced
+            K_err[:, k] += fd_error(K[:, k], T_q, terms, h)
+            rounding = force_rounding(system, ws, q0, t0, h)
+            if rounding is not None:
+                K_err[:, k] += np.abs(rounding[0]).T @ rounding[1]
+                rounding = None
+            n += 4 * len(k)
+            if T_v is not None:
+                C_err[:, k] += fd_error(C[:, k], T_v, terms, hv)
+                n += 4 * len(k)
+        checks, disagreement = guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms)
+        n += checks
+        if disagreement:
+            kinds = sorted({b.joint.kind for b in system.body_infos.values() if b.nv})
+            warnings.warn(f"linearize: the analytic {disagreement} (joint types here: {', '.join(kinds)}): "
+                          "using finite differences instead", stacklevel=3)
+            K, C, K_err, C_err, n_fd, rounding = _finite_differences(system, ws, q0, v0, a0, t0, step)
+            n, method = n + n_fd, "fd"
     system.check_mass_matrix(q0, "the operating point", M)  # (finite, and regular against the scene's scales)
     for name, X in (("K", K), ("C", C)):
         if (X is K or np.count_nonzero(X)) and not all_finite(X):  # (a C of zeros needs no test)
             raise ModelError(f"linearize: {name} is not finite at the operating point")
     return LinearModel(system, q0, v0, a0, t0, M, C, K, K_err, C_err, method, time.perf_counter() - start, n,
                        rounding)
+
+
+GUARD_SAFETY = 10.0  # factor on the differences' error estimate beyond which the analytic K or C is refused
+# random directions the analytic K and C are checked along: one (a wrong entry cancels in a random direction
+# with probability zero; each more costs 4 residual evaluations)
+GUARD_DIRECTIONS = 1
+
+
+@lru_cache(maxsize=32)
+def _guard_plan(nv):
+    """The guard's fixed pseudo-random directions of q and v (GUARD_DIRECTIONS × nv each, entries of random
+    sign and size in [1/2, 1], so that no structure of a scene, equal masses or a symmetric chain, cancels a
+    wrong entry), repeated with the signs of their ±δ, ±2δ rows (step-major: 4·GUARD_DIRECTIONS × nv each)."""
+    rng = np.random.default_rng(nv)
+    d = rng.choice((-1.0, 1.0), size=(2, GUARD_DIRECTIONS, nv)) * rng.uniform(0.5, 1.0, (2, GUARD_DIRECTIONS, nv))
+    signs = np.repeat([1.0, 2.0, -1.0, -2.0], GUARD_DIRECTIONS)[:, None]
+    plan = d[0], d[1], np.tile(d[0], (4, 1)) * signs, np.tile(d[1], (4, 1)) * signs
+    for x in plan:
+        x.flags.writeable = False
+    return plan
+
+
+def guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms):
+    """(evaluations, disagreement): K·δq + C·δv against central differences of the residual r(q, v) along
+    GUARD_DIRECTIONS fixed directions (δq = d∘h by ``integrate``, δv = d'∘h·max(1, |v0|), h the FD steps; δv = 0
+    where C is zero by construction: no velocity dependence and v0 = 0), the states ±δ, ±2δ in one pass. Their
+    error estimate: :func:`fd_error` from the 2δ difference, with the round-off of the forces that cancel in r
+    (``terms``, the largest of them, or of the point forces, through the tree's transforms as the analytic
+    estimate's floor, and |M||a0| + |C||v0|: inertia and Coriolis forces that RNEA sums away), plus K's and
+    C's own. ``disagreement``: None, or how far beyond GUARD_SAFETY × that estimate they disagree."""
+    h = step_stencil(system, ws, FD_STEP, estimate=True).h
+    dq, dv, X, Y = _guard_plan(system.nv)
+    X = X * h
+    if system.curved_coordinates:
+        Q = np.array([pin.integrate(system.model, q0, x) for x in X])
+    else:  # every joint a vector space (nq = nv, the same layout): integrate is the sum
+        Q = X + q0
+    V = v0
+    if system.depends_on_velocity or np.count_nonzero(v0):
+        hv = h * np.maximum(1.0, np.abs(v0))
+        V = Y * hv
+        V += v0
+    s = system.coordinate_scales
+    largest = max([float(np.max(terms * s, initial=0.0))] + [  # (point forces at the operating point, still
+        np.linalg.norm(ws.forces[j][:3]) * system.length_scale + np.linalg.norm(ws.forces[j][3:])  # in the
+        for j in system.point_joints])  # workspace's buffers: N·m through the length scale)
+    forces = terms + largest / s
+    rounding = force_rounding(system, ws, q0, t0, np.ones(1))  # (springs' forces from rounded positions)
+    tau, F = dynamics.inverse_dynamics_rows(system, ws, Q, V, a0, t0)
+    tau -= F
+    r = tau.reshape(4, GUARD_DIRECTIONS, system.nv)  # step-major: +δ, +2δ, −δ, −2δ
+    D2 = r[0] - r[2]  # 2 D1, D1 ≈ K δq + C δv (N or N·m)
+    T4 = r[1] - r[3]  # 4 D(2δ)
+    # in units of D1 / 2: off = |2 (K δq + C δv) − 2 D1|, bound = 2 (|δq| K_err + |δv| C_err + fd_error)
+    dq = dq * h
+    off = dq @ (2 * K.T)
+    bound = np.abs(dq) @ (2 * K_err.T)
+    if V is not v0:
+        dv = dv * hv
+        off += dv @ (2 * C.T)
+        bound += np.abs(dv) @ (2 * C_err.T)
+    off -= D2
+    T4 -= 2 * D2  # −4 T, T = D1 − D(2δ)
+    bound += np.abs(T4) / 2
+    if np.count_nonzero(a0):
+        forces += np.abs(M) @ np.abs(a0)
+    if V is not v0:
+        forces += np.abs(C) @ np.abs(v0)
+    bound += 4 * EPS * np.abs(D2) + 32 * EPS * forces  # (fd_error's round-off terms at h = 1, doubled)
+    if rounding is not None:
+        bound += 2 * np.abs(rounding[0]).T @ rounding[1][:, 0]
+    if (np.abs(off) <= GUARD_SAFETY * bound).all():
+        return len(Q), None
+    ratio = float(np.max(np.abs(off) / bound))
+    return len(Q), (f"K and C disagree with central differences of the residual along a random direction "
+                    f"(by {ratio:.3g} × their error estimate)")
 
 
 def jacobian_q(system, q0, v0, a0, t0, h):

@@ -71,6 +71,9 @@ class Joint:
     loop_rows: ClassVar[tuple[str, ...] | None] = None
     #: Pinocchio joint models (``shortname()``) this type stands for when a robot file is read
     pinocchio_models: ClassVar[frozenset[str]] = frozenset()
+    #: Pinocchio's analytic RNEA/ABA derivatives are right for this joint (tests/test_joint_derivatives.py
+    #: checks every type against central differences); False: vibdyn differences its columns instead
+    analytic_derivatives: ClassVar[bool] = True
     problem = None  # what is wrong with the parameters (str), reported when the joint joins a scene
 
     def __post_init__(self):
@@ -383,6 +386,9 @@ class Universal(Joint):
     periodic = (True, True)
     loop_rows = ("position", "aligned")
     pinocchio_models = frozenset({"JointModelUniversal"})
+    # Pinocchio 4.1.0's computeRNEADerivatives/computeABADerivatives ignore that S depends on θ2: the θ2
+    # column of ∂τ/∂q and both columns of ∂τ/∂v are wrong by O(1) (JointModelSphericalZYX likewise)
+    analytic_derivatives = False
     _positional = ("axis1", "axis2")
 
     def markers(self):

@@ -4,12 +4,19 @@ r(q, v) = RNEA(q, v, a0, f(q, v)) − Q(q, v), with f the external forces of poi
 frames. Pinocchio differentiates RNEA holding f fixed in those frames; the chain rule adds −Σ_j J_jᵀ ∂f_j
 and the joint-space groups add −∂Q. ∂f_j/∂q includes the turning of joint j's frame:
 ∂(Rᵀ F) = Rᵀ ∂F + [Rᵀ F]× Ω_j with Ω_j the local angular Jacobian of joint j.
+
+Pinocchio's derivatives are trusted per joint type (``analytic_derivatives`` of
+:mod:`vibdyn.description.joints`): the columns of a distrusted joint's coordinates (a universal joint's) are
+central differences instead (:func:`untrusted_columns`).
 """
+
+import weakref
 
 import numpy as np
 import pinocchio as pin
 
 from .._check import all_finite
+from ..defaults import FD_STEP
 from . import dynamics
 from .fd import steps, tangent_derivative, vector_derivative, world_point_jacobian
 from .points import skew
@@ -102,12 +109,73 @@ class Derivatives:
         return Q
 
 
+_UNTRUSTED = weakref.WeakKeyDictionary()  # system -> (columns, their steps): made once per system
+
+
+def untrusted(system):
+    """(k, h): the tangent indices k of the coordinates of joints whose type distrusts Pinocchio's analytic
+    derivatives (``analytic_derivatives = False``: universal joints; empty in most scenes) and their finite-
+    difference steps h (rad or m, :func:`vibdyn.model.fd.steps` of FD_STEP)."""
+    kh = _UNTRUSTED.get(system)
+    if kh is None:
+        k = np.array([i for b in system.body_infos.values() if not b.joint.analytic_derivatives
+                      for i in b.v_indices], dtype=int)
+        kh = _UNTRUSTED[system] = (k, steps(system, FD_STEP)[k])
+    return kh
+
+
+def _columns(f, X, k, h, estimate):
+    """Columns k of X (changed in place) as the central differences (f(e_k h_k) − f(−e_k h_k)) / 2h_k of f
+    (a function of a tangent or velocity offset); with ``estimate``, their truncation estimates D(h) − D(2h)."""
+    signs = (1.0, 2.0, -1.0, -2.0) if estimate else (1.0, -1.0)
+    e = np.zeros(X.shape[1])
+    T = np.empty((X.shape[0], len(k))) if estimate else None
+    for i, (kk, hk) in enumerate(zip(k, h)):
+        r = []
+        for sign in signs:
+            e[kk] = sign * hk
+            r.append(f(e))
+        e[kk] = 0.0
+        X[:, kk] = (r[0] - r[len(r) // 2]) / (2 * hk)
+        if estimate:
+            T[:, i] = X[:, kk] - (r[1] - r[3]) / (4 * hk)
+    return T
+
+
+def untrusted_columns(system, ws, q, v, a, t, shift, K, C, fext, estimate=False):
+    """Columns ``untrusted(system)[0]`` of K and C (changed in place) by central differences, for joints whose
+    type Pinocchio gets wrong (its RNEA derivatives and joint velocity derivatives, in these columns only):
+    K's of the whole residual r(q) (configurations moved by ``integrate``, ±h; the point forces in the
+    workspace's buffers are put back after), C's of RNEA with the external forces ``fext`` held in the joint
+    frames, Pinocchio's part only, before the elements' chain rule (±h·max(1, |v_k|): exact up to round-off,
+    RNEA being quadratic in v; C's columns are kept where v = 0, since every RNEA ∂/∂v vanishes there).
+    With ``estimate``, (k, h, T_q, hv, T_v): steps and truncation estimates D(h) − D(2h) (hv, T_v None where C's
+    columns are kept), else None. Call with C before the elements' terms are subtracted and K after."""
+    k, h = untrusted(system)
+    model, data = system.model, ws.data
+    hv = T_v = None
+    if C is not None and np.count_nonzero(v):
+        args = () if fext is None else (fext,)
+        hv = h * np.maximum(1.0, np.abs(v[k]))
+        T_v = _columns(lambda dv: pin.rnea(model, data, q, v + dv, a, *args), C, k, hv, estimate)
+    T_q = None
+    if K is not None:
+        kept = [ws.forces[j].copy() for j in system.point_joints]
+        T_q = _columns(lambda dq: dynamics.inverse_dynamics(system, ws, pin.integrate(model, q, dq), v, a, t,
+                                                            shift), K, k, h, estimate)
+        for j, f in zip(system.point_joints, kept):
+            ws.forces[j][:] = f
+    return (k, h, T_q, hv, T_v) if estimate else None
+
+
 def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, applied=None):
     """(K, C, terms, K_size) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|, Σ |J|ᵀ |∂f|) at (q, v, a, t), analytically;
     ``terms`` (N or N·m per coordinate) is the size of what cancels in r, ``K_size`` (nv × nv) that of the
     point elements' terms summed into K: the scales of their round-off (None unless ``with_terms``; 0.0
     without point elements). ``shift``: offsets of the supports' motion, as :func:`vibdyn.model.dynamics.forces`
-    takes them; ``applied``: the forces at (q, v, t) as that function gives them, if already evaluated."""
+    takes them; ``applied``: the forces at (q, v, t) as that function gives them, if already evaluated.
+    With ``with_terms``, a fifth item: None, or (k, h, T_q, hv, T_v) of :func:`untrusted_columns` (the columns of
+    joints Pinocchio gets wrong, differenced: their steps and truncation estimates)."""
     ws = system.workspace()
     model, data = system.model, ws.data
     Q, fext = dynamics.forces(system, ws, q, v, t, shift) if applied is None else applied
@@ -120,6 +188,9 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
         # (+ |g|: RNEA's τ itself where it is the gravity term alone)
         terms += terms if dynamics.is_gravity(system, v, a) else np.abs(dynamics.gravity_term(system, ws, q))
         terms += np.abs(Q)
+    differenced = untrusted(system)[0].size != 0
+    if differenced:  # (after data.tau is read: the differences overwrite it)
+        in_v = untrusted_columns(system, ws, q, v, a, t, shift, None, C, fext, with_terms)
     d = Derivatives(system, q, v, a, t, bool(system.point_groups) and any(
         g.needs_velocity_derivatives for g in system.point_groups), magnitudes=with_terms)
     K_size = None if not with_terms else np.zeros(K.shape) if system.point_groups else 0.0
@@ -138,8 +209,12 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
             K -= dq
         if dv is not None:
             C -= dv
-    ws.differenced = d.differenced
-    return K, C, terms, K_size
+    if differenced:
+        in_q = untrusted_columns(system, ws, q, v, a, t, shift, K, None, None, with_terms)
+        if with_terms:
+            differenced = in_q[:3] + in_v[3:]
+    ws.differenced = d.differenced or bool(differenced)
+    return (K, C, terms, K_size, differenced or None) if with_terms else (K, C, terms, K_size)
 
 
 class RowDerivatives:
@@ -194,6 +269,9 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
         else:
             out = pin.computeRNEADerivatives(model, data, Q[c], V[c], A[c])
         K[c], C[c] = out[0], out[1]
+        if untrusted(system)[0].size:
+            untrusted_columns(system, ws, Q[c], V[c], A[c], ts[c], None, None, C[c],
+                              ws.fext if system.point_groups else None)
         if system.joint_groups:
             dj = Derivatives(system, Q[c], V[c], A[c], float(ts[c]), False, points=False)
             for g in system.joint_groups:
@@ -206,6 +284,10 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
         for g in system.point_groups:
             g.derivatives_rows(d)
         K += d.K
+    if untrusted(system)[0].size:
+        for c in range(B):
+            untrusted_columns(system, ws, Q[c], V[c], A[c], float(ts[c]), None if shift is None else shift[c],
+                              K[c], None, None)
     return K, C
 
 
