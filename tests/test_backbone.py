@@ -36,6 +36,17 @@ def elliptic_omega(amplitude, w0=W0):
     return math.pi * w0 / (2 * ellipk(np.sin(np.asarray(amplitude) / 2) ** 2))
 
 
+def test_small_amplitude_backbone_is_right_within_its_error_or_refused():
+    """Issue 32: near rest the backbone's ω was 2e-10 rad/s off with a stated error of 1e-14. At 1e-6 … 1e-3
+    rad, ω against the elliptic integral within the error (≤ 1e-10 relative); at 1e-8 rad (an orbit's energy
+    below the round-off of the pendulum's) refused, naming the smallest amplitude resolved."""
+    bb = vd.backbone(pendulum(), 0, amplitudes=[1e-6, 1e-4, 1e-3])
+    assert np.all(np.abs(bb.omega - elliptic_omega(bb.amplitude)) <= bb.error)
+    assert np.all(bb.error < 1e-10 * bb.omega)
+    with pytest.raises(vd.ModelError, match=r"amplitude 1e-08 rad \(entry 0\) is too close to rest.*at least about"):
+        vd.backbone(pendulum(), 0, amplitudes=[1e-8, 1e-6])
+
+
 @pytest.fixture(scope="module")
 def rod_backbone():
     return vd.backbone(pendulum(), 0, amplitudes=[3.0, 0.5, 2.0])

@@ -10,6 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from conftest import MODELS
+from scipy.integrate import quad
 from scipy.special import ellipk
 
 import vibdyn as vd
@@ -67,6 +68,96 @@ def test_rotating_pendulum_closes_modulo_a_turn(rod):
     speed = math.sqrt(2 * e * 3)
     assert speed == pytest.approx(v0, rel=1e-10)
     assert abs(orbit.period - 4 * ellipk(4 * W0_ROD**2 / speed**2) / speed) <= orbit.period_error < 1e-8
+
+
+@pytest.mark.parametrize("amplitude", [1e-6, 1e-5, 1e-4, 1e-3])
+def test_small_pendulum_orbits_are_right_within_their_error(rod, amplitude):
+    """Issue 32: near rest the shooting degenerates (the period's column of its Jacobian shrinks like the
+    amplitude, the energy row grows like its inverse). Released from A, the period against the elliptic integral
+    4 K(sin²(A/2)) / ω₀ (→ 2π/ω₀) within the stated error, and that error small (it was 4e-6 s off at 1e-6 rad
+    with an error of 1e-37 s); the multipliers a double 1 within theirs (they were 1 ± 1.6e-5 i ± 6e-11)."""
+    orbit = vd.periodic_orbit(rod, [amplitude], [0.0], phase="rod")
+    exact = 4 * ellipk(math.sin(orbit.q0[0] / 2) ** 2) / W0_ROD
+    assert abs(orbit.q0[0] - amplitude) <= 1e-4 * amplitude  # (its energy is held to the energy's round-off)
+    assert abs(orbit.period - exact) <= orbit.period_error < 1e-9
+    assert np.all(np.abs(orbit.multipliers - 1.0) <= orbit.multiplier_error)
+
+
+def test_an_orbit_too_close_to_rest_is_refused(rod):
+    """At 1e-8 rad the orbit's energy above rest (2.5e-16 J) is below the round-off of the pendulum's energy
+    (4.9 J): refused, naming the smallest amplitude it resolves and the linear limit."""
+    with pytest.raises(vd.ModelError, match=r"too close to rest.*round-off.*larger amplitude \(above about "
+                                            r"[\d.e-]+ rad of 'rod'\).*linear"):
+        vd.periodic_orbit(rod, [1e-8], [0.0], phase="rod")
+
+
+def duffing(damping=0.0, k=1.0, k3=0.1):
+    s = vd.Scene("duffing")
+    s.add_body("mass", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_joint_spring("mass", k)
+    s.add_cubic_joint_spring("mass", k3)
+    if damping:
+        s.add_joint_damper("mass", damping)
+    return s.build()
+
+
+def duffing_period(a, k=1.0, k3=0.1):
+    """x'' + k x + k3 x³ = 0 from rest at a: T = 4 ∫₀^{π/2} du / √(k + ½ k3 a² (1 + sin²u)) (x = a sin u),
+    by adaptive quadrature (its error estimate returned)."""
+    return quad(lambda u: 4 / math.sqrt(k + 0.5 * k3 * a * a * (1 + math.sin(u) ** 2)), 0, math.pi / 2,
+                epsabs=0, epsrel=1e-13)
+
+
+@pytest.mark.parametrize("amplitude", [1e-8, 1e-5, 1e-3, 0.5])
+def test_small_duffing_orbits_against_the_quadrature_of_the_period(amplitude):
+    """An undamped Duffing oscillator (no gravity: its energy rounds off relative to the motion's, so even
+    1e-8 m is resolved): the period against the quadrature within the stated error (it was 2.5e-5 s off at 1e-5 m
+    with an error of 5e-34 s)."""
+    orbit = vd.periodic_orbit(duffing(), [amplitude], [0.0], phase="mass")
+    exact, quad_error = duffing_period(float(orbit.q0[0]))
+    assert abs(orbit.period - exact) <= orbit.period_error + quad_error
+    assert orbit.period_error < 1e-9
+
+
+def test_a_damped_autonomous_scene_has_no_periodic_orbit():
+    """Issue 32: the bundled Duffing (c = 0.05, unforced) from 0.5 m used to converge onto rest and call it a
+    "stable" orbit of 6.337 s. Every coordinate damped: refused before any shooting. A damper on one of two
+    uncoupled oscillators: the undamped one's orbit is found (T = 2π/ω₁ within its error), a start on the damped
+    one is refused once the shooting settles onto rest."""
+    with pytest.raises(vd.ModelError, match="every coordinate is damped.*no periodic orbit other than rest"):
+        vd.periodic_orbit(vd.load_scene("duffing").build(), [0.5], [0.0])
+    with pytest.raises(vd.ModelError, match="no periodic orbit other than rest"):
+        vd.periodic_orbit(duffing(0.05), [0.5], [0.0], phase="mass")
+    s = vd.Scene("two")
+    s.add_body("a", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_body("b", joint=vd.Slider((0, 1, 0)), mass=1.0)
+    s.add_joint_spring("a", 1.0)
+    s.add_joint_spring("b", 4.0)
+    s.add_joint_damper("b", 0.1)
+    system = s.build()
+    orbit = vd.periodic_orbit(system, [0.3, 0.0], [0.0, 0.0], phase="a")
+    assert abs(orbit.period - 2 * math.pi) <= orbit.period_error < 1e-9
+    with pytest.raises(vd.ModelError, match="settles to rest.*only non-conservative forces are dampers"):
+        vd.periodic_orbit(system, [0.0, 0.3], [0.0, 0.0], phase="b")
+
+
+@pytest.mark.parametrize("factor", [1.5, 1.0001])
+def test_a_wrong_derivative_in_the_variational_equations_is_caught(rod, monkeypatch, factor):
+    """The monodromy from the variational equations is checked against central differences of plain flows in
+    a random direction: a stiffness 1e-4 too large in the time layer's linearisation (as Pinocchio's universal-
+    joint derivatives are wrong) is a ConvergenceError, where reciprocal multipliers and Liouville's
+    determinant would not see it."""
+    from vibdyn.simulation.integrators import chart
+
+    right = chart.linear_terms
+
+    def wrong(*args, **kwargs):
+        M, K, C = right(*args, **kwargs)
+        return M, K * factor, C
+
+    monkeypatch.setattr(chart, "linear_terms", wrong)
+    with pytest.raises(vd.ConvergenceError, match="variational equations disagree with the flows"):
+        vd.periodic_orbit(rod, [1.0], [0.0], phase="rod")
 
 
 # ---------------------------------------------------------------------------------------------- 2. forced oscillator

@@ -43,8 +43,8 @@ from ...simulation.simulate import SimulationError, simulate
 from ...solvers.continuation import continuation
 from ...solvers.newton import newton
 from ..equilibrium import static_configuration
-from .periodic import RTOL, STEP_RESOLUTION, TOL, periodic_orbit
-from .shooting import RCOND, Shooting, conservative
+from .periodic import MIN_ENERGY_RATIO, RTOL, STEP_RESOLUTION, TOL, periodic_orbit
+from .shooting import RCOND, Shooting, conservative, energy_roundoff
 
 __all__ = ["Backbone", "Resonance", "backbone"]
 START_AMPLITUDE = 1e-2  # the linear start's displacement of the coordinate c, in its scale (1 rad, length scale)
@@ -219,6 +219,7 @@ def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energi
         raise ModelError(f"{what}: coordinate '{cons.coordinates[c]}' does not move in mode {k} (its share of the "
                          "linear mode is zero): choose a coordinate that moves")
     phi = phi / phi[c]  # the coordinate c moves by 1 (m or rad)
+    _resolvable(cons, q_eq, phi, c, float(modes.omega[k]), requested, requests, what)
     follower = _Follower(cons, q_eq, phi, c, float(modes.omega[k]), modes, k, requested, requests, rtol, tol)
     order = np.argsort(requests, kind="stable")
     solved = follower.run(requests[order], max_steps)
@@ -252,6 +253,23 @@ def _requests(amplitudes, energies, what):
         raise ModelError(f"{what}: {name} requests must be positive and finite: entry {int(bad[0])} is "
                          f"{float(arr[bad[0]])!r}")
     return name, arr
+
+
+def _resolvable(system, q_eq, phi, c, omega, requested, requests, what):
+    """ModelError for a request whose energy above rest (½ ω² a² φᵀMφ for an amplitude a) is within
+    4 · MIN_ENERGY_RATIO times the round-off of the scene's energy (periodic_orbit's floor, amplitude × 2):
+    its orbit cannot be told from its neighbours; the message names the smallest request resolved."""
+    stiffness = omega**2 * float(phi @ system.mass_matrix(q_eq) @ phi)  # J per (m or rad)² of c, times 2
+    floor = 4 * MIN_ENERGY_RATIO * energy_roundoff(system, q_eq, np.zeros(system.nv), 0.0)
+    energies = requests if requested == "energy" else 0.5 * stiffness * requests**2
+    small = np.flatnonzero(energies <= floor)
+    if small.size:
+        i, unit = int(small[0]), "J" if requested == "energy" else system.units[c]
+        least = floor if requested == "energy" else math.sqrt(2 * floor / stiffness)
+        raise ModelError(f"{what}: the {requested} {float(requests[i]):.3g} {unit} (entry {i}) is too close to "
+                         "rest: the orbit's energy is within the round-off of the scene's energy, so it cannot be told "
+                         f"from its neighbours; ask for at least about {least:.1g} {unit} (the small orbits' frequency "
+                         f"tends to the linear one, ω = {number(omega, 'rad/s', digits=10)})")
 
 
 def _bad_coordinate(coordinate, what):

@@ -27,8 +27,8 @@ from ...errors import ConvergenceError, ModelError
 from ...model.derivatives import linear_terms
 from ...model.forcing import forcing
 from ...simulation.simulate import SimulationError, simulate
-from .shooting import (MAX_SEGMENTS, RCOND, Shooting, conservative, first_return, free_indices, growth_segments,
-                       motion_scales)
+from .shooting import (MAX_SEGMENTS, RCOND, Shooting, conservative, damping_only, energy_roundoff, first_return,
+                       free_indices, growth_segments, motion_scales)
 
 __all__ = ["PeriodicOrbit", "Liouville", "periodic_orbit", "floquet"]
 TOL = 1e-10  # default closing tolerance (scaled residual: rad, length scales, velocities per 2π/T)
@@ -38,6 +38,7 @@ POINTS = 128  # outputs per period of the orbit's trajectory (equally spaced: th
 STEP_RESOLUTION = 0.5  # steps of the flows at most this / ω (ω: the start's fastest linear frequency or 2π/T)
 SAMPLES = 8  # perturbations of Φ that measure the spread of clustered multipliers
 SPREAD_FACTOR = 3.0  # the spread's safety factor
+MIN_ENERGY_RATIO = 10.0  # a conservative orbit's motion energy must exceed this × the energy's round-off
 
 
 class Liouville(NamedTuple):
@@ -228,6 +229,11 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
                          "give its period (s)")
     if phase is not None and not autonomous:
         raise ModelError(f"{what}: phase applies to autonomous scenes only (here the forcing fixes the phase)")
+    damping = damping_only(system) if autonomous and not conservative(system) else None
+    if damping is not None and np.all(damping[free] > 0):
+        raise ModelError(f"{what}: the scene is autonomous and every coordinate is damped (its only non-conservative "
+                         f"forces are dampers): every motion loses energy, so it has no periodic orbit other than "
+                         f"rest at an equilibrium; {_DAMPED_HINT}")
     nodes = _start_nodes(system, q0, v0, t0, segments, what)
     if segments is not None:
         segments = integer(segments, f"{what}: segments", minimum=1, maximum=MAX_SEGMENTS)
@@ -253,9 +259,9 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
         raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "
                                "start closer to the orbit, or give nodes along it (q0, v0 one row each)",
                                best=nodes) from e
-    scales = motion_scales(system, first, omega)
+    scales = motion_scales(system, first, omega, relative=autonomous)
     phase_spec = _phase(system, q_start, v_start, t0, omega, free, phase, scales, what) if autonomous else None
-    energy = (system.energy(q_start, v_start, t0).total, max(first.energy_scale, 1e-300)) if cons else None
+    energy = _energy_condition(system, q_start, v_start, t0, first, scales, free, tol, what) if cons else None
     m = segments if segments is not None else k if k > 1 else growth_segments(first.state_transition)
     shoot = Shooting(system, t0, period, autonomous, m, omega, rtol, phase_spec, energy, scales, max_step)
     if m > 1 and k == 1:  # nodes along a first run from the start
@@ -266,7 +272,10 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
     if m == 1 and k == 1:
         shoot.seed(x0, [first])
     x, residual, iterations = shoot.solve(x0, tol, max_iter)
-    return _result(system, shoot, x, residual, iterations, points, cons, start)
+    orbit = _result(system, shoot, x, residual, iterations, points, cons, start)
+    if autonomous:
+        _moves(system, shoot, orbit, tol, damping is not None, what)
+    return orbit
 
 
 def floquet(system: Any, period: float, q0: Any = None, v0: ArrayLike | None = None, t0: float = 0.0,
@@ -358,7 +367,54 @@ def _phase(system, q, v, t, omega, free, phase, scales, what):
     return ("flow", np.array(q), np.array(v), u / norm)
 
 
+def _energy_condition(system, q, v, t, first, scales, free, tol, what):
+    """(E_start J, the energy row's scale J) of a conservative orbit: the largest kinetic energy of the first run
+    (the total's own variation across the orbit: gravity and a spring holding it against each other trade far
+    more), or the energy's round-off / tol where that is larger (the row then holds E to its round-off).
+    ModelError where the motion's energy is within MIN_ENERGY_RATIO × the round-off: the start is too close to
+    rest for its orbit to be told from its neighbours (the amplitude below which this happens is named)."""
+    noise, moving = energy_roundoff(system, q, v, t), float(np.max(first.kinetic))
+    if not moving > MIN_ENERGY_RATIO * noise:
+        cs = np.asarray(system.coordinate_scales, dtype=float)[free]
+        k = int(np.argmax(np.asarray(scales, dtype=float)[free] / cs))
+        i = int(free[k])
+        need = float(scales[i]) * math.sqrt(MIN_ENERGY_RATIO * noise / max(moving, 1e-300))
+        raise ModelError(
+            f"{what}: the start is too close to rest: the energy of its motion ({moving:.2g} J) is within "
+            f"{MIN_ENERGY_RATIO:g} times the round-off of the scene's energy ({noise:.2g} J), so its orbit cannot be "
+            f"told from its neighbours; start from a larger amplitude (above about {need:.1g} "
+            f"{system.units[i]} of '{system.coordinates[i]}'), or take the linear modes' periods 2π/ω "
+            "(System.linearize(...).modes()), which are the small orbits' limit")
+    return system.energy(q, v, t).total, max(moving, noise / tol)
+
+
 # ---------------------------------------------------------------------------------------------- result
+_DAMPED_HINT = ("force it (a time-dependent force or support; then periodic_orbit or floquet with the forcing's "
+                "period), or use backbone for the orbits of its undamped part")
+
+
+def _moves(system, shoot, orbit, tol, damped, what):
+    """Refuse an autonomous orbit that converged onto rest: its motion (scaled: |Δq| from q0, |v|/ω) within
+    100·tol plus 10× its own error. ModelError where the scene's only non-conservative forces are dampers (no
+    other periodic orbit through the start exists), ConvergenceError otherwise."""
+    s = shoot.s
+    traj = orbit.trajectory
+    dq = max(float(np.abs(system.difference(orbit.q0, q)[shoot.free] / s).max()) for q in traj.q)
+    dv = float(np.abs(traj.v[:, shoot.free] / (s * shoot.omega)).max())
+    noise = 100 * tol + 10 * max(float(np.max(orbit.error / s)),
+                                 float(np.max(orbit.velocity_error / (s * shoot.omega))))
+    if max(dq, dv) > noise:
+        return
+    if damped:
+        raise ModelError(f"{what}: the motion from the start settles to rest, not to a periodic orbit: the scene is "
+                         "autonomous and its only non-conservative forces are dampers, which take energy from every "
+                         "motion that moves them, so no periodic orbit other than rest at an equilibrium exists "
+                         "there; " + _DAMPED_HINT)
+    raise ConvergenceError(f"{what}: the shooting converged onto rest (an equilibrium), not a periodic orbit: start "
+                           "further from the equilibrium, or closer to the orbit", residual=orbit.residual,
+                           best=[(orbit.q0, orbit.v0)])
+
+
 def _result(system, shoot, x, residual, iterations, points, cons, start):
     m, n = shoot.m, shoot.n
     per = max(2, 2 * math.ceil(points / (2 * m)))  # outputs per segment (even: the half-grid quadrature)
@@ -375,14 +431,18 @@ def _result(system, shoot, x, residual, iterations, points, cons, start):
     res_v = max(float(np.abs(dv).max(initial=0.0)) for _, dv in closing)
     int_q = max(float(r.q_error.max()) for r in runs)
     int_v = max(float(r.v_error.max()) for r in runs)
+    shoot.check_transitions(nodes, T, runs, np.concatenate([np.full(n, int_q), np.full(n, int_v)]))
     maps = shoot.segment_maps(nodes, runs)
     mono, mono_err = _product([P for P, _, _ in maps], [r.state_transition_error * P.shape[0] for r, (P, _, _) in
                                                          zip(runs, maps)])
     mono_err += deviation
     J = shoot.jacobian_of(nodes, T, runs)
     r = shoot.residual_of(nodes, runs)
+    extra = np.zeros(shoot.extra)  # the phase row is exact; the energy row rounds off (both E and its target)
+    if shoot.energy is not None:
+        extra[-1] = 2 * energy_roundoff(system, nodes[0][0], nodes[0][1], shoot.t0) / shoot.energy[1]
     e = np.concatenate([np.concatenate([np.full(n, int_q), np.full(n, int_v)]) / shoot.node_scale
-                        for _ in range(m)] + [np.zeros(shoot.extra)])
+                        for _ in range(m)] + [extra])
     period_error = 0.0
     if shoot.free_period:
         Jp = np.linalg.pinv(J, rcond=1e-10)

@@ -25,6 +25,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from ...description.elements.damper import Dampers
+from ...description.elements.joint_damper import JointDampers
 from ...errors import ConvergenceError, ModelError
 from ...model.groups import ForceGroup
 from ...simulation.simulate import SimulationError, simulate
@@ -36,6 +38,8 @@ MAX_SEGMENTS = 64
 RCOND = 1e-10  # singular values of the scaled Jacobian below this (relative) are its error: a family direction
 MIN_ALPHA = 1.0 / 32  # the line search's shortest step: below it the flows' noise decides, not the model
 STEP_CAP = 1.0  # largest Newton step per scaled unknown (1 rad, one length scale, T/2π)
+ROUNDOFF = 16.0  # ulps of the energy's terms: its round-off
+CHECK_STEP = 1e-4  # the transitions' check: flows from the nodes moved by this (and twice this) of the scales
 
 
 def conservative(system) -> bool:
@@ -44,6 +48,22 @@ def conservative(system) -> bool:
     return not system.depends_on_time and not any(
         g.velocity_dependent or g.time_dependent or type(g).potential is ForceGroup.potential
         for g in system.force_groups)
+
+
+def damping_only(system) -> np.ndarray | None:
+    """Where the autonomous scene's only non-conservative forces are viscous dampers (on joints or between
+    points: each takes energy from every motion that moves it): the joint dampers' coefficient per coordinate
+    (N·s/m or N·m·s/rad, length nv; zeros where none); else None."""
+    if system.depends_on_time:
+        return None
+    c = np.zeros(system.nv)
+    for g in system.force_groups:
+        if isinstance(g, JointDampers):
+            c[g.iv] += g.c
+        elif not isinstance(g, Dampers) and (g.velocity_dependent or g.time_dependent
+                                             or type(g).potential is ForceGroup.potential):
+            return None
+    return c
 
 
 def free_indices(system) -> np.ndarray:
@@ -83,7 +103,12 @@ class Shooting:
         self.free2 = np.concatenate([self.free, self.free + system.nv])
         n = self.n = self.free.size
         self.nq, self.nv = system.nq, system.nv
-        self.s = np.asarray(system.coordinate_scales if scales is None else scales, dtype=float)[self.free]
+        cs = np.asarray(system.coordinate_scales, dtype=float)
+        full = cs if scales is None else np.asarray(scales, dtype=float)
+        self.s = full[self.free]
+        self.h_energy = 1e-6 * np.maximum(self.s, cs[self.free])  # the energy row's difference steps (m or rad)
+        # the flows' absolute tolerance: rtol of each coordinate's scale, or of its motion where that is smaller
+        self.atol = None if scales is None else float(rtol) * np.tile(np.minimum(full, cs), 2)
         self.omega = float(omega)
         self.node_scale = np.concatenate([self.s, self.s * self.omega])
         self.unknown_scale = np.concatenate([np.tile(self.node_scale, self.m)]
@@ -151,8 +176,8 @@ class Shooting:
         for i, (q, v) in enumerate(nodes):
             a = self.time(i, T)
             t_eval = None if points is None else np.linspace(a, a + h, points + 1)
-            runs.append(simulate(self.system, a + h, q, v, rtol=self.rtol, t0=a, variational=True, error=error,
-                                 t_eval=t_eval, max_step=self.max_step / refine))
+            runs.append(simulate(self.system, a + h, q, v, rtol=self.rtol, atol=self.atol, t0=a, variational=True,
+                                 error=error, t_eval=t_eval, max_step=self.max_step / refine))
         self.evaluations += 1
         if cached:
             self._cache = (key, runs)
@@ -217,12 +242,12 @@ class Shooting:
 
     def energy_row(self, q0, v0):
         """∂E/∂(δq_0, δv_0) / E_scale: central differences in the tangent space for q (steps 1e-6 of each
-        coordinate's scale), M v for v."""
+        coordinate's scale, or of its motion where larger), M v for v."""
         system, n, t = self.system, self.n, self.t0
         row = np.zeros(2 * n)
         for k, i in enumerate(self.free):
             e = np.zeros(self.nv)
-            e[i] = 1e-6 * self.s[k]
+            e[i] = self.h_energy[k]
             ep = system.energy(pin.integrate(self.model, q0, e), v0, t).total
             em = system.energy(pin.integrate(self.model, q0, -e), v0, t).total
             row[k] = (ep - em) / (2 * e[i])
@@ -271,6 +296,58 @@ class Shooting:
         if self.energy is not None:
             J[k, :2 * n] = self.energy_row(q0, v0)
         return J / self.row_scale[:, None] * self.unknown_scale[None, :]
+
+    # ------------------------------------------------------------------ consistency of the transitions
+    def check_transitions(self, nodes, T, runs, flow_error, directions=1):
+        """Each segment's state transition Φ_i (variational equations) against central differences of its plain
+        flows from the node moved by ±h δ and ±2h δ along ``directions`` random unit scaled directions δ
+        (h = CHECK_STEP of the scales; ``pin.integrate``, end states compared by ``pin.difference``). The
+        differences' error: their h-to-2h change plus the flows' own (``flow_error``: per free coordinate, m or
+        rad, then m/s or rad/s) over h; Φ's: its estimated entry error times ‖δ‖₁. Returns the largest
+        disagreement over those errors (≤ 1: consistent); ConvergenceError where it exceeds 1 (a wrong derivative
+        in the variational equations: the Newton steps and the multipliers cannot be trusted)."""
+        n, rng, worst = self.n, np.random.default_rng(0), 0.0
+        for i, run in enumerate(runs):
+            a, (q, v) = self.time(i, T), nodes[i]
+            P = np.array(run.state_transition, dtype=float)
+            if P.shape[0] != 2 * n:
+                P = P[np.ix_(self.free2, self.free2)]
+            for _ in range(directions):
+                d = rng.standard_normal(2 * n)
+                d *= self.node_scale / np.linalg.norm(d)
+                fd = [self.differenced(q, v, a, a + T / self.m, run.q[-1], run.v[-1], d * (k * CHECK_STEP))
+                      / (k * CHECK_STEP) for k in (1, 2)]
+                err_fd = np.abs(fd[0] - fd[1]) + np.asarray(flow_error) / CHECK_STEP
+                err_phi = float(run.state_transition_error) * np.abs(d).sum()
+                gap = np.abs(P @ d - fd[0])
+                ratio = float(np.max(gap / (err_fd + err_phi + 1e-300 * self.node_scale)))
+                worst = max(worst, ratio)
+                if ratio > 1.0:
+                    k = int(np.argmax(gap / self.node_scale))
+                    raise ConvergenceError(
+                        f"periodic orbit: the variational equations disagree with the flows they linearise: over "
+                        f"segment {i + 1} of {self.m}, Φ·δ and differences of the motion from the start moved by "
+                        f"±δ (a random direction) differ by {gap[k] / self.node_scale[k]:.2e} (scaled), beyond both "
+                        f"estimated errors ({(err_fd[k] + err_phi) / self.node_scale[k]:.1e}): the scene's "
+                        f"derivatives (∂q̈/∂q, ∂q̈/∂v) are wrong for one of its joint types or force elements; the "
+                        "Newton steps and the Floquet multipliers cannot be trusted (please report the scene)",
+                        residual=gap[k] / self.node_scale[k])
+        return worst
+
+    def differenced(self, q, v, t0, t1, q_end, v_end, delta):
+        """(x(t1; x0 ⊕ δ) − x(t1; x0 ⊖ δ)) / 2 over the free coordinates (tangent at q_end, unscaled): plain
+        flows at the shooting's tolerances."""
+        n, ends = self.n, []
+        for sign in (1.0, -1.0):
+            dq = np.zeros(self.nv)
+            dq[self.free] = sign * delta[:n]
+            v1 = np.array(v, dtype=float)
+            v1[self.free] += sign * delta[n:]
+            run = simulate(self.system, t1, pin.integrate(self.model, q, dq), v1, rtol=self.rtol, atol=self.atol,
+                           t0=t0, error="local", max_step=self.max_step / 2, t_eval=[t1])
+            ends.append(np.concatenate([pin.difference(self.model, q_end, run.q[-1])[self.free],
+                                        (run.v[-1] - v_end)[self.free]]))
+        return (ends[0] - ends[1]) / 2
 
     # ------------------------------------------------------------------ solution
     def solve(self, x0, tol, max_iter):
@@ -343,10 +420,22 @@ def first_return(system, q0, v0, t0, omega, rtol) -> float:
                            f"{span / 4:.4g} s: give the period (s), or start on (or near) a periodic orbit")
 
 
-def motion_scales(system, run, omega):
+def motion_scales(system, run, omega, relative=False):
     """Per tangent coordinate, the larger of its own scale (1 rad, the scene's length) and how far it moves
-    in ``run`` (|Δq| from the start, |v|/ω): what one unit of the shooting unknowns means."""
+    in ``run`` (|Δq| from the start, |v|/ω): what one unit of the shooting unknowns means. ``relative`` (an
+    autonomous orbit, which shrinks onto an equilibrium): below one scale of motion the floor is the motion's
+    fraction ρ of the scales (ρ = the largest |Δq|/scale, |v|/(ω·scale)), so that the equations stay in units
+    of the orbit however small it is."""
     q0 = run.q[0]
     dq = np.abs([system.difference(q0, q) for q in run.q]).max(axis=0)
-    dv = np.abs(run.v).max(axis=0) / omega
-    return np.maximum(np.asarray(system.coordinate_scales, dtype=float), np.maximum(dq, dv))
+    moves = np.maximum(dq, np.abs(run.v).max(axis=0) / omega)
+    cs = np.asarray(system.coordinate_scales, dtype=float)
+    rho = min(1.0, float((moves / cs).max(initial=0.0))) if relative else 1.0
+    return np.maximum(cs * (rho if rho > 0 else 1.0), moves)
+
+
+def energy_roundoff(system, q, v, t) -> float:
+    """The round-off (J) of the scene's energy at (q, v, t): ROUNDOFF ulps of its terms' sizes (an energy
+    difference below it, e.g. an orbit's energy above a nearby rest, is not resolved)."""
+    e = system.energy(q, v, t)
+    return ROUNDOFF * float(np.finfo(float).eps) * (abs(e.kinetic) + abs(e.gravity) + abs(e.elastic))
