@@ -93,20 +93,10 @@ def _rounds(nv):
     yield [r * rng.standard_normal(nv) for r in (1.0, 2.0) for _ in range(RANDOM_RESTARTS // 2)]
 
 
-def _wrapped(system, q, qd):
-    """q with its periodic angles within π of qd's (the same pose)."""
-    iq = system.periodic_coordinates
-    if iq.size:
-        q = q.copy()
-        d = q[iq] - qd[iq]
-        q[iq] = qd[iq] + (d - 2 * np.pi * np.round(d / (2 * np.pi)))
-    return q
-
-
 def _close(c, q, qd):
     """The closure by Gauss–Newton from q (a trial: not recorded), angles within π of qd's; None if none."""
     try:
-        return _wrapped(c.system, c.assemble(q, start="a trial pose", record=False), qd)
+        return c.within_pi(c.assemble(q, start="a trial pose", record=False), qd)
     except ConvergenceError:
         return None
 

@@ -357,14 +357,19 @@ class Constraints:
         """q with its periodic angles within π of q0's; the first closed configuration met is kept
         (:attr:`closed`, where the mobility is taken; not with ``record`` False) after the check that no loop
         locks the mechanism."""
-        iq = self.system.periodic_coordinates
-        if iq.size:
-            d = q[iq] - q0[iq]
-            q[iq] = q0[iq] + (d - 2 * np.pi * np.round(d / (2 * np.pi)))
+        q = self.within_pi(q, q0)
         if self.closed is None and record:
             self.check_mobility(q)
             self.dof_closed = self.system.nv - self.rank(q)
             self.closed = (q.copy(), start)
+        return q
+
+    def within_pi(self, q, q0):
+        """q (changed in place) with its periodic angles (pivots, ...) within π of q0's: the same pose."""
+        iq = self.system.periodic_coordinates
+        if iq.size:
+            d = q[iq] - q0[iq]
+            q[iq] = q0[iq] + (d - 2 * np.pi * np.round(d / (2 * np.pi)))
         return q
 
     def assembly(self):
