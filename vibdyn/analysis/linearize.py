@@ -11,7 +11,6 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, field, replace
-from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -366,79 +365,68 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
 
 
 GUARD_SAFETY = 10.0  # factor on the differences' error estimate beyond which the analytic K or C is refused
-# random directions the analytic K and C are checked along: one (a wrong entry cancels in a random direction
-# with probability zero; each more costs 4 residual evaluations)
-GUARD_DIRECTIONS = 1
 
 
-@lru_cache(maxsize=32)
-def _guard_plan(nv):
-    """The guard's fixed pseudo-random directions of q and v (GUARD_DIRECTIONS × nv each, entries of random
-    sign and size in [1/2, 1], so that no structure of a scene, equal masses or a symmetric chain, cancels a
-    wrong entry), repeated with the signs of their ±δ, ±2δ rows (step-major: 4·GUARD_DIRECTIONS × nv each)."""
-    rng = np.random.default_rng(nv)
-    d = rng.choice((-1.0, 1.0), size=(2, GUARD_DIRECTIONS, nv)) * rng.uniform(0.5, 1.0, (2, GUARD_DIRECTIONS, nv))
-    signs = np.repeat([1.0, 2.0, -1.0, -2.0], GUARD_DIRECTIONS)[:, None]
-    plan = d[0], d[1], np.tile(d[0], (4, 1)) * signs, np.tile(d[1], (4, 1)) * signs
-    for x in plan:
-        x.flags.writeable = False
+def _guard_plan(system, ws):
+    """The guard's fixed pseudo-random directions, kept with the workspace's stencils: (δq, |δq|, the rows
+    ±δq, ±2δq, δv, the rows ±δv, ±2δv), δ = d∘h with h the FD steps and d of random sign and size in [1/2, 1]
+    per coordinate (no structure of a scene, equal masses or a symmetric chain, cancels a wrong entry; one
+    direction suffices: a wrong entry cancels in a random one with probability zero)."""
+    plan = ws.stencils.get("guard")
+    if plan is None:
+        rng = np.random.default_rng(system.nv)
+        d = rng.choice((-1.0, 1.0), size=(2, system.nv)) * rng.uniform(0.5, 1.0, (2, system.nv))
+        d *= step_stencil(system, ws, FD_STEP, estimate=True).h
+        signs = np.array([[1.0], [2.0], [-1.0], [-2.0]])
+        plan = ws.stencils["guard"] = (d[0], np.abs(d[0]), signs * d[0], d[1], signs * d[1])
     return plan
 
 
 def guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms):
-    """(evaluations, disagreement): K·δq + C·δv against central differences of the residual r(q, v) along
-    GUARD_DIRECTIONS fixed directions (δq = d∘h by ``integrate``, δv = d'∘h·max(1, |v0|), h the FD steps; δv = 0
-    where C is zero by construction: no velocity dependence and v0 = 0), the states ±δ, ±2δ in one pass. Their
-    error estimate: :func:`fd_error` from the 2δ difference, with the round-off of the forces that cancel in r
+    """(evaluations, disagreement): K·δq + C·δv against the central difference of the residual r(q, v) along a
+    fixed direction (:func:`_guard_plan`; q moved by ``integrate``, δv scaled by max(1, |v0|), and zero where C is
+    zero by construction: no velocity dependence and v0 = 0), the states ±δ, ±2δ in one pass. Its error
+    estimate: :func:`fd_error`'s from the 2δ difference, with the round-off of the forces that cancel in r
     (``terms``, the largest of them, or of the point forces, through the tree's transforms as the analytic
-    estimate's floor, and |M||a0| + |C||v0|: inertia and Coriolis forces that RNEA sums away), plus K's and
-    C's own. ``disagreement``: None, or how far beyond GUARD_SAFETY × that estimate they disagree."""
-    h = step_stencil(system, ws, FD_STEP, estimate=True).h
-    dq, dv, X, Y = _guard_plan(system.nv)
-    X = X * h
-    if system.curved_coordinates:
-        Q = np.array([pin.integrate(system.model, q0, x) for x in X])
-    else:  # every joint a vector space (nq = nv, the same layout): integrate is the sum
-        Q = X + q0
-    V = v0
-    if system.depends_on_velocity or np.count_nonzero(v0):
-        hv = h * np.maximum(1.0, np.abs(v0))
-        V = Y * hv
+    estimate's floor, |M||a0| + |C||v0|: inertia and Coriolis forces that RNEA sums away, and the point springs'
+    rounding), plus K's and C's own. ``disagreement``: None, or how far beyond GUARD_SAFETY × that estimate
+    they disagree."""
+    dq, dq_abs, X, dv, Y = _guard_plan(system, ws)
+    Q = np.array([pin.integrate(system.model, q0, x) for x in X]) if system.curved_coordinates else X + q0
+    moving = system.depends_on_velocity or np.count_nonzero(v0)
+    if moving:
+        w = np.maximum(1.0, np.abs(v0))
+        dv, V = dv * w, Y * w
         V += v0
     s = system.coordinate_scales
-    largest = max([float(np.max(terms * s, initial=0.0))] + [  # (point forces at the operating point, still
+    largest = max([float((terms * s).max()) if len(s) else 0.0] + [  # (point forces at the operating point, still
         np.linalg.norm(ws.forces[j][:3]) * system.length_scale + np.linalg.norm(ws.forces[j][3:])  # in the
         for j in system.point_joints])  # workspace's buffers: N·m through the length scale)
     forces = terms + largest / s
     rounding = force_rounding(system, ws, q0, t0, np.ones(1))  # (springs' forces from rounded positions)
-    tau, F = dynamics.inverse_dynamics_rows(system, ws, Q, V, a0, t0)
-    tau -= F
-    r = tau.reshape(4, GUARD_DIRECTIONS, system.nv)  # step-major: +δ, +2δ, −δ, −2δ
-    D2 = r[0] - r[2]  # 2 D1, D1 ≈ K δq + C δv (N or N·m)
-    T4 = r[1] - r[3]  # 4 D(2δ)
-    # in units of D1 / 2: off = |2 (K δq + C δv) − 2 D1|, bound = 2 (|δq| K_err + |δv| C_err + fd_error)
-    dq = dq * h
-    off = dq @ (2 * K.T)
-    bound = np.abs(dq) @ (2 * K_err.T)
-    if V is not v0:
-        dv = dv * hv
-        off += dv @ (2 * C.T)
-        bound += np.abs(dv) @ (2 * C_err.T)
-    off -= D2
-    T4 -= 2 * D2  # −4 T, T = D1 − D(2δ)
-    bound += np.abs(T4) / 2
+    r, F = dynamics.inverse_dynamics_rows(system, ws, Q, V if moving else v0, a0, t0)
+    r -= F  # rows: +δ, +2δ, −δ, −2δ
+    D = r[0] - r[2]
+    D /= 2  # ≈ K δq + C δv (N or N·m)
+    T = r[3] - r[1]
+    T /= 4
+    T += D  # D(δ) − D(2δ)
+    off = K @ dq
+    bound = K_err @ dq_abs
+    if moving:
+        off += C @ dv
+        bound += C_err @ np.abs(dv)
+        forces += np.abs(C) @ np.abs(v0)
     if np.count_nonzero(a0):
         forces += np.abs(M) @ np.abs(a0)
-    if V is not v0:
-        forces += np.abs(C) @ np.abs(v0)
-    bound += 4 * EPS * np.abs(D2) + 32 * EPS * forces  # (fd_error's round-off terms at h = 1, doubled)
+    off -= D
+    bound += fd_error(D[:, None], T[:, None], forces, 1.0)[:, 0]
     if rounding is not None:
-        bound += 2 * np.abs(rounding[0]).T @ rounding[1][:, 0]
+        bound += np.abs(rounding[0]).T @ rounding[1][:, 0]
     if (np.abs(off) <= GUARD_SAFETY * bound).all():
         return len(Q), None
-    ratio = float(np.max(np.abs(off) / bound))
     return len(Q), (f"K and C disagree with central differences of the residual along a random direction "
-                    f"(by {ratio:.3g} × their error estimate)")
+                    f"(by {float(np.max(np.abs(off) / bound)):.3g} × their error estimate)")
 
 
 def jacobian_q(system, q0, v0, a0, t0, h):
