@@ -237,4 +237,6 @@ def test_conical_pendulum_on_a_universal_joint_floquet_multipliers(deg):
     expected = np.exp(1j * wn * period * np.array([1, -1]))
     assert np.abs(np.sort_complex(mu[~ones]) - np.sort_complex(expected)).max() <= \
         err[~ones].max() + wn * (orbit.period_error + abs(orbit.period - period))
-    assert err[~ones].max() < 1e-6 and orbit.stability == "neutral within the error"
+    # (an estimate small enough for the comparison to mean something: Pinocchio's derivatives were off by 0.8 to
+    # 1.1 in the pair at 60 and 85 deg, and moved the double 1 by 7e-3 at 10 and 30 deg)
+    assert err[~ones].max() < 1e-5 and orbit.stability == "neutral within the error"
