@@ -189,10 +189,21 @@ def test_guard_sees_every_column(monkeypatch):
             return out
 
         monkeypatch.setattr(linearize_module, "analytic_derivatives", wrong)
-        with pytest.warns(UserWarning, match="disagree"):
-            assert system.linearize(q, v=v, method="analytic").method == "fd"
+        with pytest.warns(UserWarning, match="disagree"):  # (a new system: the guard checks each one once)
+            assert universal_chain().linearize(q, v=v, method="analytic").method == "fd"
     monkeypatch.setattr(linearize_module, "analytic_derivatives", real)
-    assert system.linearize(q, v=v, method="analytic").method == "analytic"
+    assert universal_chain().linearize(q, v=v, method="analytic").method == "analytic"
+
+
+def test_guard_runs_once_per_system_and_kind_of_state():
+    """The guard checks formulas: the first analytic linearisation of a system at rest and the first moving
+    one pay its evaluations (4 states), the later ones not."""
+    system, q, v, _ = conical(30)  # (no damper: at rest, C is not checked)
+    assert not system.depends_on_velocity
+    first, again = (system.linearize(q, method="analytic").evaluations for _ in range(2))
+    assert first == again + 4
+    first, again = (system.linearize(q, v=v, method="analytic").evaluations for _ in range(2))
+    assert first == again + 4
 
 
 # ------------------------------------------------------------------- conical pendulum on a universal joint

@@ -276,8 +276,8 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     scale; error estimated from a second step 2h) or "analytic" (Pinocchio's RNEA derivatives plus the
     force elements' derivatives; the columns of joints whose type Pinocchio gets wrong, a universal joint's,
     by central differences, their error added to the estimate). The analytic K and C are checked against
-    central differences of the residual along a fixed pseudo-random direction of (q, v) (:func:`guard`): a
-    disagreement beyond the differences' own error estimate warns (UserWarning naming the scene's joint types)
+    central differences of the residual along a fixed pseudo-random direction of (q, v) (:func:`guard`, once per
+    system and kind of state, at rest or moving): a disagreement beyond the differences' own error estimate warns (UserWarning naming the scene's joint types)
     and falls back to "fd" (the result's ``method`` says so). A mechanism with loops is linearised in its
     independent motions (:func:`vibdyn.analysis.constrained.linearize`), a scene with drives in its free coordinates
     (:func:`vibdyn.analysis.driven.linearize`).
@@ -390,10 +390,15 @@ def guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms):
     (``terms``, the largest of them, or of the point forces, through the tree's transforms as the analytic
     estimate's floor, |M||a0| + |C||v0|: inertia and Coriolis forces that RNEA sums away, and the point springs'
     rounding), plus K's and C's own. ``disagreement``: None, or how far beyond GUARD_SAFETY × that estimate
-    they disagree."""
+    they disagree. It checks formulas, not numbers: once per compiled system (its workspace) and kind of state —
+    at rest, or moving (where C's velocity terms join) — as a derivative wrong for a joint type or an element is
+    wrong at almost every state (a Campbell diagram or a continuation pays for it once)."""
+    moving = bool(system.depends_on_velocity or np.count_nonzero(v0))
+    passed = ws.stencils.setdefault("guard passed", set())
+    if moving in passed:  # this system's formulas already agreed with differences in this kind of state
+        return 0, None
     dq, dq_abs, X, dv, Y = _guard_plan(system, ws)
     Q = np.array([pin.integrate(system.model, q0, x) for x in X]) if system.curved_coordinates else X + q0
-    moving = system.depends_on_velocity or np.count_nonzero(v0)
     if moving:
         w = np.maximum(1.0, np.abs(v0))
         dv, V = dv * w, Y * w
@@ -424,6 +429,7 @@ def guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms):
     if rounding is not None:
         bound += np.abs(rounding[0]).T @ rounding[1][:, 0]
     if (np.abs(off) <= GUARD_SAFETY * bound).all():
+        passed.add(moving)
         return len(Q), None
     return len(Q), (f"K and C disagree with central differences of the residual along a random direction "
                     f"(by {float(np.max(np.abs(off) / bound)):.3g} × their error estimate)")

@@ -441,7 +441,11 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
     pipeline = _Pipeline(make_scene, system, lin.q0, lin.v0, regime, speeds, names)
     steps = np.array([_step(None, values[j], units[j], system.length_scale) for j in range(len(names))])
     direct = {}
-    if system.constraints is None and system.drives is None and regime in ("static", "pose", "held"):
+    from ..model.derivatives import untrusted
+
+    # (the element path takes Pinocchio's joint velocity derivatives, wrong for some joint types: not there)
+    if system.constraints is None and system.drives is None and regime in ("static", "pose", "held") \
+            and not untrusted(system)[0].size:
         # a tree about a point it holds or finds again: the analytic model is the base, and a parameter a force
         # is proportional to (a stiffness, a damping) is differentiated on its element alone, no rebuild
         if lin.method != "analytic":
