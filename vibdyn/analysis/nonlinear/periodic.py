@@ -39,6 +39,7 @@ STEP_RESOLUTION = 0.5  # steps of the flows at most this / ω (ω: the start's f
 SAMPLES = 8  # perturbations of Φ that measure the spread of clustered multipliers
 SPREAD_FACTOR = 3.0  # the spread's safety factor
 MIN_ENERGY_RATIO = 10.0  # a conservative orbit's motion energy must exceed this × the energy's round-off
+UNDETERMINED = 1e-6  # the period's share of a singular direction of the shooting Jacobian that leaves it open
 
 
 class Liouville(NamedTuple):
@@ -275,6 +276,11 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
     orbit = _result(system, shoot, x, residual, iterations, points, cons, start)
     if autonomous:
         _moves(system, shoot, orbit, tol, damping is not None, what)
+        if not math.isfinite(orbit.period_error):
+            raise ConvergenceError(f"{what}: the shooting equations do not determine the period there (their "
+                                   "Jacobian is singular along a direction that changes it): start elsewhere on "
+                                   "the orbit, or give phase (a coordinate whose velocity is zero at the start)",
+                                   residual=orbit.residual, best=[(orbit.q0, orbit.v0)])
     return orbit
 
 
@@ -444,9 +450,13 @@ def _result(system, shoot, x, residual, iterations, points, cons, start):
     e = np.concatenate([np.concatenate([np.full(n, int_q), np.full(n, int_v)]) / shoot.node_scale
                         for _ in range(m)] + [extra])
     period_error = 0.0
-    if shoot.free_period:
-        Jp = np.linalg.pinv(J, rcond=1e-10)
+    if shoot.free_period:  # (a direction the pseudo-inverse cuts that moves T leaves T undetermined: inf)
+        U, sv, Vt = np.linalg.svd(J, full_matrices=False)
+        keep = sv > RCOND * sv[0]
+        Jp = (Vt[keep].T / sv[keep]) @ U[:, keep].T
         period_error = float(np.abs(Jp[-1]) @ (np.abs(r) + e)) * shoot.unknown_scale[-1]
+        if float(np.abs(Vt[~keep, -1]).max(initial=0.0)) > UNDETERMINED:
+            period_error = math.inf
     mu, mu_err = multipliers(mono, mono_err)
     trivial = 1 if shoot.free_period else 0  # the flow's own multiplier (a conservative one's second is neutral)
     traj = runs[0] if m == 1 else _join(runs)
