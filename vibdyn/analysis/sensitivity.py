@@ -412,7 +412,7 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
     if not isinstance(requested, (list, tuple)) or not requested:
         raise ModelError("sensitivity: params must be a list of names such as ['k.stiffness', 'cart.mass']")
     # each name in the order given: a held speed ("<coordinate>.speed") or the scene's parameters it names
-    entries = []  # (Parameter, None) or (None, coordinate)
+    entries: list[tuple[Any, Any]] = []  # (Parameter, None) or (None, coordinate)
     for name in requested:
         coordinate = name[:-len(".speed")] if isinstance(name, str) and name.endswith(".speed") else None
         if coordinate in speeds:
@@ -440,7 +440,7 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
 
     pipeline = _Pipeline(make_scene, system, lin.q0, lin.v0, regime, speeds, names)
     steps = np.array([_step(None, values[j], units[j], system.length_scale) for j in range(len(names))])
-    direct = {}
+    direct: dict[int, tuple] = {}
     from ..model.derivatives import untrusted
 
     # (the element path takes Pinocchio's joint velocity derivatives, wrong for some joint types: not there)

@@ -46,7 +46,10 @@ class Parameter:
 
     @property
     def nonnegative(self) -> bool:
-        return self.attribute in NONNEGATIVE and (self.attribute != "inertia" or self.index[0] == self.index[1])
+        if self.attribute == "inertia":  # (a moment of inertia, not a product of inertia)
+            ij: tuple = self.index  # type: ignore[assignment]
+            return ij[0] == ij[1]
+        return self.attribute in NONNEGATIVE
 
 
 def parameters(scene, names) -> list[Parameter]:

@@ -109,7 +109,7 @@ class Derivatives:
         return Q
 
 
-_UNTRUSTED = weakref.WeakKeyDictionary()  # system -> (columns, their steps): made once per system
+_UNTRUSTED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # system -> (columns, their steps): made once per system
 
 
 def untrusted(system):
