@@ -517,16 +517,15 @@ def _of_builder(build, params, start, unused):
         raise ModelError(f"sensitivity: parameter values must be finite, got {params!r}")
     scene0 = build(**params)
     system = scene0.build()
-    lin = system.operating_point().linearize(method="analytic")
-    base_modes = lin.modes()
-    regime, speeds = _regime(system, lin)
+    tree = system.operating_point().linearize(method="analytic")
+    regime, speeds = _regime(system, tree)
 
     def make_scene(vals):
         return build(**{k: float(x) for k, x in zip(names, vals)}), speeds
 
-    pipeline = _Pipeline(make_scene, system, lin.q0, lin.v0, regime, speeds, names)
+    pipeline = _Pipeline(make_scene, system, tree.q0, tree.v0, regime, speeds, names)
     steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
-    lin = pipeline(values)
+    lin = getattr(tree, "reduced", tree)  # (a mechanism's: in its independent motions, as the pipeline's)
     return _assemble(pipeline, lin.modes(), lin, names, ["(the builder's)"] * len(names), values, steps,
                      [False] * len(names), start, unused)
 
