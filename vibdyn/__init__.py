@@ -40,8 +40,7 @@ except _metadata.PackageNotFoundError:  # pragma: no cover - a source tree on sy
 
 # public names loaded on first use (the user's third rule: a scene pays only for what it uses)
 _WHERE = {  # module (relative to vibdyn) -> the public names it defines
-    "analysis.equilibrium": ("OperatingPoint", "Equilibrium"),
-    "analysis.linearize": ("LinearModel",),
+    "analysis.equilibrium": ("OperatingPoint", "Equilibrium", "equilibrium"),
     "analysis.modal": ("Modes", "rayleigh"),
     "solvers.tracking": ("mac",),
     "analysis.response": ("FRF", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation", "Hysteretic",
@@ -52,20 +51,56 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.campbell_diagram": ("campbell", "Campbell", "CriticalSpeed"),
     "analysis.nonlinear.periodic": ("periodic_orbit", "floquet", "PeriodicOrbit"),
     "analysis.nonlinear.backbone": ("backbone", "Backbone"),
-    "simulation.simulate": ("Trajectory", "SimulationError"),
+    "simulation.simulate": ("Trajectory", "SimulationError", "simulate"),
     "analysis.sensitivity": ("sensitivity", "Sensitivity"),
+    "analysis.linearize": ("LinearModel", "linearize"),
     "studies.updating": ("update", "Update"),
     "studies.sweeps": ("sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked"),
     "analysis.nonlinear.harmonic_balance": ("forced_response_curve", "ForcedResponseCurve", "PointForce",
                                             "SupportMotion"),
 }
 # the modules themselves, under their short public names (vd.response, vd.simulate, ...)
-_MODULES = {"equilibrium": "analysis.equilibrium", "linearize": "analysis.linearize", "modal": "analysis.modal",
+# (never under a function's name: vd.simulate, vd.linearize and vd.equilibrium are the functions)
+_MODULES = {"modal": "analysis.modal",
             "response": "analysis.response", "identify": "analysis.identify", "statespace": "analysis.statespace",
-            "campbell_diagram": "analysis.campbell_diagram", "simulate": "simulation.simulate",
+            "campbell_diagram": "analysis.campbell_diagram",
             "sweeps": "studies.sweeps", "examples": "studies.examples", "plots": "faces.plots",
             "loops": "description.loops", "viewer": "faces.viewer"}
 _LAZY = {**{name: mod for mod, names in _WHERE.items() for name in names}, **_MODULES}
+
+
+#: functions whose names were those of their modules until 0.1 (vd.simulate was the module): for one release,
+#: an attribute of the former module read through the function still works and warns (DeprecationWarning)
+_FORMER_MODULES = {"simulate": "simulation.simulate", "linearize": "analysis.linearize",
+                   "equilibrium": "analysis.equilibrium"}
+
+
+class _FormerModule:
+    """A public function that was its module's name: calls go to the function; any other attribute is read
+    from the former module with a DeprecationWarning (once per name)."""
+
+    def __init__(self, fn, module):
+        import functools
+
+        functools.update_wrapper(self, fn)
+        self._module, self._warned = module, set()
+
+    def __call__(self, *args, **kwargs):
+        return self.__wrapped__(*args, **kwargs)
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        mod = import_module(f".{self._module}", __name__)
+        value = getattr(mod, name)  # (an AttributeError as the module would give it)
+        if name not in self._warned:
+            self._warned.add(name)
+            import warnings
+
+            short = self.__wrapped__.__name__
+            warnings.warn(f"vibdyn.{short} is the function {short}() now; read {name} from vibdyn (vibdyn.{name}) "
+                          f"or from vibdyn.{self._module}", DeprecationWarning, stacklevel=2)
+        return value
 
 
 def __getattr__(name):
@@ -73,7 +108,9 @@ def __getattr__(name):
     if module is None:
         raise AttributeError(f"module 'vibdyn' has no attribute {name!r}")
     mod = import_module(f".{module}", __name__)
-    value = mod if name in _MODULES else getattr(mod, name)
+    value = mod if name in _MODULES else getattr(mod, "static_equilibrium" if name == "equilibrium" else name)
+    if name in _FORMER_MODULES:
+        value = _FormerModule(value, _FORMER_MODULES[name])
     globals()[name] = value
     return value
 
@@ -154,4 +191,4 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
-           "update", "Update"]
+           "update", "Update", "simulate", "linearize", "equilibrium"]
