@@ -139,3 +139,23 @@ def test_continuation_ends_at_once_where_the_residual_has_a_floor_above_tol():
     assert br.rejected <= 3 and len(calls) < 150  # (halving down to min_step took 35 rejections, 587 calls)
     br = continuation(quantised(1e-10, []), [0.0], 0.0, 1.0, step=0.05, tol=1e-10, jacobian=jac, min_step=1e-9)
     assert br.status == "finished" and br.lam[-1] == 1.0
+
+
+def test_continuation_shortens_a_step_whose_predictor_leaves_the_domain():
+    """Issue 32: F(x, λ) = log x − λ is defined for x > 0 only (as a shooting residual for a period T > 0): its
+    Jacobian raises outside. Followed from (1, 0) to λ = −6 with long steps, the predictor lands at x ≤ 0 on the
+    way; Newton takes no step from a non-finite residual (no Jacobian there), the step is halved, and the
+    branch ends at x = e^λ. Newton alone from such a point says "diverged"."""
+    def F(x, lam):
+        return np.array([math.log(x[0]) - lam if x[0] > 0 else math.inf])
+
+    def jac(x, lam):
+        if not x[0] > 0:
+            raise ValueError("outside the domain")
+        return np.array([[1.0 / x[0], -1.0]])
+
+    br = continuation(F, [1.0], 0.0, -6.0, step=1.0, max_step=20.0, jacobian=jac, tol=1e-12, scale=[0.01, 1.0])
+    assert br.status == "finished" and br.lam[-1] == -6.0 and br.rejected >= 1
+    assert np.abs(np.log(br.x[:, 0]) - br.lam).max() <= 1e-12  # (every point solved to tol)
+    res = newton(lambda x: F(x, 0.0), [-1.0], lambda x: jac(x, 0.0)[:, :1])
+    assert res.status == "diverged" and not res.converged and res.iterations == 0 and res.jacobians == 0

@@ -32,8 +32,10 @@ class Fold:
 class Branch:
     """A continued branch: points ``x`` (k × n) and ``lam`` (k), the arclength ``s`` at each (in the scaled
     variables), ``folds``, ``status`` ("finished": λ reached ``lam_end``; "stopped": a ``stop`` condition
-    or the step limit; "failed": the corrector could not go on), ``message``, ``steps``, ``rejected``,
-    ``elapsed`` (s), and ``residual`` the largest ‖F‖_∞ over its points."""
+    or the step limit; "failed": the corrector could not go on), ``reason`` (why it ended: "finished", "stop",
+    "max_steps", "start": no solution at λ0, "floor": the corrector stalls at F's own error, "step": the step
+    fell below ``min_step``), ``message``, ``steps``, ``rejected``, ``elapsed`` (s), and ``residual`` the
+    largest ‖F‖_∞ over its points."""
 
     x: np.ndarray
     lam: np.ndarray
@@ -45,6 +47,7 @@ class Branch:
     rejected: int = 0
     elapsed: float = 0.0
     residual: float = 0.0
+    reason: str = "finished"
 
 
 FLOOR_FACTOR = 10.0  # a corrector failing with ‖F‖ within this factor of tol has met F's own error floor
@@ -53,7 +56,7 @@ FLOOR_FACTOR = 10.0  # a corrector failing with ‖F‖ within this factor of to
 def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, step: float = 0.05,
                  jacobian: Callable | None = None, tol: float = 1e-10, max_steps: int = 2000,
                  min_step: float = 1e-9, max_step: float | None = None, scale: np.ndarray | None = None,
-                 stop: Callable | None = None, chord: float | None = None) -> Branch:
+                 stop: Callable | None = None, chord: float | None = None, parameter: str = "λ") -> Branch:
     """Follow the branch of F(x, λ) = 0 from (x0, lam0) (x0 corrected first at λ = lam0) towards λ = lam_end.
 
     ``fun(x, lam)`` → ℝᵐ, m ≥ n (m > n: a consistent system with redundant rows, solved in least squares, as
@@ -68,7 +71,9 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     the next step on a branch steep in λ (|t_λ| > 0.5), it is solved there directly from the predictor, kept
     only if λ did not turn back on the way (no fold stepped over). ``chord``: the corrector starts from the last point's
     Jacobian and keeps it while each step cuts the residual ``chord`` times (:func:`.newton`): one Jacobian per
-    point where the branch is smooth (for Jacobians dearer than residuals)."""
+    point where the branch is smooth (for Jacobians dearer than residuals). A predictor where F is not finite
+    (outside its domain) is a failed correction: the step is halved. ``parameter``: λ's name in the messages,
+    with its unit (e.g. "Ω (rad/s)")."""
     start = time.perf_counter()
     x0 = np.asarray(x0, dtype=float)
     n = x0.size
@@ -92,18 +97,20 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
                    lambda x: J(np.append(x, lam0 / w[n]))[:, :n], tol=tol)
     if not first.converged:
         return Branch(np.zeros((0, n)), np.zeros(0), np.zeros(0), [], "failed",
-                      f"no solution at λ = {lam0:g} near x0: {first.message}", 0, 0, time.perf_counter() - start,
-                      first.residual)
+                      f"no solution at {parameter} = {lam0:g} near the start", 0, 0, time.perf_counter() - start,
+                      first.residual, "start")
     y = np.append(first.x, lam0 / w[n])
     Jy = J(y)
     t = _tangent(Jy, None, np.sign(lam_end - lam0))
     ys, ss, folds = [y.copy()], [0.0], []
-    h, steps, rejected, status, message = step, 0, 0, "finished", f"reached λ = {lam_end:g}"
+    h, steps, rejected, status, message = step, 0, 0, "finished", f"reached {parameter} = {lam_end:g}"
+    reason = "finished"
     residual = first.residual
     recent: list[bool] = []  # the last corrections: True for a failure at the residual's floor
     while True:
         if steps >= max_steps:
-            status, message = "stopped", f"{max_steps} steps taken before λ = {lam_end:g}"
+            status, message, reason = "stopped", f"{max_steps} steps taken before {parameter} = {lam_end:g}", \
+                "max_steps"
             break
         reach = (lam_end / w[n] - y[n]) / t[n] if t[n] != 0 else np.inf
         if 0 < reach <= h and abs(t[n]) > 0.5:
@@ -130,17 +137,17 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         recent = recent[-3:] + [not corr.converged and corr.status in ("no_decrease", "stagnated")
                                 and corr.residual <= FLOOR_FACTOR * tol]
         if sum(recent) >= 3:
-            status, message = "failed", (f"the corrector's residual stalls just above the tolerance at λ = "
-                                         f"{y[n] * w[n]:.10g}: ‖F‖ = {corr.residual:.2g} against tol = {tol:.1e}, "
-                                         "and no step decreases it (F is not evaluated more accurately than that "
-                                         "here)")
+            status, message, reason = "failed", (
+                f"the corrector's residual stalls just above the tolerance at {parameter} = {y[n] * w[n]:.10g}, "
+                "and no step decreases it (F is not evaluated more accurately than that here)"), "floor"
             break
         if not corr.converged:
             h *= 0.5
             rejected += 1
             if h < min_step:
-                status, message = "failed", (f"the corrector could not go on at λ = {y[n] * w[n]:.10g} (step "
-                                             f"{h:.1e}): a branch point, or a singular Jacobian")
+                status, reason = "failed", "step"
+                message = (f"the corrector could not go on at {parameter} = {y[n] * w[n]:.10g}: a branch point, or "
+                           "a singular Jacobian")
                 break
             continue
         y_new = corr.x
@@ -162,13 +169,13 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         if crossed:
             break
         if stop is not None and stop(y[:n] * w[:n], y[n] * w[n]):
-            status, message = "stopped", f"stopped on request at λ = {y[n] * w[n]:.10g}"
+            status, message, reason = "stopped", f"stopped on request at {parameter} = {y[n] * w[n]:.10g}", "stop"
             break
         if corr.iterations <= 3 if chord is None else corr.jacobians <= 1 and corr.iterations <= 6:
             h = min(1.5 * h, max_step)
     Y = np.array(ys)
     return Branch(Y[:, :n] * w[:n], Y[:, n] * w[n], np.array(ss), folds, status, message, steps, rejected,
-                  time.perf_counter() - start, residual)
+                  time.perf_counter() - start, residual, reason)
 
 
 def _tangent(Jy, previous, lam_sign):

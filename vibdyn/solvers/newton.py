@@ -21,7 +21,7 @@ class NewtonResult:
     """``x`` the best point reached (least ‖F‖_∞), ``residual`` ‖F(x)‖_∞ there, ``iterations``, ``converged``
     (residual ≤ tol), ``jacobians`` (how many were evaluated), ``status`` ("converged"; "stagnated": steps at round-off with the residual within the
     caller's ``stall`` factor of tol; "max_iter"; "no_decrease": no step reduces ‖F‖; "diverged": F became
-    non-finite), ``message`` (why it stopped), ``elapsed`` (s)."""
+    non-finite, or was at x0: no step is taken from there), ``message`` (why it stopped), ``elapsed`` (s)."""
 
     x: np.ndarray
     residual: float
@@ -72,11 +72,13 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
     x = np.array(x0, dtype=float)
     f = np.asarray(fun(x) if f0 is None else f0, float)
     res = float(np.abs(f).max(initial=0.0))
-    best = (res, x)
     it, status, message = 0, "converged", "converged"
+    if not np.all(np.isfinite(f)):  # x0 outside F's domain (e.g. a period ≤ 0): no Jacobian there, no step
+        res, status, message = math.inf, "diverged", "the residual is not finite at the start (diverged)"
+    best = (res, x)
     J, J_last, radius, evaluated = jacobian0, None, 1.0, 0
     fresh = jacobian0 is not None and chord is None  # (with chord, jacobian0 may be a neighbour's)
-    while res > tol:
+    while res > tol and status != "diverged":
         if it >= max_iter:
             status, message = "max_iter", f"no convergence in {max_iter} iterations (residual {best[0]:.3e}, " \
                 f"tolerance {tol:.1e})"

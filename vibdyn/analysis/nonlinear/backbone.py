@@ -11,7 +11,10 @@ v_c(0) = 0 (the start is a turning point of the coordinate c) and the parameter'
 or ξ_c = λ). The closing equations hold one redundant row (energy is conserved): the system is square plus one
 consistent row, solved in least squares, its one-dimensional null space the branch's tangent. Each request is an
 end point of the continuation, solved exactly there, then converged again by :func:`.periodic.periodic_orbit`
-(energy kept, same phase condition) for its Floquet multipliers and error estimates.
+(energy kept, same phase condition) for its Floquet multipliers and error estimates. The start's ε is where the
+potential along φ is still quadratic (to 1 %); the unknowns and residuals of each stretch between requests are
+measured in units of its motion (the amplitude there along the mode), never of the scene's size or of where its
+bodies sit, so that a slider placed at the origin or at 1 m gives the same backbone.
 
 Internal resonances: at every point of the branch the nontrivial Floquet multipliers (the monodromy on the
 energy level, the flow's direction removed) are followed as rotation angles θ_j, starting from 2π ω_j/ω_i of the
@@ -47,11 +50,12 @@ from .periodic import MIN_ENERGY_RATIO, RTOL, STEP_RESOLUTION, TOL, periodic_orb
 from .shooting import RCOND, Shooting, conservative, energy_roundoff
 
 __all__ = ["Backbone", "Resonance", "backbone"]
-START_AMPLITUDE = 1e-2  # the linear start's displacement of the coordinate c, in its scale (1 rad, length scale)
+START_SHIFT = 1e-2  # the linear start: its potential departs from the linear mode's quadratic by at most this share
 MAX_PERIOD_GROWTH = 50.0  # the branch stops where T exceeds this × the linear period (a separatrix near)
-FIRST_STEP = 0.05  # the continuation's first arclength step (variables scaled by the requests' range)
+FIRST_STEP = 0.05  # the continuation's first arclength step (variables scaled by each leg's: see _Follower.run)
 CONTINUATION_RTOL = 1e-9  # the flows along the branch (each request is solved again at the caller's rtol)
 CONTINUATION_TOL = 1e-8  # and the branch's closing tolerance (scaled)
+REQUEST_WEIGHT = 100.0  # a request's row weighs this much more than the closing rows when it is solved exactly
 MIN_STEP = 1e-4  # steps halved below this (scaled) end the branch: it cannot be followed further
 MAX_STEP = 0.25  # and its largest (the multipliers' angles are followed from point to point)
 ARG1 = pin.ArgumentPosition.ARG1
@@ -341,15 +345,14 @@ class _Follower:
         self.omega_lin, self.T_lin = omega, 2 * math.pi / omega
         self.E_eq = system.energy(q_eq, np.zeros(system.nv)).total
         self.omega_max = float(np.max(modes.omega))
-        s = np.asarray(system.coordinate_scales, dtype=float)
-        m_phi = float(phi @ system.mass_matrix(q_eq) @ phi)  # E = ½ ω² a² φᵀMφ for the linear mode of amplitude a
-        top = float(np.max(requests))
-        a_ref = top if requested == "amplitude" else math.sqrt(2 * top / (omega**2 * m_phi))
-        xi_scale = a_ref * np.maximum(np.abs(phi), 0.1 * s / s[c])
-        self.w = np.concatenate([xi_scale, xi_scale * omega, [self.T_lin], [top]])
-        a0 = min(START_AMPLITUDE * s[c], 0.5 * float(np.min(requests))) if requested == "amplitude" else \
-            min(START_AMPLITUDE * s[c], math.sqrt(float(np.min(requests)) / (omega**2 * m_phi)))
-        self.z0 = np.concatenate([a0 * phi, np.zeros(self.n), [self.T_lin]])
+        M = system.mass_matrix(q_eq)
+        self.m_phi = m_phi = float(phi @ M @ phi)  # E = ½ ω² a² φᵀMφ for the linear mode of amplitude a
+        # per coordinate, its motion per unit amplitude of c: the mode's share, at least a tenth of c's by kinetic
+        # energy (m or rad per m or rad): the scales of the unknowns come from the motion, never from the scene's
+        # size or where its bodies sit
+        self.shape = np.maximum(np.abs(phi), 0.1 * np.sqrt(M[c, c] / np.diag(M)))
+        self.a0 = self.linear_start(0.5 * self.amplitude_of(float(np.min(requests))), phi, omega**2 * m_phi)
+        self.z0 = np.concatenate([self.a0 * phi, np.zeros(self.n), [self.T_lin]])
         # the other oscillating modes' rotation angles θ_j = 2π ω_j/ω (their multipliers e^{±iθ_j})
         others = [j for j in range(len(modes.omega)) if j != k and not modes.unstable[j] and not modes.rigid[j]]
         self.others = others
@@ -360,6 +363,7 @@ class _Follower:
         self.last = None  # (λ, energy, ω) of the last branch point
         self.reached = (0.0, 0.0)  # (largest amplitude, largest energy) on the branch
         self.why = ""
+        self.failure = ""  # why the last flow of the current leg that could not be integrated failed
 
     # ------------------------------------------------------------------ unknowns
     def state(self, z):
@@ -369,9 +373,29 @@ class _Follower:
     def energy(self, q, v):
         return self.system.energy(q, v).total - self.E_eq
 
+    def amplitude_of(self, request):
+        """The amplitude (m or rad) of c a request means: itself, or the linear mode's at that energy (J)."""
+        return request if self.requested == "amplitude" else math.sqrt(2 * request / (self.omega_lin**2 * self.m_phi))
+
+    def linear_start(self, a, phi, stiffness):
+        """The largest of a, a/2, a/4, … (m or rad) at which the potential along the mode, V(q_eq ⊕ a φ), departs
+        from its quadratic ½ a² ``stiffness`` (J) by at most START_SHIFT of it, or by its own round-off."""
+        for _ in range(60):
+            quad = 0.5 * a * a * stiffness
+            V = self.energy(pin.integrate(self.model, self.q_eq, a * phi), np.zeros(self.n))
+            if abs(V - quad) <= max(START_SHIFT * quad, 1e3 * np.finfo(float).eps * abs(self.E_eq)):
+                break
+            a *= 0.5
+        return a
+
+    def scales(self, a):
+        """Per coordinate, what one unit of the shooting's unknowns is (m or rad) on an orbit where c moves by a."""
+        return max(a, self.a0) * self.shape
+
     def energy_gradient(self, q, v):
-        """∂E/∂(δq, δv) at (q, v), δq in the tangent space at q (central differences of 1e-6 scales; M v)."""
-        s = np.asarray(self.system.coordinate_scales, dtype=float)
+        """∂E/∂(δq, δv) at (q, v), δq in the tangent space at q (central differences of 1e-6 of the motion's
+        scales: q is a turning point of c; M v)."""
+        s = self.scales(abs(float(pin.difference(self.model, self.q_eq, q)[self.c])))
         g = np.zeros(2 * self.n)
         for i in range(self.n):
             e = np.zeros(self.n)
@@ -381,13 +405,14 @@ class _Follower:
         g[self.n:] = self.system.mass_matrix(q) @ v
         return g
 
-    def shooting(self, T, tight):
-        """The shooting equations at period guess T: flows at the caller's rtol for a request (``tight``), at
-        CONTINUATION_RTOL along the branch (steps resolve the orbit's own ω; DOP853 controls the rest)."""
+    def shooting(self, T, tight, a):
+        """The shooting equations at period guess T for orbits where c moves by about a (m or rad: the residual's
+        scales): flows at the caller's rtol for a request (``tight``), at CONTINUATION_RTOL along the branch
+        (steps resolve the orbit's own ω; DOP853 controls the rest)."""
         omega = 2 * math.pi / T
         rtol = self.rtol if tight else max(self.rtol, CONTINUATION_RTOL)
         fastest = max(self.omega_max, omega) if tight else omega
-        return Shooting(self.system, 0.0, T, True, 1, omega, rtol, ("velocity", self.c), None, None,
+        return Shooting(self.system, 0.0, T, True, 1, omega, rtol, ("velocity", self.c), None, self.scales(a),
                         STEP_RESOLUTION / fastest)
 
     # ------------------------------------------------------------------ equations
@@ -396,7 +421,13 @@ class _Follower:
 
         def fun(z, lam):
             q0, v0, T = self.state(z)
-            r = shoot.residual(shoot.pack([(q0, v0)], T))
+            x = shoot.pack([(q0, v0)], T)
+            if T > 0:
+                try:
+                    shoot.flows(x)  # (kept: the residual uses these flows)
+                except SimulationError as e:  # the residual is then not finite: the step is shortened
+                    self.failure = str(e.__cause__ or e)  # (the cause: not the run's internal times)
+            r = shoot.residual(x)
             p = self.energy(q0, v0) if self.requested == "energy" else z[c]
             return np.append(r, (p - lam) / row_scale)
 
@@ -428,16 +459,21 @@ class _Follower:
             if target == lam and out:
                 out.append(out[-1])
                 continue
-            shoot = self.shooting(self.state(z)[2], False)
+            # each leg's scales: its end's amplitude (or energy) and its start's period, not the scene's size
+            T, a = self.state(z)[2], max(abs(float(z[self.c])), self.amplitude_of(target))
+            shoot = self.shooting(T, False, a)
             fun, jac = self.equations(shoot, max(target, lam))
+            xi = self.scales(a)
+            self.failure = ""
             try:
                 branch = continuation(fun, z, lam, float(target), step=FIRST_STEP, jacobian=jac,
                                       tol=max(self.tol, CONTINUATION_TOL),
                                       max_steps=max(1, max_steps - steps), max_step=MAX_STEP, min_step=MIN_STEP,
-                                      scale=self.w,
-                                      stop=lambda x, lm: self.monitor(x, lm, shoot))
+                                      scale=np.concatenate([xi, xi * 2 * math.pi / T, [T], [max(target, lam)]]),
+                                      stop=lambda x, lm: self.monitor(x, lm, shoot),
+                                      parameter=f"the {self.requested} ({self.request_unit()})")
             except (SimulationError, np.linalg.LinAlgError) as e:
-                self.why = self.why or f"the motion could not be integrated further: {e}"
+                self.why = self.why or f"the motion could not be integrated further: {e.__cause__ or e}"
                 self.beyond(target, None)
             steps += branch.steps
             for f in branch.folds:
@@ -460,28 +496,49 @@ class _Follower:
         return out
 
     def exact(self, z, target):
-        """The branch point at λ = target solved again with the request's tolerances (tol, rtol)."""
-        shoot = self.shooting(self.state(z)[2], True)
-        fun, jac = self.equations(shoot, target)
+        """The branch point at λ = target solved again with the request's tolerances (tol, rtol), the request's
+        row weighted REQUEST_WEIGHT times the closing rows (down to the energy's round-off): the orbit meets the
+        request well within its own closing error."""
+        shoot = self.shooting(self.state(z)[2], True, abs(float(z[self.c])))
+        noise = 100 * np.finfo(float).eps * (abs(self.E_eq) + target) / self.tol if self.requested == "energy" else 0
+        fun, jac = self.equations(shoot, max(target / REQUEST_WEIGHT, noise))
         res = newton(lambda y: fun(y, target), z, lambda y: jac(y, target)[:, :-1], tol=self.tol, max_iter=10,
                      rcond=RCOND, stall=100.0)
         if not (res.converged or res.residual <= 100 * self.tol):
-            raise ConvergenceError(f"backbone: the {self.requested} {target:.6g} was reached along the branch but "
-                                   f"not solved to tol = {self.tol:.1e} ({res.message})", residual=res.residual,
-                                   best=res.x)
+            why = {"max_iter": "in 10 Newton iterations", "diverged": "the motion could not be integrated"}.get(
+                res.status, "no Newton step closes it further")
+            raise ConvergenceError(f"backbone: the {self.requested} {self.request_text(target)} was reached along "
+                                   f"the branch, but its orbit could not be closed to tol = {self.tol:.1e} ({why}): "
+                                   "try a looser tol, or a tighter rtol", residual=res.residual, best=res.x)
         return res.x
+
+    def request_unit(self):
+        return "J" if self.requested == "energy" else self.unit()
+
+    def request_text(self, target):
+        return number(target, self.request_unit(), digits=6)
 
     def beyond(self, target, branch):
         a, e = self.reached
-        why = self.why or branch.message
+        why = self.why or self.reason(branch)
         if not self.why and self.last is not None and self.last[2] < self.omega_lin / 3:
             why += (f"; the period has grown to {2 * math.pi / self.last[2]:.4g} s, "
                     f"{self.omega_lin / self.last[2]:.3g} times the linear one: a separatrix (infinite period) is near")
         best = branch.x[-1] if branch is not None and branch.x.size else None
         raise ConvergenceError(
-            f"backbone: the {self.requested} {target:.6g} {'J' if self.requested == 'energy' else self.unit()} is "
-            f"beyond the followed branch: largest amplitude reached {a:.6g} {self.unit()}, largest energy "
-            f"{e:.6g} J ({why})", residual=None if branch is None else branch.residual, best=best)
+            f"backbone: the {self.requested} {self.request_text(target)} is beyond the followed branch: largest "
+            f"amplitude reached {a:.6g} {self.unit()}, largest energy {e:.6g} J ({why})",
+            residual=None if branch is None else branch.residual, best=best)
+
+    def reason(self, branch):
+        """Why the branch ended, in words (no internal quantity)."""
+        failed = f"; beyond it the motion could not be integrated: {self.failure}" if self.failure else ""
+        return {"start": "no orbit was found where this stretch of the branch starts",
+                "max_steps": "the limit of max_steps continuation steps was reached: give a larger max_steps",
+                "floor": "the orbits' closing error cannot be brought below the continuation's tolerance there: "
+                         "the flows are not computed more accurately than that",
+                "step": "the branch could not be followed further: a bifurcation, or a turning point it could not "
+                        f"pass{failed}"}.get(branch.reason, branch.message)
 
     def unit(self):
         return self.system.units[self.c]
@@ -582,7 +639,9 @@ class _Follower:
         def turning(t, q, v):
             return float(v[c])
 
-        run = simulate(self.system, T, orbit.q0, orbit.v0, rtol=self.rtol, error="local", events=turning)
+        scale = self.scales(best)  # (the flow's absolute tolerance from the motion, not from the scene's size)
+        run = simulate(self.system, T, orbit.q0, orbit.v0, rtol=self.rtol, error="local", events=turning,
+                       atol=self.rtol * np.concatenate([scale, scale * orbit.omega]))
         for t, q in zip(run.events[0], run.event_q[0]):
             if 1e-6 * T < t < (1 - 1e-6) * T:
                 best = max(best, abs(float(self.system.difference(self.q_eq, q)[c])))

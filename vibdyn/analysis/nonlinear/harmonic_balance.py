@@ -313,7 +313,8 @@ def _follow(bal, lo, hi, X0, step, max_steps):
         return w < lo - 0.5 * (hi - lo) or np.max(np.abs(x)) > 1e3 * big
 
     branch = continuation(bal.residual, X0, lo, hi, step=step, jacobian=bal.jacobian, tol=CONTINUATION_TOL,
-                          max_steps=max_steps, max_step=5 * step, scale=scale, stop=stop, chord=CHORD)
+                          max_steps=max_steps, max_step=5 * step, scale=scale, stop=stop, chord=CHORD,
+                          parameter="Ω (rad/s)")
     if len(branch.lam) == 0:
         raise ConvergenceError(f"forced_response_curve: no periodic response found at Ω = {lo:g} rad/s "
                                f"({branch.message}); try a lower start, a smaller excitation or an explicit "
