@@ -75,10 +75,12 @@ def orbit_amplitude(orbit, c=0):
     return float(b - (a - c) ** 2 / (8 * d)) if d < 0 else float(b)
 
 
-def shooting_peak(scene, curve, xatol=1e-7, width=None, forced_at=None, c=0):
+def shooting_peak(scene, curve, xatol=1e-7, width=None, forced_at=None, c=0, at_peak=False):
     """(Ω*, largest amplitude of coordinate ``c``, its uncertainty, elapsed) of the true response by shooting,
     maximised over Ω between the curve's neighbours of its largest point (or ± ``width`` rad/s about its peak);
-    ``forced_at(Ω)``: the forced System (default: the Duffing scene's, :func:`forced`)."""
+    ``forced_at(Ω)``: the forced System (default: the Duffing scene's, :func:`forced`). ``at_peak`` (the smoke
+    run's): shooting at the curve's peak Ω alone, no maximisation — the amplitude is flat there, so Ω off by the
+    curve's ``omega_error`` δ costs at most ½|A''|δ², which the uncertainty adds (3 orbits instead of ~14)."""
     from scipy.optimize import minimize_scalar
 
     start = time.perf_counter()
@@ -99,12 +101,17 @@ def shooting_peak(scene, curve, xatol=1e-7, width=None, forced_at=None, c=0):
         errs.append(orbit.error)
         return -orbit_amplitude(orbit, c)
 
-    res = minimize_scalar(neg, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
-    w, peak = float(res.x), float(-res.fun)
-    # flat at the peak: Ω off by δ ≲ 3·xatol costs ½|A''|δ² (A'' by a central difference there)
+    if at_peak:
+        w = float(curve.peak.omega)
+        peak, off = -neg(w), float(curve.peak.omega_error)
+    else:
+        res = minimize_scalar(neg, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
+        w, peak, off = float(res.x), float(-res.fun), 3 * xatol
+    # flat at the peak: Ω off by δ (≲ 3·xatol, or the curve's own Ω error) costs ½|A''|δ² (A'' by a central
+    # difference there)
     h = 1e-4 * w
     curvature = abs(-neg(w + h) - 2 * peak - neg(w - h)) / h**2
-    return w, peak, max(errs) + 0.5 * curvature * (3 * xatol) ** 2 + 1e-12, time.perf_counter() - start
+    return w, peak, max(errs) + 0.5 * curvature * off**2 + 1e-12, time.perf_counter() - start
 
 
 DUFFING_MATRICES = (np.array([[1.0]]), np.array([[0.05]]), np.array([[1.0]]), 0.1)  # M, C, K, k3 (SI)
@@ -207,8 +214,7 @@ def pyharm_runs(S, runs, a_ref, folds_h1=None, **kw):
 def duffing_case(S):
     scene, system, ref = duffing()
     best = vd.forced_response_curve(system, ("mass", F), RANGE, "mass")
-    w_ref, a_ref, a_err, t_ref = (shooting_peak(scene, best, 1e-7, width=2e-4) if S.smoke
-                                  else shooting_peak(scene, best, 1e-7))
+    w_ref, a_ref, a_err, t_ref = shooting_peak(scene, best, 1e-7, at_peak=S.smoke)
     folds_h1 = ref["fold_omega"]
     runs = []
     for H in ([1] if S.smoke else [1, 3, 5, 7]) + [None]:
@@ -257,8 +263,7 @@ def two_mass_case(S):
     pyHarm on the same equations (M = I, K = [[2, −1], [−1, 2]], C = C2·I, 0.5 x₁³)."""
     system = two_mass()
     best = vd.forced_response_curve(system, ("m1", F2), RANGE2, "m1", harmonics=5 if S.smoke else None)
-    w_ref, a_ref, a_err, t_ref = shooting_peak(None, best, 1e-7, width=2e-4 if S.smoke else None,
-                                               forced_at=two_mass)
+    w_ref, a_ref, a_err, t_ref = shooting_peak(None, best, 1e-7, forced_at=two_mass, at_peak=S.smoke)
     runs = []
     for H in [1] if S.smoke else [1, 3, 5, None]:  # (the adaptive run takes ~8 s: not in the smoke run)
         curve, t, peak_mb = C.measure(
