@@ -505,6 +505,8 @@ def test_a_forced_scene_takes_only_multiples_of_its_forcing_period():
         with pytest.raises(vd.ModelError, match=rf"floquet: period {wrong:g} s is not a whole multiple of the "
                                                 r"scene's forcing period 2\.094395102 s \(ω = 3 rad/s \('f0'\)\)"):
             vd.floquet(system, wrong, [0.0], [0.0])
+    with pytest.raises(vd.ModelError, match=r"periodic_orbit: period 1 s is not a whole multiple .* 2\.094395102 s"):
+        vd.periodic_orbit(system, [0.0], [0.0], period=1.0)
     with pytest.raises(vd.ModelError, match=r"period \(s\) is required: the scene's forcing period 2\.094395102 s"):
         vd.floquet(system, None, [0.0], [0.0])
     orbit = vd.floquet(system, 2 * (2 * math.pi / 3), [0.0], [0.0])
@@ -526,8 +528,9 @@ def test_commensurate_forcings_share_their_common_period(tmp_path):
     forces = [(1.5, 3.0), (0.7, 4.5)]
     scene = forced_oscillator(*forces)
     system = scene.build()
-    with pytest.raises(vd.ModelError, match=r"period 2\.094395102 s is not a whole multiple of the scene's forcing "
-                                            r"period 4\.188790205 s \(ω = 3 rad/s \('f0'\), ω = 4\.5 rad/s \('f1'\)\)"):
+    with pytest.raises(vd.ModelError, match=r"period 2\.094395102 s is not a whole multiple of the scene's "
+                                            r"forcing period 4\.188790205 s \(ω = 3 rad/s \('f0'\), "
+                                            r"ω = 4\.5 rad/s \('f1'\)\)"):
         vd.floquet(system, 2 * math.pi / 3, [0.0], [0.0])
     orbit = vd.floquet(system, 4 * math.pi / 3, [0.0], [0.0])
     check_linear_orbit(orbit, forces)

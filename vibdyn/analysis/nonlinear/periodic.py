@@ -193,8 +193,8 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
     velocity is zero at t0 (a turning point). A conservative scene's orbits form families in the energy: the
     start's energy is kept (the orbit through the start's energy level; a family left by symmetries is solved
     for the nearest member by least-squares steps). Scenes with time-dependent forces, moving supports or
-    drives: ``period`` is required (the forcing's), and t0 places the start in it; driven coordinates take
-    their drives' values.
+    drives: ``period`` is required (the forcing's, or a whole multiple of it: see :func:`forcing_multiple`), and t0
+    places the start in it; driven coordinates take their drives' values.
 
     Shooting (:mod:`vibdyn.analysis.nonlinear.shooting`) with ``segments`` nodes along the orbit (None:
     single shooting unless a first run over the period amplifies errors by more than 50, then enough segments
@@ -228,6 +228,8 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
     if not autonomous and period is None:
         raise ModelError(f"{what}: the scene depends on time (time-dependent forces, moving supports or drives): "
                          "give its period (s)")
+    if not autonomous:
+        period = forcing_multiple(system, period, what)
     if phase is not None and not autonomous:
         raise ModelError(f"{what}: phase applies to autonomous scenes only (here the forcing fixes the phase)")
     damping = damping_only(system) if autonomous and not conservative(system) else None
