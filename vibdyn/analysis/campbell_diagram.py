@@ -146,7 +146,8 @@ class Campbell:
             return np.array([[((w2 - w1) / (x2 - x1) - mu * np.sign(x[0])) / f0, -abs(x[0]) / f0]])
 
         branch = continuation(lambda x, mu: np.array([(omega(x[0]) - mu * abs(x[0])) / f0]), np.array([s0]), mu0,
-                              order, step=2.0, tol=tol, scale=scale, max_steps=50, jacobian=jacobian)
+                              order, step=2.0, tol=tol, scale=scale, max_steps=50, jacobian=jacobian,
+                              parameter="the mode's frequency over the speed (the engine order)")
         if branch.status != "finished":
             raise ConvergenceError(f"campbell: the crossing of a mode with engine order {order:g} in "
                                    f"[{a:g}, {b:g}] rad/s could not be followed: {branch.message}",

@@ -369,10 +369,13 @@ class Shooting:
         if not accepted:
             hint = ("more segments (segments=...), " if self.m < MAX_SEGMENTS else "") + \
                 "a better start (closer to the orbit), a smaller amplitude, or a looser tol"
+            why = {"max_iter": f"in {max_iter} iterations", "diverged": "the motion diverged"}.get(
+                res.status, "no step brought it closer")
             raise ConvergenceError(
-                f"periodic orbit: shooting with {self.m} segment{'s' if self.m > 1 else ''} did not converge: "
-                f"{res.message}; closing residual reached {res.residual:.3e} (scaled: rad, length scales, "
-                f"per 2π/T), tolerance {tol:.1e}; try {hint}", residual=res.residual, best=self.unpack(res.x))
+                f"periodic orbit: shooting with {self.m} segment{'s' if self.m > 1 else ''} did not converge "
+                f"({why}): the orbit still misses its start by {res.residual:.1e} of its size (each coordinate over "
+                f"its scale, 1 rad or the scene's length, velocities over 2π/T), against tol = {tol:.1e}; try "
+                f"{hint}", residual=res.residual, best=self.unpack(res.x))
         return res.x, res.residual, res.iterations
 
 
