@@ -620,19 +620,22 @@ class _Follower:
         orbit = periodic_orbit(self.system, q0, v0, T, phase=name, tol=self.tol, rtol=self.rtol)
         omega = orbit.omega
         err_w = 2 * math.pi * orbit.period_error / orbit.period**2 + 16 * np.finfo(float).eps * omega  # (+ round-off)
-        amp = self.amplitude(orbit)
+        amp, amp_extra = self.amplitude(orbit)
+        amp_err = orbit.error + amp_extra
         g = self.energy_gradient(orbit.q0, orbit.v0)
         e = self.energy(orbit.q0, orbit.v0)
         err_e = float(np.abs(g[:self.n]).sum() * orbit.error + np.abs(g[self.n:]).sum() * orbit.velocity_error)
         if self.requested == "energy":
             err_w += abs(slope) * (err_e + abs(e - target))
         else:
-            err_w += abs(slope) * (orbit.error + abs(amp - target))
-        return omega, err_w, amp, orbit.error, e, err_e, orbit
+            err_w += abs(slope) * (amp_err + abs(amp - target))
+        return omega, err_w, amp, amp_err, e, err_e, orbit
 
     def amplitude(self, orbit):
-        """max over the orbit of |q_c − q_c,eq|: at the start (a turning point of c by the phase condition) or at
-        the other turning points (zeros of v_c, located by the simulation's events)."""
+        """(max over the orbit of |q_c − q_c,eq|, the error it adds to the orbit's own): at the start (a turning
+        point of c by the phase condition: nothing to add) or at the other turning points (zeros of v_c, located
+        by the simulation's events: that run's global error estimate; the location's own error costs nothing at
+        a turning point, where q_c is stationary)."""
         c, T = self.c, orbit.period
         best = abs(float(self.system.difference(self.q_eq, orbit.q0)[c]))
 
@@ -640,9 +643,12 @@ class _Follower:
             return float(v[c])
 
         scale = self.scales(best)  # (the flow's absolute tolerance from the motion, not from the scene's size)
-        run = simulate(self.system, T, orbit.q0, orbit.v0, rtol=self.rtol, error="local", events=turning,
+        run = simulate(self.system, T, orbit.q0, orbit.v0, rtol=self.rtol, error="rerun", events=turning,
                        atol=self.rtol * np.concatenate([scale, scale * orbit.omega]))
+        extra = 0.0
         for t, q in zip(run.events[0], run.event_q[0]):
             if 1e-6 * T < t < (1 - 1e-6) * T:
-                best = max(best, abs(float(self.system.difference(self.q_eq, q)[c])))
-        return best
+                a = abs(float(self.system.difference(self.q_eq, q)[c]))
+                if a > best:
+                    best, extra = a, run.error  # (largest over the outputs and coordinates)
+        return best, extra
