@@ -264,9 +264,9 @@ def _undamped(modes, dM, dK, eM, eK):
     for g in groups:
         cluster[g] = g[0]
         repeated[g] = len(g) > 1
-    dKs = 0.5 * (dK + dK.transpose(0, 2, 1))
-    eKs = 0.5 * (eK + eK.transpose(0, 2, 1))
-    G = Phi.T @ dKs @ Phi  # n_p × n_m × n_m: Φᵀ ∂K_s Φ
+    G = Phi.T @ (dK @ Phi)  # n_p × n_m × n_m: Φᵀ ∂K_s Φ (the symmetric part of Φᵀ ∂K Φ)
+    G += G.transpose(0, 2, 1)
+    G *= 0.5
     mass = bool(np.any(dM)) or bool(np.any(eM))  # (a stiffness or a damping leaves M as it is)
     H = Phi.T @ dM @ Phi if mass else np.zeros_like(G)  # Φᵀ ∂M Φ
     T = G - H * w2[None, None, :] if mass else G  # column i: Φᵀ(∂K_s − ω_i² ∂M)φ_i
@@ -278,9 +278,10 @@ def _undamped(modes, dM, dK, eM, eK):
                 S = G[j][np.ix_(g, g)] - wbar * H[j][np.ix_(g, g)]
                 d_w2[g, j] = np.linalg.eigvalsh(0.5 * (S + S.T))
     A = np.abs(Phi)
-    quad = np.diagonal(A.T @ eKs @ A, axis1=1, axis2=2).T
+    # |φ|ᵀ E |φ| per mode (a quadratic form: E's symmetric part is E's own value)
+    quad = np.einsum("ai,pai->ip", A, eK @ A)
     if mass:
-        quad = quad + np.abs(w2)[:, None] * np.diagonal(A.T @ eM @ A, axis1=1, axis2=2).T
+        quad += np.abs(w2)[:, None] * np.einsum("ai,pai->ip", A, eM @ A)
     # conditioning: each shape is known to δω²/gap (gap: to the nearest other cluster), which couples the mode to
     # its neighbours' terms of Φᵀ(∂K_s − ω² ∂M)Φ
     gaps = np.abs(w2[:, None] - w2[None, :])
@@ -300,7 +301,8 @@ def _undamped(modes, dM, dK, eM, eK):
     e_w[zero] = np.where(leaves[zero], np.inf, 0.0)
 
     def shapes():
-        return _nelson(M, Ks, Phi, w2, dKs, dM, eKs, eM, d_w2, e_w2, dw2_base, repeated | ~pos)
+        sym = lambda X: 0.5 * (X + X.transpose(0, 2, 1))  # noqa: E731
+        return _nelson(M, Ks, Phi, w2, sym(dK), dM, sym(eK), eM, d_w2, e_w2, dw2_base, repeated | ~pos)
 
     return d_w2, e_w2, d_w, e_w, repeated, shapes
 
@@ -480,8 +482,9 @@ def _linear_column(system, lin, p, regime):
     Q1, K1, C1 = element_terms(system, [group], lin.q0, lin.v0, lin.t0)
     n = lin.nv
     noise = 4 * n * EPS
-    dM, dC, dK = np.zeros((n, n)), C1, K1
-    eM, eC, eK = np.zeros((n, n)), noise * np.abs(C1), noise * np.abs(K1)
+    damped = bool(np.any(C1))
+    dM, dC, dK = None, C1 if damped else None, K1  # (None: zero, no array made)
+    eM, eC, eK = None, noise * np.abs(C1) if damped else None, noise * np.abs(K1)
     if regime == "static" and np.any(Q1):
         try:
             dq = np.linalg.solve(lin.K, Q1)
@@ -494,7 +497,7 @@ def _linear_column(system, lin, p, regime):
         zero = np.zeros(n)
         at = {k: system.linearize(system.integrate(lin.q0, k * eps * dq), a=zero, method="analytic")
               for k in (-2, -1, 1, 2)}
-        for name, (D, E) in (("M", (dM, eM)), ("C", (dC, eC)), ("K", (dK, eK))):
+        for name in ("M", "C", "K"):
             X = {k: getattr(at[k], name) for k in at}
             d1 = (X[1] - X[-1]) / (2 * eps)
             d2 = (X[2] - X[-2]) / (4 * eps)
@@ -502,7 +505,7 @@ def _linear_column(system, lin, p, regime):
             if name == "M":
                 dM, eM = d1, err
             elif name == "C":
-                dC, eC = dC + d1, eC + err
+                dC, eC = (d1, err) if dC is None else (dC + d1, eC + err)
             else:
                 dK, eK = dK + d1, eK + err
     return dM, dC, dK, eM, eC, eK
@@ -532,15 +535,20 @@ def _of_builder(build, params, start, unused):
 
 def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, start, unused="raise", direct=None):
     n_p, nv = len(names), lin.nv
-    dM, dC, dK = (np.zeros((n_p, nv, nv)) for _ in range(3))
-    eM, eC, eK = (np.zeros((n_p, nv, nv)) for _ in range(3))
     direct = direct or {}
+    columns = []  # per parameter: (∂M, ∂C, ∂K, and their errors), None for a zero one
     for j in range(n_p):
         if j in direct:
-            dM[j], dC[j], dK[j], eM[j], eC[j], eK[j] = direct[j]
-            continue
-        one_sided = nonneg[j] and values[j] - 2 * steps[j] < 0
-        (dM[j], dC[j], dK[j]), (eM[j], eC[j], eK[j]) = _differences(pipeline, values, j, steps[j], one_sided)
+            columns.append(direct[j])
+        else:
+            one_sided = nonneg[j] and values[j] - 2 * steps[j] < 0
+            d, e = _differences(pipeline, values, j, steps[j], one_sided)
+            columns.append((*d, *e))
+    zero = np.zeros((nv, nv))
+    # each of the six as one n_p × nv × nv stack; where every parameter's is zero, a view of one zero matrix
+    dM, dC, dK, eM, eC, eK = (
+        np.broadcast_to(zero, (n_p, nv, nv)) if all(c[k] is None for c in columns)
+        else np.array([zero if c[k] is None else c[k] for c in columns]) for k in range(6))
     method = ("element" if len(direct) == n_p else "pipeline" if not direct else
               f"element ({len(direct)} parameters), pipeline ({n_p - len(direct)})")
     # a parameter nothing depends on cannot be designed with nor fitted: refused, or left out and named
