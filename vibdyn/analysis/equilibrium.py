@@ -194,6 +194,20 @@ def held(system, q=None, v=None, t=0.0):
     return _finish(system, q, v, t, "held", 0.0, tolerance, 0, 0, speeds, drive, start)
 
 
+def operating_point(system: System, tol: float = EQUILIBRIUM_TOL, max_iter: int = MAX_ITER) -> OperatingPoint:
+    """The scene's declared operating point (``Scene.set_operating_point``): the configuration held by drives
+    (:func:`held`) if it says so (robots' default), a steady motion (:func:`steady_motion`) if it names cyclic
+    coordinates, else the static equilibrium nearest its start (neutral by default)."""
+    op = system.scene.operating_point or {}
+    # (a mechanism with loops starts from the declared start itself, and names it if it cannot close)
+    q0 = system.start_configuration()[0] if op.get("start") is not None and system.constraints is None else None
+    if op.get("held"):
+        return held(system, q0)
+    if op.get("cyclic"):
+        return steady_motion(system, op["cyclic"], q0, tol=tol, max_iter=max_iter)
+    return static_equilibrium(system, q0, tol=tol, max_iter=max_iter)
+
+
 def _refuse_drives(system, what):
     """A ModelError for a scene with drives (rheonomic joints): not supported here yet."""
     if getattr(system, "drives", None) is not None:

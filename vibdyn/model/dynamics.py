@@ -6,12 +6,13 @@ rad, t in s, forces in N and N·m. Results may share memory with the workspace: 
 """
 
 import functools
+from dataclasses import dataclass, field
 from itertools import repeat
 
 import numpy as np
 import pinocchio as pin
 
-from .._check import call_user, finite_array
+from .._check import call_user, finite_array, finite_result
 from ..errors import ModelError
 from .points import Kinematics
 
@@ -102,6 +103,15 @@ def inverse_dynamics_rows(system, ws, Q, V, a, t, shift=None):
         tau[:] = 0.0
     return tau, F
 
+
+def generalized_forces(system, ws, q, v, t):
+    """Q(q, v, t) (N or N·m per coordinate, a new array): the generalized force of every force element (not
+    gravity); a point element's by Σ Jᵀf, RNEA at rest on the model without gravity."""
+    Q, fext = forces(system, ws, q, v, t)
+    if fext is not None:
+        zero = np.zeros(system.nv)
+        Q -= pin.rnea(system.model_without_gravity, ws.data, q, zero, zero, fext)
+    return Q
 
 def is_gravity(system, v, a):
     """Whether RNEA at velocities v and accelerations a (any shape) is the gravity term alone: no point
@@ -228,3 +238,88 @@ def cancelling_terms(system, ws, q, v, a, t):
     tau = (pin.rnea(system.model, ws.data, q, v, a) if fext is None
            else pin.rnea(system.model, ws.data, q, v, a, fext))
     return np.abs(tau) + np.abs(Q) + np.abs(gravity_term(system, ws, q))
+
+
+@dataclass(frozen=True)
+class Energy:
+    """Energies of a state (J): kinetic, gravity potential, elastic potential (springs)."""
+
+    kinetic: float
+    gravity: float
+    elastic: float
+
+    @property
+    def potential(self) -> float:
+        return self.gravity + self.elastic
+
+    @property
+    def total(self) -> float:
+        return self.kinetic + self.gravity + self.elastic
+
+
+def energy(system, ws, q, v, t):
+    """Kinetic, gravity and elastic energies (J, :class:`Energy`) at (q, v, t); ModelError if not finite."""
+    model, data = system.model, ws.data
+    kinetic = pin.computeKineticEnergy(model, data, q, v)
+    gravity = pin.computePotentialEnergy(model, data, q) if system.has_gravity else 0.0
+    kin = kinematics(system, ws, q, None, t) if system.point_groups else None
+    elastic = sum(g.potential(q, kin) for g in system.force_groups)
+    finite_result([kinetic, gravity, elastic], f"energy at t = {t}")
+    return Energy(float(kinetic), float(gravity), float(elastic))
+
+
+@dataclass(frozen=True)
+class Reactions:
+    """Wrench each joint transmits from the parent to the body it carries (the link unknowns).
+
+    ``force`` (N) and ``moment`` (N·m, about the joint origin) per body with coordinates, in world axes;
+    ``force_local``/``moment_local`` in the joint's own axes; ``joint_force[name]`` the part along the
+    joint's coordinates (what its springs, dampers, motors and drive carry), the rest being the ideal reaction;
+    ``drive[name]`` the force (N or N·m) each drive exerts along its coordinate, τ_d = (M a + b + g − Q)_d.
+    """
+
+    bodies: tuple
+    force: np.ndarray
+    moment: np.ndarray
+    force_local: np.ndarray
+    moment_local: np.ndarray
+    joint_force: dict
+    drive: dict = field(default_factory=dict)
+
+    def __repr__(self):
+        from .._format import summary
+
+        big = np.linalg.norm(self.force, axis=1) if len(self.bodies) else np.zeros(0)
+        top = f"largest {np.max(big, initial=0.0):.4g} N at '{self.bodies[int(np.argmax(big))]}'" if big.size else ""
+        return summary("Reactions", f"{len(self.bodies)} links", top)
+
+    def __getitem__(self, body):
+        i = self.bodies.index(body)
+        return self.force[i], self.moment[i]
+
+
+def reactions(system, ws, q, v, a, t, loop_forces=None):
+    """Link wrenches (:class:`Reactions`) at (q, v) moving with accelerations a at t, by RNEA; ``loop_forces``
+    the loops' multipliers λ, applied to the bodies they join."""
+    Q, fext = forces(system, ws, q, v, t)
+    if loop_forces is not None and system.constraints is not None:
+        fext = system.constraints.add_to(q, np.asarray(loop_forces, dtype=float), fext)
+    model, data = system.model, ws.data
+    tau = pin.rnea(model, data, q, v, a) if fext is None else pin.rnea(model, data, q, v, a, fext)
+    pin.updateGlobalPlacements(model, data)  # RNEA leaves oMi as the last call set it
+    names, fl, ml, fw, mw, jf = [], [], [], [], [], {}
+    for b in system.body_infos.values():
+        if b.nv == 0:
+            continue
+        f = data.f[b.joint_id]
+        R = data.oMi[b.joint_id].rotation
+        names.append(b.name)
+        fl.append(f.linear.copy())
+        ml.append(f.angular.copy())
+        fw.append(R @ f.linear)
+        mw.append(R @ f.angular)
+        S = data.joints[b.joint_id].S
+        jf[b.name] = np.asarray(S).reshape(6, -1).T @ f.vector
+    return Reactions(tuple(names), np.array(fw).reshape(-1, 3), np.array(mw).reshape(-1, 3),
+                     np.array(fl).reshape(-1, 3), np.array(ml).reshape(-1, 3), jf,
+                     {} if system.drives is None else system.drives.of(tau - Q))

@@ -1,5 +1,7 @@
 """Workspaces: the mutable scratch a System computes in, one per caller or thread, never shared behind a
 caller's back (the System itself is immutable after ``build()``, like Pinocchio's Model against its Data).
+No computation reads what another left in a workspace: each reads only what its own pass wrote, before any
+user callable runs (tests/test_thin_system.py), so a force law may ask its System for a pose or a reaction.
 """
 
 import os
