@@ -302,3 +302,21 @@ def test_the_shared_force_machinery_is_defined_in_the_model_layer():
     assert "Kinematics" not in MODULES["vibdyn.description.elements.base"].read_text()
     assert not [t for t in all_imports(MODULES["vibdyn.model.dynamics"]) if t.startswith("vibdyn.description")]
 
+
+def class_setattrs(source):
+    """``setattr(C, ...)`` calls whose target is a class (a name defined as one in the module, or capitalised):
+    methods belong in the class body, where readers and type checkers see them."""
+    tree = ast.parse(source)
+    classes = {n.name for n in ast.walk(tree) if isinstance(n, ast.ClassDef)}
+    return [n.lineno for n in ast.walk(tree) if isinstance(n, ast.Call) and getattr(n.func, "id", None) == "setattr"
+            and n.args and isinstance(n.args[0], ast.Name) and (n.args[0].id in classes or n.args[0].id[:1].isupper())]
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_no_methods_set_onto_classes(name):
+    assert not class_setattrs(MODULES[name].read_text()), name
+
+
+def test_the_setattr_checker_sees_one():
+    assert class_setattrs("class A:\n    pass\nsetattr(A, 'f', len)") == [3]
+    assert class_setattrs("setattr(obj, 'direction', 1)") == []

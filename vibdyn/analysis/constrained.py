@@ -258,6 +258,16 @@ class ReducedLinearModel(LinearModel):
                 f"error ≈ {self.error:.1e}, {self.elapsed * 1e3:.2f} ms)")
 
 
+def _on_reduced(name):
+    """A response method of ConstrainedLinearModel that runs on its reduced model."""
+    def method(self, *args, **kwargs):
+        return getattr(self.reduced, name)(*args, **kwargs)
+
+    method.__name__ = name
+    method.__doc__ = getattr(LinearModel, name).__doc__
+    return method
+
+
 @dataclass(frozen=True, eq=False)
 class ConstrainedLinearModel(ReducedLinearModel):
     """:class:`ReducedLinearModel` whose :meth:`modes` give their shapes in the tree's coordinates (nv each,
@@ -279,20 +289,13 @@ class ConstrainedLinearModel(ReducedLinearModel):
     def with_modal_damping(self, zeta):
         return self.with_damping(self.reduced.with_modal_damping(zeta).C)
 
-
-def _on_reduced(name):
-    """A response method of ConstrainedLinearModel that runs on its reduced model."""
-    def method(self, *args, **kwargs):
-        return getattr(self.reduced, name)(*args, **kwargs)
-
-    method.__name__ = name
-    method.__doc__ = getattr(LinearModel, name).__doc__
-    return method
-
-
-for _name in ("free_response", "receptance", "harmonic_response", "base_response", "forced_response",
-              "appropriation"):
-    setattr(ConstrainedLinearModel, _name, _on_reduced(_name))
+    # the responses run on the reduced model
+    free_response = _on_reduced("free_response")
+    receptance = _on_reduced("receptance")
+    harmonic_response = _on_reduced("harmonic_response")
+    base_response = _on_reduced("base_response")
+    forced_response = _on_reduced("forced_response")
+    appropriation = _on_reduced("appropriation")
 
 
 def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_STEP, multipliers=None):
