@@ -30,10 +30,11 @@ class Derivatives:
     ``J``), the accumulators of their forces' derivatives (``add_force``, ``dFq``, ``dFv``), the joint poses
     the forces were evaluated with (``fkin``), and finite differences of user callables (``element_fd``).
     With ``magnitudes``, also ``dFq_abs``: the sizes of the terms summed into ``dFq`` (their round-off scale;
-    a term that cancels, as the turning of a force that turns with its joint, leaves round-off of its size)."""
+    a term that cancels, as the turning of a force that turns with its joint, leaves round-off of its size).
+    Computed in the workspace ``ws`` (its Data), copied out before any group runs."""
 
-    def __init__(self, system, q, v, a, t, need_velocity_derivatives, magnitudes=False, points=True):
-        model, data = system.model, system.data
+    def __init__(self, system, ws, q, v, a, t, need_velocity_derivatives, magnitudes=False, points=True):
+        model, data = system.model, ws.data
         self.system, self.q, self.v, self.t = system, q, v, t
         self.nv = system.nv
         self.fkin = None
@@ -191,7 +192,7 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
     differenced = untrusted(system)[0].size != 0
     if differenced:  # (after data.tau is read: the differences overwrite it)
         in_v = untrusted_columns(system, ws, q, v, a, t, shift, None, C, fext, with_terms)
-    d = Derivatives(system, q, v, a, t, bool(system.point_groups) and any(
+    d = Derivatives(system, ws, q, v, a, t, bool(system.point_groups) and any(
         g.needs_velocity_derivatives for g in system.point_groups), magnitudes=with_terms)
     K_size = None if not with_terms else np.zeros(K.shape) if system.point_groups else 0.0
     if system.point_groups:
@@ -273,7 +274,7 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
             untrusted_columns(system, ws, Q[c], V[c], A[c], ts[c], None, None, C[c],
                               ws.fext if system.point_groups else None)
         if system.joint_groups:
-            dj = Derivatives(system, Q[c], V[c], A[c], float(ts[c]), False, points=False)
+            dj = Derivatives(system, ws, Q[c], V[c], A[c], float(ts[c]), False, points=False)
             for g in system.joint_groups:
                 dq, dv = g.derivatives(dj)
                 if dq is not None:
@@ -338,10 +339,10 @@ def element_terms(system, groups, q, v, t):
     nv = system.nv
     point = [g for g in groups if g.uses_points]
     Q, K, C = np.zeros(nv), np.zeros((nv, nv)), np.zeros((nv, nv))
-    d = Derivatives(system, q, v, np.zeros(nv), t, any(g.needs_velocity_derivatives for g in point),
+    ws = system.workspace()
+    d = Derivatives(system, ws, q, v, np.zeros(nv), t, any(g.needs_velocity_derivatives for g in point),
                     points=bool(point))
     if point:
-        ws = system.workspace()
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t)
         F = np.zeros((system.model.njoints, 6))
         for g in point:

@@ -76,6 +76,7 @@ class Variational(Stepper):
     def __init__(self, system, q0, v0, t_end, **kwargs):
         super().__init__(system, q0, v0, t_end, **kwargs)
         self.model = system.model
+        self.ws = system.workspace()  # the calling thread's: one simulation runs in one thread
         self.curved = system.nq != system.nv
         self.q, self.v = np.array(q0, dtype=float), np.array(v0, dtype=float)
         self.p = system.mass_matrix(self.q) @ self.v
@@ -94,18 +95,19 @@ class Variational(Stepper):
 
         G = ∂T/∂q + F with F = Q + Jᵀf − g the applied forces, computed as G = −r + Ṁu − ad*_u(M u) from the
         inverse-dynamics residual r = RNEA(q, u, 0) − Q = C u + g − Q − Jᵀf and Ṁ = C + Cᵀ."""
-        system, model, data, q0 = self.system, self.model, self.system.data, self.q
+        system, model, ws, q0 = self.system, self.model, self.ws, self.q
+        data = ws.data
         self.nfev += 1
         half = 0.5 * xi
         q_m = pin.integrate(model, q0, half) if self.curved else q0 + half
         u = xi / h
-        r = dynamics.inverse_dynamics(system, system.workspace(), q_m, u, np.zeros_like(u), t_mid)
+        r = dynamics.inverse_dynamics(system, ws, q_m, u, np.zeros_like(u), t_mid)
         C = pin.computeCoriolisMatrix(model, data, q_m, u)
         Cu = C @ u
         M = self._mass(q_m)
         mu = M @ u
         G = Cu + C.T @ u - r
-        work = h * (u @ (Cu - r + dynamics.gravity_term(system, system.workspace(), q_m))) if self.work else 0.0
+        work = h * (u @ (Cu - r + dynamics.gravity_term(system, ws, q_m))) if self.work else 0.0
         if self.curved:
             G -= self.adstar(u, mu)
             q1 = pin.integrate(model, q0, xi)
@@ -121,7 +123,7 @@ class Variational(Stepper):
 
     def _mass(self, q):
         """M(q) by CRBA (upper triangle) made symmetric, without input checks."""
-        M = pin.crba(self.model, self.system.data, q)
+        M = pin.crba(self.model, self.ws.data, q)
         M[self._lower] = M.T[self._lower]
         return M
 
@@ -138,7 +140,7 @@ class Variational(Stepper):
     def step_to(self, t_new):
         h = t_new - self.t
         t_mid = self.t + 0.5 * h
-        a = dynamics.accelerations(self.system, self.system.workspace(), self.q, self.v, self.t)
+        a = dynamics.accelerations(self.system, self.ws, self.q, self.v, self.t)
         self.nfev += 1
         guess = h * self.v + 0.5 * h * h * a  # second-order guess
         fresh = False
