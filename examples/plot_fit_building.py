@@ -56,3 +56,9 @@ ax.set_ylabel("(fitted − true) / stated σ")
 ax.legend(fontsize=8)
 fig.tight_layout()
 plt.show()
+
+# %%
+# The fitted building's modes, in the viewer
+# ------------------------------------------
+fitted = building(**fit.values).build().operating_point().linearize(method="analytic").modes()
+vd.export_html(fitted, "viewer_fit_building.html")

@@ -61,3 +61,9 @@ ax.set_ylabel("ω₁ (rad/s)")
 ax.legend(fontsize=8)
 fig.tight_layout()
 plt.show()
+
+# %%
+# The stiffened building's modes, in the viewer
+# ---------------------------------------------
+stiffened = with_values(base, [p], [k]).build().operating_point().linearize(method="analytic").modes()
+vd.export_html(stiffened, "viewer_move_a_resonance.html")

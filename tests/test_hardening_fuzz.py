@@ -47,6 +47,10 @@ def outcome(call):
             result = REFUSED
         finally:
             assert time.perf_counter() - start < LIMIT_S
+    # vibdyn's own warnings that say what it did (a start in degrees?, an analytic model refused by its check
+    # against differences and replaced by them) may come with a result; numpy's may not
+    told = [w for w in caught if issubclass(w.category, UserWarning) and str(w.message).startswith(TOLD)]
+    caught = [w for w in caught if w not in told]
     assert all(issubclass(w.category, RuntimeWarning) for w in caught), [str(w.message) for w in caught]
     if result is REFUSED:
         return "refused"
@@ -56,6 +60,7 @@ def outcome(call):
 
 
 REFUSED = object()
+TOLD = ("simulate: q0:", "linearize: the analytic")  # vibdyn's warnings that come with a right result
 
 
 def pendulum(mass, inertia, stiffness, gravity):

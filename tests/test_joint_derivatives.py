@@ -251,3 +251,19 @@ def test_conical_pendulum_on_a_universal_joint_floquet_multipliers(deg):
     # (an estimate small enough for the comparison to mean something: Pinocchio's derivatives were off by 0.8 to
     # 1.1 in the pair at 60 and 85 deg, and moved the double 1 by 7e-3 at 10 and 30 deg)
     assert err[~ones].max() < 1e-5 and orbit.stability == "neutral within the error"
+
+
+def test_guard_catches_pinocchio_at_tiny_masses():
+    """Pinocchio 4.1's computeRNEADerivatives loses the gravity stiffness of a light pendulum carrying a slider
+    that accelerates (mass 1e-20 kg, 0.5 m lever, gravity 1 m/s² up, the free acceleration 1 m/s² of the
+    slider: −4.5e-25 against −m g l = −5e-21 N·m/rad, whatever the step of the differences; 1 kg is right): the
+    guard sees it on joint types nobody distrusts, warns, and the model is the finite-difference one, right."""
+    for mass in (1e-20, 4.7e-26):
+        s = vd.Scene("tiny", gravity=(0.0, 0.0, 1.0))
+        s.add_body("rod", joint=vd.Pivot((0, 1, 0)), mass=mass, com=(0, 0, -0.5), inertia=np.zeros((3, 3)))
+        s.add_body("cart", parent="rod", joint=vd.Slider((0, 0, 1)), mass=mass)
+        system = s.build()
+        with pytest.warns(UserWarning, match="disagree with central differences"):
+            lin = system.linearize(method="analytic")  # (about the free acceleration: the cart's 1 m/s²)
+        assert lin.method == "fd"
+        assert abs(lin.K[0, 0] + mass * 0.5) <= 10 * lin.K_error[0, 0] + 1e-9 * mass * 0.5

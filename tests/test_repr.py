@@ -8,7 +8,7 @@ import pytest
 from conftest import MODELS
 
 import vibdyn as vd
-from vibdyn import simulate as sim
+from vibdyn.simulation import simulate as sim  # (the module: vd.simulate is the function)
 
 SHORT = 400
 

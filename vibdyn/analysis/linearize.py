@@ -418,10 +418,11 @@ def guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms):
     T += D  # D(δ) − D(2δ)
     off = K @ dq
     bound = K_err @ dq_abs
+    forces += np.abs(K) @ dq_abs  # (the forces the steps themselves make: their round-off too)
     if moving:
         off += C @ dv
         bound += C_err @ np.abs(dv)
-        forces += np.abs(C) @ np.abs(v0)
+        forces += np.abs(C) @ (np.abs(v0) + 2 * np.abs(dv))
     if np.count_nonzero(a0):
         forces += np.abs(M) @ np.abs(a0)
     off -= D
