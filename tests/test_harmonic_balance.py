@@ -605,3 +605,13 @@ def test_flat_peak_frequency_error_includes_the_optimisers_resolution():
     amplitude = F / (c * wn * math.sqrt(1 - zeta**2))
     rounding = 4 * np.finfo(float).eps * amplitude  # the closed form's own
     assert abs(peak.amplitude - amplitude) <= peak.error + rounding
+
+
+def test_summary_counts_verdicts_not_a_bare_comparison_with_one():
+    """An undamped forced two-mass oscillator below its first resonance: every |μ| is 1 within its error, and
+    the summary says so (it counted them "unstable", by |μ| ≥ 1 alone, while each row said within the error)."""
+    system = vd.load_scene("two_mass_cubic").build()
+    curve = vd.forced_response_curve(system, ("m1", 0.02), (0.8, 1.1), "m2", harmonics=3)
+    n_within = curve.stability.count("within the error")
+    assert n_within == len(curve.omega) and curve.stability.count("unstable") == 0
+    assert f"0 unstable points, {n_within} neutral within the error" in str(curve)

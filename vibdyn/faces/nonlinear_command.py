@@ -97,6 +97,12 @@ def frc_dict(system, curve):
         "status": curve.status, "message": curve.message, "elapsed_s": curve.elapsed})
 
 
+def mu_digits(error):
+    """Significant digits that show a multiplier |μ| ≈ 1 to its ``error`` (8 at least, 17 at most): an
+    "unstable" 1.000000000001 ± 2e-16 must not print as 1."""
+    return int(min(17, max(8, 1 - math.floor(math.log10(max(float(error), 1e-17))))))
+
+
 def frc_command(scene, args, out=None):
     """``vibdyn frc``: the curve's peak, folds and points (Ω, amplitude, |μ|, stability), or JSON."""
     from ..analysis.nonlinear.harmonic_balance import forced_response_curve
@@ -129,7 +135,7 @@ def frc_command(scene, args, out=None):
     p(str(curve))
     u = curve.unit
     rows = [[number(w, digits=8), number(w / (2 * math.pi), digits=6), number(a, digits=8), f"{e:.1e}",
-             number(abs(m[0]), digits=8), f"{me:.1e}", s]
+             number(abs(m[0]), digits=mu_digits(me)), f"{me:.1e}", s]
             for w, a, e, m, me, s in zip(curve.omega, curve.amplitude, curve.error, curve.multipliers,
                                           curve.multiplier_error, curve.stability)]
     p(f"points: amplitude = max over a period of |{curve.coordinate} − equilibrium| ({u}) ± its truncation "

@@ -245,13 +245,15 @@ def forced_response(curve, *, path=None, dpi=100):
     """A forced-response curve (:func:`vibdyn.forced_response_curve`): the amplitude max over a period of
     |q − q_eq| of its coordinate (m or rad) against the excitation's Ω (rad/s; Hz on the top axis), drawn densely
     through the computed points (:func:`dense_response`: splines of the harmonic coefficients along the arc),
-    the points marked; stable stretches solid, unstable dashed (Hill's method), folds marked ×, the peak ▼."""
+    the points marked; stable stretches solid (and those neutral within the error of |μ|), unstable dashed (Hill's
+    method), folds marked ×, the peak ▼."""
     fig, ax = figure(1, 1, size=(7.0, 4.8))
     a = ax[0, 0]
     w, amp = curve.omega, curve.amplitude
     dense = dense_response(curve)
-    for i, j in _runs(curve.stable):
-        style = "-" if curve.stable[i] else "--"
+    solid = np.array([s != "unstable" for s in curve.stability])  # (a verdict within its error is none)
+    for i, j in _runs(solid):
+        style = "-" if solid[i] else "--"
         if dense is None:
             a.plot(w[i:j], amp[i:j], style, color="C0", lw=1.6)
         else:
@@ -259,8 +261,9 @@ def forced_response(curve, *, path=None, dpi=100):
             inside = (s >= s_pts[i]) & (s <= s_pts[j - 1])
             a.plot(dw[inside], da[inside], style, color="C0", lw=1.6)
     a.plot(w, amp, "o", color="C0", ms=2.5, label=f"computed points ({len(w)})")
-    a.plot([], [], "-", color="C0", label="stable")
-    if not np.all(curve.stable):
+    neutral = "within the error" in curve.stability
+    a.plot([], [], "-", color="C0", label="stable, or neutral within the error" if neutral else "stable")
+    if not np.all(solid):
         a.plot([], [], "--", color="C0", label="unstable (Hill)")
     if curve.folds:
         a.plot([f.omega for f in curve.folds], [f.amplitude for f in curve.folds], "x", color="C3", ms=8, mew=2,

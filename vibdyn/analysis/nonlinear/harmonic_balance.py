@@ -161,7 +161,8 @@ class ForcedResponseCurve:
                  f"  peak: amplitude {number(self.peak.amplitude, u, digits=10)} ± {self.peak.error:.1e} at "
                  f"Ω = {number(self.peak.omega, digits=10)} rad/s ({number(self.peak.frequency_hz, digits=8)} Hz)",
                  f"  truncation error ≤ {float(np.max(self.error)):.1e} {u}; "
-                 f"{int(np.count_nonzero(~self.stable))} unstable points (Hill's method, |μ| to "
+                 f"{self.stability.count('unstable')} unstable points, {self.stability.count('within the error')} "
+                 f"neutral within the error of |μ| (Hill's method, |μ|'s error up to "
                  f"{float(np.max(self.multiplier_error)):.0e})"]
         for f in self.folds:
             lines.append(f"  fold: Ω = {number(f.omega, digits=10)} ± {f.omega_error:.1e} rad/s "
