@@ -8,14 +8,14 @@ import pytest
 
 import vibdyn as vd
 from vibdyn.solvers.continuation import continuation
-from vibdyn.solvers.newton import newton
+from vibdyn.solvers.newton import Steps, newton
 from vibdyn.solvers.tracking import mac, match
 
 
 def test_newton_solves_square_singular_and_manifold_problems():
     # a square system (a circle of radius 2 and the diagonal) from afar, its steps capped and searched
-    r = newton(lambda x: np.array([x[0] ** 2 + x[1] ** 2 - 4.0, x[0] - x[1]]), [10.0, 0.1], max_step=1.0,
-               tol=1e-12)
+    r = newton(lambda x: np.array([x[0] ** 2 + x[1] ** 2 - 4.0, x[0] - x[1]]), [10.0, 0.1],
+               steps=Steps(max_step=1.0), tol=1e-12)
     assert r.converged and np.allclose(r.x, [math.sqrt(2)] * 2, atol=1e-12) and r.iterations < 20
     # under-determined: the minimum-norm step lands on the closest solution, (1, 1) of x + y = 2 from 0
     r = newton(lambda x: np.array([x[0] + x[1] - 2.0]), [0.0, 0.0])
@@ -30,7 +30,7 @@ def test_newton_solves_square_singular_and_manifold_problems():
                lambda p: np.array([[-p[1] - p[0]]]), retract)
     assert r.converged and np.allclose(r.x, [math.sqrt(0.5)] * 2) and abs(np.linalg.norm(r.x) - 1) < 1e-15
     with pytest.raises(vd.ConvergenceError, match="Newton"):
-        newton(lambda x: np.array([x[0] ** 2 + 1.0]), [1.0], raise_on_failure=True)
+        newton(lambda x: np.array([x[0] ** 2 + 1.0]), [1.0]).check()
 
 
 def test_continuation_follows_an_s_curve_through_both_folds():
@@ -75,9 +75,9 @@ def test_mode_tracking_recovers_a_permutation_and_breaks_ties_by_frequency():
 def test_newton_trust_region_expands_towards_a_far_root():
     """x − 1000 = 0 from 0 with steps capped at 1: a fixed cap needs 1000 steps, the expanding one doubles it
     after every whole capped step and lands in about log₂(1000) of them."""
-    fixed = newton(lambda x: x - 1000.0, [0.0], max_step=1.0, max_iter=50)
+    fixed = newton(lambda x: x - 1000.0, [0.0], steps=Steps(max_step=1.0), max_iter=50)
     assert not fixed.converged and fixed.x[0] == pytest.approx(50.0)
-    grown = newton(lambda x: x - 1000.0, [0.0], max_step=1.0, max_iter=50, expand=True)
+    grown = newton(lambda x: x - 1000.0, [0.0], steps=Steps(max_step=1.0, expand=True), max_iter=50)
     assert grown.converged and grown.x[0] == pytest.approx(1000.0, abs=1e-10) and grown.iterations <= 12
 
 
@@ -95,7 +95,7 @@ def test_newton_chord_keeps_a_jacobian_while_it_contracts_and_replaces_a_stale_o
     chord = newton(F, [1.5, 1.4], J, tol=1e-13, chord=0.3)
     assert full.converged and chord.converged and np.allclose(chord.x, root, atol=1e-13)
     assert full.jacobians == full.iterations and chord.jacobians < chord.iterations
-    stale = newton(F, [1.5, 1.4], J, tol=1e-13, chord=0.3, jacobian0=np.array([[-5.0, 0.0], [0.0, 3.0]]))
+    stale = newton(F, [1.5, 1.4], J, tol=1e-13, chord=0.3, start=(None, np.array([[-5.0, 0.0], [0.0, 3.0]])))
     assert stale.converged and np.allclose(stale.x, root, atol=1e-13) and stale.jacobians >= 1
 
 
@@ -159,3 +159,13 @@ def test_continuation_shortens_a_step_whose_predictor_leaves_the_domain():
     assert np.abs(np.log(br.x[:, 0]) - br.lam).max() <= 1e-12  # (every point solved to tol)
     res = newton(lambda x: F(x, 0.0), [-1.0], lambda x: jac(x, 0.0)[:, :1])
     assert res.status == "diverged" and not res.converged and res.iterations == 0 and res.jacobians == 0
+
+
+def test_newton_keeps_to_eight_options():
+    """The solver kit stays small (issue 33): Newton takes at most 8 optional or keyword-only parameters, the
+    step's trust region and line search grouped in :class:`Steps`, F and J at the start in one ``start``."""
+    import inspect
+
+    options = [p for p in inspect.signature(newton).parameters.values()
+               if p.default is not p.empty or p.kind is p.KEYWORD_ONLY]
+    assert len(options) <= 8, [p.name for p in options]

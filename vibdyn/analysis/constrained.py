@@ -17,7 +17,7 @@ from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
 from ..model.fd import differences, displaced_vectors, steps, tangent_derivative, vector_derivative
-from ..solvers.newton import newton
+from ..solvers.newton import Steps, newton
 from .equilibrium import OperatingPoint
 from .linearize import LinearModel, fd_error, reference_state, tree_linearize
 from .modal import modes as _modes
@@ -140,8 +140,8 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
         return xi / over if over > 1 else xi
 
     ind0 = ind
-    out = newton(rho_of, q, jacobian, retract, tol=target, max_iter=max_iter, shape_step=cap,
-                 on_no_decrease="accept", min_alpha=1e-3, stall=1e3, f0=(N.T @ r)[rows], jacobian0=Kr)
+    out = newton(rho_of, q, jacobian, retract, tol=target, max_iter=max_iter, start=((N.T @ r)[rows], Kr),
+                 steps=Steps(shape=cap, on_no_decrease="accept", min_alpha=1e-3, stall=1e3))
     if out.status == "diverged":
         raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=None, best=out.x)
     if out.status not in ("converged", "stagnated"):

@@ -18,7 +18,7 @@ from ..defaults import EQUILIBRIUM_TOL, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
 from ..model.fd import steps
-from ..solvers.newton import newton
+from ..solvers.newton import Steps, newton
 from .linearize import LinearModel, jacobian_q, jacobian_v, linearize
 
 if TYPE_CHECKING:
@@ -308,9 +308,9 @@ def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
 
     x0 = np.concatenate([q, v[unknown]])
     seen["x"], seen["r"] = x0, r
-    out = newton(rows_of, x0, lambda x: jacobian(*split(x)), retract, tol=target,
-                 max_iter=max_iter, max_step=max_step, shape_step=shape_step, on_no_decrease="accept",
-                 min_alpha=1e-3, stall=1e3, f0=r[rows], jacobian0=J, expand=True, polish=True)
+    out = newton(rows_of, x0, lambda x: jacobian(*split(x)), retract, tol=target, max_iter=max_iter,
+                 start=(r[rows], J), steps=Steps(max_step=max_step, expand=True, shape=shape_step,
+                                                 min_alpha=1e-3, on_no_decrease="accept", stall=1e3, polish=True))
     if out.status == "diverged":
         raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=out.residual,
                                best=split(out.x)[0])

@@ -319,7 +319,7 @@ class Constraints:
         """(q, Φ(q), Φ_q(q)) of :meth:`assemble`; Φ_q is None where it was not evaluated at q. The solver
         kit's Newton (:func:`vibdyn.solvers.newton.newton`) in the dimensionless metric: minimum-norm
         least-squares steps on the rank of Φ_q, each at most MAX_STEP, moved by ``pin.integrate``."""
-        from ..solvers.newton import newton
+        from ..solvers.newton import Steps, newton
 
         model, cs = self.system.model, self.col_scale
         q0 = np.array(q0, dtype=float)
@@ -340,7 +340,7 @@ class Constraints:
         # are not news
         with np.errstate(over="ignore", invalid="ignore"):
             out = newton(fun, q0, jacobian, lambda q, dx: pin.integrate(model, q, cs * dx), tol=tol,
-                         max_iter=max_iter, max_step=MAX_STEP, rcond=RANK_RTOL)
+                         max_iter=max_iter, rcond=RANK_RTOL, steps=Steps(max_step=MAX_STEP))
         best = (out.residual, out.x)
         if best[0] <= tol:
             phi, J = (last["phi"], last["J"]) if last.get("q") is out.x else (None, None)

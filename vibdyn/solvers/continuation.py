@@ -130,7 +130,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         yp = y + h * t
         corr = newton(lambda z: np.append(F(z), t @ (z - yp)), yp, lambda z: np.vstack([J(z), t]), tol=tol,
                       max_iter=8 if chord is None else 12, chord=chord,
-                      jacobian0=None if chord is None else np.vstack([Jy, t]))
+                      start=(None, None if chord is None else np.vstack([Jy, t])))
         # a corrector that stops just above tol because no step decreases ‖F‖ has met the floor of F's own
         # error (shooting near a separatrix: the flows' error times the orbit's sensitivity); smaller steps do
         # not lower that floor, so a branch that meets it three times in four corrections ends there

@@ -32,6 +32,12 @@ class NewtonResult:
     status: str = "converged"
     jacobians: int = 0  # Jacobians evaluated (fewer than iterations with ``chord``)
 
+    def check(self) -> NewtonResult:
+        """This result if it converged; else a ConvergenceError with its message, residual and best point."""
+        if not self.converged:
+            raise ConvergenceError(f"Newton: {self.message}", residual=self.residual, best=self.x)
+        return self
+
 
 def fd_jacobian(fun: Callable, x: np.ndarray, f0: np.ndarray | None = None, h: float = 1e-7) -> np.ndarray:
     """∂fun/∂x by central differences (steps h × max(1, |x_k|)), as a fallback where no Jacobian is given."""
@@ -44,30 +50,48 @@ def fd_jacobian(fun: Callable, x: np.ndarray, f0: np.ndarray | None = None, h: f
     return np.array(cols).T.reshape(-1, x.size)
 
 
+@dataclass(frozen=True)
+class Steps:
+    """How a Newton step is taken (a trust region and a line search). ``max_step``: the largest |dx| component
+    of one step, a number or one per component; ``expand``: that cap is a trust region that doubles after a
+    capped step is taken whole (a far solution is reached in log₂ of the distance steps) and falls back towards
+    ``max_step`` after a step the line search had to cut; ``shape(x, f, J, dx)`` → dx: the caller's own say on
+    each least-squares step before the cap (a fallback where the linear model fails, joint limits; it may
+    raise); the line search halves a step until ‖F‖ decreases (Armijo), down to ``min_alpha``; there
+    ``on_no_decrease`` "stop" ends the search, "accept" takes the shortest step tried and goes on (the best
+    point is kept either way); ``stall``: a factor s, steps that no longer move x (round-off) end the search
+    as "stagnated" once ‖F‖_∞ ≤ s·tol; ``polish``: after convergence, one more step with the last Jacobian,
+    kept if it lowers the residual."""
+
+    max_step: float | np.ndarray | None = None
+    expand: bool = False
+    shape: Callable | None = None
+    min_alpha: float = 1e-4
+    on_no_decrease: str = "stop"
+    stall: float | None = None
+    polish: bool = False
+
+
+PLAIN = Steps()  # full least-squares steps, no cap, the line search down to 1e-4, stopped where nothing decreases
+
+
 def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retract: Callable | None = None, *,
-           tol: float = 1e-10, max_iter: int = 50, max_step: float | np.ndarray | None = None, rcond: float = 1e-12,
-           raise_on_failure: bool = False, shape_step: Callable | None = None, on_no_decrease: str = "stop",
-           min_alpha: float = 1e-4, stall: float | None = None, f0: np.ndarray | None = None,
-           jacobian0: np.ndarray | None = None, expand: bool = False, polish: bool = False,
+           tol: float = 1e-10, max_iter: int = 50, rcond: float = 1e-12, steps: Steps = PLAIN,
+           start: tuple[np.ndarray | None, np.ndarray | None] = (None, None),
            chord: float | None = None) -> NewtonResult:
     """Solve F(x) = 0 from x0 (F: ℝⁿ or a manifold → ℝᵐ, tangent steps of n components).
 
     ``jacobian(x)``: m × n (central differences if None); ``retract(x, dx)``: the point reached from x by
-    the tangent step dx (x + dx if None); ``max_step``: the largest |dx| component of one step, a number or
-    one per component (a trust region); ``shape_step(x, f, J, dx)`` → dx: the caller's own say on each
-    least-squares step before the cap (a fallback where the linear model fails, joint limits; it may raise);
-    the line search halves a step until ‖F‖ decreases (Armijo), down to ``min_alpha``; there
-    ``on_no_decrease`` "stop" ends the search, "accept" takes the shortest step tried and goes on (the best
-    point is kept either way). ``stall``: a factor s; steps that no longer move x (round-off) end the
-    search as "stagnated" once ‖F‖_∞ ≤ s·tol. Stops when ‖F‖_∞ ≤ tol (``converged``); otherwise
-    ``message`` says why, and with ``raise_on_failure`` a ConvergenceError carries the residual and the best
-    point. ``f0``, ``jacobian0``: F and J at x0 if the caller has them already. ``expand``: the cap is a trust
-    region that doubles after a capped step is taken whole (a far solution is reached in log₂ of the distance
-    steps) and falls back towards ``max_step`` after a step the line search had to cut. ``chord``: a factor
-    κ < 1; a Jacobian is kept for the next step while each full step cuts ‖F‖ at least κ times (a chord
-    iteration: residuals only), evaluated afresh where one does not (or the line search fails on it); there
-    ``jacobian0`` may be a neighbouring point's."""
-    start = time.perf_counter()
+    the tangent step dx (x + dx if None); ``rcond``: the least-squares cut-off of small singular values;
+    ``steps``: the trust region and line search (:class:`Steps`). Stops when ‖F‖_∞ ≤ tol (``converged``);
+    otherwise ``message`` says why (:meth:`NewtonResult.check` raises it). ``start``: (F, J) at x0 where the
+    caller has them already (either may be None). ``chord``: a factor κ < 1; a Jacobian is kept for the next
+    step while each full step cuts ‖F‖ at least κ times (a chord iteration: residuals only), evaluated afresh
+    where one does not (or the line search fails on it); there the start's J may be a neighbouring point's."""
+    began = time.perf_counter()
+    f0, jacobian0 = start
+    max_step, expand, shape_step, min_alpha = steps.max_step, steps.expand, steps.shape, steps.min_alpha
+    on_no_decrease, stall = steps.on_no_decrease, steps.stall
     retract = retract or (lambda x, dx: x + dx)
     x = np.array(x0, dtype=float)
     f = np.asarray(fun(x) if f0 is None else f0, float)
@@ -131,15 +155,13 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
             break
     x_last = x
     res, x = best
-    if polish and 0 < res <= tol and J_last is not None:
+    if steps.polish and 0 < res <= tol and J_last is not None:
         f_best = f if x is x_last else np.asarray(fun(x), float)
         x_p = retract(x, np.linalg.lstsq(J_last, -f_best, rcond=rcond)[0])
         f_p = np.asarray(fun(x_p), float)
         res_p = float(np.abs(f_p).max(initial=0.0))
         if res_p < res:
             res, x = res_p, x_p
-    out = NewtonResult(x, res, it, res <= tol, "converged" if res <= tol else message, time.perf_counter() - start,
+    out = NewtonResult(x, res, it, res <= tol, "converged" if res <= tol else message, time.perf_counter() - began,
                        "converged" if res <= tol else status, evaluated)
-    if raise_on_failure and not out.converged:
-        raise ConvergenceError(f"Newton: {out.message}", residual=res, best=x)
     return out

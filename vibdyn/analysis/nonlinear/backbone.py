@@ -44,7 +44,7 @@ from ...errors import ConvergenceError, ModelError
 from ...model.groups import ForceGroup
 from ...simulation.simulate import SimulationError, simulate
 from ...solvers.continuation import continuation
-from ...solvers.newton import newton
+from ...solvers.newton import Steps, newton
 from ..equilibrium import static_configuration
 from .periodic import MIN_ENERGY_RATIO, RTOL, STEP_RESOLUTION, TOL, periodic_orbit
 from .shooting import RCOND, Shooting, conservative, energy_roundoff
@@ -503,7 +503,7 @@ class _Follower:
         noise = 100 * np.finfo(float).eps * (abs(self.E_eq) + target) / self.tol if self.requested == "energy" else 0
         fun, jac = self.equations(shoot, max(target / REQUEST_WEIGHT, noise))
         res = newton(lambda y: fun(y, target), z, lambda y: jac(y, target)[:, :-1], tol=self.tol, max_iter=10,
-                     rcond=RCOND, stall=100.0)
+                     rcond=RCOND, steps=Steps(stall=100.0))
         if not (res.converged or res.residual <= 100 * self.tol):
             why = {"max_iter": "in 10 Newton iterations", "diverged": "the motion could not be integrated"}.get(
                 res.status, "no Newton step closes it further")

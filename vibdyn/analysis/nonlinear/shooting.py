@@ -30,7 +30,7 @@ from ...description.elements.joint_damper import JointDampers
 from ...errors import ConvergenceError, ModelError
 from ...model.groups import ForceGroup
 from ...simulation.simulate import SimulationError, simulate
-from ...solvers.newton import newton
+from ...solvers.newton import Steps, newton
 
 ARG0, ARG1 = pin.ArgumentPosition.ARG0, pin.ArgumentPosition.ARG1
 GROWTH_PER_SEGMENT = 50.0  # automatic multiple shooting: each segment amplifies errors by at most about this
@@ -363,8 +363,8 @@ class Shooting:
         if not np.all(np.isfinite(f0)):
             raise ConvergenceError("periodic orbit: the motion from the start cannot be integrated over a period: "
                                    "start closer to the orbit, or use more segments", best=x0)
-        res = newton(self.residual, x0, self.jacobian, self.retract, tol=tol, max_iter=max_iter,
-                     max_step=STEP_CAP, rcond=RCOND, stall=100.0, f0=f0, min_alpha=MIN_ALPHA)
+        res = newton(self.residual, x0, self.jacobian, self.retract, tol=tol, max_iter=max_iter, rcond=RCOND,
+                     steps=Steps(max_step=STEP_CAP, min_alpha=MIN_ALPHA, stall=100.0), start=(f0, None))
         accepted = res.converged or (res.status in ("stagnated", "no_decrease") and res.residual <= 100 * tol)
         if not accepted:
             hint = ("more segments (segments=...), " if self.m < MAX_SEGMENTS else "") + \
