@@ -14,6 +14,7 @@ import pinocchio as pin
 
 from .._check import call_user, finite_array, finite_result
 from ..errors import ModelError
+from .fd import tangent_derivative
 from .points import Kinematics
 
 
@@ -266,6 +267,15 @@ def energy(system, ws, q, v, t):
     elastic = sum(g.potential(q, kin) for g in system.force_groups)
     finite_result([kinetic, gravity, elastic], f"energy at t = {t}")
     return Energy(float(kinetic), float(gravity), float(elastic))
+
+
+def energy_gradient(system, q: np.ndarray, v: np.ndarray, h: np.ndarray, t: float = 0.0,
+                    reference: float = 0.0) -> np.ndarray:
+    """∂E/∂(δq, δv) at (q, v, t) (J per m or rad, then per m/s or rad/s), δq in the tangent space at q: central
+    differences of the energy less ``reference`` (J) with steps h (m or rad, one per tangent coordinate:
+    :func:`vibdyn.model.fd.tangent_derivative`) for q, M v for v. The energy rows of shooting and backbones."""
+    dq = tangent_derivative(system, lambda qq: system.energy(qq, v, t).total - reference, q, h)[0]
+    return np.concatenate([dq, system.mass_matrix(q) @ v])
 
 
 @dataclass(frozen=True)

@@ -41,6 +41,7 @@ from numpy.typing import ArrayLike
 from ..._check import integer, scalar
 from ..._format import duration, number, summary, table
 from ...errors import ConvergenceError, ModelError
+from ...model.dynamics import energy_gradient
 from ...model.groups import ForceGroup
 from ...simulation.simulate import SimulationError, simulate
 from ...solvers.continuation import continuation
@@ -396,14 +397,7 @@ class _Follower:
         """∂E/∂(δq, δv) at (q, v), δq in the tangent space at q (central differences of 1e-6 of the motion's
         scales: q is a turning point of c; M v)."""
         s = self.scales(abs(float(pin.difference(self.model, self.q_eq, q)[self.c])))
-        g = np.zeros(2 * self.n)
-        for i in range(self.n):
-            e = np.zeros(self.n)
-            e[i] = 1e-6 * s[i]
-            g[i] = (self.energy(pin.integrate(self.model, q, e), v)
-                    - self.energy(pin.integrate(self.model, q, -e), v)) / (2 * e[i])
-        g[self.n:] = self.system.mass_matrix(q) @ v
-        return g
+        return energy_gradient(self.system, q, v, 1e-6 * s, reference=self.E_eq)
 
     def shooting(self, T, tight, a):
         """The shooting equations at period guess T for orbits where c moves by about a (m or rad: the residual's

@@ -28,6 +28,7 @@ import pinocchio as pin
 from ...description.elements.damper import Dampers
 from ...description.elements.joint_damper import JointDampers
 from ...errors import ConvergenceError, ModelError
+from ...model.dynamics import energy_gradient
 from ...model.groups import ForceGroup
 from ...simulation.simulate import SimulationError, simulate
 from ...solvers.newton import Steps, newton
@@ -106,7 +107,9 @@ class Shooting:
         cs = np.asarray(system.coordinate_scales, dtype=float)
         full = cs if scales is None else np.asarray(scales, dtype=float)
         self.s = full[self.free]
-        self.h_energy = 1e-6 * np.maximum(self.s, cs[self.free])  # the energy row's difference steps (m or rad)
+        # the energy row's difference steps (m or rad; those of coordinates that are not free are not used)
+        self.h_energy = 1e-6 * cs
+        self.h_energy[self.free] = 1e-6 * np.maximum(self.s, cs[self.free])
         # the flows' absolute tolerance: rtol of each coordinate's scale, or of its motion where that is smaller
         self.atol = None if scales is None else float(rtol) * np.tile(np.minimum(full, cs), 2)
         self.omega = float(omega)
@@ -243,16 +246,7 @@ class Shooting:
     def energy_row(self, q0, v0):
         """∂E/∂(δq_0, δv_0) / E_scale: central differences in the tangent space for q (steps 1e-6 of each
         coordinate's scale, or of its motion where larger), M v for v."""
-        system, n, t = self.system, self.n, self.t0
-        row = np.zeros(2 * n)
-        for k, i in enumerate(self.free):
-            e = np.zeros(self.nv)
-            e[i] = self.h_energy[k]
-            ep = system.energy(pin.integrate(self.model, q0, e), v0, t).total
-            em = system.energy(pin.integrate(self.model, q0, -e), v0, t).total
-            row[k] = (ep - em) / (2 * e[i])
-        row[n:] = (system.mass_matrix(q0) @ v0)[self.free]
-        return row / self.energy[1]
+        return energy_gradient(self.system, q0, v0, self.h_energy, self.t0)[self.free2] / self.energy[1]
 
     # ------------------------------------------------------------------ Jacobian
     def jacobian(self, x):
