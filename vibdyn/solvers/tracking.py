@@ -1,5 +1,6 @@
 """Mode tracking: the modal assurance criterion (MAC) and the assignment of one set of modes to the previous
-one's, shared by every study that follows modes along a parameter (Campbell diagrams, sweeps, backbones)."""
+one's, shared by every study that follows modes along a parameter (Campbell diagrams, sweeps, backbones: the
+multipliers' angles) and by the spread of perturbed Floquet multipliers (:func:`assign`, the Hungarian method)."""
 
 from __future__ import annotations
 
@@ -33,13 +34,20 @@ def match(previous: ArrayLike, shapes: ArrayLike, previous_values: ArrayLike | N
     """The columns of ``shapes`` in the order of the columns of ``previous``: the assignment of largest total
     MAC (Hungarian method); with ``previous_values`` and ``values`` (frequencies), their closeness breaks the
     ties between degenerate shapes (a 1e-3 weight relative to the largest value)."""
-    from scipy.optimize import linear_sum_assignment
-
     previous, shapes = np.asarray(previous), np.asarray(shapes)
     score = np.reshape(mac(previous, shapes), (previous.shape[1], shapes.shape[1]))
     if previous_values is not None and values is not None:
         fa, fb = np.asarray(previous_values, float), np.asarray(values, float)
         scale = max(np.abs(fa).max(initial=0.0), np.abs(fb).max(initial=0.0), 1e-300)
         score = score - 1e-3 * np.abs(fa[:, None] - fb[None, :]) / scale
-    _, cols = linear_sum_assignment(-score)
-    return cols
+    return assign(-score)[1]
+
+
+def assign(cost: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols): the one-to-one assignment of least total ``cost`` (row i to column cols[k] for i = rows[k],
+    rows in order; every row where there are as many columns), by the Hungarian method: the one tracker every
+    follower of modes, multipliers or angles uses."""
+    from scipy.optimize import linear_sum_assignment
+
+    rows, cols = linear_sum_assignment(cost)
+    return rows, cols

@@ -46,6 +46,7 @@ from ...model.groups import ForceGroup
 from ...simulation.simulate import SimulationError, simulate
 from ...solvers.continuation import continuation
 from ...solvers.newton import Steps, newton
+from ...solvers.tracking import assign
 from ..equilibrium import static_configuration
 from .periodic import MIN_ENERGY_RATIO, RTOL, STEP_RESOLUTION, TOL, periodic_orbit
 from .shooting import RCOND, Shooting, conservative, energy_roundoff
@@ -589,19 +590,11 @@ class _Follower:
         if W.shape[1] != 2 * self.n - 2:
             return None
         mu = np.linalg.eigvals(W.T @ P @ W)
-        ang = np.angle(mu)
+        # each angle moves to the nearest multiplier's (modulo 2π), one multiplier each: the least total move
+        moves = ((np.angle(mu)[None, :] - self.theta[:, None] + math.pi) % (2 * math.pi)) - math.pi
         out = self.theta.copy()
-        free = list(range(len(ang)))
-        for j, th in enumerate(self.theta):
-            if not free:
-                break
-            moves = [(abs(((ang[i] - th + math.pi) % (2 * math.pi)) - math.pi), i) for i in free]
-            d_min, i = min(moves)
-            out[j] = th + (((ang[i] - th + math.pi) % (2 * math.pi)) - math.pi)
-            free.remove(i)
-            conj = [m for m in free if abs(mu[m] - np.conj(mu[i])) <= 1e-8 * max(1.0, abs(mu[i]))]
-            if conj:
-                free.remove(conj[0])
+        rows, cols = assign(np.abs(moves))
+        out[rows] += moves[rows, cols]
         return out
 
     # ------------------------------------------------------------------ a request

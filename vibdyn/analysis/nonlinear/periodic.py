@@ -19,7 +19,6 @@ from typing import Any, NamedTuple
 import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike
-from scipy.optimize import linear_sum_assignment
 
 from ..._check import integer, scalar
 from ..._format import duration, html_table, number, summary, table
@@ -27,6 +26,7 @@ from ...errors import ConvergenceError, ModelError
 from ...model.derivatives import linear_terms
 from ...model.forcing import forcing
 from ...simulation.simulate import SimulationError, simulate
+from ...solvers.tracking import assign
 from .shooting import (MAX_SEGMENTS, RCOND, Shooting, conservative, damping_only, energy_roundoff, first_return,
                        free_indices, growth_segments, motion_scales)
 
@@ -534,7 +534,7 @@ def multipliers(mono, error):
             E = rng.standard_normal(mono.shape)
             E *= error / np.linalg.norm(E, 2)
             moved = np.linalg.eigvals(mono + E)
-            rows, cols = linear_sum_assignment(np.abs(lam[:, None] - moved[None, :]))
+            rows, cols = assign(np.abs(lam[:, None] - moved[None, :]))
             spread[rows] = np.maximum(spread[rows], np.abs(moved[cols] - lam[rows]))
         err[bad] = np.minimum(first[bad], SPREAD_FACTOR * spread[bad])
         # a cluster shares one uncertainty: its members move together
