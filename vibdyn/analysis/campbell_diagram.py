@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike
 from .._check import finite_array
 from .._format import number
 from ..errors import ConvergenceError, ModelError
+from ..model.fd import tangent_derivative
 from ..solvers.continuation import continuation
 from ..solvers.tracking import mac, match
 
@@ -281,16 +282,13 @@ def _whirl(system, spin: str, q, shapes, freq, speed) -> np.ndarray:
     when e · Im(d̄ × d) < 0."""
     body = next(b.name for b in system.scene.bodies.values() if spin in b.coordinates)
     i = system.coordinate_index(spin)
-    h = 1e-6
-    R0, p0 = system.body_pose(body, q)
-    Jw, Jp = np.empty((3, system.nv)), np.empty((3, system.nv))
-    for k in range(system.nv):
-        e = np.zeros(system.nv)
-        e[k] = h
-        Rp, pp = system.body_pose(body, system.integrate(q, e))
-        Rm, pm = system.body_pose(body, system.integrate(q, -e))
-        Jw[:, k] = (pin.log3(Rp @ R0.T) - pin.log3(Rm @ R0.T)) / (2 * h)
-        Jp[:, k] = (pp - pm) / (2 * h)
+    R0, _ = system.body_pose(body, q)
+
+    def pose(qq):  # the body's rotation (relative to R0) and position
+        R, p = system.body_pose(body, qq)
+        return np.concatenate([pin.log3(R @ R0.T), p])
+
+    Jw, Jp = np.split(tangent_derivative(system, pose, system.check_configuration(q), np.full(system.nv, 1e-6)), 2)
     axis = Jw[:, i]
     if np.linalg.norm(axis) == 0:
         return np.full(len(freq), "", dtype=object)

@@ -4,6 +4,8 @@ onto the loops (see :func:`projected_ode`)."""
 import numpy as np
 import pinocchio as pin
 
+from ...model.fd import vector_derivative
+
 NEAR_SINGULAR = 1e-2  # conditioning of the loops' Jacobian below which stages are projected (projected_ode)
 
 
@@ -74,12 +76,7 @@ def projected_ode(base):
             is not used."""
             unit = self.system.coordinate_scales
             h = 1e-6 * np.concatenate([unit, unit, [1.0] * (self.n - 2 * self.nv)])
-            J = np.zeros((self.n, self.n))
-            for k in range(self.n):
-                yp, ym = y.copy(), y.copy()
-                yp[k] += h[k]
-                ym[k] -= h[k]
-                J[:, k] = (self(t, yp) - self(t, ym)) / (2 * h[k])
+            J = vector_derivative(lambda yy: self(t, yy), y, h)
             J[:, -1] = 0.0 if self.work else J[:, -1]
             return J
 
