@@ -30,6 +30,7 @@ import scipy.linalg as sla
 from ..defaults import EPS
 from ..description import parameters as _parameters
 from ..errors import ConvergenceError, ModelError
+from ..model.fd import differences
 
 #: relative step of the pipeline's differences (h = STEP·|p|, or STEP × the parameter's scale at p = 0)
 STEP = 1e-4
@@ -219,16 +220,16 @@ def _differences(pipeline, base_values, j, h, one_sided):
         X = [at(x) for x in xs]
         Dh = [(-3 * a + 4 * b - c) / (2 * h) for a, b, c in zip(X[0][0], X[1][0], X[2][0])]
         D2 = [(-3 * a + 4 * c - d) / (4 * h) for a, c, d in zip(X[0][0], X[2][0], X[3][0])]
+        T = [a - b for a, b in zip(Dh, D2)]
         noise = [(3 * n0 + 4 * n1 + n2) / (2 * h) for n0, n1, n2 in zip(X[0][1], X[1][1], X[2][1])]
     else:
         xs = [p - 2 * h, p - h, p + h, p + 2 * h]
         X = [at(x) for x in xs]
-        Dh = [(b - a) / (2 * h) for a, b in zip(X[1][0], X[2][0])]
-        D2 = [(b - a) / (4 * h) for a, b in zip(X[0][0], X[3][0])]
+        Dh, T = _richardson([X[2][0], X[3][0], X[1][0], X[0][0]], h)
         noise = [(n1 + n2) / (2 * h) for n1, n2 in zip(X[1][1], X[2][1])]
     # (M, C, K) order in Dh; noise is (K, C, M): reorder to (M, C, K)
     noise = [noise[2], noise[1], noise[0]]
-    err = [np.abs(a - b) / 3 + n for a, b, n in zip(Dh, D2, noise)]
+    err = [np.abs(t) / 3 + n for t, n in zip(T, noise)]
     return Dh, err
 
 
@@ -497,11 +498,9 @@ def _linear_column(system, lin, p, regime):
         zero = np.zeros(n)
         at = {k: system.linearize(system.integrate(lin.q0, k * eps * dq), a=zero, method="analytic")
               for k in (-2, -1, 1, 2)}
-        for name in ("M", "C", "K"):
-            X = {k: getattr(at[k], name) for k in at}
-            d1 = (X[1] - X[-1]) / (2 * eps)
-            d2 = (X[2] - X[-2]) / (4 * eps)
-            err = np.abs(d1 - d2) / 3 + (at[1].K_error if name == "K" else 0.0) / eps + EPS * np.abs(X[1]) / eps
+        D, T = _richardson([(at[k].M, at[k].C, at[k].K) for k in (1, 2, -1, -2)], eps)
+        for name, d1, t, X1 in zip(("M", "C", "K"), D, T, (at[1].M, at[1].C, at[1].K)):
+            err = np.abs(t) / 3 + (at[1].K_error if name == "K" else 0.0) / eps + EPS * np.abs(X1) / eps
             if name == "M":
                 dM, eM = d1, err
             elif name == "C":
@@ -509,6 +508,15 @@ def _linear_column(system, lin, p, regime):
             else:
                 dK, eK = dK + d1, eK + err
     return dM, dC, dK, eM, eC, eK
+
+
+def _richardson(values, h):
+    """Central differences of (M, C, K) along a parameter or direction from their values at +h, +2h, −h and −2h
+    (:func:`vibdyn.model.fd.differences`): the derivatives and their truncation estimates D(h) − D(2h)."""
+    n = values[0][0].shape
+    D, T = differences(np.array([np.concatenate([m.ravel() for m in mats]) for mats in values]), np.array([h]))
+    size = n[0] * n[1]
+    return ([A[i * size:(i + 1) * size, 0].reshape(n) for i in range(3)] for A in (D, T))
 
 
 def _of_builder(build, params, start, unused):
