@@ -146,10 +146,8 @@ class _Pipeline:
     base one was (static equilibrium from the base pose, the same held speeds, or the base pose held),
     linearised analytically (finite differences where the analytic path refuses)."""
 
-    def __init__(self, make_scene: Callable, base_system, q0, v0, regime, speeds, names):
-        self.make_scene, self.q0, self.v0 = make_scene, q0, v0
-        self.regime, self.speeds, self.names = regime, speeds, names
-        self.base_system = base_system
+    def __init__(self, make_scene: Callable, q0, v0, regime):
+        self.make_scene, self.q0, self.v0, self.regime = make_scene, q0, v0, regime
 
     def __call__(self, values):
         scene, speeds = self.make_scene(values)
@@ -164,12 +162,11 @@ class _Pipeline:
             op = system.held(self.q0, self.v0)
         else:
             op = self.q0
+        at = {"v": self.v0} if self.regime == "pose" else {}  # (an operating point carries its own velocity)
         try:
-            lin = system.linearize(op, method="analytic") if self.regime != "pose" else \
-                system.linearize(op, v=self.v0, method="analytic")
+            lin = system.linearize(op, method="analytic", **at)
         except ModelError:
-            lin = system.linearize(op, method="fd") if self.regime != "pose" else \
-                system.linearize(op, v=self.v0, method="fd")
+            lin = system.linearize(op, method="fd", **at)
         return getattr(lin, "reduced", lin)  # a mechanism's: in its independent motions
 
 
@@ -195,23 +192,25 @@ def _regime(system, lin):
     except (ConvergenceError, ModelError):
         return "pose", {}
     d = np.abs(system.difference(eq.q, lin.q0))
-    scale = np.where(np.array([u == "m" for u in system.units]), system.length_scale, 1.0) if d.size else d
-    return ("static" if np.all(d <= 1e-6 * scale) else "pose"), {}
+    return ("static" if np.all(d <= 1e-6 * system.coordinate_scales) else "pose"), {}
 
 
-def _step(p: _parameters.Parameter | None, value, unit, length_scale):
+def _step(value, unit, length_scale):
+    """The difference step of a parameter of ``value`` in ``unit``: STEP of it, or of its unit's scale at 0."""
     if value != 0:
         return STEP * abs(value)
     return STEP * (length_scale if unit == "m" else 1.0)
 
 
 def _differences(pipeline, base_values, j, h, one_sided):
-    """(D_h, D_2h, noise) of (M, C, K) along parameter j: central (or one-sided second order, at a bound)."""
+    """(derivatives, their errors) of (M, C, K) along parameter j: central differences (or one-sided, second
+    order, at a bound), each error the h step's truncation estimated from the 2h one plus the models' own errors
+    over the step."""
     def at(x):
         vals = np.array(base_values, float)
         vals[j] = x
         lin = pipeline(vals)
-        noise = (np.abs(lin.K_error), np.abs(lin.C_error), EPS * np.abs(lin.M) * lin.nv)
+        noise = (EPS * np.abs(lin.M) * lin.nv, np.abs(lin.C_error), np.abs(lin.K_error))
         return (lin.M, lin.C, lin.K), noise
 
     p = base_values[j]
@@ -227,8 +226,6 @@ def _differences(pipeline, base_values, j, h, one_sided):
         X = [at(x) for x in xs]
         Dh, T = _richardson([X[2][0], X[3][0], X[1][0], X[0][0]], h)
         noise = [(n1 + n2) / (2 * h) for n1, n2 in zip(X[1][1], X[2][1])]
-    # (M, C, K) order in Dh; noise is (K, C, M): reorder to (M, C, K)
-    noise = [noise[2], noise[1], noise[0]]
     err = [np.abs(t) / 3 + n for t, n in zip(T, noise)]
     return Dh, err
 
@@ -441,8 +438,8 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
                 sc_vals.append(x)
         return _parameters.with_values(scene, plist, sc_vals), sp
 
-    pipeline = _Pipeline(make_scene, system, lin.q0, lin.v0, regime, speeds, names)
-    steps = np.array([_step(None, values[j], units[j], system.length_scale) for j in range(len(names))])
+    pipeline = _Pipeline(make_scene, lin.q0, lin.v0, regime)
+    steps = np.array([_step(values[j], units[j], system.length_scale) for j in range(len(names))])
     direct: dict[int, tuple] = {}
     from ..model.derivatives import untrusted
 
@@ -534,7 +531,7 @@ def _of_builder(build, params, start, unused):
     def make_scene(vals):
         return build(**{k: float(x) for k, x in zip(names, vals)}), speeds
 
-    pipeline = _Pipeline(make_scene, system, tree.q0, tree.v0, regime, speeds, names)
+    pipeline = _Pipeline(make_scene, tree.q0, tree.v0, regime)
     steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
     lin = getattr(tree, "reduced", tree)  # (a mechanism's: in its independent motions, as the pipeline's)
     return _assemble(pipeline, lin.modes(), lin, names, ["(the builder's)"] * len(names), values, steps,

@@ -153,7 +153,7 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
             raise ModelError(f"update: shapes must be {where} × {m} measured modes, "
                              f"{phi.shape[:-1] + (m,)}, got {meas_shapes.shape}")
         a, b = meas_shapes.reshape(-1, m), phi.reshape(-1, phi.shape[-1])
-        table = np.array([[mac_of(a[:, i], b[:, j]) for j in range(b.shape[1])] for i in range(m)])
+        table = np.atleast_2d(mac_of(a, b))  # measured × model modes (one pair: a number)
         from scipy.optimize import linear_sum_assignment
 
         cost = -table[:, flexible]
