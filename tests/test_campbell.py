@@ -32,7 +32,7 @@ def closed_form(W, It=IT, Ip=IP, k=K):
 
 
 def test_gimballed_disk_frequencies_whirl_and_critical_speed():
-    c = vd.campbell(gimbal(), "rotor", np.linspace(0, 150, 31))
+    c = vd.campbell(gimbal(), "rotor", np.linspace(0, 150, 31), held=False)
     assert c.frequencies.shape == (31, 3)
     assert np.all(c.frequencies[:, 0] == 0.0)  # the spin itself: cyclic, exactly 0
     back, fwd = closed_form(c.speeds)
@@ -93,7 +93,7 @@ def crossing_rotor():
 
 
 def test_tracking_follows_each_mode_through_a_true_crossing():
-    c = vd.campbell(crossing_rotor(), "rotor", np.linspace(0, 8, 33))
+    c = vd.campbell(crossing_rotor(), "rotor", np.linspace(0, 8, 33), held=False)
     const = [j for j in range(3) if c.frequencies[0, j] > 0 and np.ptp(c.frequencies[:, j]) <= 1e-9 * 7.0]
     assert len(const) == 1 and c.frequencies[0, const[0]] == pytest.approx(7.0, rel=1e-12)
     moving = [j for j in range(3) if j not in const and c.frequencies[0, j] > 0]
@@ -150,7 +150,7 @@ def test_slow_precession_at_extreme_spin_is_not_rounded_to_zero():
     1e6 rad/s the precession is 2.5e-3 rad/s, far below √ε of the nutation but with an error of its own ~1e-17:
     it once came out as 0 ± 1.5e-6 (taken for the split zero of the spin)."""
     speeds = np.array([1e3, 1e5, 1e6])
-    c = vd.campbell(gimbal(), "rotor", speeds)
+    c = vd.campbell(gimbal(), "rotor", speeds, held=False)
     b = IP * speeds
     root = np.sqrt(b**2 + 4 * IT * K)
     slow, fast = 2 * K / (b + root), (b + root) / (2 * IT)
@@ -162,3 +162,72 @@ def test_slow_precession_at_extreme_spin_is_not_rounded_to_zero():
         assert abs(f[1] - slow[i]) <= e[1] + 4 * eps * slow[i]  # (the closed form's own rounding)
         assert abs(f[2] - fast[i]) <= e[2] + 4 * eps * fast[i]
         assert e[1] < 1e-6 * slow[i] and e[2] < 1e-6 * fast[i]
+
+
+G, L_ARM, M_BEAD, J_HUB = 9.81, 0.5, 0.2, 0.05
+
+
+def bead_on_hoop():
+    """The bead on a rotating hoop (Taylor, Classical Mechanics, §7.6): a point mass m on a massless arm of
+    length l hinged on a hub that spins about the vertical (hub inertia J about it); θ from the downward
+    vertical. With the hub's speed Ω held, cos θ₀ = g/(lΩ²) and θ oscillates at Ω sin θ₀."""
+    s = vd.Scene("bead_on_hoop")
+    s.gravity = (0.0, 0.0, -G)
+    s.add_body("hub", joint=vd.Pivot(axis=(0, 0, 1)), mass=1.0, inertia=np.diag([J_HUB, J_HUB, J_HUB]))
+    s.add_body("bead", parent="hub", joint=vd.Pivot(axis=(0, 1, 0)), mass=M_BEAD, com=(0, 0, -L_ARM),
+               inertia=vd.inertia.point())
+    return s.build()
+
+
+def test_bead_on_rotating_hoop_held_and_free_hub():
+    """Held hub: ω = Ω sin θ₀ (Taylor 7.6). Free hub (its angular momentum p = I(θ)φ̇ conserved, I = J + m l²
+    sin²θ): the Routhian's stiffness at fixed p adds p² I'²/I³, so ω² = Ω² sin²θ₀ (1 + 4 m l² cos²θ₀ / I(θ₀))."""
+    system = bead_on_hoop()
+    speeds = np.array([5.0, 6.0, 8.0, 10.0])
+    theta0 = np.arccos(G / (L_ARM * speeds**2))
+    held = vd.campbell(system, "hub", speeds, q0=[0.0, 0.9])
+    assert held.held and held.frequencies.shape == (4, 1)
+    exact = speeds * np.sin(theta0)
+    assert np.all(np.abs(held.frequencies[:, 0] - exact) <= held.error[:, 0] + 4 * np.finfo(float).eps * exact)
+    assert np.all(held.error[:, 0] <= 1e-9 * exact)  # the issue's accuracy, by the result's own estimate
+    free = vd.campbell(system, "hub", speeds, q0=[0.0, 0.9], held=False)
+    inertia = J_HUB + M_BEAD * L_ARM**2 * np.sin(theta0) ** 2
+    exact_free = exact * np.sqrt(1 + 4 * M_BEAD * L_ARM**2 * np.cos(theta0) ** 2 / inertia)
+    f = np.sort(free.frequencies, axis=1)
+    assert np.all(f[:, 0] == 0.0)  # the free hub: cyclic
+    assert np.all(np.abs(f[:, 1] - exact_free) <= np.max(free.error, axis=1) + 4 * np.finfo(float).eps * exact_free)
+    assert np.all(np.abs(exact_free / exact - 1) > 0.03)  # the two differ (4 to 67 %): the test tells them apart
+    assert json.loads(json.dumps(held.to_dict()))["spin_held"] is True
+
+
+def test_held_spin_removes_only_the_cyclic_zero_of_a_symmetric_rotor():
+    """The gimballed disk's tilt modes do not move the spin: held or free, It ω² ∓ Ip Ω ω − k = 0."""
+    speeds = np.linspace(0, 150, 7)
+    c = vd.campbell(gimbal(), "rotor", speeds)
+    assert c.held and c.frequencies.shape == (7, 2)
+    back, fwd = closed_form(speeds)
+    f = np.sort(c.frequencies, axis=1)
+    assert np.all(np.abs(f[:, 0] - back) <= c.error.max(axis=1) + 1e-12 * fwd)
+    assert np.all(np.abs(f[:, 1] - fwd) <= c.error.max(axis=1) + 1e-12 * fwd)
+
+
+def test_held_spin_of_the_crossing_rotor_is_the_rotating_frame_closed_form():
+    """A radial slider on a hub held at Ω: m(r̈ − Ω² r) = −k (r − r₀), so ω² = k/m − Ω² exactly (free, the
+    Coriolis coupling with the hub's own motion moves it)."""
+    speeds = np.linspace(0, 8, 9)
+    c = vd.campbell(crossing_rotor(), "rotor", speeds)
+    f = np.sort(c.frequencies, axis=1)
+    radial = np.sqrt(100.0 - speeds**2)
+    k = np.argmin(np.abs(f - radial[:, None]), axis=1)
+    got = f[np.arange(len(speeds)), k]
+    assert np.all(np.abs(got - radial) <= c.error.max(axis=1) + 1e-12 * 10)
+
+
+def test_motor_law_on_the_spin_keeps_it_free_by_default():
+    """R6: a motor law τ(ω) on the rotor is its drive; the default diagram keeps its speed stiffness."""
+    system = vd.load_scene(MODELS / "rotor_slider.toml").build()
+    assert not vd.campbell(system, "rotor", [1.0, 2.0]).held
+    held = vd.campbell(system, "rotor", [1.0, 2.0], held=True)
+    assert held.held and held.frequencies.shape == (2, 1)
+    with pytest.raises(vd.ModelError, match="held must be"):
+        vd.campbell(system, "rotor", [1.0, 2.0], held="yes")

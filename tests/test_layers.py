@@ -50,9 +50,10 @@ ENTRY_POINTS = {
     ("vibdyn.model.system", "System.held"): {"vibdyn.analysis.equilibrium"},
     ("vibdyn.model.system", "System.operating_point"): {"vibdyn.analysis.equilibrium"},
     ("vibdyn.model.system", "System.linearize"): {"vibdyn.analysis.linearize"},
-    # a mechanism with loops (a scene with drives) is dispatched, on call, to its constrained (driven)
-    # analyses, which build on these
-    ("vibdyn.analysis.linearize", "linearize"): {"vibdyn.analysis.constrained", "vibdyn.analysis.driven"},
+    # a reduced system (loops, drives, held speeds: vibdyn.model.reduction) is linearised, on call, in its
+    # independent coordinates
+    ("vibdyn.analysis.linearize", "linearize"): {"vibdyn.analysis.reduced"},
+    # and a mechanism with loops searched, on call, on its loops (its equilibria build on these)
     ("vibdyn.analysis.equilibrium", "static_equilibrium"): {"vibdyn.analysis.constrained"},
     ("vibdyn.analysis.equilibrium", "steady_motion"): {"vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.simulate"): {"vibdyn.simulation.simulate"},

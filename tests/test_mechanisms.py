@@ -310,7 +310,8 @@ def test_campbell_diagram_of_a_looped_rotor_follows_the_hand_reduction():
     system = spun_trammel(k).build()
     q0 = system.configuration({"A": 2 * L * math.sin(0.7), "disk": 0.7, "B": 2 * L * math.cos(0.7)})
     speeds = [0.0, 1.5, 3.0, 4.0]
-    cd = vd.campbell(system, "rotor", speeds, q0=q0)
+    cd = vd.campbell(system, "rotor", speeds, q0=q0, held=False)
+    held = vd.campbell(system, "rotor", speeds, q0=q0)  # the loops' reduction composed with the held spin
     for i, spin in enumerate(speeds):
         def steady(g, spin=spin):
             s, c = math.sin(g), math.cos(g)
@@ -324,6 +325,10 @@ def test_campbell_diagram_of_a_looped_rotor_follows_the_hand_reduction():
         Vpp = -(MD + 2 * MA) * G * L * c + 4 * k * L**2 * c**2 - 2 * k * L * (2 * L * s - L0) * s
         omega_n = math.sqrt((Vpp - 0.5 * ddIy * spin**2 + (dIy * spin) ** 2 / Iy) / mg)
         assert np.nanmax(cd.frequencies[i]) == pytest.approx(omega_n, rel=1e-6)
+        # held at Ω by its drive, the spin's momentum no longer stiffens γ: the (I_y' Ω)² / I_y term goes
+        omega_held = math.sqrt((Vpp - 0.5 * ddIy * spin**2) / mg)
+        assert held.frequencies.shape[1] == 1
+        assert held.frequencies[i, 0] == pytest.approx(omega_held, rel=1e-6)
 
 
 def test_a_cyclic_coordinate_that_opens_the_loops_is_refused():

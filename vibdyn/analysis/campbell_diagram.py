@@ -2,9 +2,12 @@
 whirl direction and the critical speeds where a mode meets an engine order.
 
 At each speed Ω (rad/s) of the coordinate ``spin`` — held at that speed by its drive — vibdyn finds the
-steady motion, linearises about it (gyroscopic terms included) and takes the state eigenvalues λ. A mode's
-frequency is |Im λ| (a complex-conjugate pair counted once); a pair of real eigenvalues (rigid, cyclic or
-overdamped motion) is one mode of frequency exactly 0. There are as many modes as coordinates.
+steady motion, linearises about it (gyroscopic terms included) in the coordinates the held spin leaves free
+(the system's reduction holding it: :meth:`vibdyn.model.reduction.Reduction.holding`) and takes the state
+eigenvalues λ. A mode's frequency is |Im λ| (a complex-conjugate pair counted once); a pair of real
+eigenvalues (rigid, cyclic or overdamped motion) is one mode of frequency exactly 0. There are as many modes
+as free coordinates (all of them, the spin's cyclic zero among them, when the spin is free: ``held=False``,
+or a motor law on it).
 """
 
 from __future__ import annotations
@@ -67,7 +70,8 @@ class Campbell:
     mode, one column per mode tracked by MAC from one speed
     to the next (0 for rigid, cyclic and overdamped modes); ``zeta`` (n × m) damping ratios;
     ``whirl`` (n × m) "forward", "backward" or "" (no whirl: a planar or non-oscillating mode);
-    ``error`` (n × m) estimated absolute error of each frequency (rad/s); ``elapsed`` s.
+    ``error`` (n × m) estimated absolute error of each frequency (rad/s); ``elapsed`` s; ``held``: True if the
+    spin was held at each speed by its drive (it is then no coordinate of the modes), False if it was free.
     """
 
     system: object = field(repr=False)
@@ -82,6 +86,7 @@ class Campbell:
     elapsed: float
     _shapes: list = field(repr=False)
     _q: list = field(repr=False)
+    held: bool = True
 
     @property
     def frequency_hz(self) -> np.ndarray:
@@ -114,7 +119,7 @@ class Campbell:
                 else:
                     s = self._crossing(refs, q0, a, b, f[i], f[i + 1], order,
                                        max(self.error[i, j], self.error[i + 1, j]))
-                sm = _speed_modes(self.system, self.spin, s, q0, self.method)
+                sm = _speed_modes(self.system, self.spin, s, q0, self.method, self.held)
                 k = _pick(refs, sm)
                 slope = abs(order - (f[i + 1] - f[i]) / (b - a) * np.sign(s)) or 1.0
                 found.append(CriticalSpeed(float(s), j, str(sm.whirl[k]), order, float(order * abs(s)),
@@ -132,7 +137,7 @@ class Campbell:
         def omega(speed):
             if speed in cache:  # the continuation's end solve starts where its corrector stopped
                 return cache[speed]
-            sm = _speed_modes(self.system, self.spin, speed, q0, self.method)
+            sm = _speed_modes(self.system, self.spin, speed, q0, self.method, self.held)
             w = cache[speed] = sm.frequencies[_pick(refs, sm)]
             if all(abs(speed - x) > 1e-9 * abs(b - a) for x, _ in seen[-2:]):
                 seen.append((speed, w))
@@ -163,7 +168,7 @@ class Campbell:
         return plots.campbell(self, path=path, dpi=dpi)
 
     def to_dict(self) -> dict:
-        return {"spin": self.spin, "speeds_rad_s": self.speeds.tolist(),
+        return {"spin": self.spin, "spin_held": self.held, "speeds_rad_s": self.speeds.tolist(),
                 "frequencies_rad_s": self.frequencies.tolist(), "zeta": self.zeta.tolist(),
                 "whirl": self.whirl.tolist(), "error_rad_s": self.error.tolist(), "method": self.method,
                 "critical_speeds": [
@@ -179,8 +184,14 @@ class Campbell:
 
 
 def campbell(system: Any, spin: str, speeds: ArrayLike, orders: ArrayLike = (1,), *, q0: ArrayLike | None = None,
-             method: str = "analytic") -> Campbell:
+             method: str = "analytic", held: bool | None = None) -> Campbell:
     """Campbell diagram of ``system`` against the speed of coordinate ``spin`` (rad/s), held by its drive.
+
+    ``held``: True, the spin is held at each speed by its drive, which absorbs whatever would change it: the
+    modes are those of the other coordinates (a pendulum on a hub spun at Ω: the bead on a rotating hoop);
+    False, the spin is free at each steady motion (its own coordinate of the modes, a cyclic zero among
+    them); None (default): held, unless a joint-force law on the spin depends on its speed (a motor law
+    τ(ω): the motor is the drive, its speed stiffness dτ/dω part of the modes), then free.
 
     ``speeds``: increasing speeds (rad/s); ``orders``: engine orders for :meth:`Campbell.critical_speeds`
     and the plot; ``q0``: where the first steady-motion search starts (each next one starts from the
@@ -194,9 +205,13 @@ def campbell(system: Any, spin: str, speeds: ArrayLike, orders: ArrayLike = (1,)
     orders = tuple(float(finite_array(o, None, "campbell order").item()) for o in np.atleast_1d(orders))
     if system.units[i_spin] != "rad":
         raise ModelError(f"campbell: '{spin}' is not a rotation (its unit is {system.units[i_spin]})")
+    if held is None:
+        held = _motor_law(system, spin) is None
+    elif not isinstance(held, bool):
+        raise ModelError(f"campbell: held must be True, False or None, got {held!r}")
     rows, q = [], q0
     for s in speeds:
-        row = _speed_modes(system, spin, s, q, method)
+        row = _speed_modes(system, spin, s, q, method, held)
         rows.append(row)
         q = row.q
     cols = [np.arange(rows[0].frequencies.size)]
@@ -208,7 +223,17 @@ def campbell(system: Any, spin: str, speeds: ArrayLike, orders: ArrayLike = (1,)
     err = np.array([r.error[c] for r, c in zip(rows, cols)])
     shapes = [r.shapes[:, c] for r, c in zip(rows, cols)]
     return Campbell(system, spin, speeds, freq, zeta, whirl, err, orders, method, time.perf_counter() - start,
-                    shapes, [r.q for r in rows])
+                    shapes, [r.q for r in rows], held)
+
+
+def _motor_law(system, spin: str) -> str | None:
+    """Name of a joint-force law on coordinate ``spin`` that depends on its speed (a motor law), else None."""
+    from ..description.elements import JointForce
+
+    for e in system.scene.elements_of(JointForce):
+        if e.velocity_dependent and spin in system.scene.bodies[e.body].coordinates:
+            return e.name
+    return None
 
 
 def _match(a: SpeedModes, b: SpeedModes, cols_a: np.ndarray) -> np.ndarray:
@@ -224,13 +249,13 @@ def _pick(refs, sm: SpeedModes) -> int:
     return int(np.argmax(np.where(sm.frequencies > 0, score, -1.0)))
 
 
-def _speed_modes(system, spin: str, speed: float, q0, method: str) -> SpeedModes:
+def _speed_modes(system, spin: str, speed: float, q0, method: str, held: bool = True) -> SpeedModes:
     try:
         st = system.steady_motion({spin: float(speed)}, q0=q0)
     except ConvergenceError as e:
         raise ConvergenceError(f"campbell: no steady motion at {spin} = {speed:g} rad/s: {e}",
                                residual=getattr(e, "residual", None), best=getattr(e, "best", None)) from None
-    lin = st.linearize(method=method)
+    lin = st.linearize(method=method, hold=spin if held else ())
     m = lin.modes()
     n = lin.nv
     if m.eigenvalues.size:
@@ -259,7 +284,7 @@ def _speed_modes(system, spin: str, speed: float, q0, method: str) -> SpeedModes
     err = np.concatenate([lam_err[idx_osc] * mag,
                           [max(m.zero_threshold, float(np.abs(lam[p].imag).max())) for p in pairs]])
     vecs = np.concatenate([shapes[:, idx_osc], np.stack([shapes[:, p[0]] for p in pairs], axis=1)
-                           if pairs else np.zeros((n, 0), complex)], axis=1)
+                           if pairs else np.zeros((shapes.shape[0], 0), complex)], axis=1)
     if freq.size != n:
         raise ModelError(f"campbell: {freq.size} modes at {spin} = {speed:g} rad/s for {n} coordinates "
                          "(a defective state matrix)")

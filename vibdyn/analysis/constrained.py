@@ -7,26 +7,26 @@ mechanism's independent motions: a basis N (nv × dof) of Φ_q N = 0.
 """
 
 import time
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
 from .._check import scalar, turns_hint
-from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER
+from ..defaults import EPS, EQUILIBRIUM_TOL, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
-from ..model.fd import differences, displaced_vectors, steps, tangent_derivative, vector_derivative
+from ..model.fd import vector_derivative
 from ..solvers.newton import Steps, newton
 from .equilibrium import OperatingPoint
-from .linearize import LinearModel, fd_error, reference_state, tree_linearize
-from .modal import modes as _modes
+from .reduced import linearize
 
 
-def _constraints(system):
-    if system.constraints is None:
+def _reduction(system):
+    """The system's reduction (ModelError for a scene without loops)."""
+    if not system.reduction.curved:
         raise ModelError(f"system '{system.name}' has no loops")
-    return system.constraints
+    return system.reduction
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,14 +61,14 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
     independent coordinates turning at the given speeds (held by their drives: ``drive``), r the inverse
     dynamics at that velocity (see :func:`steady_motion`)."""
     start = time.perf_counter()
-    c = _constraints(system)
-    nv, zero = system.nv, np.zeros(system.nv)
+    R = _reduction(system)
+    zero = np.zeros(system.nv)
     speeds = speeds or {}
     what = "steady motion" if speeds else "static equilibrium"
     q, origin = system.start_configuration() if q0 is None else (system.check_configuration(q0, "q0"), "q0")
     turns = turns_hint(system, q)  # (said if the search fails: a start in degrees is far from everything)
     try:
-        q = c.assemble(q, start=origin)
+        q = R.close(q, start=origin)
     except ConvergenceError as e:
         if not turns:
             raise
@@ -77,48 +77,43 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
     for i, s in speeds.items():
         v[i] = s
     if speeds:
-        J = c.jacobian(q)
-        if np.abs(c.scaled_phi(J @ v)).max(initial=0.0) > 1e-9 * np.abs(v / c.col_scale).max():
+        if R.opening(q, v) > 1e-9:
             raise ModelError(f"steady_motion: turning {', '.join(system.coordinates[i] for i in speeds)} opens the "
                              "loops (Φ_q v ≠ 0): the cyclic coordinates of a mechanism with loops must carry the "
                              "loops with them (a rotor under the mechanism)")
 
-    def residual(qq, J=None):
+    def residual(qq):
         if not speeds:
             return dynamics.inverse_dynamics(system, system.workspace(), qq, zero, zero, t)
-        J = c.jacobian(qq) if J is None else J
-        a = c.dependent_solution(J, -c.bias(qq, v), np.setdiff1d(np.arange(nv), ind))  # (zero for a rotor)
+        a = R.reference_acceleration(system.workspace(), qq, v, t, ind)  # (zero for a rotor)
         return dynamics.inverse_dynamics(system, system.workspace(), qq, v, a, t)
 
     def reduced(qq, ind, N, xi):
         """N₁ᵀ r(q₁) at q₁ = assemble(qq ⊕ N ξ), N₁ the basis there with the same independent coordinates."""
         if not np.any(xi):
             return (N.T @ residual(qq))[rows], qq
-        q1 = c.assemble(pin.integrate(system.model, qq, N @ xi), start=f"an iterate of the {what} search")
-        J1 = c.jacobian(q1)
-        return (c.partition(J1, ind)[1].T @ residual(q1, J1))[rows], q1
+        q1 = R.close(pin.integrate(system.model, qq, N @ xi), start=f"an iterate of the {what} search")
+        return (R.independent(q1, ind)[1].T @ residual(q1))[rows], q1
 
-    J = c.jacobian(q)
-    ind, N = c.partition(J)
+    ind, N = R.independent(q)
     fixed = [system.coordinates[i] for i in speeds if i not in ind]
     if fixed:
         raise ModelError(f"steady_motion: {', '.join(fixed)} cannot turn freely: the loops tie it to the other "
                          "coordinates (give a coordinate the loops leave free)")
     rows = np.array([k for k, i in enumerate(ind) if i not in speeds], dtype=int)  # equations at rest
-    r = residual(q, J)
+    r = residual(q)
     unit = system.coordinate_scales[ind]
     Kr = vector_derivative(lambda x: reduced(q, ind, N, x)[0], np.zeros(ind.size), 1e-6 * unit)
     force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(Kr[:, rows])) * unit[rows]).max(initial=0.0),
                       1e-300)
     target = tol * force_scale
-    basis = {"q": q, "ind": ind, "N": N, "J": J, "r": r}
+    basis = {"q": q, "ind": ind, "N": N, "r": r}
 
     def at(qq):
         """The basis, loop Jacobian and residual at qq (a steady motion keeps its cyclic coordinates)."""
         if basis["q"] is not qq:
-            J1 = c.jacobian(qq)
-            ind1, N1 = c.partition(J1, ind0 if speeds else None)
-            basis.update(q=qq, ind=ind1, N=N1, J=J1, r=residual(qq, J1))
+            ind1, N1 = R.independent(qq, ind0 if speeds else None)
+            basis.update(q=qq, ind=ind1, N=N1, r=residual(qq))
         return basis
 
     def rho_of(qq):
@@ -151,21 +146,21 @@ def equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, 
                                residual=out.residual, best=out.x)
     q, it = out.x, out.iterations
     b = at(q)
-    ind, N, J, r = b["ind"], b["N"], b["J"], b["r"]
+    ind, N, r = b["ind"], b["N"], b["r"]
     rho = (N.T @ r)[rows]
     cyclic = [k for k, i in enumerate(ind) if i in speeds]
     drive = dict(zip((system.coordinates[ind[k]] for k in cyclic), (float(x) for x in (N.T @ r)[cyclic])))
-    lam = c.multipliers(J, r - N[:, cyclic] @ ((N.T @ r)[cyclic]) if cyclic else r)
+    lam = R.multipliers(q, r - N[:, cyclic] @ ((N.T @ r)[cyclic]) if cyclic else r)
     res = float(np.abs(rho).max(initial=0.0))
-    lin = linearize(system, q, v=v, t=t, multipliers=lam)
+    lin = linearize(system, R, q, v=v, t=t, multipliers=lam)
     m = lin.modes()
     stability = m.verdict(ignore_zeros=len(speeds))
-    phi = float(np.abs(c.scaled_phi(c.phi(q))).max(initial=0.0))
+    phi = R.closure(q)
     q_error = np.abs(N @ np.linalg.pinv(lin.K, rcond=1e-10) @ np.full(ind.size, float(np.abs(rho).max()))) \
         + 4 * EPS * (np.abs(system.difference(system.neutral(), q)) + 1.0)
     return LoopEquilibrium(system, q, v, float(t), "steady" if speeds else "static", res, float(target), it,
                            stability, {system.coordinates[i]: float(s) for i, s in speeds.items()}, drive,
-                           time.perf_counter() - start, m, q_error, lam, c.split(lam), phi)
+                           time.perf_counter() - start, m, q_error, lam, R.split(lam), phi)
 
 
 def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
@@ -181,209 +176,3 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
                              "speed found from the forces is not supported there)")
         speeds[system.coordinate_index(name)] = scalar(speed, f"steady_motion: speed of '{name}'")
     return equilibrium(system, q0, t, tol, max_iter, speeds)
-
-
-class IndependentView:
-    """A system seen in the independent coordinates of its mechanism (what the responses of a
-    :class:`ConstrainedLinearModel` name): ``coordinates``, ``units`` and ``coordinate_index`` are the
-    independent ones'; everything else is the system's."""
-
-    def __init__(self, system, independent):
-        self.system = system
-        self.independent = tuple(int(i) for i in independent)
-        self.coordinates = tuple(system.coordinates[i] for i in self.independent)
-        self.units = tuple(system.units[i] for i in self.independent)
-        self.nv = len(self.independent)
-
-    def coordinate_index(self, name):
-        if name in self.coordinates:
-            return self.coordinates.index(name)
-        if name in self.system.coordinates:
-            raise ModelError(f"coordinate '{name}' is not an independent motion of the mechanism (its loops fix "
-                             f"it; independent: {', '.join(self.coordinates)}): give a body point "
-                             "(body, (x, y, z), (dx, dy, dz)) instead")
-        raise ModelError(f"unknown coordinate '{name}' (independent coordinates: {', '.join(self.coordinates)})")
-
-    def __getattr__(self, name):
-        return getattr(self.system, name)
-
-
-@dataclass(frozen=True, eq=False)
-class ReducedLinearModel(LinearModel):
-    """Linear model of a mechanism with loops in its independent motions: M, C, K (dof × dof) are
-    NᵀM N, NᵀC N and Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N, N (``basis``, nv × dof) the motions that keep the loops closed,
-    whose rows at the ``independent`` tree coordinates are the identity: the model's coordinates are those
-    tree coordinates (``system`` is the system seen in them, :class:`IndependentView`). ``tree`` is the
-    nv × nv model (K with the constraint-force curvature). ``rank``: rank of Φ_q at q0. Inputs and outputs of
-    responses are any tree coordinate (its row of N) and body points (any point: J N)."""
-
-    basis: np.ndarray | None = field(repr=False, default=None)
-    tree: LinearModel | None = field(repr=False, default=None)
-    multipliers: np.ndarray | None = field(repr=False, default=None)
-    rank: int = 0
-
-    @property
-    def independent(self):
-        return self.system.independent
-
-    def point_jacobian(self, points):
-        """Displacements (m, world axes) of body points per independent coordinate (3·npoints × dof)."""
-        return self.tree.point_jacobian(points) @ self.basis
-
-    def coordinate_row(self, name):
-        """(row of N, unit): the tree coordinate ``name`` (independent or not) per independent coordinate."""
-        system = self.tree.system
-        i = system.coordinate_index(name)
-        return self.basis[i].copy(), system.units[i]
-
-    def joint_input(self, coordinates=None):
-        """Reduced input Nᵀ B of generalized forces on the named tree coordinates (dof × m; None: the
-        independent ones)."""
-        names = self.coordinates if coordinates is None else coordinates
-        return self.basis.T @ self.tree.joint_input(names)
-
-    def support_input(self, name, step=FD_STEP):
-        """(Nᵀ B_y, Nᵀ B_v): the tree's base-excitation inputs reduced (see :meth:`LinearModel.support_input`)."""
-        By, Bv = self.tree.support_input(name, step)
-        return self.basis.T @ By, self.basis.T @ Bv
-
-    def relinearize(self, method):
-        """The same operating point linearised again with ``method`` (the tree's part: "fd" or "analytic")."""
-        return type(self)(**{f.name: getattr(linearize(self.tree.system, self.q0, v=self.v0, t=self.t0, method=method,
-                                                        multipliers=self.multipliers), f.name)
-                             for f in fields(type(self))})
-
-    def summary(self):
-        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, dof={self.nv}, rank {self.rank}, "
-                f"error ≈ {self.error:.1e}, {self.elapsed * 1e3:.2f} ms)")
-
-
-def _on_reduced(name):
-    """A response method of ConstrainedLinearModel that runs on its reduced model."""
-    def method(self, *args, **kwargs):
-        return getattr(self.reduced, name)(*args, **kwargs)
-
-    method.__name__ = name
-    method.__doc__ = getattr(LinearModel, name).__doc__
-    return method
-
-
-@dataclass(frozen=True, eq=False)
-class ConstrainedLinearModel(ReducedLinearModel):
-    """:class:`ReducedLinearModel` whose :meth:`modes` give their shapes in the tree's coordinates (nv each,
-    φ = N ψ, Φ_q φ = 0, φᵀ M φ = 1 with the tree's M; ``modes.linear`` is the tree model). Responses run on
-    :attr:`reduced` (modes in the independent coordinates): receptances between tree coordinates are
-    N (K_r − ω²M_r + iωC_r)⁻¹ Nᵀ."""
-
-    @property
-    def reduced(self):
-        return ReducedLinearModel(**{f.name: getattr(self, f.name) for f in fields(ReducedLinearModel)})
-
-    def modes(self, **kwargs):
-        """Exactly dof modes, shapes in the tree's coordinates (see the class)."""
-        m = _modes(self, **kwargs)
-        N = self.basis
-        cs = m.complex_shapes
-        return replace(m, linear=self.tree, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
-
-    def with_modal_damping(self, zeta):
-        return self.with_damping(self.reduced.with_modal_damping(zeta).C)
-
-    # the responses run on the reduced model
-    free_response = _on_reduced("free_response")
-    receptance = _on_reduced("receptance")
-    harmonic_response = _on_reduced("harmonic_response")
-    base_response = _on_reduced("base_response")
-    forced_response = _on_reduced("forced_response")
-    appropriation = _on_reduced("appropriation")
-
-
-def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_STEP, multipliers=None):
-    """Linear model of a mechanism with loops about ``at`` (a LoopEquilibrium, a steady motion, or a
-    configuration, assembled first) with velocity ``v`` (zero if None; it must keep the loops closed,
-    Φ_q v = 0), in the mechanism's independent coordinates.
-
-    At rest: the tree's M, C, K (:func:`vibdyn.analysis.linearize.linearize`) with the constraint-force
-    curvature ∂(Φ_qᵀλ)/∂q by central differences in the tangent space (two steps for its error), projected
-    on the null space of Φ_q. λ: ``multipliers``, the equilibrium's, or the minimum-norm λ with Φ_qᵀλ = r.
-
-    About a steady motion (v ≠ 0; the independent coordinates do not accelerate, ``a`` must be None or
-    zero): the reduced equations F(z, ż, z̈) = N(q)ᵀ r(q, N(q) ż, N(q) z̈ + a_γ) = 0 (q on the loops with
-    independent coordinates z, a_γ the acceleration of the dependent ones that keeps Φ_q v̇ + γ = 0) are
-    differenced in z and ż (:func:`moving`): their K holds the constraint curvature, the centrifugal and
-    the gyroscopic terms together, C the gyroscopic coupling and the dampers."""
-    start = time.perf_counter()
-    c = _constraints(system)
-    q0, v0, t0 = reference_state(system, at, v, t)
-    phi = np.abs(c.scaled_phi(c.phi(q0))).max(initial=0.0)
-    if phi > 1e-9:
-        q0 = c.assemble(q0)
-    moving = bool(np.any(v0))
-    if a is not None and np.any(a):
-        raise ModelError("linearize: a mechanism with loops is linearised about an equilibrium or a steady motion "
-                         "(its independent coordinates do not accelerate): give a = None")
-    J = c.jacobian(q0)
-    ind, N = c.partition(J)
-    a0 = np.zeros(system.nv)
-    if moving:
-        speed = np.abs(v0 / c.col_scale).max()
-        if np.abs(c.scaled_phi(J @ v0)).max(initial=0.0) > 1e-9 * speed:
-            raise ModelError("linearize: the velocity v of the operating point opens the loops (Φ_q v ≠ 0: "
-                             f"{np.abs(c.scaled_phi(J @ v0)).max():.3e} dimensionless): give a motion the loops "
-                             "allow (a steady motion's v, or v = N ż)")
-        a0 = c.dependent_solution(J, -c.bias(q0, v0), np.setdiff1d(np.arange(system.nv), ind))
-    tree = tree_linearize(system, q0, v=v0, t=t0, a=a0, method=method, step=step)
-    r = dynamics.inverse_dynamics(system, system.workspace(), q0, v0, a0, t0)
-    if multipliers is None:
-        multipliers = getattr(at, "multipliers", None)
-    lam = c.multipliers(J, r) if multipliers is None else np.asarray(multipliers, dtype=float)
-    h = steps(system, step)
-    terms = dynamics.cancelling_terms(system, system.workspace(), q0, v0, a0, t0)
-    G, T = tangent_derivative(system, lambda q: c.jacobian(q).T @ lam, q0, h, estimate=True)
-    G_err = fd_error(G, T, terms, h)
-    K_tree = tree.K - G
-    tree = replace(tree, K=K_tree, K_error=tree.K_error + G_err)
-    aN = np.abs(N)
-    M_r = N.T @ tree.M @ N
-    M_r = 0.5 * (M_r + M_r.T)
-    evaluations = tree.evaluations + 4 * system.nv + 1
-    if moving:
-        K_r, C_r, K_err, C_err = moving_terms(system, c, q0, v0, t0, ind, h, aN.T @ terms)
-        evaluations += 8 * ind.size
-    else:
-        C_r, K_r = N.T @ tree.C @ N, N.T @ K_tree @ N
-        K_err, C_err = aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN
-    rank = system.nv - ind.size
-    return ConstrainedLinearModel(IndependentView(system, ind), q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err,
-                                  tree.method, time.perf_counter() - start, evaluations, basis=N, tree=tree,
-                                  multipliers=lam, rank=rank)
-
-
-def moving_terms(system, c, q0, v0, t0, ind, h, terms):
-    """(K_r, C_r, K_error, C_error) of the reduced equations about the steady motion (q0, v0) (see
-    :func:`linearize`): central differences in the independent coordinates z (q moved by N₀ δz, then closed
-    by the dependent ones: :meth:`Constraints.close`) and in their speeds ż, steps h and 2h (Richardson);
-    ``terms`` the reduced round-off scale (N or N·m)."""
-    nv = system.nv
-    dep = np.setdiff1d(np.arange(nv), ind)
-    ws = system.workspace()
-    zd0 = v0[ind]
-    _, N0 = c.partition(c.jacobian(q0), ind)
-
-    def residual(q, zd):
-        J = c.jacobian(q)
-        N = c.partition(J, ind)[1]
-        v = N @ zd
-        a = c.dependent_solution(J, -c.bias(q, v), dep)
-        return N.T @ dynamics.inverse_dynamics(system, ws, q, v, a, t0)
-
-    hz = h[ind]
-    hv = hz * np.maximum(1.0, np.abs(zd0))
-    Z = displaced_vectors(np.zeros(ind.size), hz, estimate=True)
-    K, T = differences(np.array([residual(c.close(pin.integrate(system.model, q0, N0 @ z), dep), zd0) for z in Z]),
-                       hz)
-    K_err = fd_error(K, T, terms, hz)
-    V = displaced_vectors(zd0, hv, estimate=True)
-    C, T = differences(np.array([residual(q0, zd) for zd in V]), hv)
-    C_err = fd_error(C, T, terms, hv)
-    return K, C, K_err, C_err

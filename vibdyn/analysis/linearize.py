@@ -67,8 +67,18 @@ class LinearModel:
                        duration(self.elapsed))
 
     @property
-    def coordinates(self):
+    def coordinates(self) -> tuple[str, ...]:
+        """Names of this model's coordinates (nv)."""
         return self.system.coordinates
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """Unit of each coordinate ("m" or "rad")."""
+        return self.system.units
+
+    def coordinate_index(self, name: str) -> int:
+        """Index of the coordinate ``name`` in this model."""
+        return self.system.coordinate_index(name)
 
     @property
     def nv(self):
@@ -120,17 +130,17 @@ class LinearModel:
     def coordinate_row(self, name: str) -> tuple[np.ndarray, str]:
         """(row, unit): the displacement of the coordinate ``name`` per coordinate of this model (nv), and its
         unit ("m" or "rad"); the same row is the generalized force of a unit force on it."""
-        i = self.system.coordinate_index(name)
+        i = self.coordinate_index(name)
         row = np.zeros(self.nv)
         row[i] = 1.0
-        return row, self.system.units[i]
+        return row, self.units[i]
 
     def joint_input(self, coordinates: str | list[str] | None = None) -> np.ndarray:
         """Input matrix of generalized forces on the named coordinates (nv × m; all if None)."""
         names = self.coordinates if coordinates is None else coordinates
         B = np.zeros((self.nv, len(names)))
         for j, name in enumerate(names):
-            B[self.system.coordinate_index(name), j] = 1.0
+            B[self.coordinate_index(name), j] = 1.0
         return B
 
     def point_jacobian(self, points: list) -> np.ndarray:
@@ -266,7 +276,8 @@ def reference_state(system, at=None, v=None, t=0.0):
 
 
 def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: float = 0.0,
-              a: ArrayLike | None = None, method: str = "fd", step: float = FD_STEP) -> LinearModel:
+              a: ArrayLike | None = None, method: str = "fd", step: float = FD_STEP,
+              hold: str | list[str] | tuple[str, ...] = ()) -> LinearModel:
     """Linear model of ``system`` about ``at`` (an Equilibrium/SteadyMotion, a configuration q, or None
     for the neutral configuration) with velocity ``v`` (zero if None) at time ``t``.
 
@@ -278,18 +289,20 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     by central differences, their error added to the estimate). The analytic K and C are checked against
     central differences of the residual along a fixed pseudo-random direction of (q, v) (:func:`guard`, once per
     system and kind of state, at rest or moving): a disagreement beyond the differences' own error estimate warns (UserWarning naming the scene's joint types)
-    and falls back to "fd" (the result's ``method`` says so). A mechanism with loops is linearised in its
-    independent motions (:func:`vibdyn.analysis.constrained.linearize`), a scene with drives in its free coordinates
-    (:func:`vibdyn.analysis.driven.linearize`).
+    and falls back to "fd" (the result's ``method`` says so). A mechanism with loops, a scene with drives, and
+    ``hold`` (coordinate names held at their speed in v by their drive: a Campbell diagram's spin) are
+    linearised in the independent coordinates of the system's reduction
+    (:mod:`vibdyn.model.reduction`, :func:`vibdyn.analysis.reduced.linearize`).
     """
-    if system.constraints is not None:  # a mechanism with loops: in its independent motions
-        from .constrained import linearize as constrained_linearize
+    reduction = system.reduction
+    if hold:
+        held = [system.coordinate_index(name) for name in ([hold] if isinstance(hold, str) else hold)]
+        speeds = reference_state(system, at, v, t)[1]
+        reduction = reduction.holding({i: float(speeds[i]) for i in held})
+    if not reduction.is_identity:  # in the independent coordinates of the loops, drives and held speeds
+        from .reduced import linearize as reduced_linearize
 
-        return constrained_linearize(system, at, v=v, t=t, a=a, method=method, step=step)
-    if system.drives is not None:  # drives: in the free coordinates, about a state of the prescribed motion
-        from .driven import linearize as driven_linearize
-
-        return driven_linearize(system, at, v=v, t=t, a=a, method=method, step=step)
+        return reduced_linearize(system, reduction, at, v=v, t=t, a=a, method=method, step=step)
     return tree_linearize(system, at, v=v, t=t, a=a, method=method, step=step)
 
 
@@ -306,7 +319,7 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
     ws = system.workspace()
     M = dynamics.mass_matrix(system.model, ws.data, q0)
     # the elements' forces at the operating point, evaluated once for the accelerations and the derivatives
-    applied = dynamics.forces(system, ws, q0, v0, t0) if method == "analytic" and system.drives is None else None
+    applied = dynamics.forces(system, ws, q0, v0, t0) if method == "analytic" else None
     if a is not None:
         a0 = system.check_velocity(a, "a")
     elif hasattr(at, "drive"):  # an equilibrium or steady motion: the reference motion does not accelerate

@@ -88,7 +88,7 @@ def state_space(lin, inputs=None, outputs=None, *, output="displacement", direct
     n = lin.nv
     zero = np.zeros((len(cout.labels), n))
     C = np.hstack([cout.matrix, zero] if output == "displacement" else [zero, cout.matrix])
-    names, units = tuple(lin.coordinates), tuple(lin.system.units)
+    names, units = tuple(lin.coordinates), tuple(lin.units)
     out_units = cout.units if output == "displacement" else tuple(u + "/s" for u in cout.units)
     return StateSpace(lin.A, lin.state_input(cin.matrix.T), C, np.zeros((len(cout.labels), len(cin.labels))),
                       cin.labels, cout.labels, tuple(f"q[{c}]" for c in names) + tuple(f"v[{c}]" for c in names),

@@ -247,7 +247,7 @@ def modes_text(lin, m, per_block=8):
         lines.append("")
         lines.append("mode shapes (each scaled so its largest entry is 1; m or rad per coordinate)")
         S = m.shapes / np.abs(m.shapes).max(axis=0, initial=1e-300)
-        names, units = m.linear.coordinates, m.linear.system.units  # what the shapes refer to
+        names, units = m.linear.coordinates, m.linear.units  # what the shapes refer to
         for b in range(0, len(order), per_block):
             cols = order[b:b + per_block]
             rows = [[c, u] + [number(S[i, j], error=cut, digits=4) for j in cols]

@@ -22,6 +22,7 @@ from .compile import BodyInfo, Compiled, attachments
 from .configuration import state as _state
 from .constraints import compile_loops
 from .drives import compile_drives
+from .reduction import compile_reduction
 from .dynamics import Energy, Reactions
 from .workspace import PerThread, Workspace
 
@@ -44,7 +45,8 @@ class System(Compiled):
     its position limits (lower, upper) in m or rad, which equilibrium searches refuse to leave; the other
     compiled tables are listed by :class:`vibdyn.model.compile.Compiled`; ``drives``
     (:class:`vibdyn.model.drives.Drives`) and ``constraints`` (:class:`vibdyn.model.constraints.Constraints`)
-    are None without drives or loops. Its methods compute in the calling thread's :meth:`workspace`
+    are None without drives or loops; ``reduction`` (:class:`vibdyn.model.reduction.Reduction`) is how the
+    coordinates reduce to the independent ones, what analyses use. Its methods compute in the calling thread's :meth:`workspace`
     (Pinocchio Data and force buffers), so threads may share a System; the free functions of
     :mod:`vibdyn.model.dynamics` and :mod:`vibdyn.model.geometry` take the workspace explicitly, and none reads
     what an earlier call left there. Analyses use the checked inputs (``check_*``) and the tables.
@@ -59,6 +61,7 @@ class System(Compiled):
         if self.nv:
             inertia_check.check_inertia(self)
         self.constraints = compile_loops(self) if self.scene.loops else None
+        self.reduction = compile_reduction(self)
         self._built = True
 
     def __setattr__(self, name, value):
@@ -259,11 +262,11 @@ class System(Compiled):
         return operating_point(self, tol, max_iter)
 
     def linearize(self, at: Any = None, *, v: ArrayLike | None = None, t: float = 0.0, a: ArrayLike | None = None,
-                  method: str = "fd", step: float = FD_STEP) -> LinearModel:
+                  method: str = "fd", step: float = FD_STEP, hold: Any = ()) -> LinearModel:
         """Linear model (M, C, K, error estimate) about ``at`` (see :func:`vibdyn.analysis.linearize.linearize`)."""
         from ..analysis.linearize import linearize
 
-        return linearize(self, at, v=v, t=t, a=a, method=method, step=step)
+        return linearize(self, at, v=v, t=t, a=a, method=method, step=step, hold=hold)
 
     def simulate(self, t_end: float, q0: ArrayLike | None = None, v0: ArrayLike | None = None,
                  method: str = "dop853", rtol: float = RTOL, atol: float | None = None, dt: float | None = None,

@@ -42,11 +42,11 @@ def support_input_of(lin, support, direction):
             dirs, labels = d[:, None], [f"{support}·{vector_label(d)}"]
         return "support", By @ dirs, Bv @ dirs, labels
     if support in system.coordinates:
-        if system.nv < 2:
+        if lin.nv < 2:
             raise ModelError(f"base excitation: prescribing '{support}' leaves no free coordinate")
-        p = system.coordinate_index(support)
-        return "joint", p, np.array([i for i in range(system.nv) if i != p]), [support]
-    raise unknown_name(support, [*(s.name for s in system.supports), *system.coordinates], "support or coordinate",
+        p = lin.coordinate_index(support)
+        return "joint", p, np.array([i for i in range(lin.nv) if i != p]), [support]
+    raise unknown_name(support, [*(s.name for s in system.supports), *lin.coordinates], "support or coordinate",
                        "supports and coordinates", "base excitation")
 
 
@@ -81,7 +81,7 @@ def base_response(lin, omega, support, direction=None, outputs=None, *, method="
     sub = reduced(model, free)
     M, K, C, D = model.M[free, p], model.K[free, p], model.C[free, p], model.D[free, p]
     out = replace(cout, matrix=cout.matrix[:, free])
-    unit = lin.system.units[p]
+    unit = lin.units[p]
     return frf_of(sub, omega, lambda w: -(K - w * w * M + 1j * (w * C + D))[:, None], out, [support], (unit,),
                 "transmissibility", method, n_modes, start, offset=cout.matrix[:, [p]])
 

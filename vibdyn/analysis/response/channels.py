@@ -27,9 +27,8 @@ def channels(lin, spec=None, direction=None, what="outputs"):
     """:class:`Channels` of a linear model from a spec: None (all coordinates), a coordinate name, a body
     point ``(body, (x, y, z), (dx, dy, dz))`` (or ``(body, (x, y, z))`` with ``direction``), or a list of
     them."""
-    system = lin.system
     if spec is None:
-        return Channels(np.eye(lin.nv), tuple(lin.coordinates), tuple(system.units))
+        return Channels(np.eye(lin.nv), tuple(lin.coordinates), tuple(lin.units))
     items = [spec] if isinstance(spec, str) or _is_point(spec) else _as_list(spec, what)
     if not items:
         raise ModelError(f"{what}: empty list (give coordinate names, body points or None)")

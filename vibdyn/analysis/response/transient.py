@@ -72,7 +72,7 @@ class TimeResponse(TimeResult):
         return self.series("acceleration", outputs, direction)[2]
 
     def coordinate(self, name):
-        return self.x[:, self.linear.system.coordinate_index(name)]
+        return self.x[:, self.linear.coordinate_index(name)]
 
     def series(self, quantity="displacement", outputs=None, direction=None):
         """(labels, units, values n_t × k) of outputs (coordinate names, body points with a direction;
@@ -130,7 +130,7 @@ def _state0(lin, x0, v0, what):
         elif isinstance(x, dict):
             arr = np.zeros(n)
             for key, val in x.items():
-                arr[lin.system.coordinate_index(key)] = scalar(val, f"{what} {name}['{key}']")
+                arr[lin.coordinate_index(key)] = scalar(val, f"{what} {name}['{key}']")
             out.append(arr)
         else:
             out.append(finite_array(x, (n,), f"{what} {name} (one value per coordinate: {', '.join(lin.coordinates)})"))
@@ -159,7 +159,7 @@ def _finish(lin, t, q, v, a, method, error, imag, start):
         m = lin.modes()
         wmax = max(m.omega.max(initial=0.0), m.omega_n.max(initial=0.0))
         error = error + lin.error * (1 + wmax * float(np.ptp(np.concatenate([[0.0], t]))))
-    return TimeResponse(t, q, v, a, tuple(lin.coordinates), tuple(lin.system.units), method, float(error),
+    return TimeResponse(t, q, v, a, tuple(lin.coordinates), tuple(lin.units), method, float(error),
                         time.perf_counter() - start, lin, float(imag))
 
 

@@ -122,7 +122,7 @@ def scale(drawing, linear, view, amplitude=None, J=None):
     ph = np.exp(2j * np.pi * np.arange(8) / 8)
     d = (J @ view.shape)[:, None] * ph[None, :]  # (3P × 8)
     disp = np.sqrt((d.real.reshape(-1, 3, 8) ** 2).sum(axis=1)).max(initial=0.0)
-    rad = np.array([u == "rad" for u in linear.system.units])
+    rad = np.array([u == "rad" for u in linear.units])
     turn = np.abs(view.shape[rad]).max(initial=0.0)
     a = target / disp if disp > 1e-12 * max(1.0, np.abs(view.shape).max()) else np.inf
     if turn > 0:

@@ -1,0 +1,249 @@
+"""Linear models in a system's independent coordinates (:class:`vibdyn.model.reduction.Reduction`): loops, drives,
+coordinates held at their speed, and their composition, through one path.
+
+About a state (q0, v0) at t0 whose held coordinates follow their laws or speeds and whose independent ones do not
+accelerate (or, with drives, move as the equations say), the tree is linearised (:func:`tree_linearize`) and
+reduced by the basis N (nv × n, ``basis``) of the motions the reduction allows: M_r = NᵀMN, C_r = NᵀCN,
+K_r = Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N, λ the loop forces there. Where N depends on q (loops) and the state moves, the
+reduced equations F(z, ż) = N(q)ᵀ r(q, N ż, a) are differenced in the chart of the independent coordinates
+instead (:func:`moving_terms`): their K holds the constraint curvature, the centrifugal and gyroscopic terms
+together. Held rows are gone: a held coordinate does not vibrate (its holder absorbs what would move it).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+import numpy as np
+
+from .._check import all_finite
+from ..defaults import FD_STEP
+from ..errors import ModelError
+from ..model import dynamics
+from ..model.fd import differences, displaced_vectors, steps, tangent_derivative
+from .linearize import LinearModel, fd_error, reference_state, tree_linearize
+from .modal import modes as _modes
+
+
+@dataclass(frozen=True, eq=False)
+class ReducedLinearModel(LinearModel):
+    """Linear model in the independent coordinates ``independent`` (indices in v) of its ``reduction``: M, C,
+    K (n × n) are NᵀM N, NᵀC N and Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N, N (``basis``, nv × n) the motions the reduction
+    allows, whose rows at the independent coordinates are the identity. ``system`` is the whole system and
+    ``tree`` the nv × nv model (K with the constraint-force curvature); ``coordinates``, ``units`` and
+    :meth:`coordinate_index` are the independent ones'. ``rank``: rank of the loops' Φ_q at q0 (0 without
+    loops). Inputs and outputs of responses are any tree coordinate (its row of N) and body points (J N)."""
+
+    basis: np.ndarray | None = field(repr=False, default=None)
+    tree: LinearModel | None = field(repr=False, default=None)
+    multipliers: np.ndarray | None = field(repr=False, default=None)
+    rank: int = 0
+    independent: tuple = ()
+    reduction: Any = field(repr=False, default=None)
+
+    @property
+    def coordinates(self):
+        return tuple(self.system.coordinates[i] for i in self.independent)
+
+    @property
+    def units(self):
+        return tuple(self.system.units[i] for i in self.independent)
+
+    def coordinate_index(self, name: str) -> int:
+        names = self.coordinates
+        if name in names:
+            return names.index(name)
+        raise self.reduction.refuse(name, names)
+
+    def point_jacobian(self, points):
+        """Displacements (m, world axes) of body points per independent coordinate (3·npoints × n)."""
+        return self.tree.point_jacobian(points) @ self.basis
+
+    def coordinate_row(self, name):
+        """(row of N, unit): the tree coordinate ``name`` (independent or not) per independent coordinate."""
+        system = self.system
+        i = system.coordinate_index(name)
+        return self.basis[i].copy(), system.units[i]
+
+    def joint_input(self, coordinates=None):
+        """Reduced input Nᵀ B of generalized forces on the named tree coordinates (n × m; None: the
+        independent ones)."""
+        names = self.coordinates if coordinates is None else coordinates
+        return self.basis.T @ self.tree.joint_input(names)
+
+    def support_input(self, name, step=FD_STEP):
+        """(Nᵀ B_y, Nᵀ B_v): the tree's base-excitation inputs reduced (see :meth:`LinearModel.support_input`)."""
+        By, Bv = self.tree.support_input(name, step)
+        return self.basis.T @ By, self.basis.T @ Bv
+
+    @property
+    def drive(self) -> dict[str, float]:
+        """{drive, or coordinate held at its speed: τ}: the force (N or N·m) each holder exerts along its
+        coordinate at the operating point (empty without held coordinates)."""
+        tau = dynamics.inverse_dynamics(self.system, self.system.workspace(), self.q0, self.v0, self.a0, self.t0)
+        return self.reduction.held_forces(tau)
+
+    def relinearize(self, method):
+        """The same operating point linearised again with ``method`` (the tree's part: "fd" or "analytic")."""
+        again = linearize(self.system, self.reduction, self.q0, v=self.v0, t=self.t0, method=method,
+                          multipliers=self.multipliers, a=None if self.reduction.curved else self.a0)
+        return type(self)(**{f.name: getattr(again, f.name) for f in fields(type(self))})
+
+    def summary(self):
+        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, dof={self.nv}, rank {self.rank}, "
+                f"error ≈ {self.error:.1e}, {self.elapsed * 1e3:.2f} ms)")
+
+
+def _on_reduced(name):
+    """A response method of ConstrainedLinearModel that runs on its reduced model."""
+    def method(self, *args, **kwargs):
+        return getattr(self.reduced, name)(*args, **kwargs)
+
+    method.__name__ = name
+    method.__doc__ = getattr(LinearModel, name).__doc__
+    return method
+
+
+@dataclass(frozen=True, eq=False)
+class ConstrainedLinearModel(ReducedLinearModel):
+    """:class:`ReducedLinearModel` whose :meth:`modes` give their shapes in the tree's coordinates (nv each,
+    φ = N ψ, Φ_q φ = 0 and zero on held coordinates, φᵀ M φ = 1 with the tree's M; ``modes.linear`` is the tree
+    model). Responses run on :attr:`reduced` (modes in the independent coordinates): receptances between tree
+    coordinates are N (K_r − ω²M_r + iωC_r)⁻¹ Nᵀ."""
+
+    @property
+    def reduced(self):
+        return ReducedLinearModel(**{f.name: getattr(self, f.name) for f in fields(ReducedLinearModel)})
+
+    def modes(self, **kwargs):
+        """Exactly n modes, shapes in the tree's coordinates (see the class)."""
+        m = _modes(self, **kwargs)
+        N = self.basis
+        cs = m.complex_shapes
+        return replace(m, linear=self.tree, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
+
+    def with_modal_damping(self, zeta):
+        return self.with_damping(self.reduced.with_modal_damping(zeta).C)
+
+    # the responses run on the reduced model
+    free_response = _on_reduced("free_response")
+    receptance = _on_reduced("receptance")
+    harmonic_response = _on_reduced("harmonic_response")
+    base_response = _on_reduced("base_response")
+    forced_response = _on_reduced("forced_response")
+    appropriation = _on_reduced("appropriation")
+
+
+@dataclass(frozen=True, eq=False)
+class DrivenLinearModel(ConstrainedLinearModel):
+    """:class:`ConstrainedLinearModel` of a scene with drives or coordinates held at their speed, in its free
+    coordinates (``basis`` the identity's columns there); ``drive``: {holder: τ} (N or N·m)."""
+
+    def summary(self):
+        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, free={self.nv}, error ≈ {self.error:.1e}, "
+                f"{self.elapsed * 1e3:.2f} ms)")
+
+
+def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_STEP,
+              multipliers=None) -> ReducedLinearModel:
+    """Linear model of ``system`` in the independent coordinates of ``reduction`` about ``at`` (an operating
+    point, or a configuration, closed first) with velocity ``v`` (zero if None; it must keep the loops
+    closed) at time ``t`` (s); the held coordinates' q and v are their laws' or speeds (see the module).
+
+    ``a``: the reference motion's accelerations. None: the independent coordinates do not accelerate about an
+    operating point or with loops (the dependent ones keep Φ_q a + γ = 0); otherwise (a state of a driven
+    motion) the motion's own. Given, its driven entries must be the laws' (and with loops it must be zero).
+    ``multipliers``: the loop forces λ (None: the operating point's, or the minimum-norm λ with Φ_qᵀλ = r)."""
+    start = time.perf_counter()
+    R = reduction
+    q0, v0, t0 = reference_state(system, at, v, t)
+    q0, v0 = R.impose(q0, v0, t0)
+    if R.closure(q0) > 1e-9:
+        q0 = R.close(q0)
+    moving = bool(np.any(v0))
+    if R.curved and a is not None and np.any(a):
+        raise ModelError("linearize: a mechanism with loops is linearised about an equilibrium or a steady motion "
+                         "(its independent coordinates do not accelerate): give a = None")
+    opening = R.opening(q0, v0)
+    if opening > 1e-9:
+        raise ModelError("linearize: the velocity v of the operating point opens the loops (Φ_q v ≠ 0: "
+                         f"{opening:.3e} dimensionless): give a motion the loops allow (a steady motion's v, or "
+                         "v = N ż)")
+    ind, N = R.independent(q0)
+    if not ind.size:
+        raise ModelError(f"linearize: every coordinate of scene '{system.name}' is held ({R.describe()}): nothing "
+                         "is free to vibrate")
+    ws = system.workspace()
+    if R.curved or (a is None and hasattr(at, "drive")):
+        a0 = R.reference_acceleration(ws, q0, v0, t0, ind)
+    elif a is None:
+        a0 = R.accelerations(ws, q0, v0, t0)
+        if not all_finite(a0):
+            system.check_mass_matrix(q0, "the operating point")
+            raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t0})")
+    else:
+        a0 = system.check_velocity(a, "a")
+        d, ad = R.driven, R.law_values(t0)[2]
+        # (within the tolerance of the equilibria's drives at rest: 1e-10 per s² × 1 rad or the length scale)
+        if np.any(np.abs(a0[d] - ad) > 1e-10 * system.coordinate_scales[d]):
+            names = [system.coordinates[i] for i in d]
+            raise ModelError(f"linearize: a at the driven coordinates ({', '.join(names)}) must be the drives' "
+                             f"accelerations at t = {t0:g} s, {ad.tolist()}; got {a0[d].tolist()} (give a = None "
+                             "for the motion's)")
+    tree = tree_linearize(system, q0, v=v0, t=t0, a=a0, method=method, step=step)
+    evaluations = tree.evaluations
+    lam = np.zeros(0)
+    aN = np.abs(N)
+    if R.curved:
+        r = dynamics.inverse_dynamics(system, ws, q0, v0, a0, t0)
+        if multipliers is None:
+            multipliers = getattr(at, "multipliers", None)
+        lam = R.multipliers(q0, r) if multipliers is None else np.asarray(multipliers, dtype=float)
+        h = steps(system, step)
+        terms = dynamics.cancelling_terms(system, ws, q0, v0, a0, t0)
+        G, T = tangent_derivative(system, R.constraint_force(lam), q0, h, estimate=True)
+        tree = replace(tree, K=tree.K - G, K_error=tree.K_error + fd_error(G, T, terms, h))
+        evaluations += 4 * system.nv + 1
+    M_r = N.T @ tree.M @ N
+    M_r = 0.5 * (M_r + M_r.T)
+    if R.curved and moving:
+        K_r, C_r, K_err, C_err = moving_terms(system, R, q0, v0, t0, ind, h, aN.T @ terms)
+        evaluations += 8 * ind.size
+    else:
+        C_r, K_r = N.T @ tree.C @ N, N.T @ tree.K @ N
+        K_err, C_err = aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN
+    terms_r = None
+    if tree.K_error_terms is not None and not R.curved:  # (the held rows dropped: columns of the identity)
+        terms_r = (tree.K_error_terms[0] @ N, tree.K_error_terms[1] @ aN)
+    cls = ConstrainedLinearModel if R.curved else DrivenLinearModel
+    return cls(system, q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err, tree.method, time.perf_counter() - start,
+               evaluations, terms_r, basis=N, tree=tree, multipliers=lam if R.curved else None,
+               rank=R.free.size - ind.size if R.curved else 0,
+               independent=tuple(int(i) for i in ind), reduction=R)
+
+
+def moving_terms(system, R, q0, v0, t0, ind, h, terms):
+    """(K_r, C_r, K_error, C_error) of the reduced equations about the steady motion (q0, v0) (see
+    :func:`linearize`): central differences in the independent coordinates z (q moved by N₀ δz, then closed
+    by the dependent ones: :meth:`Reduction.chart`) and in their speeds ż, steps h and 2h (Richardson);
+    ``terms`` the reduced round-off scale (N or N·m)."""
+    ws = system.workspace()
+    zd0 = v0[ind]
+
+    def residual(q, zd):
+        _, N = R.independent(q, ind)
+        v = R.impose(q, N @ zd, t0)[1]
+        a = R.reference_acceleration(ws, q, v, t0, ind)
+        return N.T @ dynamics.inverse_dynamics(system, ws, q, v, a, t0)
+
+    hz = h[ind]
+    hv = hz * np.maximum(1.0, np.abs(zd0))
+    Z = displaced_vectors(np.zeros(ind.size), hz, estimate=True)
+    K, T = differences(np.array([residual(R.chart(q0, ind, z), zd0) for z in Z]), hz)
+    K_err = fd_error(K, T, terms, hz)
+    V = displaced_vectors(zd0, hv, estimate=True)
+    C, T = differences(np.array([residual(q0, zd) for zd in V]), hv)
+    C_err = fd_error(C, T, terms, hv)
+    return K, C, K_err, C_err

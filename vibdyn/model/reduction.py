@@ -1,0 +1,259 @@
+"""The reduction of a system's coordinates to its independent ones: the one object every analysis reduces through.
+
+A tree moves in all its nv tangent coordinates. Some are held: a drive prescribes a coordinate in time
+(:mod:`vibdyn.model.drives`), or an analysis holds a coordinate at its operating speed (a Campbell diagram's
+spin, held by its drive). A mechanism with closed loops moves in the null space of its loop Jacobian,
+v = N(q) ż (:mod:`vibdyn.model.constraints`). :class:`Reduction` composes the two: the independent velocities
+ż are those of the coordinates that are neither held nor tied by the loops, and
+
+    v = N(q) ż + (the held coordinates' speeds),   N (nv × n): Φ_q N = 0, N = 0 on the held rows,
+
+N's rows at the independent coordinates being the identity. Analyses, the studies and the time layer ask the
+reduction (``system.reduction``, or :meth:`Reduction.holding` for an analysis that holds more) to put a state
+on it (:meth:`impose`, :meth:`close`, :meth:`project`), for its basis (:meth:`independent`), its consistent
+accelerations, its constraint forces and the curvature they add to K; they never ask whether a scene has loops
+or drives. The reduction of a tree is the identity (``kind`` "tree", n = nv, N = I).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import ModelError
+from . import dynamics
+
+
+class Reduction:
+    """How the nv tangent coordinates of ``system`` reduce to independent ones (see the module docstring).
+
+    ``kind``: "tree", "held", "loops" or "loops, held"; ``held``: indices in v of the held coordinates (drives'
+    and those held at a speed), ``free``: the others; ``held_speeds``: {index: speed (rad/s or m/s)} of the
+    coordinates held at a constant speed (not by a drive's law)."""
+
+    def __init__(self, system: Any, loops: Any = None, drives: Any = None, held_speeds: dict | None = None):
+        self._system, self._loops, self._drives = system, loops, drives
+        self.held_speeds = {int(i): float(s) for i, s in (held_speeds or {}).items()}
+        driven = [] if drives is None else [int(i) for i in drives.index]
+        self.held = np.array(sorted(set(driven) | set(self.held_speeds)), dtype=int)
+        self.free = np.setdiff1d(np.arange(system.nv), self.held)
+        for a in (self.held, self.free):
+            a.flags.writeable = False
+        parts = (["loops"] if loops is not None else []) + (["held"] if self.held.size else [])
+        self.kind = ", ".join(parts) or "tree"
+
+    # ------------------------------------------------------------------ what it is
+    @property
+    def is_identity(self) -> bool:
+        """True for a tree with nothing held: N = I, nothing to impose or close."""
+        return self.kind == "tree"
+
+    @property
+    def curved(self) -> bool:
+        """True where N depends on q (loops): linear models then carry the constraint forces' curvature."""
+        return self._loops is not None
+
+    @property
+    def time_laws(self) -> bool:
+        """True where held coordinates follow laws of time (drives)."""
+        return self._drives is not None
+
+    @property
+    def held_names(self) -> tuple[str, ...]:
+        return tuple(self._system.coordinates[i] for i in self.held)
+
+    def describe(self) -> str:
+        """What reduces the coordinates, in the user's words (for messages)."""
+        out = []
+        if self._loops is not None:
+            out.append(f"loops {', '.join(lp.name for lp in self._loops.loops)}")
+        if self._drives is not None:
+            out.append(f"drives {', '.join(self._drives.names)}")
+        if self.held_speeds:
+            out.append(f"held speeds of {', '.join(self._system.coordinates[i] for i in self.held_speeds)}")
+        return "; ".join(out) or "nothing (a tree)"
+
+    def holding(self, speeds: dict) -> Reduction:
+        """This reduction with the coordinates ``speeds`` ({index in v: speed, rad/s or m/s}) held at those
+        speeds as well (a Campbell diagram's spin, held by its drive)."""
+        driven = set() if self._drives is None else {int(i) for i in self._drives.index}
+        for i in speeds:
+            if int(i) in driven:
+                raise ModelError(f"coordinate '{self._system.coordinates[int(i)]}' is driven: its speed is its "
+                                 "drive's")
+        return Reduction(self._system, self._loops, self._drives, {**self.held_speeds, **speeds})
+
+    # ------------------------------------------------------------------ states on the reduction
+    def impose(self, q, v, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Copies of (q, v) with the held coordinates set: the drives' laws at t (s), the held speeds."""
+        q, v = np.array(q, dtype=float), np.array(v, dtype=float)
+        if self._drives is not None:
+            q, v = self._drives.impose(q, v, t)
+        for i, s in self.held_speeds.items():
+            v[i] = s
+        return q, v
+
+    def law_values(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q_d, v_d, a_d) of the driven coordinates at t (empty without drives): see :meth:`Drives.values`."""
+        if self._drives is None:
+            return np.zeros(0), np.zeros(0), np.zeros(0)
+        return self._drives.values(t)
+
+    @property
+    def driven(self) -> np.ndarray:
+        """Indices in v of the coordinates driven by laws of time (a subset of ``held``)."""
+        return np.zeros(0, dtype=int) if self._drives is None else np.asarray(self._drives.index, dtype=int)
+
+    @property
+    def driven_q(self) -> np.ndarray:
+        """Indices in q of the driven coordinates."""
+        return np.zeros(0, dtype=int) if self._drives is None else np.asarray(self._drives.q_index, dtype=int)
+
+    @property
+    def driven_names(self) -> tuple[str, ...]:
+        """Names of the drives (scene order; empty without drives)."""
+        return () if self._drives is None else tuple(self._drives.names)
+
+    @property
+    def driven_units(self) -> tuple[str, ...]:
+        return () if self._drives is None else tuple(self._drives.units)
+
+    def closure(self, q) -> float:
+        """Largest |Φ(q)| of the loops, dimensionless (m / length scale, rad); 0 without loops."""
+        if self._loops is None:
+            return 0.0
+        return float(np.abs(self._loops.scaled_phi(self._loops.phi(q))).max(initial=0.0))
+
+    def close(self, q, start: str = "q0") -> np.ndarray:
+        """q on the loops (assembled nearest q, a ConvergenceError naming ``start`` if they cannot close)."""
+        return np.array(q, dtype=float) if self._loops is None else self._loops.assemble(q, start=start)
+
+    def project(self, q, v, M=None) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) on the loops: q closed, v the M-orthogonal projection on the motions they allow."""
+        if self._loops is None:
+            return np.array(q, dtype=float), np.array(v, dtype=float)
+        return self._loops.project(q, v, M)
+
+    def conditioning(self, q) -> float:
+        """σ_min/σ_max of the loops' dimensionless Jacobian at q (1 without loops)."""
+        return 1.0 if self._loops is None else float(self._loops.conditioning(q))
+
+    def opening(self, q, v) -> float:
+        """How much the velocity v opens the loops, |Φ_q v| dimensionless per unit of v's largest scaled entry
+        (0 without loops)."""
+        if self._loops is None or not np.any(v):
+            return 0.0
+        c = self._loops
+        return float(np.abs(c.scaled_phi(c.jacobian(q) @ v)).max(initial=0.0) / np.abs(v / c.col_scale).max())
+
+    # ------------------------------------------------------------------ the basis
+    def independent(self, q, keep=None) -> tuple[np.ndarray, np.ndarray]:
+        """(ind, N): the independent coordinates (indices in v) and the basis N (nv × len(ind)) at q, N's rows
+        at ``ind`` the identity, zero on the held rows. ``keep``: these independent coordinates (a smooth
+        basis along a path) instead of choosing them (loops: QR with column pivoting)."""
+        nv = self._system.nv
+        if self._loops is None:
+            ind = self.free if keep is None else np.asarray(keep, dtype=int)
+            return ind, np.eye(nv)[:, ind]
+        J = self._loops.jacobian(q)
+        if keep is not None:
+            return self._loops.partition(J, keep)
+        ind, N = self._loops.partition(J)
+        tied = [self._system.coordinates[i] for i in self.held if i not in ind]
+        if tied:
+            raise ModelError(f"{', '.join(tied)} cannot be held on its own: the loops tie it to the other "
+                             "coordinates (hold a coordinate the loops leave free)")
+        cols = np.isin(ind, self.held, invert=True)
+        return ind[cols], N[:, cols]
+
+    def dependent(self, ind) -> np.ndarray:
+        """Indices in v of the coordinates that are neither independent nor held (the loops close them)."""
+        return np.setdiff1d(self.free, ind)
+
+    def chart(self, q0, ind, dz) -> np.ndarray:
+        """The configuration of the mechanism with independent coordinates moved by dz from q0 (through
+        N(q0) dz, then the loops closed by the dependent coordinates alone): its chart in ``ind``."""
+        import pinocchio as pin
+
+        _, N0 = self.independent(q0, ind)
+        q = pin.integrate(self._system.model, q0, N0 @ dz)
+        return q if self._loops is None else self._loops.close(q, self.dependent(ind))
+
+    def reference_acceleration(self, ws, q, v, t: float, ind) -> np.ndarray:
+        """Accelerations (nv) of the reference motion whose independent coordinates do not accelerate: the
+        drives' laws' a_d at t on the driven rows, zero on the other held ones and on ``ind``, and what keeps the
+        loops closed (Φ_q a + γ = 0) on the dependent ones."""
+        a = np.zeros(self._system.nv)
+        if self._drives is not None:
+            a[self._drives.index] = self._drives.values(t)[2]
+        if self._loops is not None and np.any(v):
+            c = self._loops
+            a += c.dependent_solution(c.jacobian(q), -c.bias(q, v), self.dependent(ind))
+        return a
+
+    def accelerations(self, ws, q, v, t: float) -> np.ndarray:
+        """dv/dt of the held motion: a_d from the laws, the free rows from the equations of motion (drives;
+        held speeds are not accelerated); unchecked (see :meth:`Drives.accelerations`)."""
+        if self._drives is None and not self.held_speeds:
+            return dynamics.accelerations(self._system, ws, q, v, t).copy()
+        if self._drives is not None and not self.held_speeds:
+            return self._drives.accelerations(self._system, ws, q, v, t)
+        f = self.free
+        a = np.zeros(self._system.nv)
+        if self._drives is not None:
+            a[self._drives.index] = self._drives.values(t)[2]
+        h = dynamics.inverse_dynamics(self._system, ws, q, v, a, t)
+        if f.size:
+            M = dynamics.mass_matrix(self._system.model, ws.data, q)
+            a[f] = np.linalg.solve(M[np.ix_(f, f)], -h[f])
+        return a
+
+    # ------------------------------------------------------------------ forces of the reduction
+    def multipliers(self, q, r) -> np.ndarray:
+        """λ: the loop forces (minimum norm, Φ_qᵀλ = r on the loops' rows) balancing the residual r (nv); empty
+        without loops."""
+        if self._loops is None:
+            return np.zeros(0)
+        return self._loops.multipliers(self._loops.jacobian(q), r)
+
+    def constraint_force(self, lam):
+        """q ↦ Φ_q(q)ᵀ λ (nv): the loops' generalized forces at fixed λ (None without loops)."""
+        if self._loops is None:
+            return None
+        c = self._loops
+        return lambda q: c.jacobian(q).T @ lam
+
+    def split(self, lam) -> dict:
+        """{loop name: its part of λ}."""
+        return {} if self._loops is None else self._loops.split(lam)
+
+    def held_forces(self, tau) -> dict[str, float]:
+        """{drive name, or coordinate held at a speed: the entry of ``tau`` (nv, N or N·m) there}: the force
+        each holder exerts along its coordinate, from the inverse dynamics τ = M a + b + g − Q."""
+        out = {} if self._drives is None else self._drives.of(tau)
+        out.update({self._system.coordinates[i]: float(tau[i]) for i in self.held_speeds})
+        return out
+
+    def refuse(self, name: str, independent) -> ModelError:
+        """The error for a coordinate ``name`` that is not one of ``independent`` (names) of a reduced model."""
+        system = self._system
+        if name in system.coordinates:
+            i = system.coordinate_index(name)
+            if self._drives is not None and i in self._drives.index:
+                k = list(self._drives.index).index(i)
+                return ModelError(f"coordinate '{name}' is driven (drive '{self._drives.names[k]}' prescribes it): "
+                                  f"it is no coordinate of the linear model (free: {', '.join(independent)})")
+            if i in self.held_speeds:
+                return ModelError(f"coordinate '{name}' is held at its speed: it is no coordinate of the linear model "
+                                  f"(free: {', '.join(independent)})")
+            return ModelError(f"coordinate '{name}' is not an independent motion of the mechanism (its loops fix "
+                              f"it; independent: {', '.join(independent)}): give a body point "
+                              "(body, (x, y, z), (dx, dy, dz)) instead")
+        return ModelError(f"unknown coordinate '{name}' (independent coordinates: {', '.join(independent)})")
+
+
+def compile_reduction(system) -> Reduction:
+    """The system's own reduction (its drives and loops; nothing held at a speed)."""
+    return Reduction(system, system.constraints, system.drives)
+
