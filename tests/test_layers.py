@@ -321,3 +321,43 @@ def test_no_methods_set_onto_classes(name):
 def test_the_setattr_checker_sees_one():
     assert class_setattrs("class A:\n    pass\nsetattr(A, 'f', len)") == [3]
     assert class_setattrs("setattr(obj, 'direction', 1)") == []
+
+
+# Modules that may read a system's loops and drives themselves: the model (which compiles them into its one
+# reduction, vibdyn.model.reduction) and the time layer's integrators (which step the loops' projection and
+# the drives' laws). Faces may still draw loops. Every analysis, study and the rest of the time layer ask the
+# reduction (system.reduction) instead.
+REDUCTION_READERS = ("vibdyn.model", "vibdyn.simulation.integrators", "vibdyn.faces", "vibdyn.description",
+                     "vibdyn.io")
+
+
+def reads_of_loops_or_drives(source):
+    """Lines that read an attribute ``constraints``, ``drives`` or ``has_loops`` (``x.drives``, ``getattr(x,
+    "drives", ...)``)."""
+    tree = ast.parse(source)
+    names = {"constraints", "drives", "has_loops"}
+    return sorted({n.lineno for n in ast.walk(tree)
+                   if (isinstance(n, ast.Attribute) and n.attr in names)
+                   or (isinstance(n, ast.Call) and getattr(n.func, "id", None) in ("getattr", "hasattr")
+                       and len(n.args) > 1 and isinstance(n.args[1], ast.Constant) and n.args[1].value in names)})
+
+
+@pytest.mark.parametrize("name", sorted(n for n in MODULES if not n.startswith(REDUCTION_READERS)))
+def test_analyses_ask_the_reduction_not_the_loops_or_drives(name):
+    assert not reads_of_loops_or_drives(MODULES[name].read_text()), name
+
+
+def forwarding_classes(source):
+    """Classes that define ``__getattr__`` (forwarding every attribute they lack to another object)."""
+    return [n.name for n in ast.walk(ast.parse(source)) if isinstance(n, ast.ClassDef)
+            and any(isinstance(f, ast.FunctionDef) and f.name == "__getattr__" for f in n.body)]
+
+
+@pytest.mark.parametrize("name", sorted(n for n in MODULES if n.startswith(("vibdyn.analysis", "vibdyn.studies"))))
+def test_no_analysis_class_forwards_by_getattr(name):
+    assert not forwarding_classes(MODULES[name].read_text()), name
+
+
+def test_the_reduction_checkers_see_one():
+    assert reads_of_loops_or_drives("a = system.drives\nb = getattr(s, 'constraints', None)\nc = s.reduction") == [1, 2]
+    assert forwarding_classes("class V:\n    def __getattr__(self, n):\n        return 1\n") == ["V"]

@@ -114,9 +114,9 @@ def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX
     loops: :func:`vibdyn.analysis.constrained.equilibrium` (q0 need not close them). A scene with drives:
     the free coordinates' equilibrium with the driven ones held at their laws' position and speed at t
     (:func:`driven_start`; a moving drive makes it a steady motion)."""
-    if system.drives is not None:
+    if system.reduction.time_laws:
         return _solve(system, *driven_start(system, "equilibrium", q0, t, {}), tol, max_iter)
-    if system.constraints is not None:
+    if system.reduction.curved:
         from .constrained import equilibrium
 
         return equilibrium(system, q0, t, tol, max_iter)
@@ -140,7 +140,7 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
     Example (a rotor driven by τ = 10 − ω² carrying a sprung slider): ``steady_motion({"rotor": None})``.
     With drives, the driven coordinates move at their laws' speeds at t (:func:`driven_start`).
     """
-    if system.constraints is not None:  # a mechanism with loops: speeds given (constrained.steady_motion)
+    if system.reduction.curved:  # a mechanism with loops: speeds given (constrained.steady_motion)
         from .constrained import steady_motion as constrained_steady_motion
 
         return constrained_steady_motion(system, v_cyclic, q0, t, tol, max_iter)
@@ -150,7 +150,7 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
     for name, speed in v_cyclic.items():
         i = system.coordinate_index(name)
         cyclic[i] = None if speed is None else scalar(speed, f"steady_motion: speed of '{name}'")
-    if system.drives is not None:
+    if system.reduction.time_laws:
         return _solve(system, *driven_start(system, "steady_motion", q0, t, cyclic), tol, max_iter, guess)
     return _solve(system, q0, t, cyclic, tol, max_iter, guess)
 
@@ -177,9 +177,9 @@ def held(system, q=None, v=None, t=0.0):
     drives could not all act). Linearised with a = 0, its K is
     ∂(g − Q)/∂q at q: the drives are taken as constant forces (no stiffness of their own)."""
     _refuse_drives(system, "held")
-    if system.constraints is not None:
-        raise ModelError("held: not available for a mechanism with closed loops (loops: "
-                         f"{', '.join(lp.name for lp in system.constraints.loops)}); use equilibrium()")
+    if system.reduction.curved:
+        raise ModelError(f"held: not available for a mechanism with closed loops ({system.reduction.describe()}); "
+                         "use equilibrium()")
     start = time.perf_counter()
     q = system.neutral() if q is None else system.check_configuration(np.array(q, dtype=float), "held q").copy()
     v = np.zeros(system.nv) if v is None else system.check_velocity(np.array(v, dtype=float), "held v").copy()
@@ -200,7 +200,7 @@ def operating_point(system: System, tol: float = EQUILIBRIUM_TOL, max_iter: int 
     coordinates, else the static equilibrium nearest its start (neutral by default)."""
     op = system.scene.operating_point or {}
     # (a mechanism with loops starts from the declared start itself, and names it if it cannot close)
-    q0 = system.start_configuration()[0] if op.get("start") is not None and system.constraints is None else None
+    q0 = system.start_configuration()[0] if op.get("start") is not None and not system.reduction.curved else None
     if op.get("held"):
         return held(system, q0)
     if op.get("cyclic"):
@@ -210,8 +210,8 @@ def operating_point(system: System, tol: float = EQUILIBRIUM_TOL, max_iter: int 
 
 def _refuse_drives(system, what):
     """A ModelError for a scene with drives (rheonomic joints): not supported here yet."""
-    if getattr(system, "drives", None) is not None:
-        raise ModelError(f"{what}: scene '{system.name}' has drives ({', '.join(system.drives.names)}) whose "
+    if system.reduction.time_laws:
+        raise ModelError(f"{what}: scene '{system.name}' has drives ({', '.join(system.reduction.driven_names)}) whose "
                          "coordinates move with time: not supported yet; linearise it about a state of its motion "
                          "(system.linearize(q, v=v, t=t), free coordinates) or simulate it")
 
@@ -221,19 +221,19 @@ def driven_start(system, what, q0, t, cyclic):
     laws' position (in q0) and speed (given cyclic speeds) at t, the free ones searched for. The laws must
     not accelerate there (|a_d| ≤ 1e-10 per s² × 1 rad or the length scale): a drive at rest or in uniform
     motion (a crank at constant speed), else there is no equilibrium and a ModelError says so."""
-    drives, t = system.drives, system.check_time(t)
-    qd, vd, ad = drives.values(t)
-    scale = system.coordinate_scales[drives.index]
+    R, t = system.reduction, system.check_time(t)
+    qd, vd, ad = R.law_values(t)
+    scale = system.coordinate_scales[R.driven]
     for k in np.flatnonzero(np.abs(ad) > 1e-10 * scale):
-        raise ModelError(f"{what}: drive '{drives.names[k]}' accelerates at t = {t:g} s (a = {ad[k]:.6g} "
-                         f"{drives.units[k]}/s²): the free coordinates have no equilibrium while it does; "
+        raise ModelError(f"{what}: drive '{R.driven_names[k]}' accelerates at t = {t:g} s (a = {ad[k]:.6g} "
+                         f"{R.driven_units[k]}/s²): the free coordinates have no equilibrium while it does; "
                          "linearise about a state of the motion (system.linearize(q, v=v, t=t)) or simulate it")
     for i in cyclic:
-        if i in drives.index:
+        if i in R.driven:
             raise ModelError(f"{what}: coordinate '{system.coordinates[i]}' is driven: its speed is its drive's")
     q = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
-    q[drives.q_index] = qd
-    return q, t, {**cyclic, **{int(i): float(s) for i, s in zip(drives.index, vd)}}
+    q[R.driven_q] = qd
+    return q, t, {**cyclic, **{int(i): float(s) for i, s in zip(R.driven, vd)}}
 
 
 def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
@@ -339,7 +339,7 @@ def _finish(system, q, v, t, regime, residual, tolerance, iterations, ignore_zer
     m = lin.modes()
     stability = m.verdict(ignore_zeros=ignore_zeros)
     Kinv, M = np.linalg.pinv(lin.K, rcond=1e-10), lin.M
-    if system.drives is not None:  # the free coordinates' model: the driven offsets are their laws', exact
+    if not system.reduction.is_identity:  # the free coordinates' model: the driven offsets are their laws', exact
         Kinv, M = lin.basis @ Kinv @ lin.basis.T, lin.tree.M
     q_error = np.abs(Kinv) @ np.full(nv, residual) if nv else np.zeros(0)
     if iterations:  # the offsets carry the round-off of the steps that reached them

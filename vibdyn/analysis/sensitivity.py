@@ -173,7 +173,7 @@ class _Pipeline:
 def _regime(system, lin):
     """How the base linear model's point is found again: "steady" (held speeds), "held", "static" or "pose"."""
     op = system.scene.operating_point or {}
-    if system.drives is not None:  # a driven scene: its declared operating point (the drives' motion)
+    if system.reduction.time_laws:  # a driven scene: its declared operating point (the drives' motion)
         return "declared", {}
     if op.get("held"):
         return "held", {}
@@ -444,7 +444,7 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
     from ..model.derivatives import untrusted
 
     # (the element path takes Pinocchio's joint velocity derivatives, wrong for some joint types: not there)
-    if system.constraints is None and system.drives is None and regime in ("static", "pose", "held") \
+    if system.reduction.is_identity and regime in ("static", "pose", "held") \
             and not untrusted(system)[0].size:
         # a tree about a point it holds or finds again: the analytic model is the base, and a parameter a force
         # is proportional to (a stiffness, a damping) is differentiated on its element alone, no rebuild

@@ -96,7 +96,7 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
     integrated; the driven entries of q0 and v0 are replaced by the laws' values at t0 and those of every
     output are the laws' (to round-off); ``traj.drive_work`` is the drives' work W_d (J) and ``traj.work``
     includes it (the energy balance closes with it); ``state_transition`` is 2nf × 2nf over the free coordinates, ordered (δq_f, δv_f) as
-    ``system.drives.free``.
+    ``system.reduction.free``.
 
     Returns a :class:`Trajectory`; Ctrl-C returns the motion so far with status "interrupted". Bad input is
     a :class:`ModelError`; a run that cannot go on (step-size underflow, non-finite state, an element that
@@ -155,10 +155,9 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
 
 def _singular_note(system, traj):
     """Why a mechanism's run can stop at a singular position of its loops ('' if it is not at one)."""
-    c = getattr(system, "constraints", None)
-    if c is None or not len(traj.t):
+    if not system.reduction.curved or not len(traj.t):
         return ""
-    cond = c.conditioning(traj.q[-1])
+    cond = system.reduction.conditioning(traj.q[-1])
     if cond > SINGULAR_NOTE:
         return ""
     return (f"; the loops are at a singular position there (σ_min/σ_max of their Jacobian {cond:.1e}): the "
@@ -201,7 +200,7 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
         raise ModelError(f"{what}: unknown method {method!r} (use one of {', '.join(METHODS)})")
     method = stepper.name
     variational = bool(variational)
-    if variational and system.constraints is not None:
+    if variational and system.reduction.curved:
         raise ModelError(f"{what}: variational equations: not available for a mechanism with closed loops (the "
                          "projection onto the loops has no variational counterpart here)")
     if variational and not stepper.supports_variational:
@@ -217,25 +216,24 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
                              f"{', '.join(m for m, c in METHODS.items() if c.supports_events)})")
     if hasattr(q0, "q") and hasattr(q0, "v"):  # an equilibrium or a steady motion
         q0, v0 = q0.q, q0.v if v0 is None else v0
-    if system.constraints is not None and not stepper.supports_loops:
+    if system.reduction.curved and not stepper.supports_loops:
         raise ModelError(f"{what}: method '{method}' does not handle closed loops; use "
                          f"{', '.join(m for m, c in METHODS.items() if c.supports_loops)} (projected onto the loops)")
     given = q0 is not None
-    q0, start = system.start_configuration() if q0 is None and system.constraints is not None else (
+    q0, start = system.start_configuration() if q0 is None and system.reduction.curved else (
         system.neutral() if q0 is None else system.check_configuration(q0, f"{what}: q0"), "q0")
     turns = turns_hint(system, q0) if given else ""
     if turns:  # a start may wind a pendulum many turns, but it is more often degrees given for radians
         warnings.warn(f"{what}: q0: {turns}", stacklevel=4)
     v0 = np.zeros(system.nv) if v0 is None else system.check_velocity(v0, f"{what}: v0")
-    if system.drives is not None:  # the driven entries of q0 and v0 are the laws' at t0
+    if system.reduction.time_laws:  # the driven entries of q0 and v0 are the laws' at t0
         if not stepper.supports_drives:
             raise ModelError(f"{what}: method '{method}' does not integrate a scene with drives (use "
                              f"{', '.join(m for m, c in METHODS.items() if c.supports_drives)})")
-        q0, v0 = system.drives.impose(q0, v0, t0)
-    if system.constraints is not None:  # the run starts on the loops: its energies and errors are of that state
-        c = system.constraints
-        q0 = c.assemble(q0, start=start)
-        q0, v0 = c.project(q0, v0, system.mass_matrix(q0))
+        q0, v0 = system.reduction.impose(q0, v0, t0)
+    if system.reduction.curved:  # the run starts on the loops: its energies and errors are of that state
+        q0 = system.reduction.close(q0, start=start)
+        q0, v0 = system.reduction.project(q0, v0, system.mass_matrix(q0))
     system.check_mass_matrix(q0, "the initial configuration q0")
     rtol = scalar(rtol, f"{what}: rtol")
     if not MIN_RTOL <= rtol < 1.0:
@@ -278,7 +276,7 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
     max_step = np.inf if max_step is None else scalar(max_step, f"{what}: max_step (s)", positive=True)
     if progress not in (None, True, False):
         raise ModelError(f"{what}: progress must be None, True or False, got {progress!r}")
-    work = bool(system.supports or system.drives) or any(type(g).potential is ForceGroup.potential or g.time_dependent
+    work = bool(system.supports) or system.reduction.time_laws or any(type(g).potential is ForceGroup.potential or g.time_dependent
                                          for g in system.force_groups)
     return _Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work, t0,
                      events, variational)

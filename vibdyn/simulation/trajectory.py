@@ -141,8 +141,8 @@ class Trajectory(TimeResult):
     @property
     def constraint_residual(self) -> np.ndarray:
         """Largest |Φ| of the loops at each output (m for positions, rad for orientations; zeros for a
-        tree): how well the motion keeps the loops closed (see :mod:`vibdyn.analysis.constrained`)."""
-        if getattr(self.system, "constraints", None) is None:
+        tree): how well the motion keeps the loops closed (see :mod:`vibdyn.model.reduction`)."""
+        if not self.system.reduction.curved:
             return np.zeros(len(self.t))
         return np.array([np.abs(self.system.constraint_residual(q)).max(initial=0.0) for q in self.q])
 

@@ -284,11 +284,11 @@ def _bad_coordinate(coordinate, what):
 
 def _conservative_part(system, what):
     """(the scene without dampers and velocity-dependent forces, rebuilt if anything was dropped; the note)."""
-    if system.has_loops:
+    if system.reduction.curved:
         raise ModelError(f"{what}: not available for a mechanism with closed loops")
     if system.nv == 0:
         raise ModelError(f"{what}: the scene has no coordinates: nothing oscillates")
-    if getattr(system, "drives", None) is not None or system.supports:
+    if system.reduction.time_laws or system.supports:
         raise ModelError(f"{what}: the scene has drives or moving supports: a backbone needs an autonomous scene")
     timed = [type(g).__name__ for g in system.force_groups if g.time_dependent]
     if timed:

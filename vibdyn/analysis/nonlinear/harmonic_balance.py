@@ -275,9 +275,9 @@ def _bad_coordinate(coordinate):
 
 def _check_system(system):
     what = "forced_response_curve"
-    if system.has_loops:
+    if system.reduction.curved:
         raise ModelError(f"{what}: scenes with closed loops are not handled by harmonic balance yet")
-    if getattr(system, "drives", None) is not None:
+    if system.reduction.time_laws:
         raise ModelError(f"{what}: scenes with drives are not handled by harmonic balance yet")
     timed = [type(g).__name__ for g in system.force_groups if getattr(g, "time_dependent", False)]
     if timed:

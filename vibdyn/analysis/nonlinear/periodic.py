@@ -209,7 +209,7 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
     """
     start = time.perf_counter()
     what = "periodic_orbit"
-    if system.constraints is not None:
+    if system.reduction.curved:
         raise ModelError(f"{what}: not available for a mechanism with closed loops (the simulation gives no "
                          "variational equations there)")
     if system.nv == 0:

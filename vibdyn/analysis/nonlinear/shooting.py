@@ -69,8 +69,7 @@ def damping_only(system) -> np.ndarray | None:
 
 def free_indices(system) -> np.ndarray:
     """Indices in v of the free coordinates (all but the driven ones)."""
-    drives = getattr(system, "drives", None)
-    return np.arange(system.nv) if drives is None else np.asarray(drives.free, dtype=int)
+    return np.asarray(system.reduction.free, dtype=int)
 
 
 def turning_indices(system, free) -> np.ndarray:
@@ -99,7 +98,7 @@ class Shooting:
         self.system, self.model, self.t0, self.m = system, system.model, float(t0), int(segments)
         self.period, self.free_period, self.rtol = float(period), bool(free_period), float(rtol)
         self.max_step = float(max_step)
-        self.drives = getattr(system, "drives", None)
+        self.reduction = system.reduction
         self.free = free_indices(system)
         self.free2 = np.concatenate([self.free, self.free + system.nv])
         n = self.n = self.free.size
@@ -128,10 +127,9 @@ class Shooting:
     @staticmethod
     def impose(system, nodes, t0, T):
         """Nodes [(q, v)] with their driven coordinates set to the drives' values at t0 + i·T/m."""
-        drives = getattr(system, "drives", None)
-        if drives is None:
+        if system.reduction.is_identity:
             return list(nodes)
-        return [drives.impose(q, v, t0 + i * T / len(nodes)) for i, (q, v) in enumerate(nodes)]
+        return [system.reduction.impose(q, v, t0 + i * T / len(nodes)) for i, (q, v) in enumerate(nodes)]
 
     def time(self, i, T):
         """Time (s) of node i."""
@@ -160,8 +158,8 @@ class Shooting:
             dq[self.free] = d[:n]
             q1, v1 = pin.integrate(self.model, q, dq), np.array(v, dtype=float)
             v1[self.free] += d[n:]
-            if self.drives is not None:
-                q1, v1 = self.drives.impose(q1, v1, self.time(i, T))
+            if not self.reduction.is_identity:
+                q1, v1 = self.reduction.impose(q1, v1, self.time(i, T))
             out.append((q1, v1))
         return self.pack(out, T)
 
