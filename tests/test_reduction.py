@@ -1,0 +1,97 @@
+"""The one reduction of coordinates (vibdyn.model.reduction): the identity for a tree, a free subset for held
+coordinates (drives, held speeds), the loops' null space N(q), their composition; and the linear models made
+through it against the tree's own (rows and columns of the free coordinates, Φ_q N = 0)."""
+
+import math
+
+import numpy as np
+import pytest
+from conftest import MODELS
+
+import vibdyn as vd
+
+
+def rotor_with_slider():
+    """A hub spinning about z carrying a sprung radial slider (a tree: the spin is held only when asked)."""
+    s = vd.Scene("hub_slider")
+    s.add_body("hub", joint=vd.Pivot(axis=(0, 0, 1)), mass=1.0, inertia=np.diag([0.3, 0.3, 0.5]))
+    s.add_body("slider", parent="hub", joint=vd.Slider(axis=(1, 0, 0), at=(0.4, 0, 0)), mass=2.0,
+               inertia=vd.inertia.point())
+    s.add_joint_spring("slider", 200.0)
+    return s.build()
+
+
+def test_a_tree_reduces_by_the_identity():
+    system = rotor_with_slider()
+    R = system.reduction
+    assert R.kind == "tree" and R.is_identity and not R.curved and not R.time_laws
+    q, v = system.neutral(), np.array([1.0, 0.2])
+    ind, N = R.independent(q)
+    assert ind.tolist() == [0, 1] and np.array_equal(N, np.eye(2))
+    q1, v1 = R.impose(q, v, 0.0)
+    assert np.array_equal(q1, q) and np.array_equal(v1, v)
+    assert R.closure(q) == 0.0 and R.multipliers(q, np.ones(2)).size == 0
+
+
+def test_holding_a_speed_is_a_free_subset_and_its_linear_model_the_free_block():
+    """N constant (columns of the identity): the held model is the tree model's free rows and columns, exactly
+    (same operating point, same differences), and the held coordinate is no coordinate of it."""
+    system = rotor_with_slider()
+    op = system.steady_motion({"hub": 3.0})
+    R = system.reduction.holding({0: 3.0})
+    assert R.kind == "held" and R.held.tolist() == [0] and R.free.tolist() == [1] and R.held_names == ("hub",)
+    assert R.impose(op.q, np.zeros(2), 0.0)[1].tolist() == [3.0, 0.0]
+    free = op.linearize(method="analytic")
+    held = op.linearize(method="analytic", hold="hub")
+    assert held.coordinates == ("slider",) and held.units == ("m",) and held.nv == 1
+    for name in ("M", "C", "K"):
+        assert np.array_equal(getattr(held, name), getattr(free, name)[1:, 1:])
+    # in the rotating frame m(ẍ − Ω² x) = −k x: ω² = k/m − Ω² (the held hub absorbs the Coriolis torque)
+    omega = held.modes().omega[0]
+    assert omega == pytest.approx(np.sqrt(200.0 / 2.0 - 9.0), abs=10 * held.modes().omega_error[0] * omega + 1e-12)
+    assert set(held.drive) == {"hub"}  # the torque that holds the speed (N·m)
+    with pytest.raises(vd.ModelError, match="held at its speed"):
+        held.coordinate_index("hub")
+    with pytest.raises(vd.ModelError, match="unknown coordinate"):
+        held.coordinate_index("nope")
+
+
+def test_a_driven_scene_reduces_to_its_free_coordinates():
+    system = vd.load_scene(MODELS / "shaken_pendulum.toml").build()
+    R = system.reduction
+    assert R.kind == "held" and R.time_laws and R.driven.size == len(R.driven_names) >= 1
+    assert R.free.size + R.held.size == system.nv
+    q, v = R.impose(system.neutral(), np.zeros(system.nv), 0.3)
+    qd, vd_, _ = R.law_values(0.3)
+    assert np.array_equal(q[R.driven_q], qd) and np.array_equal(v[R.driven], vd_)
+    with pytest.raises(vd.ModelError, match="driven"):
+        R.holding({int(R.driven[0]): 1.0})
+
+
+def test_loops_reduce_by_their_null_space_and_compose_with_a_held_spin():
+    from test_mechanisms import L, hand_reduction, spun_trammel  # (the trammel on a turntable)
+
+    k = hand_reduction(0.7, 3.0)[0]
+    system = spun_trammel(k).build()
+    q0 = system.configuration({"A": 2 * L * math.sin(0.7), "disk": 0.7, "B": 2 * L * math.cos(0.7)})
+    R = system.reduction
+    assert R.kind == "loops" and R.curved
+    q = R.close(q0)
+    assert R.closure(q) < 1e-12
+    ind, N = R.independent(q)
+    J = system.constraint_jacobian(q)
+    assert np.abs(J @ N).max() < 1e-12 * np.abs(J).max() * np.abs(N).max()
+    assert np.array_equal(N[ind], np.eye(ind.size))
+    rotor = system.coordinate_index("rotor")
+    assert rotor in ind
+    both = R.holding({rotor: 3.0})
+    assert both.kind == "loops, held"
+    ind2, N2 = both.independent(q)
+    assert rotor not in ind2 and ind2.size == ind.size - 1
+    assert np.all(N2[rotor] == 0.0) and np.abs(J @ N2).max() < 1e-12 * np.abs(J).max() * np.abs(N2).max()
+
+
+def test_every_held_coordinate_leaves_nothing_to_vibrate():
+    system = rotor_with_slider()
+    with pytest.raises(vd.ModelError, match="nothing is free to vibrate"):
+        system.linearize(system.neutral(), hold=["hub", "slider"])
