@@ -197,19 +197,7 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
     K_size = None if not with_terms else np.zeros(K.shape) if system.point_groups else 0.0
     if system.point_groups:
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t, shift)
-        for g in system.point_groups:
-            g.derivatives(d)
-        for j in system.point_joints:
-            K -= d.J[j].T @ d.dFq[j]
-            C -= d.J[j].T @ d.dFv[j]
-            if with_terms:
-                K_size += np.abs(d.J[j].T) @ d.dFq_abs[j]
-    for g in system.joint_groups:
-        dq, dv = g.derivatives(d)
-        if dq is not None:
-            K -= dq
-        if dv is not None:
-            C -= dv
+    subtract_group_derivatives(system, d, system.point_groups, system.joint_groups, K, C, K_size)
     if differenced:
         in_q = untrusted_columns(system, ws, q, v, a, t, shift, K, None, None, with_terms)
         if with_terms:
@@ -342,23 +330,35 @@ def element_terms(system, groups, q, v, t):
     ws = system.workspace()
     d = Derivatives(system, ws, q, v, np.zeros(nv), t, any(g.needs_velocity_derivatives for g in point),
                     points=bool(point))
+    joint = [g for g in groups if not g.uses_points]
     if point:
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t)
         F = np.zeros((system.model.njoints, 6))
         for g in point:
             g.apply(t, q, v, d.fkin, Q, F)
-            g.derivatives(d)
         for j in system.point_joints:
             Q += d.J[j].T @ F[j]
+    for g in joint:
+        g.apply(t, q, v, None, Q, None)
+    subtract_group_derivatives(system, d, point, joint, K, C)
+    return Q, K, C
+
+
+def subtract_group_derivatives(system, d, point, joint, K, C, K_size=None):
+    """K −= ∂Q/∂q and C −= ∂Q/∂v of the force groups ``point`` (point elements: their world forces'
+    derivatives through the joints' Jacobians, d.fkin set) and ``joint`` (joint-space elements), in place;
+    ``K_size`` (an array): also Σ |Jᵀ| |∂F/∂q|, the point terms' magnitudes (for the round-off estimate)."""
+    for g in point:
+        g.derivatives(d)
+    if point:
+        for j in system.point_joints:
             K -= d.J[j].T @ d.dFq[j]
             C -= d.J[j].T @ d.dFv[j]
-    for g in groups:
-        if g.uses_points:
-            continue
-        g.apply(t, q, v, None, Q, None)
+            if K_size is not None and not np.isscalar(K_size):
+                K_size += np.abs(d.J[j].T) @ d.dFq_abs[j]
+    for g in joint:
         dq, dv = g.derivatives(d)
         if dq is not None:
             K -= dq
         if dv is not None:
             C -= dv
-    return Q, K, C
