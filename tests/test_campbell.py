@@ -116,6 +116,17 @@ def test_campbell_cli_table_json_and_png(tmp_path):
         assert main(["campbell", "gimbal_rotor", "--spin", "rotor", "--speeds", "0,40,80", "--json"]) == 0
     data = json.loads(out.getvalue(), parse_constant=lambda s: pytest.fail(f"non-JSON constant {s}"))
     assert data["critical_speeds"][0]["speed_rad_s"] == pytest.approx(np.sqrt(K / (IT + IP)), rel=1e-8)
+    assert data["spin_held"] is True and len(data["critical_speeds"]) == 1
+
+
+def test_campbell_cli_says_whether_the_spin_is_held():
+    for extra, words, modes in (([], "'rotor' held at each speed by its drive", 2),
+                                (["--free-spin"], "'rotor' free at each steady motion", 3)):
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            assert main(["campbell", "gimbal_rotor", "--spin", "rotor", "--speeds", "0,40,80"] + extra) == 0
+        text = out.getvalue()
+        assert words in text and f"{modes} modes tracked" in text
 
 
 @pytest.mark.parametrize("argv, words", [

@@ -22,6 +22,12 @@ def speed_list(text):
                          f"'{text}'") from None
 
 
+def spin_state(c) -> str:
+    """How the diagram treats its spin, in words."""
+    return (f"'{c.spin}' held at each speed by its drive (not a coordinate of the modes)" if c.held else
+            f"'{c.spin}' free at each steady motion (its own coordinate, a cyclic zero among the modes)")
+
+
 def command(system, args, out=None):
     """``vibdyn campbell``: the diagram as a table (Hz, whirl) and its critical speeds, or JSON."""
     from ..analysis.campbell_diagram import campbell
@@ -31,7 +37,8 @@ def command(system, args, out=None):
         orders = tuple(float(x) for x in args.orders.split(","))
     except ValueError:
         raise ModelError(f"--orders: expected numbers separated by commas, got '{args.orders}'") from None
-    c = campbell(system, args.spin, speed_list(args.speeds), orders, method=args.method)
+    held = False if getattr(args, "free_spin", False) else None
+    c = campbell(system, args.spin, speed_list(args.speeds), orders, method=args.method, held=held)
     from .nonlinear_command import write_files  # the picture after the table: a failure to write it keeps the table
 
     files = [(args.png, lambda: c.plot(args.png))]
@@ -43,7 +50,7 @@ def command(system, args, out=None):
         return c
     m = c.frequencies.shape[1]
     p(f"Campbell diagram of {system.name}: {len(c.speeds)} speeds of '{c.spin}', {m} modes tracked by MAC "
-      f"({c.method} linearisation, {c.elapsed:.2f} s)")
+      f"({c.method} linearisation, {c.elapsed:.2f} s); {spin_state(c)}")
     rows = [[number(s)] + [f"{number(f / (2 * np.pi), digits=6)} {w[:1]}".rstrip() for f, w in zip(fr, wh)]
             for s, fr, wh in zip(c.speeds, c.frequencies, c.whirl)]
     p("frequencies: damped f_d = ω_d/2π (Hz) of each tracked mode (the glossary's ω_d = |Im λ|)")

@@ -519,6 +519,9 @@ def _add_campbell(sub):
     cam.add_argument("--speeds", required=True, help="FROM:TO:N (N equally spaced speeds, rad/s) or a comma list")
     cam.add_argument("--orders", default="1", help="engine orders, comma separated (default 1)")
     cam.add_argument("--method", choices=("fd", "analytic"), default="analytic", help="linearisation method")
+    cam.add_argument("--free-spin", action="store_true",
+                     help="leave the spin free at each steady motion (default: held by its drive, unless a motor "
+                          "law on it depends on its speed)")
     cam.add_argument("--png", help="save the diagram to this PNG file")
     cam.add_argument("--json", action="store_true", help="print a JSON object instead of text")
 

@@ -193,7 +193,7 @@ def campbell(diagram, *, path=None, dpi=100):
     ax.set_xlim(w[0], w[-1])
     ax.set_xlabel(f"speed of {diagram.spin} (rad/s)")
     ax.set_ylabel("damped frequency f_d = ω_d/2π (Hz)")
-    ax.set_title(f"Campbell diagram: {diagram.system.name}")
+    ax.set_title(f"Campbell diagram: {diagram.system.name} ({diagram.spin} {'held' if diagram.held else 'free'})")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     return save(fig, path, dpi)
