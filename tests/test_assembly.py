@@ -181,3 +181,24 @@ def test_a_spatial_linkage_with_a_ball_joint_assembles_at_a_local_nearest_closur
             beside = system.assemble(system.integrate(a.q, sign * 1e-3 * v / np.linalg.norm(v / c.col_scale)))
             x = system.difference(neutral, beside) / c.col_scale
             assert np.linalg.norm(x) >= a.distance - 1e-12
+
+
+def test_assembly_keeps_to_the_joint_limits():
+    """The flat four-bar's two nearest closures are mirror images (crank ±θ*): with the crank limited to
+    θ ≤ 0 the assembly takes the lower one, with no tie; a rocker limited to ±0.1 rad, which no closure
+    reaches (the rocker stands near ±1.5 rad on both branches), is refused naming it and its limit."""
+    scene = described("four_bar")
+    free = scene.build().constraints.assembly()
+    scene.set_limits("crank", upper=0.0)
+    system = scene.build()
+    a = system.constraints.assembly()
+    x, x_free = system.difference(system.neutral(), a.q), free.offsets
+    assert x[0] < 0 and "mirror images" not in a.note
+    assert x == pytest.approx(-x_free, abs=1e-9)  # the mirror image of the unconstrained choice
+    scene = described("four_bar")
+    scene.set_limits("rocker", -0.1, 0.1)
+    system = scene.build()  # (refused where met: at the first analysis, not at build)
+    with pytest.raises(vd.ConvergenceError, match=r"only beyond the scene's position limits.*'rocker'.*limit 0\.1"):
+        system.constraints.assembly()
+    with pytest.raises(vd.ConvergenceError, match="position limits"):
+        system.operating_point()

@@ -7,6 +7,9 @@ of the loops nearest the neutral configuration (every joint at its zero, as the 
 2. Where that fails (a linkage laid flat is a stationary point of |Φ|²), restarts from perturbed poses:
    ±r along each coordinate for each r of :data:`RESTART_RADII`, then seeded random poses; the first round
    that closes the loops ends the search.
+   A closure beyond a coordinate's position limits (``Scene.set_limits``) does not count: the search goes on
+   to the next round, and if every closure found is beyond them the assembly is refused naming the first
+   coordinate and its limit.
 3. Each closure found is slid along the loops to the closure nearest q_d (steps towards q_d projected on
    the null space of Φ_q, each closed again); the nearest of them is taken. Ties (the mirror images of a
    symmetric description) go to the closure whose first differing coordinate is larger, and are noted.
@@ -126,13 +129,30 @@ def _nearest(c, qd, q):
     return q
 
 
+def _beyond(system, q):
+    """Why q is beyond the scene's position limits ('' within them)."""
+    try:
+        system.check_limits(q, "the closure")
+    except ModelError as e:
+        return str(e)
+    return ""
+
+
+def _within_limits(c, qd, q):
+    """The closure nearest qd reached from q (:func:`_nearest`), or q itself where that one is beyond the
+    limits."""
+    q1 = _nearest(c, qd, q)
+    return q if _beyond(c.system, q1) else q1
+
+
 def _closures(c, qd):
-    """(closures found, starts tried, (best open residual, its q)): least squares from the described pose,
-    then from each round of perturbed poses until one closes the loops."""
+    """(closures found within the limits, starts tried, (best open residual, its q), why the first closure
+    beyond the limits is): least squares from the described pose, then from each round of perturbed poses
+    until one closes the loops within the limits."""
     from scipy.optimize import least_squares
 
     at, fun, jac = _chart(c, qd)
-    found, tried, best = [], 0, (np.inf, qd)
+    found, tried, best, beyond = [], 0, (np.inf, qd), ""
     for starts in _rounds(c.system.nv):
         for x0 in starts:
             tried += 1
@@ -146,10 +166,13 @@ def _closures(c, qd):
                 best = (res, at(r.x))
             q = _close(c, at(r.x), qd) if res <= OPEN_TOL else None
             if q is not None:
-                found.append(q)
+                why = _beyond(c.system, q)
+                if not why:
+                    found.append(q)
+                beyond = beyond or why
         if found:
             break
-    return found, tried, best
+    return found, tried, best, beyond
 
 
 def _beside_ranks(c, q, qd):
@@ -211,7 +234,11 @@ def assemble_described(c):
     start = time.perf_counter()
     system = c.system
     qd = system.neutral()
-    found, tried, (res, q_open) = _closures(c, qd)
+    found, tried, (res, q_open), beyond = _closures(c, qd)
+    if not found and beyond:
+        raise ConvergenceError(f"assembly from the neutral configuration: the loops close only beyond the scene's "
+                               f"position limits ({tried} starts tried): {beyond}; widen the limits or declare a "
+                               "start (Scene.set_operating_point(start=...))", residual=0.0, best=None)
     if not found:
         phi = c.phi(q_open)
         i = int(np.argmax(np.abs(c.scaled_phi(phi))))
@@ -224,7 +251,7 @@ def assemble_described(c):
             "or declare a start near a closed configuration (Scene.set_operating_point(start=...))",
             residual=res, best=q_open)
     unique = []
-    for q in (_nearest(c, qd, q) for q in found):
+    for q in (_within_limits(c, qd, q) for q in found):
         x = _offsets(c, qd, q)
         if all(np.abs(x - y).max() > SAME for _, y, _ in unique):
             unique.append((float(np.linalg.norm(x)), x, q))
