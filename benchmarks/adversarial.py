@@ -75,7 +75,7 @@ CASES = {
         s = vd.Scene("s"); s.add_body("r", joint=vd.Pivot((0,0,1)), mass=1.0, inertia=np.eye(3))
         tr = s.build().simulate(1e-3, v0=[1e160]); ok = finite(tr.kinetic)'''),
     "mac nan": "x = vd.mac(np.array([[np.nan], [1.0]]))\nok = finite(x)",
-    "modes tolerance nan": "m = slider().build().linearize().modes(tolerance=float('nan'))\nok = False",
+    "modes tol nan": "m = slider().build().linearize().modes(tol=float('nan'))\nok = False",
     "equilibrium tol nan": "eq = pendulum().build().equilibrium(vd.Scene and pendulum().build().configuration([0.5]), tol=float('nan'))\nok = False",
     "q numeric strings": "pendulum().build().accelerations(['0.3'], [0]); ok = False",
     "q complex": "pendulum().build().accelerations([0.3 + 1j], [0]); ok = False",

@@ -188,7 +188,7 @@ def ms(x):
 def bench_targets(repeat):
     system = pendulum_chain(100).build()
     eq = system.equilibrium()
-    assert eq.residual <= eq.tolerance and np.abs(system.difference(system.neutral(), eq.q)).max() == 0.0
+    assert eq.residual <= eq.tol and np.abs(system.difference(system.neutral(), eq.q)).max() == 0.0
     out = {"n": 100, "equilibrium_residual": eq.residual, "repeat": repeat}
     res = {}
     for method in ("fd", "analytic"):
@@ -385,7 +385,7 @@ def _verdict(r):
 def _compare(system, at, ref_M=None, ref_K=None, ref_C=None, repeat=3):
     """FD and analytic linearise + modes at ``at``; errors against the exact (M, K[, C]) if given, else
     against the analytic model. ``actual``: with vibdyn's default modes; ``actual_no_rigid``: with the
-    rigid-mode cleaning off (``modes(tolerance=0)``), i.e. the numbers themselves."""
+    rigid-mode cleaning off (``modes(tol=0)``), i.e. the numbers themselves."""
     out, res = {}, {}
     for method in ("fd", "analytic"):
         (lin, m), times = timed(lambda: lin_modes(system, at, method), repeat)
@@ -404,7 +404,7 @@ def _compare(system, at, ref_M=None, ref_K=None, ref_C=None, repeat=3):
     ref_lam = state_eigenvalues(ref_M, ref_C, ref_K) if damped else None
     for method, (lin, m) in res.items():
         o = out[method]
-        raw = lin.modes(tolerance=0.0)
+        raw = lin.modes(tol=0.0)
         o["finite"] = bool(np.all(np.isfinite(m.omega)) and np.all(np.isfinite(m.eigenvalues)))
         o["K_actual"] = rel(lin.K, ref_K)
         o["M_actual"] = rel(lin.M, ref_M)

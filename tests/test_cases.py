@@ -117,7 +117,7 @@ def test_cli_modes_json(capsys):
     np.testing.assert_allclose(d["modes"]["omega_rad_s"], ref["omega"], rtol=RTOL)
     np.testing.assert_allclose(d["modes"]["frequency_hz"], np.array(ref["omega"]) / (2 * np.pi), rtol=RTOL)
     assert d["operating_point"]["stability"] == "stable"
-    assert 0 < d["linearization"]["error_estimate"] < 1e-6
+    assert 0 < d["linearization"]["relative_error"] < 1e-6
     assert main(["modes", str(MODELS / "rotor_slider.toml")]) == 0
     out = capsys.readouterr().out
     assert "steady equilibrium: stable" in out and "3.16227766" in out

@@ -36,7 +36,7 @@ def test_small_but_resolvable_mass_is_exact():
 @pytest.mark.parametrize("tol", [float("nan"), float("inf"), -1.0, "a"])
 def test_modes_tolerance_must_be_finite_positive(tol):
     with err("tolerance"):
-        spring_mass().build().linearize().modes(tolerance=tol)
+        spring_mass().build().linearize().modes(tol=tol)
 
 
 def carriage():

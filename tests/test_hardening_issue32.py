@@ -31,8 +31,8 @@ def test_receptance_peak_of_a_heavily_damped_oscillator_is_within_its_tolerance(
         f = scene.build().equilibrium().linearize().receptance(np.linspace(0.1, 10.0, 120))
         p = f.peaks()
         exact = wn * math.sqrt(1 - 2 * zeta**2)
-        assert abs(p.resonances[0] - exact) <= p.tolerance
-        assert p.tolerance < 1e-6 * wn
+        assert abs(p.resonances[0] - exact) <= p.omega_error
+        assert p.omega_error < 1e-6 * wn
 
 
 # ---------------------------------------------------------------------- absurd but finite inputs

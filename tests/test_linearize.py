@@ -53,7 +53,7 @@ def chain():
 def test_fd_equals_analytic_on_mixed_chain(chain, where):
     if where == "equilibrium":
         eq = chain.equilibrium()
-        assert eq.residual <= eq.tolerance
+        assert eq.residual <= eq.tol
         at, v = eq, None
     else:
         rng = np.random.default_rng(3)

@@ -47,7 +47,7 @@ def test_bundled_helical_is_held_by_the_torque_m_g_p(capsys):
     system = vd.load_scene(MODELS / "helical.toml").build()
     op = system.operating_point()
     assert op.regime == "held"
-    assert abs(op.drive["screw"] - 2.0 * G * 0.1) <= op.tolerance  # m g p, N·m
+    assert abs(op.drive["screw"] - 2.0 * G * 0.1) <= op.tol  # m g p, N·m
     m = op.linearize().modes()
     assert m.rigid.tolist() == [True]  # gravity's torque does not depend on the angle: K = 0
     code, out, _ = run(capsys, "modes", "helical")
@@ -154,7 +154,7 @@ def test_held_drive_torques_are_the_gravity_torques_of_rnea(seed):
     qp = robots.to_pin(system, q)
     g = pin.computeGeneralizedGravity(model, data, qp)
     drive = np.array([held.drive[c] for c in system.coordinates])
-    assert np.abs(drive - robots.from_pin(system, g)).max() <= held.tolerance
+    assert np.abs(drive - robots.from_pin(system, g)).max() <= held.tol
     # linearised with a = 0 and constant drives: K = ∂(g − Q)/∂q (Q: dampers only, zero at v = 0)
     lin = held.linearize()
     dg = pin.computeGeneralizedGravityDerivatives(model, data, qp)
@@ -170,7 +170,7 @@ def test_held_with_a_speed_reports_the_drives_and_the_speeds():
     held = system.held(v=v)
     r = system.inverse_dynamics(held.q, v, np.zeros(2))  # what must be added to move without acceleration
     assert held.speeds == {"rotor": 2.0}
-    assert np.abs(np.array(list(held.drive.values())) - r).max() <= held.tolerance
+    assert np.abs(np.array(list(held.drive.values())) - r).max() <= held.tol
 
 
 def test_limits_and_held_round_trip_through_scene_files(tmp_path):

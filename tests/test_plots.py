@@ -50,7 +50,7 @@ def test_cli_frf_json_with_point_channels(capsys):
     d = json.loads(capsys.readouterr().out)
     np.testing.assert_allclose(d["peaks"]["resonances_rad_s"], ref["peaks_alpha11"], rtol=1e-7)
     np.testing.assert_allclose(d["peaks"]["antiresonances_rad_s"], [ref["antiresonance_alpha11"]], rtol=1e-7)
-    assert d["units"] == "m/N" and len(d["omega_rad_s"]) == 80 and d["error_estimate"] < 1e-8
+    assert d["units"] == "m/N" and len(d["omega_rad_s"]) == 80 and d["relative_error"] < 1e-8
     assert d["inputs"] == ["m1(0,0,0)·(1,0,0)"] and d["elapsed_s"] > 0
 
 

@@ -220,7 +220,7 @@ def test_pictures_draw_closed_loops_that_meet_full_lengths_and_planar_scenes_fac
     # the four-bar: coupler and rocker reach their common pin (the loop closes in the picture)
     system = vd.load_scene(MODELS / "four_bar.toml").build()
     modes = system.operating_point().linearize().modes()
-    q0 = modes.linear.q0
+    q0 = modes.linear.q
     segs, _ = skeleton(system, q0)
     pin_a = system.point_position("coupler", (0.3, 0, 0), q0)
     ends = segs.reshape(-1, 3)

@@ -125,7 +125,7 @@ def test_R5_peaks_and_antiresonance_of_alpha11():
     p = f.peaks()
     np.testing.assert_allclose(p.resonances, ref["peaks_alpha11"], rtol=1e-7)
     np.testing.assert_allclose(p.antiresonances, [ref["antiresonance_alpha11"]], rtol=1e-7)
-    assert 0 < p.tolerance < 1e-6
+    assert 0 < p.omega_error < 1e-6
     for w in p.resonances:  # true local maxima of |α11|
         a = np.abs(f.evaluate([w * (1 - 1e-4), w, w * (1 + 1e-4)])[:, 0, 0])
         assert a[1] > a[0] and a[1] > a[2]

@@ -234,10 +234,10 @@ def _speed_modes(system, spin: str, speed: float, q0, method: str) -> SpeedModes
     m = lin.modes()
     n = lin.nv
     if m.eigenvalues.size:
-        lam, shapes, lam_err, zero = m.damped_eigenvalues, m.complex_shapes, m.eigenvalue_error, m.damped_zero
+        lam, shapes, lam_err, zero = m.damped_eigenvalues, m.complex_shapes, m.eigenvalue_relative_error, m.damped_zero
     else:  # undamped and not gyroscopic: real modes, λ = ±iω (or ±ω when unstable)
         lam = np.where(m.unstable, m.omega + 0j, 1j * m.omega)
-        shapes, lam_err, zero = m.shapes.astype(complex), m.omega_error, m.rigid
+        shapes, lam_err, zero = m.shapes.astype(complex), m.omega_relative_error, m.rigid
     # zeros are the modes' own verdict (within 10 × their uncertainty of 0): a cyclic coordinate's double
     # zero is a Jordan block, which round-off splits by ±√δ — its uncertainty says so —, while a slow
     # precession (2.5e-3 rad/s beside a spin of 1e6) is an imaginary pair with its own small error

@@ -13,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from .._check import scalar, turns_hint
+from .._deprecation import Renamed
 from ..defaults import EPS, EQUILIBRIUM_TOL, FD_STEP, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
@@ -211,16 +212,17 @@ class IndependentView:
 @dataclass(frozen=True, eq=False)
 class ReducedLinearModel(LinearModel):
     """Linear model of a mechanism with loops in its independent motions: M, C, K (dof × dof) are
-    NᵀM N, NᵀC N and Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N, N (``basis``, nv × dof) the motions that keep the loops closed,
+    NᵀM N, NᵀC N and Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N, N (``null_space``, nv × dof) the motions that keep the loops closed,
     whose rows at the ``independent`` tree coordinates are the identity: the model's coordinates are those
     tree coordinates (``system`` is the system seen in them, :class:`IndependentView`). ``tree`` is the
     nv × nv model (K with the constraint-force curvature). ``rank``: rank of Φ_q at q0. Inputs and outputs of
     responses are any tree coordinate (its row of N) and body points (any point: J N)."""
 
-    basis: np.ndarray | None = field(repr=False, default=None)
+    null_space: np.ndarray | None = field(repr=False, default=None)
     tree: LinearModel | None = field(repr=False, default=None)
     multipliers: np.ndarray | None = field(repr=False, default=None)
     rank: int = 0
+    basis = Renamed("null_space")
 
     @property
     def independent(self):
@@ -228,34 +230,34 @@ class ReducedLinearModel(LinearModel):
 
     def point_jacobian(self, points):
         """Displacements (m, world axes) of body points per independent coordinate (3·npoints × dof)."""
-        return self.tree.point_jacobian(points) @ self.basis
+        return self.tree.point_jacobian(points) @ self.null_space
 
     def coordinate_row(self, name):
         """(row of N, unit): the tree coordinate ``name`` (independent or not) per independent coordinate."""
         system = self.tree.system
         i = system.coordinate_index(name)
-        return self.basis[i].copy(), system.units[i]
+        return self.null_space[i].copy(), system.units[i]
 
     def joint_input(self, coordinates=None):
         """Reduced input Nᵀ B of generalized forces on the named tree coordinates (dof × m; None: the
         independent ones)."""
         names = self.coordinates if coordinates is None else coordinates
-        return self.basis.T @ self.tree.joint_input(names)
+        return self.null_space.T @ self.tree.joint_input(names)
 
     def support_input(self, name, step=FD_STEP):
         """(Nᵀ B_y, Nᵀ B_v): the tree's base-excitation inputs reduced (see :meth:`LinearModel.support_input`)."""
         By, Bv = self.tree.support_input(name, step)
-        return self.basis.T @ By, self.basis.T @ Bv
+        return self.null_space.T @ By, self.null_space.T @ Bv
 
     def relinearize(self, method):
         """The same operating point linearised again with ``method`` (the tree's part: "fd" or "analytic")."""
-        return type(self)(**{f.name: getattr(linearize(self.tree.system, self.q0, v=self.v0, t=self.t0, method=method,
+        return type(self)(**{f.name: getattr(linearize(self.tree.system, self.q, v=self.v, t=self.t, method=method,
                                                         multipliers=self.multipliers), f.name)
                              for f in fields(type(self))})
 
     def summary(self):
         return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, dof={self.nv}, rank {self.rank}, "
-                f"error ≈ {self.error:.1e}, {self.elapsed * 1e3:.2f} ms)")
+                f"relative error ≈ {self.relative_error:.1e}, {self.elapsed * 1e3:.2f} ms)")
 
 
 def _on_reduced(name):
@@ -282,7 +284,7 @@ class ConstrainedLinearModel(ReducedLinearModel):
     def modes(self, **kwargs):
         """Exactly dof modes, shapes in the tree's coordinates (see the class)."""
         m = _modes(self, **kwargs)
-        N = self.basis
+        N = self.null_space
         cs = m.complex_shapes
         return replace(m, linear=self.tree, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
 
@@ -355,7 +357,7 @@ def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_ST
         K_err, C_err = aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN
     rank = system.nv - ind.size
     return ConstrainedLinearModel(IndependentView(system, ind), q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err,
-                                  tree.method, time.perf_counter() - start, evaluations, basis=N, tree=tree,
+                                  tree.method, time.perf_counter() - start, evaluations, null_space=N, tree=tree,
                                   multipliers=lam, rank=rank)
 
 

@@ -41,7 +41,7 @@ class FreeView(IndependentView):
 
 @dataclass(frozen=True, eq=False)
 class DrivenLinearModel(ConstrainedLinearModel):
-    """Linear model of a scene with drives in its free coordinates (nf × nf M, C, K; ``basis`` the columns of
+    """Linear model of a scene with drives in its free coordinates (nf × nf M, C, K; ``null_space`` the columns of
     the identity at the free coordinates; ``tree`` the nv × nv model). ``drive``: {drive name: τ_d}, the force
     (N or N·m) each drive exerts at the operating point."""
 
@@ -49,15 +49,15 @@ class DrivenLinearModel(ConstrainedLinearModel):
     def drive(self) -> dict[str, float]:
         assert self.tree is not None  # (always set by linearize)
         system = self.tree.system
-        tau = dynamics.inverse_dynamics(system, system.workspace(), self.q0, self.v0, self.a0, self.t0)
+        tau = dynamics.inverse_dynamics(system, system.workspace(), self.q, self.v, self.a, self.t)
         return system.drives.of(tau)
 
     def relinearize(self, method):
         """The same operating point linearised again with ``method`` ("fd" or "analytic")."""
-        return linearize(self.tree.system, self.q0, v=self.v0, t=self.t0, a=self.a0, method=method)
+        return linearize(self.tree.system, self.q, v=self.v, t=self.t, a=self.a, method=method)
 
     def summary(self):
-        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, free={self.nv}, error ≈ {self.error:.1e}, "
+        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, free={self.nv}, relative error ≈ {self.relative_error:.1e}, "
                 f"{self.elapsed * 1e3:.2f} ms)")
 
 
@@ -89,10 +89,10 @@ def linearize(system, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_ST
         raise ModelError(f"linearize: every coordinate of scene '{system.name}' is driven: nothing is free to vibrate")
     ff = np.ix_(f, f)
     basis = np.eye(system.nv)[:, f]
-    parts = {"system": FreeView(system, f), "q0": q0, "v0": v0, "a0": a0, "t0": t0, "M": tree.M[ff],
+    parts = {"system": FreeView(system, f), "q": q0, "v": v0, "a": a0, "t": t0, "M": tree.M[ff],
              "C": tree.C[ff], "K": tree.K[ff], "K_error": tree.K_error[ff], "C_error": tree.C_error[ff],
              "method": tree.method, "elapsed": time.perf_counter() - start, "evaluations": tree.evaluations,
-             "basis": basis, "tree": tree, "multipliers": None, "rank": 0,
+             "null_space": basis, "tree": tree, "multipliers": None, "rank": 0,
              "K_error_terms": None if tree.K_error_terms is None else (tree.K_error_terms[0][:, f],
                                                                        tree.K_error_terms[1][:, f])}
     return DrivenLinearModel(**{fl.name: parts[fl.name] for fl in fields(DrivenLinearModel)})

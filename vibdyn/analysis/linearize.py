@@ -18,6 +18,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from .._check import all_finite, scalar, unknown_name
+from .._deprecation import Renamed
 from ..defaults import EPS, FD_STEP
 from ..errors import ModelError
 
@@ -34,20 +35,21 @@ from ..model.fd import differences, displaced_vectors, point_jacobian, stencil, 
 
 @dataclass(frozen=True, eq=False)
 class LinearModel:
-    """Linear model about (q0, v0, t0) with its error estimate and the time it took.
+    """Linear model about the state (``q``, ``v``) at time ``t`` (s), with the reference motion's accelerations
+    ``a`` (zero at an equilibrium), its error estimate and the time it took.
 
     ``K_error`` and ``C_error`` are elementwise estimates of the absolute error of K and C (zero for an
-    exact part); ``error`` is the largest of them relative to the norm of K (or C). ``K_error_terms``: None,
+    exact part); ``relative_error`` is the largest of them relative to the norm of K (or C). ``K_error_terms``: None,
     or (U, V) the part of ``K_error`` made of rank-one errors Σ_s u_s e_sᵀ with |e_s| ≤ v_s (rows of U, V;
     the rounding of point springs' forces in finite differences): ``K_error`` holds Σ_s |u_s| v_sᵀ, and a
     quadratic form φᵀ δK φ is bounded by Σ_s |u_s·φ| (v_s·|φ|) (zero for a mode that does not stretch s).
     """
 
     system: System = field(repr=False)
-    q0: np.ndarray
-    v0: np.ndarray
-    a0: np.ndarray
-    t0: float
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    t: float
     M: np.ndarray
     C: np.ndarray
     K: np.ndarray
@@ -57,13 +59,18 @@ class LinearModel:
     elapsed: float  # s
     evaluations: int  # residual evaluations (finite differences) or derivative calls
     K_error_terms: tuple | None = field(default=None, repr=False)
+    q0 = Renamed("q")
+    v0 = Renamed("v")
+    a0 = Renamed("a")
+    t0 = Renamed("t")
+    error = Renamed("relative_error")
 
     def __repr__(self):
         from .._format import duration, number, summary
 
         kind = "damped" if self.has_damping else "undamped"
         return summary("LinearModel", f"nv = {self.nv}", f"method {self.method}", kind,
-                       f"error {number(self.error, digits=2)}", f"{self.evaluations} evaluations",
+                       f"relative error {number(self.relative_error, digits=2)}", f"{self.evaluations} evaluations",
                        duration(self.elapsed))
 
     @property
@@ -95,7 +102,7 @@ class LinearModel:
         return 0.5 * (self.K - self.K.T)
 
     @property
-    def error(self):
+    def relative_error(self) -> float:
         """Largest estimated error of K and C, relative to their norms."""
         k = float(self.K_error.max(initial=0.0) / max(np.abs(self.K).max(initial=0.0), 1e-300))
         c = float(self.C_error.max(initial=0.0) / max(np.abs(self.C).max(initial=0.0), 1e-300))
@@ -138,7 +145,7 @@ class LinearModel:
 
         ``points``: body names (their origin) or ``(body, (x, y, z))`` with the point in the body frame.
         """
-        return point_jacobian(self.system, self.q0, points)
+        return point_jacobian(self.system, self.q, points)
 
     def point_input(self, points: list) -> np.ndarray:
         """Input matrix of forces (N, world axes) at body points: Jᵀ (nv × 3·npoints)."""
@@ -156,7 +163,7 @@ class LinearModel:
         def residual(x):
             shift = np.zeros((len(system.supports), 6))
             shift[i] = x
-            return dynamics.inverse_dynamics(system, system.workspace(), self.q0, self.v0, self.a0, self.t0, shift)
+            return dynamics.inverse_dynamics(system, system.workspace(), self.q, self.v, self.a, self.t, shift)
 
         out = -vector_derivative(residual, np.zeros(6), np.full(6, step * system.length_scale))  # Q = −r
         return out[:, :3], out[:, 3:]
@@ -236,10 +243,10 @@ class LinearModel:
 
     def relinearize(self, method: str) -> LinearModel:
         """The same operating point linearised again with ``method`` ("fd" or "analytic")."""
-        return tree_linearize(self.system, self.q0, v=self.v0, t=self.t0, a=self.a0, method=method)
+        return tree_linearize(self.system, self.q, v=self.v, t=self.t, a=self.a, method=method)
 
     def summary(self) -> str:
-        return (f"LinearModel({self.method}, nv={self.nv}, error ≈ {self.error:.1e}, "
+        return (f"LinearModel({self.method}, nv={self.nv}, relative error ≈ {self.relative_error:.1e}, "
                 f"{self.elapsed * 1e3:.2f} ms, {self.evaluations} evaluations)")
 
     def solve_mass(self, B: ArrayLike) -> np.ndarray:
@@ -247,7 +254,7 @@ class LinearModel:
         try:
             return solve_mass(self.M, np.asarray(B, dtype=float))
         except np.linalg.LinAlgError:
-            self.system.check_mass_matrix(self.q0, "the operating point")
+            self.system.check_mass_matrix(self.q, "the operating point")
             raise ModelError("the mass matrix of this linear model is singular or not finite") from None
 
 

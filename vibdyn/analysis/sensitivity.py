@@ -27,6 +27,7 @@ from typing import Any, Callable
 import numpy as np
 import scipy.linalg as sla
 
+from .._deprecation import Renamed
 from ..defaults import EPS
 from ..description import parameters as _parameters
 from ..errors import ConvergenceError, ModelError
@@ -99,8 +100,10 @@ class Sensitivity:
         w = self.omega0[:, None]
         return np.where(w > 0, self.omega * self.values[None, :] / np.where(w > 0, w, 1.0), 0.0)
 
+    error = Renamed("relative_error")
+
     @property
-    def error(self) -> float:
+    def relative_error(self) -> float:
         """Largest error of ∂ω/∂p relative to the largest |∂ω/∂p| of its parameter."""
         scale = np.maximum(np.abs(self.omega).max(axis=0, initial=0.0), 1e-300)
         return float((self.omega_error / scale).max(initial=0.0))
@@ -129,7 +132,7 @@ class Sensitivity:
             for j, p in enumerate(self.params):
                 rows.append([str(i + 1), f"{w:.6g}", p, self.units[j], f"{self.omega[i, j]:.6g}",
                              f"{self.omega_error[i, j]:.1e}", f"{self.normalised[i, j]:.4g}"])
-        head = ["mode", "ω (rad/s)", "parameter", "unit", "∂ω/∂p (rad/s per unit)", "error (abs)", "(p/ω) ∂ω/∂p"]
+        head = ["mode", "ω (rad/s)", "parameter", "unit", "∂ω/∂p (rad/s per unit)", "error (rad/s per unit)", "(p/ω) ∂ω/∂p"]
         return ("\n".join(table(head, rows)) + f"\n{self.method}, {self.elapsed * 1e3:.1f} ms"
                 + (f"\nnote: {self.note}" if self.note else ""))
 
@@ -137,7 +140,7 @@ class Sensitivity:
         from .._format import duration, number, summary
 
         return summary("Sensitivity", f"{self.omega.shape[0]} modes × {len(self.params)} parameters",
-                       f"error {number(self.error, digits=2)}", duration(self.elapsed))
+                       f"relative error {number(self.relative_error, digits=2)}", duration(self.elapsed))
 
 
 # ------------------------------------------------------------------------------------------ the pipeline
@@ -177,21 +180,21 @@ def _regime(system, lin):
         return "declared", {}
     if op.get("held"):
         return "held", {}
-    if np.any(lin.v0):
-        speeds = {system.coordinates[i]: float(lin.v0[i]) for i in np.flatnonzero(lin.v0)}
+    if np.any(lin.v):
+        speeds = {system.coordinates[i]: float(lin.v[i]) for i in np.flatnonzero(lin.v)}
         return "steady", speeds
     # an equilibrium to the solver's own tolerance already (one inverse dynamics), else solved for again
     from ..defaults import EQUILIBRIUM_TOL
 
     unit = system.coordinate_scales
-    r = system.inverse_dynamics(lin.q0, np.zeros(system.nv), np.zeros(system.nv), lin.t0)
+    r = system.inverse_dynamics(lin.q, np.zeros(system.nv), np.zeros(system.nv), lin.t)
     if np.abs(r).max(initial=0.0) <= EQUILIBRIUM_TOL * (np.abs(np.diag(lin.K)) * unit).max(initial=0.0):
         return "static", {}
     try:
-        eq = system.equilibrium(q0=lin.q0)
+        eq = system.equilibrium(q0=lin.q)
     except (ConvergenceError, ModelError):
         return "pose", {}
-    d = np.abs(system.difference(eq.q, lin.q0))
+    d = np.abs(system.difference(eq.q, lin.q))
     return ("static" if np.all(d <= 1e-6 * system.coordinate_scales) else "pose"), {}
 
 
@@ -254,8 +257,8 @@ def _undamped(modes, dM, dK, eM, eK):
     n_m, n_p = len(w2), len(dK)
     omega = modes.omega
     # absolute uncertainty of each ω² (the modes' own estimate: ω_error is relative, half that of ω²)
-    dw2_base = np.where(modes.rigid, modes.omega_error * max(np.abs(w2).max(initial=0.0), 1e-300),
-                        2 * modes.omega_error * np.abs(w2))
+    dw2_base = np.where(modes.rigid, modes.omega_relative_error * max(np.abs(w2).max(initial=0.0), 1e-300),
+                        2 * modes.omega_relative_error * np.abs(w2))
     groups = _clusters(w2, dw2_base)
     repeated = np.zeros(n_m, bool)
     cluster = np.arange(n_m)  # each mode's cluster label
@@ -363,7 +366,7 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
             d_l[r, j] = (w.conj() @ dA @ v) / den
             e_l[r, j] = (np.abs(w) @ eA @ np.abs(v)) / abs(den)
     # the eigenvalue's own uncertainty moves the formula's terms: its relative error times the derivative
-    e_l += np.abs(d_l) * np.asarray(modes.eigenvalue_error)[:, None] * 2
+    e_l += np.abs(d_l) * np.asarray(modes.eigenvalue_relative_error)[:, None] * 2
     zero = np.asarray(modes.damped_zero) if modes.damped_zero.size else np.zeros(n_d, bool)
     d_l[zero] = 0.0
     e_l[zero] = 0.0
@@ -438,7 +441,7 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
                 sc_vals.append(x)
         return _parameters.with_values(scene, plist, sc_vals), sp
 
-    pipeline = _Pipeline(make_scene, lin.q0, lin.v0, regime)
+    pipeline = _Pipeline(make_scene, lin.q, lin.v, regime)
     steps = np.array([_step(values[j], units[j], system.length_scale) for j in range(len(names))])
     direct: dict[int, tuple] = {}
     from ..model.derivatives import untrusted
@@ -477,7 +480,7 @@ def _linear_column(system, lin, p, regime):
     unit = 1.0 if not isinstance(old, tuple) else tuple(
         1.0 if p.index is None or i == p.index else 0.0 for i in range(len(old)))
     group = type(element).group(system, [dataclasses.replace(element, **{p.attribute: unit})])
-    Q1, K1, C1 = element_terms(system, [group], lin.q0, lin.v0, lin.t0)
+    Q1, K1, C1 = element_terms(system, [group], lin.q, lin.v, lin.t)
     n = lin.nv
     noise = 4 * n * EPS
     damped = bool(np.any(C1))
@@ -493,7 +496,7 @@ def _linear_column(system, lin, p, regime):
         scale = np.where(np.array([u == "m" for u in system.units]), system.length_scale, 1.0)
         eps = 1e-4 / max(float(np.max(np.abs(dq) / scale)), 1e-300)
         zero = np.zeros(n)
-        at = {k: system.linearize(system.integrate(lin.q0, k * eps * dq), a=zero, method="analytic")
+        at = {k: system.linearize(system.integrate(lin.q, k * eps * dq), a=zero, method="analytic")
               for k in (-2, -1, 1, 2)}
         D, T = _richardson([(at[k].M, at[k].C, at[k].K) for k in (1, 2, -1, -2)], eps)
         for name, d1, t, X1 in zip(("M", "C", "K"), D, T, (at[1].M, at[1].C, at[1].K)):
@@ -531,7 +534,7 @@ def _of_builder(build, params, start, unused):
     def make_scene(vals):
         return build(**{k: float(x) for k, x in zip(names, vals)}), speeds
 
-    pipeline = _Pipeline(make_scene, tree.q0, tree.v0, regime)
+    pipeline = _Pipeline(make_scene, tree.q, tree.v, regime)
     steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
     lin = getattr(tree, "reduced", tree)  # (a mechanism's: in its independent motions, as the pipeline's)
     return _assemble(pipeline, lin.modes(), lin, names, ["(the builder's)"] * len(names), values, steps,

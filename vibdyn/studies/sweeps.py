@@ -118,8 +118,8 @@ def _analyse(system, analysis, options) -> dict:
     if analysis == "modes":
         m = system.operating_point().linearize().modes()
         return {"omega": m.omega.tolist(), "zeta": m.zeta.tolist() if m.zeta.size else [0.0] * m.n,
-                "rigid": m.rigid.tolist(), "stability": m.stability, "error": float(m.error),
-                "omega_error": (m.omega_error * np.where(m.rigid, 1.0, m.omega)).tolist(),
+                "rigid": m.rigid.tolist(), "stability": m.stability, "relative_error": m.relative_error,
+                "omega_error": m.omega_error.tolist(),
                 "shapes": m.shapes.tolist()}
     raise ModelError(f"sweep: analysis must be one of {ANALYSES} or a callable(system) -> dict, got {analysis!r}")
 
