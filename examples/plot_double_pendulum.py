@@ -66,7 +66,7 @@ assert np.all(np.abs(ratio / ratio_exact - 1) <= 10 * 2 * turn)
 t = np.linspace(0.0, 5.0, 501)
 q0 = system.configuration({"mass1": 1.0, "mass2": 0.5})
 traj = system.simulate(5.0, q0, rtol=1e-7, t_eval=t)
-ref = system.simulate(5.0, q0, rtol=1e-13, t_eval=t, error="local")  # (its own estimate not needed)
+ref = system.simulate(5.0, q0, rtol=1e-13, t_eval=t, error_method="local")  # (its own estimate not needed)
 actual = np.abs(traj.q - ref.q).max(axis=1)
 print(f"rtol 1e-7: {traj.accepted} steps in {traj.elapsed * 1e3:.0f} ms (+ {traj.error_elapsed * 1e3:.0f} ms for the "
       f"estimate); largest error estimate {traj.error:.2e} rad, actual {actual.max():.2e} rad "

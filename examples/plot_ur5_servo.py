@@ -95,7 +95,7 @@ def modal_velocity(t, q, v):
 
 q_start = free.integrate(held.q, 1e-3 * phi / np.abs(phi).max())
 traj = free.simulate(1.0, q_start, rtol=1e-10, events=[modal_velocity])
-half = np.diff(np.r_[0.0, traj.events[0]])
+half = np.diff(np.r_[0.0, traj.t_events[0]])
 omega_sim = np.pi / half.mean()
 print(f"ω₁ from the motion {omega_sim:.9f} rad/s (half periods {np.round(half, 9)} s), from the modes "
       f"{mode1.omega[0]:.9f} rad/s; relative gap {abs(omega_sim / mode1.omega[0] - 1):.1e} "

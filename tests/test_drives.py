@@ -207,8 +207,8 @@ def test_events_and_linearisation_with_drives():
     system = scene.build()
     crossing = lambda t, q, v: q[1]  # noqa: E731  (the pendulum passes its vertical)
     traj = system.simulate(2.0, [0.0, 0.4], [0.0, 0.0], events=crossing)
-    assert len(traj.events[0]) >= 2
-    for te, qe in zip(traj.events[0], traj.event_q[0]):
+    assert len(traj.t_events[0]) >= 2
+    for te, qe in zip(traj.t_events[0], traj.q_events[0]):
         assert qe[0] == pytest.approx(law.position(te), abs=1e-12)
     # linearised about a state of the motion, in the free coordinate: m l² δθ'' + m l (g + ÿ) cos θ δθ = 0
     t, th = 0.3, 0.2

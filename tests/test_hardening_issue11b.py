@@ -202,7 +202,7 @@ def test_spin_energy_overflow_in_a_run_is_a_simulation_error():
 
 
 def test_local_error_estimate_says_it_is_not_a_bound():
-    tr = damped_mass().simulate(1.0, v0=[1.0], error="local")
+    tr = damped_mass().simulate(1.0, v0=[1.0], error_method="local")
     assert tr.error_method == "local" and tr.error_kind == "local (not a global bound)"
     assert "not a global bound" in tr.summary()
     tr = damped_mass().simulate(1.0, v0=[1.0])  # the default is a global estimate

@@ -50,7 +50,7 @@ def test_a_joint_type_defined_in_this_file_works_everywhere(tmp_path):
     assert m.omega[0] == pytest.approx(math.sqrt((2.0 + G * 0.5) / 0.25), rel=10 * m.error + 1e-9)
     # simulation with an event, and its names
     traj = system.simulate(2.0, [0.3], [0.0], events=lambda t, q, v: q[0], t_eval=np.linspace(0, 2, 5))
-    assert len(traj.events[0]) >= 2 and traj.error < 1e-6
+    assert len(traj.t_events[0]) >= 2 and traj.error < 1e-6
     from vibdyn.simulation.simulate import q_names
 
     assert q_names(system) == ["arm"]

@@ -359,7 +359,7 @@ def test_andrews_squeezer_against_the_test_set_reference():
     system = scene.build()
     assert (system.nv, system.dof) == (7, 1)
     ref = scene.references
-    traj = system.simulate(ref["t"], method="dop853", rtol=1e-9, error="rerun", t_eval=[0.0, ref["t"]])
+    traj = system.simulate(ref["t"], method="dop853", rtol=1e-9, error_method="rerun", t_eval=[0.0, ref["t"]])
     for angle, x in squeezer_angles(system, ref, traj.q[-1]).items():
         # the reference carries ~1e-10 relative error (1.1e-9 rad on beta after 2.5 turns: independent runs
         # at rtol 1e-12 agree with each other to 1e-11 and differ from it by that much)

@@ -93,7 +93,7 @@ def test_time_history_takes_a_time_response_and_a_trajectory(tmp_path):
     t = np.linspace(0.0, 5.0, 101)
     x0 = np.array([0.0, 0.1])
     r = system.linearize().free_response(t, x0)
-    traj = system.simulate(5.0, q0=system.integrate(system.neutral(), x0), t_eval=t, rtol=1e-10, error="rerun")
+    traj = system.simulate(5.0, q0=system.integrate(system.neutral(), x0), t_eval=t, rtol=1e-10, error_method="rerun")
     curves = {}
     for name, result in (("response", r), ("trajectory", traj)):
         assert isinstance(result, TimeResult) and result.coordinates == ("m1", "m2") and result.units == ("m", "m")

@@ -70,7 +70,7 @@ def test_a01_dop853_precision_and_2000_s_band():
     ref = A01.references
     t_eval = np.union1d(np.arange(0.0, 2000.0 + 1e-9, 0.5), ref["times"])
     start = time.perf_counter()
-    traj = system.simulate(2000.0, method="dop853", rtol=1e-12, t_eval=t_eval, error="local")
+    traj = system.simulate(2000.0, method="dop853", rtol=1e-12, t_eval=t_eval, error_method="local")
     wall = time.perf_counter() - start
     assert traj.status == "finished" and np.array_equal(traj.t, t_eval)
     err = np.abs(a01_position(traj.q) - a01_exact(traj.t)).max(axis=1)
@@ -94,7 +94,7 @@ def test_a01_default_error_estimate_is_global(rtol):
     t = np.linspace(0.0, 10.0, 21)
     traj = system.simulate(10.0, rtol=rtol, t_eval=t)
     err = np.abs(a01_position(traj.q) - a01_exact(t)).max(axis=1)
-    local = system.simulate(10.0, rtol=rtol, t_eval=t, error="local")
+    local = system.simulate(10.0, rtol=rtol, t_eval=t, error_method="local")
     report(f"A01 dop853 rtol {rtol:g}: error {err.max():.2e}, estimate {traj.error:.2e} (rerun), "
            f"{local.error:.2e} (local); {traj.elapsed * 1e3:.1f} ms of which {traj.error_elapsed * 1e3:.1f} ms "
            "for the estimate")
@@ -481,7 +481,7 @@ def test_moving_support_and_harmonic_force_closed_forms():
     ({"dt": 20.0}, r"longer than the run \(t_end − t0"),
     ({"t_eval": [2.0, 1.0]}, "strictly increasing"),
     ({"t_eval": [11.0]}, r"t_eval must lie in \[t0 = 0, t_end"),
-    ({"error": "richardson"}, "'richardson' is not available for method 'dop853'"),
+    ({"error_method": "richardson"}, "'richardson' is not available for method 'dop853'"),
     ({"progress": "yes"}, "progress must be"),
 ])
 def test_bad_input_is_a_model_error(kwargs, match):

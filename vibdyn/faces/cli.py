@@ -474,7 +474,8 @@ def _add_simulate(sub):
     sim.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance (adaptive methods)")
     sim.add_argument("--atol", type=float, help="absolute tolerance (default rtol × 1 rad or the length scale)")
     sim.add_argument("--dt", type=float, help="step of rk4/symplectic, first step of adaptive methods (s)")
-    sim.add_argument("--error", help="error estimate: local, rerun or richardson (default: the method's own)")
+    sim.add_argument("--error-method", "--error", dest="error", help="how the error is estimated: local, rerun or "
+                     "richardson (default: the method's own; --error: its former name)")
     sim.add_argument("--samples", type=int, help="number of equally spaced outputs (default: every step)")
     sim.add_argument("--offset", type=float, nargs="+",
                      help="initial tangent offsets (m, rad) from neutral (a mechanism with loops: from its declared "

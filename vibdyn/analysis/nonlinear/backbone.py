@@ -630,10 +630,10 @@ class _Follower:
             return float(v[c])
 
         scale = self.scales(best)  # (the flow's absolute tolerance from the motion, not from the scene's size)
-        run = simulate(self.system, T, orbit.q0, orbit.v0, rtol=self.rtol, error="rerun", events=turning,
+        run = simulate(self.system, T, orbit.q0, orbit.v0, rtol=self.rtol, error_method="rerun", events=turning,
                        atol=self.rtol * np.concatenate([scale, scale * orbit.omega]))
         extra = 0.0
-        for t, q in zip(run.events[0], run.event_q[0]):
+        for t, q in zip(run.t_events[0], run.q_events[0]):
             if 1e-6 * T < t < (1 - 1e-6) * T:
                 a = abs(float(self.system.difference(self.q_eq, q)[c]))
                 if a > best:
