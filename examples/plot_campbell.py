@@ -43,13 +43,13 @@ def closed_form(Omega):
 # error estimate ``diagram.error`` (rad/s).
 backward, forward = closed_form(speeds)
 worst = 0.0
-for j in range(diagram.frequencies.shape[1]):
+for j in range(diagram.omega.shape[1]):
     whirls = set(diagram.whirl[1:, j]) - {""}
     if not whirls:
         continue  # the spin's own (cyclic) mode: frequency 0
     (kind,) = whirls  # one whirl per tracked curve: the tracking never swapped them
     exact = backward if kind == "backward" else forward
-    gap = np.abs(diagram.frequencies[:, j] - exact)
+    gap = np.abs(diagram.omega[:, j] - exact)
     worst = max(worst, (gap / np.maximum(diagram.error[:, j], 1e-300)).max())
     print(f"column {j}: {kind} whirl, largest |ω_vibdyn − ω_exact| = {gap.max():.1e} rad/s "
           f"(error estimates up to {diagram.error[:, j].max():.1e})")

@@ -186,8 +186,8 @@ def campbell(diagram, *, path=None, dpi=100):
         x = min(w[-1], top * 2 * np.pi / order)
         ax.annotate(f"{order:g}×", (x, order * abs(x) / (2 * np.pi)), fontsize=8, color="0.4")
         for c in diagram.critical_speeds(order):
-            ax.plot(c.speed, c.frequency / (2 * np.pi), "o", mfc="none", mec="k", ms=8)
-            ax.annotate(f"{c.speed:.4g} rad/s ({c.whirl or 'no'} whirl)", (c.speed, c.frequency / (2 * np.pi)),
+            ax.plot(c.speed, c.omega / (2 * np.pi), "o", mfc="none", mec="k", ms=8)
+            ax.annotate(f"{c.speed:.4g} rad/s ({c.whirl or 'no'} whirl)", (c.speed, c.omega / (2 * np.pi)),
                         xytext=(6, -12), textcoords="offset points", fontsize=8)
     ax.set_ylim(0, top)
     ax.set_xlim(w[0], w[-1])

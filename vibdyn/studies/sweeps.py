@@ -113,7 +113,7 @@ def _analyse(system, analysis, options) -> dict:
         c = campbell(system, options["spin"], options["speeds"], options.get("orders", (1,)),
                      method=options.get("method", "analytic"))
         crit = [k for o in c.orders for k in c.critical_speeds(o)]
-        return {"critical_speeds": [k.speed for k in crit], "frequencies": c.frequencies.ravel().tolist(),
+        return {"critical_speeds": [k.speed for k in crit], "omega": c.omega.ravel().tolist(),
                 "error": float(c.error.max(initial=0.0))}
     if analysis == "modes":
         m = system.operating_point().linearize().modes()
