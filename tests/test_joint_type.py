@@ -20,7 +20,7 @@ G = 9.81
 class TurnZ(Joint):
     """A rotation about the joint frame's z axis only (rad): a planar mechanism's hinge, as a new type."""
 
-    kind = "turn_z"
+    type = "turn_z"
     suffixes = ("",)
     units = ("rad",)
     periodic = (True,)
@@ -71,7 +71,7 @@ def test_a_joint_type_defined_in_this_file_works_everywhere(tmp_path):
 def test_the_declarations_the_library_reads_are_on_the_joint_classes():
     """The curved joints carry their q's unit block, chart rotations and group; scalar joints say so."""
     assert vd.Ball().unit_block == (0, 4) and vd.Free().unit_block == (3, 4) and vd.Planar().unit_block == (2, 2)
-    assert vd.Ball().chart_rotations == (0, 1, 2) and vd.Free().group == "SE3" and vd.Planar().group == "SE2"
+    assert vd.Ball().chart_rotations == (0, 1, 2) and vd.Free().lie_group == "SE3" and vd.Planar().lie_group == "SE2"
     assert vd.Ball().nq == 4 and vd.Free().nq == 7 and vd.Planar().nq == 4 and vd.Universal().nq == 2
     assert [j.scalar for j in (vd.Pivot(), vd.Slider(), vd.Helical(), vd.Cylindrical(), vd.Ball())] == \
         [True, True, True, False, False]
@@ -84,7 +84,7 @@ class HingeZ(TurnZ):
     """TurnZ that can also close a loop: its rows, declared here alone, are the points' coincidence and the
     two alignments of z axes."""
 
-    kind = "hinge_z"
+    type = "hinge_z"
     loop_rows = ("position", "aligned")
 
     def loop_alignments(self):

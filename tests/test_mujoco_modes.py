@@ -52,7 +52,7 @@ def sprung_chain(n, seed):
     carried = np.cumsum(masses[::-1])[::-1]  # a chain: body i carries bodies i..n-1
     rests = []
     for i, (name, b) in enumerate(list(scene.bodies.items())):
-        if b.joint.kind == "pivot":  # N·m/rad, rad
+        if b.joint.type == "pivot":  # N·m/rad, rad
             k, rest = 30.0 * (1 + rng.random()) * carried[i], rng.uniform(-0.5, 0.5)
         else:  # N/m, m
             k, rest = 300.0 * (1 + rng.random()) * carried[i], rng.uniform(-0.1, 0.1)

@@ -358,7 +358,7 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
         checks, disagreement = guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms)
         n += checks
         if disagreement:
-            kinds = sorted({b.joint.kind for b in system.body_infos.values() if b.nv})
+            kinds = sorted({b.joint.type for b in system.body_infos.values() if b.nv})
             warnings.warn(f"linearize: the analytic {disagreement} (joint types here: {', '.join(kinds)}): "
                           "using finite differences instead", stacklevel=3)
             K, C, K_err, C_err, n_fd, rounding = _finite_differences(system, ws, q0, v0, a0, t0, step)

@@ -74,7 +74,7 @@ def describe(scene, system, out=None):
         params = ", ".join(f"{k} {vector(v) if isinstance(v, (list, tuple)) else number(v)}"
                            for k, v in J.params().items())
         coords = ", ".join(f"{c} ({u}{_limits(system, c)})" for c, u in zip(b.coordinates, J.units))
-        p(f"    joint    {J.kind}{', ' + params if params else ''}, {place}"
+        p(f"    joint    {J.type}{', ' + params if params else ''}, {place}"
           + (f"; coordinates {coords}" if coords else ""))
         p(f"    mass     {number(b.mass, 'kg')}, centre of mass {vector(b.com, 'm')}")
         p(f"    inertia  {_inertia(b.inertia)}")
@@ -93,7 +93,7 @@ def describe(scene, system, out=None):
         for lp, n in zip(scene.loops.values(), c.sizes):
             j = lp.joint
             params = ", ".join(f"{k} {vector(v)}" for k, v in j.params().items())
-            rows.append([lp.name, f"{j.kind}{' ' + params if params else ''}",
+            rows.append([lp.name, f"{j.type}{' ' + params if params else ''}",
                          f"{lp.a[0]}{vector(lp.a[1], 'm')} – {lp.b[0]}{vector(lp.b[1], 'm')}", str(n)])
         for line in table(["name", "joint", "ends", "equations"], rows, ["<", "<", "<", ">"]):
             p("  " + line)

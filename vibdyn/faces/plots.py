@@ -363,6 +363,6 @@ def _through(e, w):
 
 def _resonance_label(r):
     """"3:1 with mode 2" (a tongue: mode numbers from 1) or "fold"."""
-    if r.kind == "fold":
+    if r.category == "fold":
         return "fold"
-    return f"{r.ratio}:1 with mode {r.other_mode + 1}" if r.ratio is not None else r.kind
+    return f"{r.ratio}:1 with mode {r.other_mode + 1}" if r.ratio is not None else r.category
