@@ -61,7 +61,7 @@ def case_lin10(S):
     runs = []
     for method in ("fd", "analytic"):
         lin, m = fns[method]()
-        r = C.run_record(f"vibdyn {method}", "vibdyn", omega_error(m.omega, ref), m.error, best[method],
+        r = C.run_record(f"vibdyn {method}", "vibdyn", omega_error(m.omega, ref), m.relative_error, best[method],
                          lin.evaluations, method=method)
         r["ratio_to_raw_pinocchio"] = best[method] / best["raw pinocchio"]
         if mjl:
@@ -181,7 +181,7 @@ def case_floor(S):
         best = interleaved(fns, {"smoke": 3, "quick": 50 if n < 100 else 10, "full": 200 if n < 100 else 30}[S.mode])
         for method in ("analytic", "fd"):
             lin, m = fns[method]()
-            r = C.run_record(f"vibdyn {method}, n={n}", "vibdyn", omega_error(m.omega, ref), m.error, best[method],
+            r = C.run_record(f"vibdyn {method}, n={n}", "vibdyn", omega_error(m.omega, ref), m.relative_error, best[method],
                              lin.evaluations, method=method)
             r["ratio_to_raw_pinocchio"] = best[method] / best["raw"]
             r["ratio_to_raw_with_shapes"] = best[method] / best["raw shapes"]

@@ -31,7 +31,7 @@ lin = held.linearize()
 modes = lin.modes()
 print("coordinates:", robot.coordinates)
 print("drive torques holding the posture (N·m):", {j: round(t, 6) for j, t in held.drive.items()})
-print(" mode   ω_n (rad/s)     f_n (Hz)     ω_d (rad/s)      ζ        rel. error estimate")
+print(" mode   ω_n (rad/s)     f_n (Hz)     ω_d (rad/s)      ζ        λ error estimate (1/s)")
 for r in range(modes.omega_n.size):
     print(f"  {r + 1}   {modes.omega_n[r]:12.6f}  {modes.omega_n[r] / (2 * np.pi):10.6f}  {modes.omega_d[r]:12.6f}  "
           f"{modes.zeta[r]:8.5f}   {modes.eigenvalue_error[r]:.1e}")

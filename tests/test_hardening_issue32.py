@@ -115,6 +115,6 @@ def test_far_reaching_spring_does_not_size_the_bodies_inertia():
     w = np.sqrt(9.81 * 0.5 / (1 / 3))
     for L in (1e3, 1e6):
         m = rod(L).build().operating_point().linearize().modes()
-        assert abs(m.omega[0] - w) <= 10 * m.omega_error[0] * w
+        assert abs(m.omega[0] - w) <= 10 * m.omega_error[0]
     with pytest.raises(vd.ModelError, match="spring 'k'.*free length is too large"):
         rod(1e20).build().operating_point().linearize()

@@ -449,7 +449,7 @@ def test_iftomm_a05_flyball_governor_steady_spin_modes_and_transient():
         assert st.coordinate(name) == pytest.approx(hand, abs=st.q_error[system.coordinate_index(name)])
     m = st.linearize().modes()
     assert m.stability in ("stable", "neutral")
-    assert np.all(m.damped_eigenvalues.real <= m.eigenvalue_error * np.abs(m.damped_eigenvalues) + m.zero_threshold)
+    assert np.all(m.damped_eigenvalues.real <= m.eigenvalue_error + m.zero_threshold)
     # the transient from the benchmark's start, everything co-rotating
     q0 = system.configuration({"sleeve": ref["s0"], "rod1": ref["beta0"], "rod2": ref["beta0"]})
     v0 = np.array([ref["spin0"], 0.0, 0.0, 0.0])

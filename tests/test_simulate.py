@@ -7,7 +7,7 @@ angular momentum; a free body under time-dependent forces; damping, a moving sup
 against their closed forms with the energy balance; the variational integrator's discrete Noether theorem;
 bad input, failures, Ctrl-C, export and the command line. Run with ``-s`` to see the measured numbers.
 
-Tolerances: a result's own error estimate (modes.error/residual, lin.K_error, traj.error, ...) wherever the
+Tolerances: a result's own error estimate (modes.relative_error/residual, lin.K_error, traj.error, ...) wherever the
 comparison is one the estimate covers; fixed 1e-15..1e-12 ones are identities that hold to round-off (a
 few ε × the size of the terms: ΦᵀMΦ = 1 from eigh, a unit quaternion, a closed form in a few flops).
 """
