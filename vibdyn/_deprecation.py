@@ -11,6 +11,10 @@ from typing import Any
 #: "modes(tol=)"), filled as the modules declaring them are imported
 RENAMED: dict[str, str] = {}
 _warned: set[str] = set()
+#: names kept with a changed meaning (no warning can tell them from a new use): docs/guide/names.md lists them
+CHANGED_MEANING = {"Modes.omega_error": "Modes.omega_relative_error",
+                   "Modes.eigenvalue_error": "Modes.eigenvalue_relative_error",
+                   "TimeResponse.error": "TimeResponse.relative_error"}
 
 
 def warn_once(former: str, message: str, stacklevel: int = 3) -> None:

@@ -524,7 +524,7 @@ def joint_type(cls):
     ``_positional`` says, and its ``type`` (the name scene files give it) known to scene files. A new type is its
     class, here or anywhere."""
     for former, new in (("kind", "type"), ("group", "lie_group")):  # declared by their former names
-        if isinstance(cls.__dict__.get(former), str):
+        if former in cls.__dict__ and not isinstance(cls.__dict__[former], Renamed):
             warn_once(f"Joint.{former}", f"Joint.{former} is Joint.{new} now: declare {new} = ... (the former "
                       "name works until the next release)")
             setattr(cls, new, cls.__dict__[former])
