@@ -35,7 +35,7 @@ def test_small_but_resolvable_mass_is_exact():
 
 @pytest.mark.parametrize("tol", [float("nan"), float("inf"), -1.0, "a"])
 def test_modes_tolerance_must_be_finite_positive(tol):
-    with err("tolerance"):
+    with err("tol"):
         spring_mass().build().linearize().modes(tol=tol)
 
 
@@ -203,10 +203,10 @@ def test_spin_energy_overflow_in_a_run_is_a_simulation_error():
 
 def test_local_error_estimate_says_it_is_not_a_bound():
     tr = damped_mass().simulate(1.0, v0=[1.0], error_method="local")
-    assert tr.error_method == "local" and tr.error_kind == "local (not a global bound)"
+    assert tr.error_method == "local" and tr.error_scope == "local (not a global bound)"
     assert "not a global bound" in tr.summary()
     tr = damped_mass().simulate(1.0, v0=[1.0])  # the default is a global estimate
-    assert tr.error_method == "rerun" and tr.error_kind == "global estimate (rerun)"
+    assert tr.error_method == "rerun" and tr.error_scope == "global estimate (rerun)"
     assert tr.error_nfev > 0 and 0 < tr.error_elapsed < tr.elapsed
     exact = 1.0 - np.exp(-1.0)  # x(t) = v0 (1 − e^{−t}) for m = c = 1
     assert abs(tr.q[-1, 0] - exact) <= 10 * tr.error + 1e-15

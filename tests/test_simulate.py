@@ -98,7 +98,7 @@ def test_a01_default_error_estimate_is_global(rtol):
     report(f"A01 dop853 rtol {rtol:g}: error {err.max():.2e}, estimate {traj.error:.2e} (rerun), "
            f"{local.error:.2e} (local); {traj.elapsed * 1e3:.1f} ms of which {traj.error_elapsed * 1e3:.1f} ms "
            "for the estimate")
-    assert traj.error_kind == "global estimate (rerun)" and local.error_kind == "local (not a global bound)"
+    assert traj.error_scope == "global estimate (rerun)" and local.error_scope == "local (not a global bound)"
     assert np.all(err <= 2 * np.maximum.accumulate(traj.q_error) + 1e-13)
     assert traj.error <= 3 * err.max()  # and not vacuous
     np.testing.assert_array_equal(traj.q, local.q)  # the estimate never changes the answer

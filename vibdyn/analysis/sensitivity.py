@@ -41,12 +41,13 @@ STEP = 1e-4
 class Sensitivity:
     """Derivatives of the modes of a linear model with respect to named parameters.
 
-    Per mode (rows, in the order of :class:`~vibdyn.analysis.modal.Modes`) and parameter (columns):
-    ``omega`` ∂ω/∂p of the undamped natural frequencies (rad/s per unit of p) and ``omega_error`` (absolute,
-    same unit); ``omega2`` ∂ω²/∂p (rad²/s² per unit); ``shapes`` ∂φ/∂p (nv × n_modes × n_params, of the
-    mass-normalised shapes, zero where ``repeated``: a repeated mode's shape derivative is not unique) with
-    ``shapes_error``. Damped modes (``omega_n``, ``zeta``: rows of the modes' damped eigenvalues): ∂ω_n/∂p
-    (rad/s per unit), ∂ζ/∂p (1 per unit), ∂λ/∂p (``eigenvalues``, 1/s per unit) with their absolute errors.
+    Per mode (rows, in the order of :class:`~vibdyn.analysis.modal.Modes`) and parameter (columns), each
+    derivative named ``d_`` and its quantity (as ``dM``, ``dK``): ``d_omega`` ∂ω/∂p of the undamped natural
+    frequencies ``omega0`` (rad/s per unit of p) and ``d_omega_error`` (absolute, same unit); ``d_omega2``
+    ∂ω²/∂p (rad²/s² per unit); ``d_shapes`` ∂φ/∂p (nv × n_modes × n_params, of the mass-normalised shapes,
+    zero where ``repeated``: a repeated mode's shape derivative is not unique) with ``d_shapes_error``. Damped
+    modes (``d_omega_n``, ``d_zeta``: rows of the modes' damped eigenvalues): ∂ω_n/∂p (rad/s per unit), ∂ζ/∂p
+    (1 per unit), ∂λ/∂p (``d_eigenvalues``, 1/s per unit) with their absolute errors.
     ``dM``, ``dC``, ``dK`` (n_params × nv × nv) and their errors ``dM_error`` …: the linear model's derivatives.
     """
 
@@ -54,17 +55,17 @@ class Sensitivity:
     units: tuple  # unit of each parameter
     values: np.ndarray  # each parameter's value (SI)
     omega0: np.ndarray  # the base undamped ω (rad/s)
-    omega: np.ndarray
-    omega_error: np.ndarray
-    omega2: np.ndarray
-    omega2_error: np.ndarray
+    d_omega: np.ndarray  # ∂ω/∂p (rad/s per unit)
+    d_omega_error: np.ndarray
+    d_omega2: np.ndarray
+    d_omega2_error: np.ndarray
     repeated: np.ndarray  # per mode: its frequency is repeated (derivatives over the subspace)
-    eigenvalues: np.ndarray  # ∂λ/∂p of the damped eigenvalues (n_damped × n_params, 1/s per unit)
-    eigenvalues_error: np.ndarray
-    omega_n: np.ndarray
-    omega_n_error: np.ndarray
-    zeta: np.ndarray
-    zeta_error: np.ndarray
+    d_eigenvalues: np.ndarray  # ∂λ/∂p of the damped eigenvalues (n_damped × n_params, 1/s per unit)
+    d_eigenvalues_error: np.ndarray
+    d_omega_n: np.ndarray
+    d_omega_n_error: np.ndarray
+    d_zeta: np.ndarray
+    d_zeta_error: np.ndarray
     dM: np.ndarray = field(repr=False)
     dC: np.ndarray = field(repr=False)
     dK: np.ndarray = field(repr=False)
@@ -77,20 +78,32 @@ class Sensitivity:
     note: str = ""
     modes: Any = field(default=None, repr=False)  # the base modes the derivatives are of
     nelson: Any = field(default=None, repr=False)  # () -> (∂φ, its error): computed on first use
+    omega = Renamed("d_omega")
+    omega_error = Renamed("d_omega_error")
+    omega2 = Renamed("d_omega2")
+    omega2_error = Renamed("d_omega2_error")
+    eigenvalues = Renamed("d_eigenvalues")
+    eigenvalues_error = Renamed("d_eigenvalues_error")
+    omega_n = Renamed("d_omega_n")
+    omega_n_error = Renamed("d_omega_n_error")
+    zeta = Renamed("d_zeta")
+    zeta_error = Renamed("d_zeta_error")
+    shapes = Renamed("d_shapes")
+    shapes_error = Renamed("d_shapes_error")
 
     @cached_property
     def _shape_derivatives(self):
         return self.nelson()
 
     @property
-    def shapes(self) -> np.ndarray:
+    def d_shapes(self) -> np.ndarray:
         """∂φ/∂p of the mass-normalised shapes (nv × n_modes × n_params, per the parameter's unit; 0 where
         ``repeated`` or rigid), by Nelson's method (computed on first use)."""
         return self._shape_derivatives[0]
 
     @property
-    def shapes_error(self) -> np.ndarray:
-        """Absolute error of :attr:`shapes` (same shape)."""
+    def d_shapes_error(self) -> np.ndarray:
+        """Absolute error of :attr:`d_shapes` (same shape)."""
         return self._shape_derivatives[1]
 
     @property
@@ -98,15 +111,15 @@ class Sensitivity:
         """(p/ω) ∂ω/∂p per mode and parameter (dimensionless: the % change of ω per % change of p; 0 for a rigid
         mode)."""
         w = self.omega0[:, None]
-        return np.where(w > 0, self.omega * self.values[None, :] / np.where(w > 0, w, 1.0), 0.0)
+        return np.where(w > 0, self.d_omega * self.values[None, :] / np.where(w > 0, w, 1.0), 0.0)
 
     error = Renamed("relative_error")
 
     @property
     def relative_error(self) -> float:
         """Largest error of ∂ω/∂p relative to the largest |∂ω/∂p| of its parameter."""
-        scale = np.maximum(np.abs(self.omega).max(axis=0, initial=0.0), 1e-300)
-        return float((self.omega_error / scale).max(initial=0.0))
+        scale = np.maximum(np.abs(self.d_omega).max(axis=0, initial=0.0), 1e-300)
+        return float((self.d_omega_error / scale).max(initial=0.0))
 
     def column(self, param: str) -> int:
         try:
@@ -118,10 +131,10 @@ class Sensitivity:
 
     def to_dict(self) -> dict[str, Any]:
         return {"params": list(self.params), "units": list(self.units), "values": self.values.tolist(),
-                "omega_rad_s": self.omega0.tolist(), "d_omega_rad_s_per_unit": self.omega.tolist(),
-                "d_omega_error_rad_s_per_unit": self.omega_error.tolist(), "normalised": self.normalised.tolist(),
-                "d_zeta_per_unit": self.zeta.tolist(), "d_zeta_error_per_unit": self.zeta_error.tolist(),
-                "d_omega_n_rad_s_per_unit": self.omega_n.tolist(), "repeated": self.repeated.tolist(),
+                "omega_rad_s": self.omega0.tolist(), "d_omega_rad_s_per_unit": self.d_omega.tolist(),
+                "d_omega_error_rad_s_per_unit": self.d_omega_error.tolist(), "normalised": self.normalised.tolist(),
+                "d_zeta_per_unit": self.d_zeta.tolist(), "d_zeta_error_per_unit": self.d_zeta_error.tolist(),
+                "d_omega_n_rad_s_per_unit": self.d_omega_n.tolist(), "repeated": self.repeated.tolist(),
                 "method": self.method, "elapsed_s": self.elapsed, "note": self.note}
 
     def __str__(self) -> str:
@@ -130,8 +143,8 @@ class Sensitivity:
         rows = []
         for i, w in enumerate(self.omega0):
             for j, p in enumerate(self.params):
-                rows.append([str(i + 1), f"{w:.6g}", p, self.units[j], f"{self.omega[i, j]:.6g}",
-                             f"{self.omega_error[i, j]:.1e}", f"{self.normalised[i, j]:.4g}"])
+                rows.append([str(i + 1), f"{w:.6g}", p, self.units[j], f"{self.d_omega[i, j]:.6g}",
+                             f"{self.d_omega_error[i, j]:.1e}", f"{self.normalised[i, j]:.4g}"])
         head = ["mode", "ω (rad/s)", "parameter", "unit", "∂ω/∂p (rad/s per unit)", "error (rad/s per unit)", "(p/ω) ∂ω/∂p"]
         return ("\n".join(table(head, rows)) + f"\n{self.method}, {self.elapsed * 1e3:.1f} ms"
                 + (f"\nnote: {self.note}" if self.note else ""))
@@ -139,7 +152,7 @@ class Sensitivity:
     def __repr__(self) -> str:
         from .._format import duration, number, summary
 
-        return summary("Sensitivity", f"{self.omega.shape[0]} modes × {len(self.params)} parameters",
+        return summary("Sensitivity", f"{self.d_omega.shape[0]} modes × {len(self.params)} parameters",
                        f"relative error {number(self.relative_error, digits=2)}", duration(self.elapsed))
 
 

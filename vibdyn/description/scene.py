@@ -262,8 +262,8 @@ class Scene:
         self.limits[b.coordinates[0]] = (float(lo), float(up))
 
     # ---------------------------------------------------------------- queries
-    def elements_of(self, kind: type) -> list:
-        """The elements of one class (e.g. ``Spring``), in insertion order."""
+    def elements_of(self, kind: Any) -> list:
+        """The elements of one kind (its class, e.g. ``Spring``), in insertion order."""
         return [e for e in self.elements.values() if isinstance(e, kind)]
 
     def children(self, name: str) -> list[Body]:

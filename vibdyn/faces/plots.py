@@ -159,7 +159,8 @@ def time_history(response: "TimeResult", outputs=None, *, direction=None, quanti
     a.set_ylabel(quantity)
     a.grid(True, alpha=0.3)
     a.legend(loc="best", fontsize="small")
-    a.set_title(f"{quantity} ({response.method}, error ≈ {response.error:.1e})", fontsize="medium")
+    unit = " or ".join(sorted(set(response.units)))  # the positions' error: absolute (the error convention)
+    a.set_title(f"{quantity} ({response.method}, position error ≈ {response.error:.1e} {unit})", fontsize="medium")
     return save(fig, path, dpi)
 
 

@@ -79,6 +79,7 @@ class Trajectory(TimeResult):
     events = Renamed("t_events")  # (the event functions are given as simulate's events=; these are found)
     event_q = Renamed("q_events")
     event_v = Renamed("v_events")
+    error_kind = Renamed("error_scope")
 
     @property
     def coordinates(self) -> tuple:
@@ -128,7 +129,7 @@ class Trajectory(TimeResult):
         return float(self.q_error.max()) if len(self) else 0.0
 
     @property
-    def error_kind(self) -> str:
+    def error_scope(self) -> str:
         """What :attr:`error` is: "local (not a global bound)" for DOP853's accumulated local error estimates
         (measured up to ~30× too low on long chaotic or light-bodied runs: use error_method="rerun" for a global
         estimate), else "global estimate (rerun)" or "global estimate (richardson)"; "none" without one."""
@@ -187,7 +188,7 @@ class Trajectory(TimeResult):
     def summary(self) -> str:
         steps = f"{self.accepted} steps" + ("" if self.rejected is None else f" ({self.rejected} rejected)")
         return (f"{self.method}: t = {self.t[-1] if len(self) else 0.0:.6g} s ({self.status}), {steps}, "
-                f"{self.nfev} evaluations, error ≈ {self.error:.1e} ({self.error_kind}), energy drift "
+                f"{self.nfev} evaluations, error ≈ {self.error:.1e} ({self.error_scope}), energy drift "
                 f"{self.drift:.2e} J ({self.drift_relative:.1e} relative), {self.elapsed:.3g} s")
 
     def __repr__(self):
@@ -215,7 +216,7 @@ class Trajectory(TimeResult):
 
     def _meta(self):
         return {"scene": self.system.name, "method": self.method, "status": self.status, "message": self.message,
-                "error_method": self.error_method, "error_kind": self.error_kind, "error": self.error,
+                "error_method": self.error_method, "error_scope": self.error_scope, "error": self.error,
                 "velocity_error": self.velocity_error,
                 "drift_J": self.drift, "drift_relative": self.drift_relative, "nfev": self.nfev,
                 "njev": self.njev, "nlu": self.nlu, "accepted": self.accepted,
