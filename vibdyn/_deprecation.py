@@ -41,6 +41,20 @@ class Renamed:
         return getattr(owner if obj is None else obj, self.new)
 
 
+def former_names(**renamed: str):
+    """A class decorator: each keyword, a former attribute name, reads the attribute named by its value (as
+    :class:`Renamed`)."""
+
+    def declare(cls: type) -> type:
+        for former, new in renamed.items():
+            alias = Renamed(new)
+            setattr(cls, former, alias)
+            alias.__set_name__(cls, former)
+        return cls
+
+    return declare
+
+
 class RenamedKeyword:
     """The former keyword ``former`` of ``where`` (a function's public name), now ``new``."""
 

@@ -27,7 +27,7 @@ from typing import Any, Callable
 import numpy as np
 import scipy.linalg as sla
 
-from .._deprecation import Renamed
+from .._deprecation import Renamed, former_names
 from ..defaults import EPS
 from ..description import parameters as _parameters
 from ..errors import ConvergenceError, ModelError
@@ -37,6 +37,9 @@ from ..model.fd import differences
 STEP = 1e-4
 
 
+@former_names(**{name: f"d_{name}" for name in ("omega", "omega_error", "omega2", "omega2_error", "eigenvalues",
+                                                 "eigenvalues_error", "omega_n", "omega_n_error", "zeta", "zeta_error",
+                                                 "shapes", "shapes_error")})
 @dataclass(frozen=True, eq=False)
 class Sensitivity:
     """Derivatives of the modes of a linear model with respect to named parameters.
@@ -78,18 +81,6 @@ class Sensitivity:
     note: str = ""
     modes: Any = field(default=None, repr=False)  # the base modes the derivatives are of
     nelson: Any = field(default=None, repr=False)  # () -> (∂φ, its error): computed on first use
-    omega = Renamed("d_omega")
-    omega_error = Renamed("d_omega_error")
-    omega2 = Renamed("d_omega2")
-    omega2_error = Renamed("d_omega2_error")
-    eigenvalues = Renamed("d_eigenvalues")
-    eigenvalues_error = Renamed("d_eigenvalues_error")
-    omega_n = Renamed("d_omega_n")
-    omega_n_error = Renamed("d_omega_n_error")
-    zeta = Renamed("d_zeta")
-    zeta_error = Renamed("d_zeta_error")
-    shapes = Renamed("d_shapes")
-    shapes_error = Renamed("d_shapes_error")
 
     @cached_property
     def _shape_derivatives(self):
