@@ -36,10 +36,10 @@ from .frf import EPS
 class TimeResponse(TimeResult):
     """A response in time (a :class:`~vibdyn.results.TimeResult`): ``x`` = δq, ``v`` = δv, ``a`` = δa (n_t × nv,
     m or rad and their rates) at times ``t`` (s), measured from the operating point (displacements, not
-    configurations: a :class:`~vibdyn.simulation.trajectory.Trajectory`'s ``q``). ``relative_error``: estimated error relative to max|δq| (quadrature, eigenvector
-    conditioning or the integrator's tolerance, plus the linear model's error drifting the phase over the
-    time span) and ``error`` that absolute, m or rad (as a Trajectory's); ``imaginary``: largest imaginary part left by complex modes
-    (relative, round-off). ``displacement(outputs)`` maps to body points or coordinates."""
+    configurations: a :class:`~vibdyn.simulation.trajectory.Trajectory`'s ``q``). ``relative_error``: estimated
+    error relative to max|δq| (quadrature, eigenvector conditioning or the integrator's tolerance, plus the linear
+    model's error drifting the phase over the time span) and ``error`` that absolute, m or rad (as a
+    Trajectory's); ``imaginary``: largest imaginary part left by complex modes (relative, round-off). ``displacement(outputs)`` maps to body points or coordinates."""
 
     t: np.ndarray
     x: np.ndarray
