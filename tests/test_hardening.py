@@ -119,6 +119,7 @@ def test_nan_arguments_are_refused():
     (lambda s: s.accelerations([0.3], [0.0], t="abc"), "t \\(time"),
     (lambda s: s.linearize(step="a"), "step"),
     (lambda s: s.linearize(step=-1e-5), "step"),
+    (lambda s: s.linearize(step=5e-324), "step .* below the machine epsilon"),  # (K came through overflows)
     (lambda s: s.equilibrium(max_iter="a"), "max_iter"),
     (lambda s: s.equilibrium(max_iter=2.5), "max_iter"),
     (lambda s: s.steady_motion({"rod": "fast"}), "speed of 'rod'"),

@@ -307,6 +307,8 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
     start = time.perf_counter()
     if step is not FD_STEP:
         step = scalar(step, "linearize step", positive=True)
+        if step < EPS:  # (a displacement below q's own round-off: the differences would be round-off over ~0)
+            raise ModelError(f"linearize: step {step:g} is below the machine epsilon {EPS:.1e} (a relative step)")
     if method not in ("fd", "analytic"):
         raise ModelError(f"linearize: unknown method {method!r} (use 'fd' or 'analytic')")
     q0, v0, t0 = reference_state(system, at, v, t)
