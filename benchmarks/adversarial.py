@@ -75,7 +75,7 @@ CASES = {
         s = vd.Scene("s"); s.add_body("r", joint=vd.Pivot((0,0,1)), mass=1.0, inertia=np.eye(3))
         tr = s.build().simulate(1e-3, v0=[1e160]); ok = finite(tr.kinetic)'''),
     "mac nan": "x = vd.mac(np.array([[np.nan], [1.0]]))\nok = finite(x)",
-    "modes tolerance nan": "m = slider().build().linearize().modes(tolerance=float('nan'))\nok = False",
+    "modes tol nan": "m = slider().build().linearize().modes(tol=float('nan'))\nok = False",
     "equilibrium tol nan": "eq = pendulum().build().equilibrium(vd.Scene and pendulum().build().configuration([0.5]), tol=float('nan'))\nok = False",
     "q numeric strings": "pendulum().build().accelerations(['0.3'], [0]); ok = False",
     "q complex": "pendulum().build().accelerations([0.3 + 1j], [0]); ok = False",
@@ -86,7 +86,7 @@ CASES = {
         d = tempfile.mkdtemp(); open(os.path.join(d, "arm.xml"), "w").write('<mujoco><worldbody><body name="b"><joint name="j" type="hinge"/><geom size="0.1" mass="1"/></body></worldbody></mujoco>')
         p = os.path.join(d, "m.xml"); open(p, "w").write('<mujoco model="m"><include file="arm.xml"/><worldbody><body name="a"><joint name="i" type="hinge"/><geom size="0.1" mass="1"/></body></worldbody></mujoco>')
         s = vd.load_mjcf(p); ok = len(s.bodies) == 2'''),
-    "dop853 local estimate labelled": "tr = slider(c=1.0).build().simulate(1.0, v0=[1.0])\nok = tr.error_kind != 'local'",
+    "dop853 local estimate labelled": "tr = slider(c=1.0).build().simulate(1.0, v0=[1.0])\nok = tr.error_scope != 'local'",
     # ------------------------------------------------------------ raw exceptions and hangs before
     "dop853 nan first step": "slider(c=1e200).build().simulate(1.0, v0=[1e150]); ok = False",
     "dop853 v0 1e300": "slider(c=1.0).build().simulate(1.0, v0=[1e300]); ok = False",

@@ -218,12 +218,12 @@ class MuJoCoSim:
         q = system.neutral().copy()
         for info, ids in self.oracle.joints:
             a = m.jnt_qposadr[ids[0]]
-            if info.joint.kind == "ball":
+            if info.joint.type == "ball":
                 w, x, y, z = d.qpos[a:a + 4]
                 q[info.idx_q:info.idx_q + 4] = np.array([x, y, z, w]) / math.sqrt(w * w + x * x + y * y + z * z)
-            elif info.joint.kind in ("pivot", "slider"):
+            elif info.joint.type in ("pivot", "slider"):
                 q[info.idx_q] = d.qpos[a]
             else:
-                raise ValueError(f"MuJoCoSim: {info.joint.kind} joints are not mapped back")
+                raise ValueError(f"MuJoCoSim: {info.joint.type} joints are not mapped back")
         v = np.asarray(d.qvel)[self.oracle.dof].copy()
         return q, v

@@ -228,7 +228,7 @@ def case_helical(S):
             sim_run(system, "vibdyn dop853 rtol=1e-11", T_HEL, q0, np.zeros(1), err, S, rtol=1e-11)]
     for method in ("fd", "analytic"):
         runs.append(guarded(f"vibdyn linearize {method} + modes", lambda: _modes_at_eq(system, method),
-                            lambda m: abs(m.omega[0] - w) / w, lambda m: m.error, lambda m: None, S, S.repeat,
+                            lambda m: abs(m.omega[0] - w) / w, lambda m: m.relative_error, lambda m: None, S, S.repeat,
                             method=method))
     return C.case_record("helical joint, pitch 1e-9 m/rad", "extreme",
                          "exact: harmonic about θ_eq = −m g p/k, ω² = k/(I + m p²)", runs, unit="rad (ω: relative)")

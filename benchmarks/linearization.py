@@ -9,7 +9,7 @@ closed forms (:func:`exact_chain`), so every path is compared with the exact nat
   A: ω = |log λ| / dt (error ≈ (ω dt)²/24 from the discretisation itself);
 - MuJoCo ``mjd_inverseFD`` (one-sided) for K, its DfDa for M, + ``eigh(K, M)``.
 
-Error: largest relative error of the natural frequencies over the modes. vibdyn's estimate: ``modes.error``.
+Error: largest relative error of the natural frequencies over the modes. vibdyn's estimate: ``modes.relative_error``.
 """
 
 import functools
@@ -78,8 +78,8 @@ def lin_modes(system, q0, method, step=None):
 
 def vibdyn_run(system, q0, method, ref, S, step=None, label=None, repeat=None):
     (lin, m), t, peak = C.measure(lambda: lin_modes(system, q0, method, step), repeat or S.repeat)
-    return C.run_record(label or f"vibdyn {method}", "vibdyn", omega_error(m.omega, ref), m.error, t,
-                        lin.evaluations, peak, method=method, lin_error=lin.error, step=step)
+    return C.run_record(label or f"vibdyn {method}", "vibdyn", omega_error(m.omega, ref), m.relative_error, t,
+                        lin.evaluations, peak, method=method, lin_error=lin.relative_error, step=step)
 
 
 class MuJoCoLinear:
@@ -148,7 +148,7 @@ def chain_case(n, S):
 
 def vcurve_case(S):
     """FD step sweep: the error of K against the exact K (truncation ∝ h², round-off ∝ 1/h), with vibdyn's
-    estimate ``lin.error``; the frequency error is recorded beside (``omega_error``)."""
+    estimate ``lin.relative_error``; the frequency error is recorded beside (``omega_error``)."""
     n = 100
     system = pendulum_chain(n, k=K_SPRING, L=L, m=MASS).build()
     q0 = system.neutral()
@@ -161,9 +161,9 @@ def vcurve_case(S):
         method = "fd" if h else "analytic"
         (lin, m), t, peak = C.measure(lambda: lin_modes(system, q0, method, h), 1)
         err = float(np.abs(lin.K - K_exact).max() / np.abs(K_exact).max())
-        runs.append(C.run_record(f"vibdyn fd step={h:g}" if h else "vibdyn analytic", "vibdyn", err, lin.error, t,
+        runs.append(C.run_record(f"vibdyn fd step={h:g}" if h else "vibdyn analytic", "vibdyn", err, lin.relative_error, t,
                                  lin.evaluations, peak, method=method, step=h, omega_error=omega_error(m.omega, ref),
-                                 omega_estimate=m.error))
+                                 omega_estimate=m.relative_error))
     return C.case_record(f"FD step V-curve (chain n={n})", "linearization", "exact K (closed form)", runs,
                          x="step", unit="relative, K")
 

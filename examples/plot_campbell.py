@@ -43,13 +43,13 @@ def closed_form(Omega):
 # error estimate ``diagram.error`` (rad/s).
 backward, forward = closed_form(speeds)
 worst = 0.0
-for j in range(diagram.frequencies.shape[1]):
+for j in range(diagram.omega.shape[1]):
     whirls = set(diagram.whirl[1:, j]) - {""}
     if not whirls:
         continue  # the spin's own (cyclic) mode: frequency 0
     (kind,) = whirls  # one whirl per tracked curve: the tracking never swapped them
     exact = backward if kind == "backward" else forward
-    gap = np.abs(diagram.frequencies[:, j] - exact)
+    gap = np.abs(diagram.omega[:, j] - exact)
     worst = max(worst, (gap / np.maximum(diagram.error[:, j], 1e-300)).max())
     print(f"column {j}: {kind} whirl, largest |ω_vibdyn − ω_exact| = {gap.max():.1e} rad/s "
           f"(error estimates up to {diagram.error[:, j].max():.1e})")
@@ -80,5 +80,5 @@ modes = rotor.operating_point().linearize().modes()
 b100, f100 = closed_form(100.0)
 whirling = modes.omega_d > 0
 print(f"at Ω = 100 rad/s: ω_d = {np.round(modes.omega_d, 7)} rad/s; closed form {b100:.7f}, {f100:.7f}")
-assert np.all(np.abs(modes.omega_d[whirling] - [b100, f100]) <= 10 * modes.eigenvalue_error[whirling] * [b100, f100])
+assert np.all(np.abs(modes.omega_d[whirling] - [b100, f100]) <= 10 * modes.eigenvalue_error[whirling])
 vd.export_html(modes, "viewer_campbell.html")

@@ -38,7 +38,7 @@ eq = system.equilibrium()
 lin = eq.linearize()
 modes = lin.modes()
 for w, f, e in zip(modes.omega, modes.frequency_hz, modes.omega_error):
-    print(f"ω = {w:.6f} rad/s  (f = {f:.6f} Hz), relative error estimate {e:.1e}")
+    print(f"ω = {w:.6f} rad/s  (f = {f:.6f} Hz), error estimate {e:.1e} rad/s")
 print(f"linearised in {lin.elapsed * 1e3:.2f} ms, modes in {modes.elapsed * 1e3:.2f} ms")
 
 # %%
@@ -50,7 +50,7 @@ M = np.array([[m_c + m_r, m_r * a], [m_r * a, m_r * L**2 / 3]])
 K = np.diag([k, m_r * g * a])
 omega_hand = np.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True))
 print("by hand:", omega_hand)
-assert np.all(np.abs(modes.omega - omega_hand) <= 10 * modes.omega_error * omega_hand + 1e-12)
+assert np.all(np.abs(modes.omega - omega_hand) <= 10 * modes.omega_error + 1e-12)
 
 # %%
 # Pictures and the offline viewer

@@ -92,7 +92,7 @@ eq = system.equilibrium()
 lin = eq.linearize()
 modes = lin.modes()
 theta_e = eq.coordinate("crank")
-w, w_err = modes.omega[0], modes.omega_error[0] * modes.omega[0]
+w, w_err = modes.omega[0], modes.omega_error[0]
 print(f"vibdyn: θₑ = {theta_e:.12f} rad (error estimate {eq.q_error[0]:.1e}), ω = {w:.10f} rad/s "
       f"({modes.frequency_hz[0]:.10f} Hz), error estimate {w_err:.1e}")
 print("pin force at C, coupler on rocker (N, world axes):", eq.loop_forces["C"][:2])

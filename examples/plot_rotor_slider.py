@@ -64,11 +64,11 @@ for name, value, ref, err in [("M", lin.M, book["mass_matrix"], 1e-12 * np.abs(l
 # %%
 # Its state eigenvalues
 # ---------------------
-# Each carries a relative error estimate ``eigenvalue_error``; the zero is the rotor angle's (cyclic).
+# Each carries an error estimate ``eigenvalue_error`` (1/s); the zero is the rotor angle's (cyclic).
 modes = lin.modes()
 lam = np.sort_complex(modes.eigenvalues)
 lam_book = np.sort_complex(np.array([complex(*z) for z in book["eigenvalues"]]))
-tol = 10 * modes.error * np.abs(lam_book) + 10 * modes.zero_threshold * (lam_book == 0)
+tol = 10 * modes.relative_error * np.abs(lam_book) + 10 * modes.zero_threshold * (lam_book == 0)
 for a, b, t in zip(lam, lam_book, tol):
     print(f"λ vibdyn {a.real:+.10f} {a.imag:+.10f}i   book {b.real:+.10f} {b.imag:+.10f}i   "
           f"|Δ| {abs(a - b):.1e} ≤ {t:.1e}")

@@ -37,7 +37,7 @@ print(system.coordinates, "nv =", system.nv)
 # exact to round-off).
 eq = system.equilibrium()
 lin = eq.linearize()
-print(f"equilibrium {eq.stability}, residual {eq.residual:.1e} N; K's relative error estimate {lin.error:.1e}, "
+print(f"equilibrium {eq.stability}, residual {eq.residual:.1e} N; K's relative error estimate {lin.relative_error:.1e}, "
       f"linearised in {lin.elapsed * 1e3:.2f} ms")
 for name, value, ref, err in [("M", lin.M, book["mass_matrix"], 1e-12),
                               ("K", lin.K, book["stiffness_matrix"], lin.K_error),
@@ -48,13 +48,13 @@ for name, value, ref, err in [("M", lin.M, book["mass_matrix"], 1e-12),
 # %%
 # Modes beside the book's frequencies
 # -----------------------------------
-# Each ω carries its own relative error estimate ``omega_error``; the check allows ten times it (the margin
+# Each ω carries its own error estimate ``omega_error`` (rad/s); the check allows ten times it (the margin
 # the test suite uses), the book's values being exact to 16 digits.
 modes = lin.modes()
 print(" mode   ω vibdyn (rad/s)    f (Hz)      ω book (rad/s)     |Δω|      allowed")
 for r, (w, f, e, ref) in enumerate(zip(modes.omega, modes.frequency_hz, modes.omega_error, book["omega"])):
-    print(f"  {r + 1}   {w:.12f}   {f:.8f}   {ref:.12f}   {abs(w - ref):.1e}   {10 * e * w:.1e}")
-    assert abs(w - ref) <= 10 * e * w, f"mode {r + 1}"
+    print(f"  {r + 1}   {w:.12f}   {f:.8f}   {ref:.12f}   {abs(w - ref):.1e}   {10 * e:.1e}")
+    assert abs(w - ref) <= 10 * e, f"mode {r + 1}"
 
 # %%
 # With its dampers

@@ -65,7 +65,7 @@ assert abs(X - book["X"]) <= 5e-4 and abs(Y - book["Y"]) <= 5e-4  # the book pri
 # The book prints ω to 1e-6 rad/s: the check allows its rounding plus ten times vibdyn's estimate.
 lin = eq.linearize()
 modes = lin.modes()
-w, e = modes.omega[0], modes.omega_error[0] * modes.omega[0]
+w, e = modes.omega[0], modes.omega_error[0]
 # the book's equation linearised at γ: [C + (M + 2m)ℓ²] δγ̈ + K δγ = 0
 inertia = M * R**2 / 2 + 2 * m * ell**2 + (M + 2 * m) * ell**2
 stiffness = (-(M + 2 * m) * g * ell * math.cos(gamma)

@@ -31,7 +31,7 @@ lin = held.linearize()
 modes = lin.modes()
 print("coordinates:", robot.coordinates)
 print("drive torques holding the posture (N·m):", {j: round(t, 6) for j, t in held.drive.items()})
-print(" mode   ω_n (rad/s)     f_n (Hz)     ω_d (rad/s)      ζ        rel. error estimate")
+print(" mode   ω_n (rad/s)     f_n (Hz)     ω_d (rad/s)      ζ        λ error estimate (1/s)")
 for r in range(modes.omega_n.size):
     print(f"  {r + 1}   {modes.omega_n[r]:12.6f}  {modes.omega_n[r] / (2 * np.pi):10.6f}  {modes.omega_d[r]:12.6f}  "
           f"{modes.zeta[r]:8.5f}   {modes.eigenvalue_error[r]:.1e}")
@@ -95,7 +95,7 @@ def modal_velocity(t, q, v):
 
 q_start = free.integrate(held.q, 1e-3 * phi / np.abs(phi).max())
 traj = free.simulate(1.0, q_start, rtol=1e-10, events=[modal_velocity])
-half = np.diff(np.r_[0.0, traj.events[0]])
+half = np.diff(np.r_[0.0, traj.t_events[0]])
 omega_sim = np.pi / half.mean()
 print(f"ω₁ from the motion {omega_sim:.9f} rad/s (half periods {np.round(half, 9)} s), from the modes "
       f"{mode1.omega[0]:.9f} rad/s; relative gap {abs(omega_sim / mode1.omega[0] - 1):.1e} "

@@ -233,30 +233,30 @@ def scene_to_mjcf(scene, joint_elements=False):
     def emit(body, depth):
         J = body.joint
         pad = "  " * depth
-        if J.kind == "free" and body.parent != vd.WORLD:
+        if J.type == "free" and body.parent != vd.WORLD:
             raise ValueError(f"body '{body.name}': MuJoCo only allows free joints on children of the world")
         R = np.eye(3) if J.rotation is None else np.array(J.rotation)
         x, y, z, w = pin.Quaternion(R).coeffs()
         lines.append(f'{pad}<body name="{body.name}" pos="{_fmt(J.at)}" quat="{_fmt([w, x, y, z])}">')
-        if J.kind in ("pivot", "slider"):
+        if J.type in ("pivot", "slider"):
             extra = "".join(f' {k}="{v!r}"' for k, v in passive.get(body.name, {}).items())
-            lines.append(f'{pad}  <joint name="{body.name}" type="{_MJ_JOINT[J.kind]}" axis="{_fmt(J.axis)}"'
+            lines.append(f'{pad}  <joint name="{body.name}" type="{_MJ_JOINT[J.type]}" axis="{_fmt(J.axis)}"'
                          f'{extra}/>')
-        elif J.kind in ("ball", "free"):
-            lines.append(f'{pad}  <joint name="{body.name}" type="{_MJ_JOINT[J.kind]}"/>')
-        elif J.kind == "cylindrical":
+        elif J.type in ("ball", "free"):
+            lines.append(f'{pad}  <joint name="{body.name}" type="{_MJ_JOINT[J.type]}"/>')
+        elif J.type == "cylindrical":
             lines.append(f'{pad}  <joint name="{body.name}.s" type="slide" axis="{_fmt(J.axis)}"/>')
             lines.append(f'{pad}  <joint name="{body.name}.theta" type="hinge" axis="{_fmt(J.axis)}"/>')
-        elif J.kind == "planar":  # two slides along the in-plane axes, then the hinge about the normal
+        elif J.type == "planar":  # two slides along the in-plane axes, then the hinge about the normal
             A = J.alignment
             lines.append(f'{pad}  <joint name="{body.name}.x" type="slide" axis="{_fmt(A[:, 0])}"/>')
             lines.append(f'{pad}  <joint name="{body.name}.y" type="slide" axis="{_fmt(A[:, 1])}"/>')
             lines.append(f'{pad}  <joint name="{body.name}.theta" type="hinge" axis="{_fmt(A[:, 2])}"/>')
-        elif J.kind == "universal":
+        elif J.type == "universal":
             lines.append(f'{pad}  <joint name="{body.name}.theta1" type="hinge" axis="{_fmt(J.axis1)}"/>')
             lines.append(f'{pad}  <joint name="{body.name}.theta2" type="hinge" axis="{_fmt(J.axis2)}"/>')
-        elif J.kind != "fixed":
-            raise ValueError(f"body '{body.name}': no MuJoCo equivalent for a {J.kind} joint")
+        elif J.type != "fixed":
+            raise ValueError(f"body '{body.name}': no MuJoCo equivalent for a {J.type} joint")
         I = np.array(body.inertia)
         if body.mass > 0:
             full = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
@@ -284,8 +284,8 @@ def _joint_passive(scene):
             raise ValueError(f"scene_to_mjcf: force element '{e.name}' ({kind}) is not converted; only joint "
                              "springs and dampers are (joint_elements=True)")
         body = scene.body(e.body)
-        if body.joint.kind not in ("pivot", "slider"):
-            raise ValueError(f"scene_to_mjcf: {kind} '{e.name}' on a {body.joint.kind} joint is not converted")
+        if body.joint.type not in ("pivot", "slider"):
+            raise ValueError(f"scene_to_mjcf: {kind} '{e.name}' on a {body.joint.type} joint is not converted")
         a = out.setdefault(body.name, {"k": 0.0, "kr": 0.0, "c": 0.0})
         if kind == "JointSpring":
             a["k"] += float(e.stiffness[0])
@@ -331,7 +331,7 @@ class MuJoCoOracle:
             info = system.body_info(name)
             if info.nv == 0:
                 continue
-            kind = info.joint.kind
+            kind = info.joint.type
             if kind in ("cylindrical", "universal", "planar"):
                 mj_names = [name + s for s in info.joint.suffixes]
             else:
@@ -353,7 +353,7 @@ class MuJoCoOracle:
         qvel[self.dof] = v
         for info, ids in self.joints:
             qb = q[info.idx_q:info.idx_q + info.nq]
-            kind = info.joint.kind
+            kind = info.joint.type
             if kind == "ball":
                 x, y, z, w = qb
                 d.qpos[m.jnt_qposadr[ids[0]]:m.jnt_qposadr[ids[0]] + 4] = [w, x, y, z]

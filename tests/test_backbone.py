@@ -142,7 +142,7 @@ def test_kerschen_backbones_against_an_independent_shooting(kerschen, mode, ener
     assert np.all(np.diff(bb.omega) > 0) and bb.omega[0] > omega_lin
     if mode == 0:
         assert bb.omega[-1] < math.sqrt(2) and bb.omega[-1] > 1.3
-        res = [r for r in bb.resonances if r.kind == "internal resonance"]
+        res = [r for r in bb.resonances if r.category == "internal resonance"]
         assert len(res) == 1 and res[0].other_mode == 1 and res[0].ratio == 2
         assert 10.0 < res[0].energy < 100.0 and bb.omega[1] < res[0].omega < bb.omega[2]
         assert bb.stability[:2] == ("neutral within the error",) * 2 and bb.stability[2] == "unstable"

@@ -33,17 +33,17 @@ def closed_form(W, It=IT, Ip=IP, k=K):
 
 def test_gimballed_disk_frequencies_whirl_and_critical_speed():
     c = vd.campbell(gimbal(), "rotor", np.linspace(0, 150, 31), held=False)
-    assert c.frequencies.shape == (31, 3)
-    assert np.all(c.frequencies[:, 0] == 0.0)  # the spin itself: cyclic, exactly 0
+    assert c.omega.shape == (31, 3)
+    assert np.all(c.omega[:, 0] == 0.0)  # the spin itself: cyclic, exactly 0
     back, fwd = closed_form(c.speeds)
-    lo, hi = c.frequencies[:, 1], c.frequencies[:, 2]
+    lo, hi = c.omega[:, 1], c.omega[:, 2]
     # the tracked columns are one physical mode each: from Ω > 0 on, the higher is the forward whirl
     if hi[5] < lo[5]:
         lo, hi = hi, lo
     err = np.maximum(c.error[:, 1], c.error[:, 2])
     assert np.all(np.abs(lo - back) <= 1e-7 * back) and np.all(np.abs(hi - fwd) <= 1e-7 * fwd)
     assert np.all(np.abs(lo - back) <= 10 * err + 4 * np.finfo(float).eps * fwd)  # honest estimate
-    col_hi = 2 if c.frequencies[5, 2] > c.frequencies[5, 1] else 1
+    col_hi = 2 if c.omega[5, 2] > c.omega[5, 1] else 1
     assert all(w == "forward" for w in c.whirl[1:, col_hi])
     assert all(w == "backward" for w in c.whirl[1:, 3 - col_hi])
     assert c.whirl[0, 1] == c.whirl[0, 2] == ""  # no spin, no whirl
@@ -72,7 +72,7 @@ def test_r6_rotor_at_its_regime_speed_equals_the_held_speed_model():
     system = vd.load_scene(MODELS / "rotor_slider.toml").build()
     w_star = np.sqrt(10.0)
     c = vd.campbell(system, "rotor", [0.0, 1.0, 2.0, 3.0, w_star, 4.0])
-    row = c.frequencies[4]
+    row = c.omega[4]
     lam = system.steady_motion({"rotor": w_star}).linearize(method="analytic").modes().damped_eigenvalues
     assert sorted(row) == pytest.approx(sorted([0.0, np.abs(lam.imag).max()]), abs=10 * c.error[4].max())
     assert np.abs(row).max() == pytest.approx(9.8697688, abs=1e-7)  # reference-cases R6
@@ -94,11 +94,11 @@ def crossing_rotor():
 
 def test_tracking_follows_each_mode_through_a_true_crossing():
     c = vd.campbell(crossing_rotor(), "rotor", np.linspace(0, 8, 33), held=False)
-    const = [j for j in range(3) if c.frequencies[0, j] > 0 and np.ptp(c.frequencies[:, j]) <= 1e-9 * 7.0]
-    assert len(const) == 1 and c.frequencies[0, const[0]] == pytest.approx(7.0, rel=1e-12)
-    moving = [j for j in range(3) if j not in const and c.frequencies[0, j] > 0]
+    const = [j for j in range(3) if c.omega[0, j] > 0 and np.ptp(c.omega[:, j]) <= 1e-9 * 7.0]
+    assert len(const) == 1 and c.omega[0, const[0]] == pytest.approx(7.0, rel=1e-12)
+    moving = [j for j in range(3) if j not in const and c.omega[0, j] > 0]
     assert len(moving) == 1
-    f = c.frequencies[:, moving[0]]
+    f = c.omega[:, moving[0]]
     assert f[0] > 7.0 > f[-1] and np.all(np.diff(f) < 0)  # it crosses the constant one and stays itself
 
 
@@ -167,8 +167,8 @@ def test_slow_precession_at_extreme_spin_is_not_rounded_to_zero():
     slow, fast = 2 * K / (b + root), (b + root) / (2 * IT)
     eps = np.finfo(float).eps
     for i in range(len(speeds)):
-        order = np.argsort(c.frequencies[i])
-        f, e = c.frequencies[i][order], c.error[i][order]
+        order = np.argsort(c.omega[i])
+        f, e = c.omega[i][order], c.error[i][order]
         assert f[0] == 0.0  # the spin: cyclic
         assert abs(f[1] - slow[i]) <= e[1] + 4 * eps * slow[i]  # (the closed form's own rounding)
         assert abs(f[2] - fast[i]) <= e[2] + 4 * eps * fast[i]
@@ -197,14 +197,14 @@ def test_bead_on_rotating_hoop_held_and_free_hub():
     speeds = np.array([5.0, 6.0, 8.0, 10.0])
     theta0 = np.arccos(G / (L_ARM * speeds**2))
     held = vd.campbell(system, "hub", speeds, q0=[0.0, 0.9])
-    assert held.held and held.frequencies.shape == (4, 1)
+    assert held.held and held.omega.shape == (4, 1)
     exact = speeds * np.sin(theta0)
-    assert np.all(np.abs(held.frequencies[:, 0] - exact) <= held.error[:, 0] + 4 * np.finfo(float).eps * exact)
+    assert np.all(np.abs(held.omega[:, 0] - exact) <= held.error[:, 0] + 4 * np.finfo(float).eps * exact)
     assert np.all(held.error[:, 0] <= 1e-9 * exact)  # the issue's accuracy, by the result's own estimate
     free = vd.campbell(system, "hub", speeds, q0=[0.0, 0.9], held=False)
     inertia = J_HUB + M_BEAD * L_ARM**2 * np.sin(theta0) ** 2
     exact_free = exact * np.sqrt(1 + 4 * M_BEAD * L_ARM**2 * np.cos(theta0) ** 2 / inertia)
-    f = np.sort(free.frequencies, axis=1)
+    f = np.sort(free.omega, axis=1)
     assert np.all(f[:, 0] == 0.0)  # the free hub: cyclic
     assert np.all(np.abs(f[:, 1] - exact_free) <= np.max(free.error, axis=1) + 4 * np.finfo(float).eps * exact_free)
     assert np.all(np.abs(exact_free / exact - 1) > 0.03)  # the two differ (4 to 67 %): the test tells them apart
@@ -215,9 +215,9 @@ def test_held_spin_removes_only_the_cyclic_zero_of_a_symmetric_rotor():
     """The gimballed disk's tilt modes do not move the spin: held or free, It ω² ∓ Ip Ω ω − k = 0."""
     speeds = np.linspace(0, 150, 7)
     c = vd.campbell(gimbal(), "rotor", speeds)
-    assert c.held and c.frequencies.shape == (7, 2)
+    assert c.held and c.omega.shape == (7, 2)
     back, fwd = closed_form(speeds)
-    f = np.sort(c.frequencies, axis=1)
+    f = np.sort(c.omega, axis=1)
     assert np.all(np.abs(f[:, 0] - back) <= c.error.max(axis=1) + 1e-12 * fwd)
     assert np.all(np.abs(f[:, 1] - fwd) <= c.error.max(axis=1) + 1e-12 * fwd)
 
@@ -227,7 +227,7 @@ def test_held_spin_of_the_crossing_rotor_is_the_rotating_frame_closed_form():
     Coriolis coupling with the hub's own motion moves it)."""
     speeds = np.linspace(0, 8, 9)
     c = vd.campbell(crossing_rotor(), "rotor", speeds)
-    f = np.sort(c.frequencies, axis=1)
+    f = np.sort(c.omega, axis=1)
     radial = np.sqrt(100.0 - speeds**2)
     k = np.argmin(np.abs(f - radial[:, None]), axis=1)
     got = f[np.arange(len(speeds)), k]
@@ -239,6 +239,6 @@ def test_motor_law_on_the_spin_keeps_it_free_by_default():
     system = vd.load_scene(MODELS / "rotor_slider.toml").build()
     assert not vd.campbell(system, "rotor", [1.0, 2.0]).held
     held = vd.campbell(system, "rotor", [1.0, 2.0], held=True)
-    assert held.held and held.frequencies.shape == (2, 1)
+    assert held.held and held.omega.shape == (2, 1)
     with pytest.raises(vd.ModelError, match="held must be"):
         vd.campbell(system, "rotor", [1.0, 2.0], held="yes")

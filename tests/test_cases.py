@@ -2,7 +2,7 @@
 pipeline (operating point → linearisation → modes), to ≤ 1e-6 relative (values: ../shared/reference-cases.md,
 recomputed exactly in each file's [reference]).
 
-Tolerances: a result's own error estimate (modes.error/residual, lin.K_error, traj.error, ...) wherever the
+Tolerances: a result's own error estimate (modes.relative_error/residual, lin.K_error, traj.error, ...) wherever the
 comparison is one the estimate covers; fixed 1e-15..1e-12 ones are identities that hold to round-off (a
 few ε × the size of the terms: ΦᵀMΦ = 1 from eigh, a unit quaternion, a closed form in a few flops).
 """
@@ -42,13 +42,13 @@ def test_chains_R1_R2_frequencies_and_absolute_shapes(name, method):
         assert vd.mac(X[:, r], np.array(shape)) == pytest.approx(1.0, abs=1e-10)
         i = int(np.argmax(np.abs(shape)))
         np.testing.assert_allclose(X[:, r] / X[i, r] * shape[i], shape, rtol=RTOL, atol=RTOL)
-    assert op.stability == "stable" and modes.error < 1e-8
+    assert op.stability == "stable" and modes.relative_error < 1e-8
 
 
 def test_R2_built_both_ways_agrees():
     a = solve("rao_three_mass_ground")[3]
     b = solve("rao_three_mass_series")[3]
-    np.testing.assert_allclose(a.omega, b.omega, rtol=a.error + b.error)
+    np.testing.assert_allclose(a.omega, b.omega, rtol=a.relative_error + b.relative_error)
 
 
 def test_R1_prestressed_equilibrium_moves_and_matches():
@@ -117,7 +117,7 @@ def test_cli_modes_json(capsys):
     np.testing.assert_allclose(d["modes"]["omega_rad_s"], ref["omega"], rtol=RTOL)
     np.testing.assert_allclose(d["modes"]["frequency_hz"], np.array(ref["omega"]) / (2 * np.pi), rtol=RTOL)
     assert d["operating_point"]["stability"] == "stable"
-    assert 0 < d["linearization"]["error_estimate"] < 1e-6
+    assert 0 < d["linearization"]["relative_error"] < 1e-6
     assert main(["modes", str(MODELS / "rotor_slider.toml")]) == 0
     out = capsys.readouterr().out
     assert "steady equilibrium: stable" in out and "3.16227766" in out

@@ -39,7 +39,7 @@ def test_equilibrium_and_frequency_of_a_hardening_spring_under_a_constant_force(
         K = 3 * (k3 * F**2) ** (1 / 3)
         assert abs(lin.K[0, 0] - K) <= 10 * lin.K_error[0, 0] + 1e-9 * K
         w = lin.modes().omega[0]
-        assert abs(w - np.sqrt(K / m)) <= 10 * lin.modes().error * w + 1e-9 * w
+        assert abs(w - np.sqrt(K / m)) <= 10 * lin.modes().relative_error * w + 1e-9 * w
 
 
 def test_fd_equals_analytic_on_a_pendulum_with_a_cubic_torsion_spring():
@@ -72,7 +72,7 @@ def test_energy_is_conserved_within_the_trajectory_error_estimate():
     s = vd.Scene("free duffing")
     s.add_body("cart", joint=vd.Slider((1, 0, 0)), mass=m)
     s.add_cubic_joint_spring("cart", k3)
-    tr = s.build().simulate(2.0, q0=[0.1], rtol=1e-10, error="rerun")
+    tr = s.build().simulate(2.0, q0=[0.1], rtol=1e-10, error_method="rerun")
     E = tr.energy
     assert abs(E[0] - (0.25 * k3 * 0.1**4)) <= 1e-15 * E[0]
     bound = k3 * 0.1**3 * tr.error + m * np.abs(tr.v).max() * tr.velocity_error

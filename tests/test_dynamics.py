@@ -425,7 +425,7 @@ def _static_check(system, q, what):
         assert_close(r.force[r.bodies.index(name)], F, 1e-12, what=f"{what} static force {name}")
         assert_close(r.moment[r.bodies.index(name)], Mo, 1e-12, scale=scale, what=f"{what} static moment {name}")
         J = system.scene.bodies[name].joint
-        if J.kind == "pivot":
+        if J.type == "pivot":
             axis = system.body_pose(name, q)[0] @ np.array(J.axis)
             assert_close(r.joint_force[name], [axis @ Mo], 1e-12, scale=scale, what=f"{what} pivot torque {name}")
             # and that is the gravity torque the joint must hold: the coordinate of inverse dynamics

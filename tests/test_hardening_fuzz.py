@@ -104,7 +104,7 @@ def test_fuzz_states(q, v, t):
        method=st.sampled_from(["fd", "analytic", "x", 3]))
 def test_fuzz_analysis_arguments(step, tolerance, tol, max_iter, method):
     outcome(lambda: GOOD.linearize(step=step, method=method).modes())
-    outcome(lambda: GOOD.linearize().modes(tolerance=tolerance))
+    outcome(lambda: GOOD.linearize().modes(tol=tolerance))
     outcome(lambda: GOOD.equilibrium([0.1, 0.0], tol=tol, max_iter=max_iter))
     outcome(lambda: vd.rayleigh((tol, tolerance), (1.0, 10.0)))
 

@@ -76,7 +76,7 @@ def test_fuzz_state_and_tolerances(q, v, t, tol, step, iters):
     outcome(lambda: system.generalized_forces([q, 0.0], [v, 0.0], t))
     outcome(lambda: system.linearize(step=step).K)
     outcome(lambda: system.equilibrium(tol=tol, max_iter=iters).q)
-    outcome(lambda: system.linearize().modes(tolerance=tol).omega)
+    outcome(lambda: system.linearize().modes(tol=tol).omega)
 
 
 @FUZZ

@@ -31,8 +31,8 @@ def test_receptance_peak_of_a_heavily_damped_oscillator_is_within_its_tolerance(
         f = scene.build().equilibrium().linearize().receptance(np.linspace(0.1, 10.0, 120))
         p = f.peaks()
         exact = wn * math.sqrt(1 - 2 * zeta**2)
-        assert abs(p.resonances[0] - exact) <= p.tolerance
-        assert p.tolerance < 1e-6 * wn
+        assert abs(p.resonances[0] - exact) <= p.omega_error
+        assert p.omega_error < 1e-6 * wn
 
 
 # ---------------------------------------------------------------------- absurd but finite inputs
@@ -115,6 +115,6 @@ def test_far_reaching_spring_does_not_size_the_bodies_inertia():
     w = np.sqrt(9.81 * 0.5 / (1 / 3))
     for L in (1e3, 1e6):
         m = rod(L).build().operating_point().linearize().modes()
-        assert abs(m.omega[0] - w) <= 10 * m.omega_error[0] * w
+        assert abs(m.omega[0] - w) <= 10 * m.omega_error[0]
     with pytest.raises(vd.ModelError, match="spring 'k'.*free length is too large"):
         rod(1e20).build().operating_point().linearize()

@@ -71,7 +71,7 @@ def shoot(system, z, T, t0=0.0, final=True):
         return tr, np.concatenate([tr.q[-1], tr.v[-1]]) - z
 
     for _ in range(12):
-        tr, F = run(z, error="local")
+        tr, F = run(z, error_method="local")
         if np.max(np.abs(F)) < 1e-11:
             break
         z = z - np.linalg.solve(tr.state_transition - np.eye(2 * n), F)
@@ -84,7 +84,7 @@ def orbit_maximum(system, z, T, t0=0.0):
     """max over one period of |x| for the orbit through z, from the maxima and minima of x (zeros of v,
     located on the integrator's interpolant)."""
     tr = system.simulate(t0 + T, [z[0]], [z[1]], rtol=RTOL, t0=t0, events=lambda t, q, v: v[0])
-    extremes = np.abs(np.concatenate([np.ravel(tr.event_q[0]), [z[0]]]))
+    extremes = np.abs(np.concatenate([np.ravel(tr.q_events[0]), [z[0]]]))
     return float(extremes.max()), tr
 
 
@@ -169,7 +169,7 @@ def turning_point_orbit(A, y0, J=None):
     given by the chord method; returns ((Ω, t0), the last Jacobian, the residual)."""
     def G(y):
         system = duffing_scene(forcing=(P, y[0])).build()
-        tr = system.simulate(y[1] + 2 * np.pi / y[0], [A], [0.0], rtol=RTOL, t0=y[1], error="local")
+        tr = system.simulate(y[1] + 2 * np.pi / y[0], [A], [0.0], rtol=RTOL, t0=y[1], error_method="local")
         return np.array([tr.q[-1][0] - A, tr.v[-1][0]])
 
     y, newton = np.array(y0, float), J is None
@@ -401,7 +401,7 @@ def test_double_pendulum_orbit_and_multipliers_against_shooting():
     assert np.all(np.abs(np.sort(mu) - np.sort(np.abs(crv.multipliers[i])))
                   <= 10 * (crv.multiplier_error[i] + tr.state_transition_error))
     ext = forced.simulate(T, z[:2], z[2:], rtol=RTOL, events=lambda t, q, v: v[1])
-    A = max(np.abs(np.asarray(ext.event_q[0])[:, 1]).max(), abs(z[1]))
+    A = max(np.abs(np.asarray(ext.q_events[0])[:, 1]).max(), abs(z[1]))
     assert abs(A - crv.amplitude[i]) <= 10 * crv.error[i] + 1e-9
 
 

@@ -1,7 +1,7 @@
 """Damping identification (half-power bandwidth, logarithmic decrement) and Rayleigh fits, against
 closed forms and the damping the models were built with.
 
-Tolerances: a result's own error estimate (modes.error/residual, lin.K_error, traj.error, ...) wherever the
+Tolerances: a result's own error estimate (modes.relative_error/residual, lin.K_error, traj.error, ...) wherever the
 comparison is one the estimate covers; fixed 1e-15..1e-12 ones are identities that hold to round-off (a
 few ε × the size of the terms: ΦᵀMΦ = 1 from eigh, a unit quaternion, a closed form in a few flops).
 """

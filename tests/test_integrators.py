@@ -70,7 +70,7 @@ def within_estimate(traj, q_err, v_err):
 @pytest.mark.parametrize("name,error", [(n, e) for n in sorted(METHODS) for e in METHODS[n].error_methods])
 def test_harmonic_oscillator_within_its_own_error_estimate(name, error):
     t = np.linspace(0.0, T_END, 41)  # inside steps for the adaptive methods: their dense output
-    traj = run(name, t_eval=t, error=error)
+    traj = run(name, t_eval=t, error_method=error)
     np.testing.assert_array_equal(traj.t, t)
     assert traj.error_method == error
     q_err = np.abs(traj.q[:, 0] - exact(t))
@@ -103,10 +103,10 @@ def test_counters(name):
 def test_dense_output_agrees_with_a_second_run(name):
     """Output times do not change the steps: a run asked for its own step times plus the midpoints gives
     the first run's states exactly at the steps, and the dense output at the midpoints within its estimate."""
-    first = run(name, error="rerun")
+    first = run(name, error_method="rerun")
     mid = 0.5 * (first.t[1:] + first.t[:-1])
     t = np.sort(np.concatenate([first.t, mid]))
-    second = run(name, t_eval=t, error="rerun")
+    second = run(name, t_eval=t, error_method="rerun")
     at_steps = np.isin(second.t, first.t)
     np.testing.assert_array_equal(second.q[at_steps], first.q)
     np.testing.assert_array_equal(second.v[at_steps], first.v)

@@ -134,7 +134,7 @@ def test_analytic_linearisation_of_a_universal_joint_equals_fd(moving):
     assert an.method == "analytic"
     assert np.all(np.abs(an.K - fd.K) <= an.K_error + fd.K_error)
     assert np.all(np.abs(an.C - fd.C) <= an.C_error + fd.C_error)
-    assert an.error < 1e-6 and np.abs(an.K).max() > 1.0
+    assert an.relative_error < 1e-6 and np.abs(an.K).max() > 1.0
 
 
 def test_rows_and_linear_terms_of_a_universal_joint_equal_fd():

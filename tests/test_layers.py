@@ -2,7 +2,7 @@
 
 Layers, lowest first (a module imports only from its own layer or below):
 
-0 base        vibdyn.errors, vibdyn._check, vibdyn._format, vibdyn.defaults, vibdyn.results
+0 base        vibdyn.errors, vibdyn._check, vibdyn._deprecation, vibdyn._format, vibdyn.defaults, vibdyn.results
 1 description vibdyn.description.*   what a user writes (scene, joints, elements, laws, loops, ...)
 2 model       vibdyn.model.*         the compiled System, its workspaces, dynamics, forces, derivatives
 3 time        vibdyn.simulation.*    simulate, its integrators, events and variational equations
@@ -30,7 +30,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "vibdyn"
-LAYERS = {"errors": 0, "_check": 0, "_format": 0, "defaults": 0, "results": 0, "description": 1, "solvers": 2,
+LAYERS = {"errors": 0, "_check": 0, "_deprecation": 0, "_format": 0, "defaults": 0, "results": 0, "description": 1, "solvers": 2,
           "model": 2, "simulation": 3, "analysis": 4, "studies": 5, "io": 6, "faces": 7}
 # the model layer's machinery that the description's plugins (element kinds) build on
 PLUGIN_MACHINERY = {"vibdyn.model.points", "vibdyn.model.groups"}

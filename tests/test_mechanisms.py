@@ -324,11 +324,11 @@ def test_campbell_diagram_of_a_looped_rotor_follows_the_hand_reduction():
         mg = MD * R**2 / 2 + (MD + 4 * MA) * L**2
         Vpp = -(MD + 2 * MA) * G * L * c + 4 * k * L**2 * c**2 - 2 * k * L * (2 * L * s - L0) * s
         omega_n = math.sqrt((Vpp - 0.5 * ddIy * spin**2 + (dIy * spin) ** 2 / Iy) / mg)
-        assert np.nanmax(cd.frequencies[i]) == pytest.approx(omega_n, rel=1e-6)
+        assert np.nanmax(cd.omega[i]) == pytest.approx(omega_n, rel=1e-6)
         # held at Ω by its drive, the spin's momentum no longer stiffens γ: the (I_y' Ω)² / I_y term goes
         omega_held = math.sqrt((Vpp - 0.5 * ddIy * spin**2) / mg)
-        assert held.frequencies.shape[1] == 1
-        assert held.frequencies[i, 0] == pytest.approx(omega_held, rel=1e-6)
+        assert held.omega.shape[1] == 1
+        assert held.omega[i, 0] == pytest.approx(omega_held, rel=1e-6)
 
 
 def test_a_cyclic_coordinate_that_opens_the_loops_is_refused():
@@ -454,7 +454,7 @@ def test_iftomm_a05_flyball_governor_steady_spin_modes_and_transient():
         assert st.coordinate(name) == pytest.approx(hand, abs=st.q_error[system.coordinate_index(name)])
     m = st.linearize().modes()
     assert m.stability in ("stable", "neutral")
-    assert np.all(m.damped_eigenvalues.real <= m.eigenvalue_error * np.abs(m.damped_eigenvalues) + m.zero_threshold)
+    assert np.all(m.damped_eigenvalues.real <= m.eigenvalue_error + m.zero_threshold)
     # the transient from the benchmark's start, everything co-rotating
     q0 = system.configuration({"sleeve": ref["s0"], "rod1": ref["beta0"], "rod2": ref["beta0"]})
     v0 = np.array([ref["spin0"], 0.0, 0.0, 0.0])

@@ -284,7 +284,7 @@ def test_every_supported_joint_kind_matches_pinocchio():
         parent = model.addJoint(parent, jm, pin.SE3.Random(), jname)
         model.appendBodyToJoint(parent, inertia(), pin.SE3.Identity())
     scene = robots.scene_from_model(model, "all_kinds")
-    kinds = [b.joint.kind for b in scene.bodies.values()]
+    kinds = [b.joint.type for b in scene.bodies.values()]
     assert kinds == ["universal", "planar", "helical", "helical", "ball", "pivot", "slider", "pivot", "free"]
     system = scene.build()
     assert system.nv == model.nv and system.nq == model.nq - 1  # the continuous joint stores one angle

@@ -596,7 +596,7 @@ def test_operating_point_table(tmp_path):
     assert scene.operating_point == {"cyclic": {"r": None}, "start": None}
     op = scene.build().operating_point()
     # 4 − ω² = 0; the search stops at |4 − ω²| ≤ tolerance (N·m), so ω is within tolerance / 2ω
-    assert op.regime == "steady" and op.speeds["r"] == pytest.approx(2.0, abs=op.tolerance / 4)
+    assert op.regime == "steady" and op.speeds["r"] == pytest.approx(2.0, abs=op.tol / 4)
     scene.save(tmp_path / "again.toml")
     assert vd.load_scene(tmp_path / "again.toml").operating_point == scene.operating_point
     path.write_text(path.read_text().replace('"free"', '"fast"'))

@@ -30,8 +30,8 @@ def test_one_dof_closed_forms():
     s = oscillator(k, m).build().operating_point().linearize().modes().sensitivity(["k1.stiffness", "m1.mass"])
     assert s.params == ("k1.stiffness", "m1.mass") and s.units == ("N/m", "kg")
     exact = np.array([[1 / (2 * np.sqrt(k * m)), -np.sqrt(k / m) / (2 * m)]])
-    assert np.all(np.abs(s.omega - exact) <= s.omega_error)
-    assert np.all(s.omega_error < 1e-6 * np.abs(exact))  # an estimate that says something
+    assert np.all(np.abs(s.d_omega - exact) <= s.d_omega_error)
+    assert np.all(s.d_omega_error < 1e-6 * np.abs(exact))  # an estimate that says something
     assert np.allclose(s.normalised, [[0.5, -0.5]], atol=1e-6)
 
 
@@ -57,7 +57,7 @@ def test_two_dof_chain_against_characteristic_polynomial():
             Pp = (P(x, *(p + dp)[order]) - P(x, *(p - dp)[order])) / (2 * dp[j])
             dw = -Pp / Px / (2 * w)
             # the oracle's own differences: ~1e-9 relative
-            assert abs(s.omega[i, j] - dw) <= s.omega_error[i, j] + 1e-8 * abs(dw), (i, j)
+            assert abs(s.d_omega[i, j] - dw) <= s.d_omega_error[i, j] + 1e-8 * abs(dw), (i, j)
 
 
 def pendulum(length=0.8):
@@ -74,8 +74,8 @@ def test_pendulum_length_through_the_joint_placement():
     w = np.sqrt(g / l)
     assert abs(s.omega0[0] - w) < 1e-9 * w
     # l = −at.z: ∂ω/∂at.z = −∂ω/∂l = ω/(2l); ∂ω/∂g = ω/(2g)
-    assert abs(s.omega[0, 0] - w / (2 * l)) <= s.omega_error[0, 0]
-    assert abs(s.omega[0, 1] - w / (2 * g)) <= s.omega_error[0, 1]
+    assert abs(s.d_omega[0, 0] - w / (2 * l)) <= s.d_omega_error[0, 0]
+    assert abs(s.d_omega[0, 1] - w / (2 * g)) <= s.d_omega_error[0, 1]
     assert s.units == ("m", "m/s²")
 
 
@@ -86,14 +86,14 @@ def test_campbell_slope_of_the_gimbal_rotor():
     s = m.sensitivity(["rotor.speed"])
     assert s.units == ("rad/s",)
     flexible = ~m.damped_zero
-    got = s.eigenvalues[flexible, 0].imag
-    err = s.eigenvalues_error[flexible, 0]
+    got = s.d_eigenvalues[flexible, 0].imag
+    err = s.d_eigenvalues_error[flexible, 0]
     exact = []
     for sgn in (-1, +1):  # ascending: backward whirl first
         w = (sgn * Ip * W + np.sqrt((Ip * W) ** 2 + 4 * It * k)) / (2 * It)
         exact.append(sgn * Ip * w / (2 * It * w - sgn * Ip * W))
     assert np.all(np.abs(got - exact) <= err)
-    assert np.allclose(s.omega_n[flexible, 0], exact, atol=0, rtol=1e-6)
+    assert np.allclose(s.d_omega_n[flexible, 0], exact, atol=0, rtol=1e-6)
 
 
 def pipeline_difference(make, p, h, modes_of):
@@ -121,8 +121,8 @@ def check_against_pipeline(base, params):
         make = lambda x, p=p: with_values(base, [p], [x])  # noqa: E731
         (d1, n1), (d2, _) = pipeline_difference(make, p.value, h, modes_of), pipeline_difference(
             make, p.value, 2 * h, modes_of)
-        for k, (got, err) in enumerate(((s.omega[:, j], s.omega_error[:, j]), (s.zeta[:, j], s.zeta_error[:, j]),
-                                        (s.omega_n[:, j], s.omega_n_error[:, j]))):
+        for k, (got, err) in enumerate(((s.d_omega[:, j], s.d_omega_error[:, j]), (s.d_zeta[:, j], s.d_zeta_error[:, j]),
+                                        (s.d_omega_n[:, j], s.d_omega_n_error[:, j]))):
             a, b = d1[k], d2[k]
             rich = a + (a - b) / 3
             # the oracle's own error: its truncation (|a − b|/3) and its values' error over the step
@@ -136,7 +136,7 @@ def test_every_sensitivity_against_the_whole_pipeline_at_two_steps():
     params = ["trailer.mass", "wall_spring.stiffness", "rod.damper.damping", "rod.com.z", "rod.inertia.yy"]
     s = check_against_pipeline(vd.load_scene("trailer"), params)
     assert s.method.startswith("element (2 parameters)")  # stiffness and damping: no rebuild
-    assert np.any(np.abs(s.zeta[:, params.index("rod.damper.damping")]) > 0)
+    assert np.any(np.abs(s.d_zeta[:, params.index("rod.damper.damping")]) > 0)
 
 
 def test_a_stiffness_that_moves_the_pose():
@@ -179,11 +179,11 @@ def test_repeated_frequency_of_a_symmetric_spherical_pendulum():
         w = [np.sort(with_values(base, [p], [p.value + k * h]).build().operating_point().linearize(
             method="analytic").modes().omega)[-2:] for k in (0, 1, 2)]
         forward = (-3 * w[0] + 4 * w[1] - w[2]) / (2 * h)  # second order, one side: the split's ascending order
-        got = s.omega[flexible, j]
-        assert np.all(np.abs(got - forward) <= s.omega_error[flexible, j] + 1e-5 * np.abs(forward).max()), (name, got, forward)
+        got = s.d_omega[flexible, j]
+        assert np.all(np.abs(got - forward) <= s.d_omega_error[flexible, j] + 1e-5 * np.abs(forward).max()), (name, got, forward)
     # Ixx moves the mode about x alone (one derivative ≈ 0); gravity both equally
-    assert min(abs(s.omega[flexible, 0])) < 1e-6 * max(abs(s.omega[flexible, 0]))
-    assert abs(s.omega[flexible[0], 1] - s.omega[flexible[1], 1]) <= s.omega_error[flexible, 1].sum()
+    assert min(abs(s.d_omega[flexible, 0])) < 1e-6 * max(abs(s.d_omega[flexible, 0]))
+    assert abs(s.d_omega[flexible[0], 1] - s.d_omega[flexible[1], 1]) <= s.d_omega_error[flexible, 1].sum()
 
 
 def test_nelson_shape_derivatives_against_differences():
@@ -198,8 +198,8 @@ def test_nelson_shape_derivatives_against_differences():
         return with_values(base, [p], [x]).build().operating_point().linearize(method="analytic").modes().shapes
 
     d = (shapes(p.value + h) - shapes(p.value - h)) / (2 * h)
-    assert np.all(np.abs(s.shapes[:, :, 0] - d) <= s.shapes_error[:, :, 0] + 1e-6 * np.abs(d).max())
-    assert np.abs(s.shapes).max() > 0
+    assert np.all(np.abs(s.d_shapes[:, :, 0] - d) <= s.d_shapes_error[:, :, 0] + 1e-6 * np.abs(d).max())
+    assert np.abs(s.d_shapes).max() > 0
 
 
 def test_builder_form_matches_names():
@@ -208,7 +208,7 @@ def test_builder_form_matches_names():
 
     a = vd.sensitivity(build, {"k1": 100.0, "k2": 60.0})
     b = two_masses().build().operating_point().linearize().modes().sensitivity(["k1.stiffness", "k2.stiffness"])
-    assert np.all(np.abs(a.omega - b.omega) <= a.omega_error + b.omega_error)
+    assert np.all(np.abs(a.d_omega - b.d_omega) <= a.d_omega_error + b.d_omega_error)
 
 
 def test_bad_input():

@@ -7,7 +7,7 @@ angular momentum; a free body under time-dependent forces; damping, a moving sup
 against their closed forms with the energy balance; the variational integrator's discrete Noether theorem;
 bad input, failures, Ctrl-C, export and the command line. Run with ``-s`` to see the measured numbers.
 
-Tolerances: a result's own error estimate (modes.error/residual, lin.K_error, traj.error, ...) wherever the
+Tolerances: a result's own error estimate (modes.relative_error/residual, lin.K_error, traj.error, ...) wherever the
 comparison is one the estimate covers; fixed 1e-15..1e-12 ones are identities that hold to round-off (a
 few ε × the size of the terms: ΦᵀMΦ = 1 from eigh, a unit quaternion, a closed form in a few flops).
 """
@@ -70,7 +70,7 @@ def test_a01_dop853_precision_and_2000_s_band():
     ref = A01.references
     t_eval = np.union1d(np.arange(0.0, 2000.0 + 1e-9, 0.5), ref["times"])
     start = time.perf_counter()
-    traj = system.simulate(2000.0, method="dop853", rtol=1e-12, t_eval=t_eval, error="local")
+    traj = system.simulate(2000.0, method="dop853", rtol=1e-12, t_eval=t_eval, error_method="local")
     wall = time.perf_counter() - start
     assert traj.status == "finished" and np.array_equal(traj.t, t_eval)
     err = np.abs(a01_position(traj.q) - a01_exact(traj.t)).max(axis=1)
@@ -94,11 +94,11 @@ def test_a01_default_error_estimate_is_global(rtol):
     t = np.linspace(0.0, 10.0, 21)
     traj = system.simulate(10.0, rtol=rtol, t_eval=t)
     err = np.abs(a01_position(traj.q) - a01_exact(t)).max(axis=1)
-    local = system.simulate(10.0, rtol=rtol, t_eval=t, error="local")
+    local = system.simulate(10.0, rtol=rtol, t_eval=t, error_method="local")
     report(f"A01 dop853 rtol {rtol:g}: error {err.max():.2e}, estimate {traj.error:.2e} (rerun), "
            f"{local.error:.2e} (local); {traj.elapsed * 1e3:.1f} ms of which {traj.error_elapsed * 1e3:.1f} ms "
            "for the estimate")
-    assert traj.error_kind == "global estimate (rerun)" and local.error_kind == "local (not a global bound)"
+    assert traj.error_scope == "global estimate (rerun)" and local.error_scope == "local (not a global bound)"
     assert np.all(err <= 2 * np.maximum.accumulate(traj.q_error) + 1e-13)
     assert traj.error <= 3 * err.max()  # and not vacuous
     np.testing.assert_array_equal(traj.q, local.q)  # the estimate never changes the answer
@@ -481,7 +481,7 @@ def test_moving_support_and_harmonic_force_closed_forms():
     ({"dt": 20.0}, r"longer than the run \(t_end − t0"),
     ({"t_eval": [2.0, 1.0]}, "strictly increasing"),
     ({"t_eval": [11.0]}, r"t_eval must lie in \[t0 = 0, t_end"),
-    ({"error": "richardson"}, "'richardson' is not available for method 'dop853'"),
+    ({"error_method": "richardson"}, "'richardson' is not available for method 'dop853'"),
     ({"progress": "yes"}, "progress must be"),
 ])
 def test_bad_input_is_a_model_error(kwargs, match):

@@ -33,7 +33,7 @@ def test_grid_sweep_rows_and_table(tmp_path):
     # each point's frequencies are those of its own chain
     m = examples.chain(3, k1=1200.0, k2=1100.0).build().operating_point().linearize().modes()
     assert np.array_equal(sw.values("omega")[5], m.omega)
-    assert {"omega_0", "omega_2", "error", "elapsed_s", "status"} <= set(rows[0])
+    assert {"omega_0", "omega_2", "relative_error", "elapsed_s", "status"} <= set(rows[0])
     sw.to_csv(tmp_path / "s.csv")
     assert len((tmp_path / "s.csv").read_text().splitlines()) == 7
     assert len(sw.to_pandas()) == 6

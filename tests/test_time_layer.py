@@ -92,16 +92,16 @@ def test_a_pendulum_crosses_its_hanging_position_every_half_period():
 
     for kw in ({"rtol": 1e-10}, {"method": "rk4", "dt": 2e-3}, {"method": "radau", "rtol": 1e-9}):
         traj = system.simulate(10.0, [1.0], [0.0], events=[hanging], **kw)
-        t = traj.events[0]
+        t = traj.t_events[0]
         assert len(t) == 9, kw
         # a crossing's time is off by about the position error over the speed there (√(2g(1 − cos θ0)))
         tol = 10 * traj.error / math.sqrt(2 * G * (1 - math.cos(1.0))) + 1e-12
         assert np.abs(np.diff(t) - period / 2).max() <= 2 * tol, kw
         assert t[0] == pytest.approx(period / 4, abs=tol)
-        assert np.abs(traj.event_q[0]).max() <= 1e-9
+        assert np.abs(traj.q_events[0]).max() <= 1e-9
     # only downward ones (θ̇ < 0 at θ = 0: the first, third, ...), and a terminal one ends the run there
     hanging.direction = -1
-    t = system.simulate(10.0, [1.0], [0.0], events=[hanging], rtol=1e-10).events[0]
+    t = system.simulate(10.0, [1.0], [0.0], events=[hanging], rtol=1e-10).t_events[0]
     assert len(t) == 5 and np.abs(np.diff(t) - period).max() <= 1e-8
     hanging.terminal = True
     traj = system.simulate(10.0, [1.0], [0.0], events=[hanging], rtol=1e-10)

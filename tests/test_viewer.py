@@ -73,7 +73,7 @@ shape = [{ type = "box", size = [0.1, 0.2, 0.3], color = "#ff0000" },
 """)
     scene = vd.load_scene(tmp_path / "s.toml")
     shapes = scene.bodies["b"].shape
-    assert [s.kind for s in shapes] == ["box", "capsule", "mesh"]
+    assert [s.type for s in shapes] == ["box", "capsule", "mesh"]
     assert shapes[0].color == (1.0, 0.0, 0.0) and shapes[2].path == str(stl.resolve())
     scene.save(tmp_path / "again.toml")
     assert vd.load_scene(tmp_path / "again.toml").bodies["b"].shape == shapes

@@ -11,6 +11,7 @@ from importlib import import_module
 from importlib import metadata as _metadata
 from typing import Any
 
+from ._deprecation import warn_once as _warn_once
 from .description import inertia, laws
 from .description.elements import WORLD as _WORLD
 from .description.joints import (
@@ -83,7 +84,7 @@ class _FormerModule:
         import functools
 
         functools.update_wrapper(self, fn)
-        self._module, self._warned = module, set()
+        self._module = module
 
     def __call__(self, *args, **kwargs):
         return self.__wrapped__(*args, **kwargs)
@@ -93,13 +94,9 @@ class _FormerModule:
             raise AttributeError(name)
         mod = import_module(f".{self._module}", __name__)
         value = getattr(mod, name)  # (an AttributeError as the module would give it)
-        if name not in self._warned:
-            self._warned.add(name)
-            import warnings
-
-            short = self.__wrapped__.__name__
-            warnings.warn(f"vibdyn.{short} is the function {short}() now; read {name} from vibdyn (vibdyn.{name}) "
-                          f"or from vibdyn.{self._module}", DeprecationWarning, stacklevel=2)
+        short = self.__wrapped__.__name__
+        _warn_once(f"vibdyn.{short}.{name}", f"vibdyn.{short} is the function {short}() now; read {name} from vibdyn "
+                  f"(vibdyn.{name}) or from vibdyn.{self._module}")
         return value
 
 

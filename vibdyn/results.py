@@ -4,8 +4,8 @@ and the simulation's :class:`~vibdyn.simulation.simulate.Trajectory` both derive
 A time result has ``t`` (s, n_t), its positions — ``q`` (configurations) in a Trajectory, ``x``
 (displacements from the operating point) in a TimeResponse, named by ``position_name`` — and ``v``, ``a``
 (one row per time: m or rad, velocities in m/s or rad/s, accelerations in m/s² or rad/s²), ``coordinates`` and ``units`` (one
-per velocity component), ``method``, ``error`` (the result's own error estimate: see each class for its
-unit), ``elapsed`` (s), :meth:`~TimeResult.to_dict` (JSON-ready) and :meth:`~TimeResult.series` (the curves
+per velocity component), ``method``, ``error`` (the result's own estimated error of its positions, absolute: m
+or rad), ``elapsed`` (s), :meth:`~TimeResult.to_dict` (JSON-ready) and :meth:`~TimeResult.series` (the curves
 of chosen outputs, which :func:`vibdyn.faces.plots.time_history` and :meth:`~TimeResult.plot` draw).
 """
 

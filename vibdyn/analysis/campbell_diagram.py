@@ -21,6 +21,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from .._check import finite_array
+from .._deprecation import Renamed
 from .._format import number
 from ..errors import ConvergenceError, ModelError
 from ..model.fd import tangent_derivative
@@ -50,8 +51,9 @@ class CriticalSpeed:
     mode: int
     whirl: str
     order: float
-    frequency: float  # rad/s, = order × speed
+    omega: float  # rad/s, the mode's ω_d there = order × speed
     error: float  # estimated absolute error of the speed (rad/s)
+    frequency = Renamed("omega")
 
     @property
     def speed_rpm(self) -> float:
@@ -66,18 +68,18 @@ class CriticalSpeed:
 class Campbell:
     """A Campbell diagram (see :func:`campbell`).
 
-    ``speeds`` (n,) rad/s; ``frequencies`` (n × m) rad/s, the damped ω_d = |Im λ| (the glossary's) of each
-    mode, one column per mode tracked by MAC from one speed
+    ``speeds`` (n,) rad/s; ``omega`` (n × m) rad/s, the damped ω_d = |Im λ| (the glossary's) of each
+    mode (``frequency_hz`` in Hz), one column per mode tracked by MAC from one speed
     to the next (0 for rigid, cyclic and overdamped modes); ``zeta`` (n × m) damping ratios;
     ``whirl`` (n × m) "forward", "backward" or "" (no whirl: a planar or non-oscillating mode);
-    ``error`` (n × m) estimated absolute error of each frequency (rad/s); ``elapsed`` s; ``held``: True if the
-    spin was held at each speed by its drive (it is then no coordinate of the modes), False if it was free.
+    ``error`` (n × m) estimated absolute error of each ω (rad/s); ``elapsed`` s; ``held``: True if the spin
+    was held at each speed by its drive (it is then no coordinate of the modes), False if it was free.
     """
 
     system: object = field(repr=False)
     spin: str
     speeds: np.ndarray
-    frequencies: np.ndarray
+    omega: np.ndarray
     zeta: np.ndarray
     whirl: np.ndarray
     error: np.ndarray
@@ -87,10 +89,12 @@ class Campbell:
     _shapes: list = field(repr=False)
     _q: list = field(repr=False)
     held: bool = True
+    frequencies = Renamed("omega")
 
     @property
     def frequency_hz(self) -> np.ndarray:
-        return self.frequencies / (2 * np.pi)
+        """ω_d / 2π (Hz), n × m."""
+        return self.omega / (2 * np.pi)
 
     def critical_speeds(self, order: float = 1) -> list[CriticalSpeed]:
         """Speeds in the diagram's range where a mode's frequency equals ``order`` × |Ω|, refined on the
@@ -102,8 +106,8 @@ class Campbell:
         if order <= 0:
             raise ModelError(f"critical_speeds: order must be positive, got {order}")
         found = []
-        for j in range(self.frequencies.shape[1]):
-            f = self.frequencies[:, j]
+        for j in range(self.omega.shape[1]):
+            f = self.omega[:, j]
             g = f - order * np.abs(self.speeds)
             for i in range(len(self.speeds) - 1):
                 if f[i] <= 0 or f[i + 1] <= 0 or g[i] * g[i + 1] > 0 or (g[i] == 0 and i > 0):
@@ -169,7 +173,7 @@ class Campbell:
 
     def to_dict(self) -> dict:
         return {"spin": self.spin, "spin_held": self.held, "speeds_rad_s": self.speeds.tolist(),
-                "frequencies_rad_s": self.frequencies.tolist(), "zeta": self.zeta.tolist(),
+                "omega_rad_s": self.omega.tolist(), "zeta": self.zeta.tolist(),
                 "whirl": self.whirl.tolist(), "error_rad_s": self.error.tolist(), "method": self.method,
                 "critical_speeds": [
                     {"order": c.order, "speed_rad_s": c.speed, "mode": c.mode, "whirl": c.whirl,
@@ -178,7 +182,7 @@ class Campbell:
                 "elapsed_s": self.elapsed}
 
     def __repr__(self) -> str:
-        n, m = self.frequencies.shape
+        n, m = self.omega.shape
         return (f"Campbell('{self.spin}', {n} speeds {number(self.speeds[0])}…{number(self.speeds[-1])} rad/s, "
                 f"{m} modes, {self.elapsed:.2f} s)")
 
@@ -259,10 +263,10 @@ def _speed_modes(system, spin: str, speed: float, q0, method: str, held: bool = 
     m = lin.modes()
     n = lin.nv
     if m.eigenvalues.size:
-        lam, shapes, lam_err, zero = m.damped_eigenvalues, m.complex_shapes, m.eigenvalue_error, m.damped_zero
+        lam, shapes, lam_err, zero = m.damped_eigenvalues, m.complex_shapes, m.eigenvalue_relative_error, m.damped_zero
     else:  # undamped and not gyroscopic: real modes, λ = ±iω (or ±ω when unstable)
         lam = np.where(m.unstable, m.omega + 0j, 1j * m.omega)
-        shapes, lam_err, zero = m.shapes.astype(complex), m.omega_error, m.rigid
+        shapes, lam_err, zero = m.shapes.astype(complex), m.omega_relative_error, m.rigid
     # zeros are the modes' own verdict (within 10 × their uncertainty of 0): a cyclic coordinate's double
     # zero is a Jordan block, which round-off splits by ±√δ — its uncertainty says so —, while a slow
     # precession (2.5e-3 rad/s beside a spin of 1e6) is an imaginary pair with its own small error

@@ -13,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from .._check import integer, scalar
+from .._deprecation import Renamed
 from .._format import number, table
 from ..defaults import EQUILIBRIUM_TOL, MAX_ITER
 from ..errors import ConvergenceError, ModelError
@@ -34,7 +35,8 @@ class OperatingPoint:
     ``residual``: largest remaining generalized force (N or N·m); ``speeds``: the cyclic coordinates'
     speeds (rad/s or m/s); ``drive``: generalized force needed to hold each given speed, or for a held
     point each coordinate (N or N·m); ``stability``: "stable", "unstable" or "neutral" (rigid-body/cyclic
-    directions, undamped); ``q_error``: estimated error of each coordinate's offset (m or rad).
+    directions, undamped); ``tol``: the residual it was solved to (N or N·m); ``q_error``: estimated error of
+    each coordinate's offset (m or rad).
     """
 
     system: System = field(repr=False)
@@ -43,7 +45,7 @@ class OperatingPoint:
     t: float
     regime: str
     residual: float
-    tolerance: float
+    tol: float
     iterations: int
     stability: str
     speeds: dict
@@ -51,6 +53,7 @@ class OperatingPoint:
     elapsed: float  # s
     modes: Modes | None = field(repr=False, default=None)
     q_error: np.ndarray | None = field(repr=False, default=None)
+    tolerance = Renamed("tol")
 
     def linearize(self, **kwargs: Any) -> LinearModel:
         """The linear model about this point (see :meth:`vibdyn.System.linearize`)."""
@@ -99,7 +102,7 @@ class OperatingPoint:
             if self.speeds:
                 row.append(number(self.speeds[name], f"{u}/s", digits=10) if name in self.speeds else "")
             if self.drive:
-                row.append(number(self.drive[name], "N" if u == "m" else "N·m", self.tolerance)
+                row.append(number(self.drive[name], "N" if u == "m" else "N·m", self.tol)
                            if name in self.drive else "")
             rows.append(row)
         return "\n".join([head] + ["  " + line for line in table(cols, rows)])
@@ -340,7 +343,7 @@ def _finish(system, q, v, t, regime, residual, tolerance, iterations, ignore_zer
     stability = m.verdict(ignore_zeros=ignore_zeros)
     Kinv, M = np.linalg.pinv(lin.K, rcond=1e-10), lin.M
     if not system.reduction.is_identity:  # the free coordinates' model: the driven offsets are their laws', exact
-        Kinv, M = lin.basis @ Kinv @ lin.basis.T, lin.tree.M
+        Kinv, M = lin.null_space @ Kinv @ lin.null_space.T, lin.tree.M
     q_error = np.abs(Kinv) @ np.full(nv, residual) if nv else np.zeros(0)
     if iterations:  # the offsets carry the round-off of the steps that reached them
         q_error = q_error + 4 * np.finfo(float).eps * (np.abs(system.difference(system.neutral(), q)) + 1.0)

@@ -18,6 +18,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from .._check import all_finite, scalar, unknown_name
+from .._deprecation import Renamed
 from ..defaults import EPS, FD_STEP
 from ..errors import ModelError
 
@@ -34,20 +35,21 @@ from ..model.fd import differences, displaced_vectors, point_jacobian, stencil, 
 
 @dataclass(frozen=True, eq=False)
 class LinearModel:
-    """Linear model about (q0, v0, t0) with its error estimate and the time it took.
+    """Linear model about the state (``q``, ``v``) at time ``t`` (s), with the reference motion's accelerations
+    ``a`` (zero at an equilibrium), its error estimate and the time it took.
 
     ``K_error`` and ``C_error`` are elementwise estimates of the absolute error of K and C (zero for an
-    exact part); ``error`` is the largest of them relative to the norm of K (or C). ``K_error_terms``: None,
+    exact part); ``relative_error`` is the largest of them relative to the norm of K (or C). ``K_error_terms``: None,
     or (U, V) the part of ``K_error`` made of rank-one errors Σ_s u_s e_sᵀ with |e_s| ≤ v_s (rows of U, V;
     the rounding of point springs' forces in finite differences): ``K_error`` holds Σ_s |u_s| v_sᵀ, and a
     quadratic form φᵀ δK φ is bounded by Σ_s |u_s·φ| (v_s·|φ|) (zero for a mode that does not stretch s).
     """
 
     system: System = field(repr=False)
-    q0: np.ndarray
-    v0: np.ndarray
-    a0: np.ndarray
-    t0: float
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    t: float
     M: np.ndarray
     C: np.ndarray
     K: np.ndarray
@@ -57,13 +59,18 @@ class LinearModel:
     elapsed: float  # s
     evaluations: int  # residual evaluations (finite differences) or derivative calls
     K_error_terms: tuple | None = field(default=None, repr=False)
+    q0 = Renamed("q")
+    v0 = Renamed("v")
+    a0 = Renamed("a")
+    t0 = Renamed("t")
+    error = Renamed("relative_error")
 
     def __repr__(self):
         from .._format import duration, number, summary
 
         kind = "damped" if self.has_damping else "undamped"
         return summary("LinearModel", f"nv = {self.nv}", f"method {self.method}", kind,
-                       f"error {number(self.error, digits=2)}", f"{self.evaluations} evaluations",
+                       f"relative error {number(self.relative_error, digits=2)}", f"{self.evaluations} evaluations",
                        duration(self.elapsed))
 
     @property
@@ -105,7 +112,7 @@ class LinearModel:
         return 0.5 * (self.K - self.K.T)
 
     @property
-    def error(self):
+    def relative_error(self) -> float:
         """Largest estimated error of K and C, relative to their norms."""
         k = float(self.K_error.max(initial=0.0) / max(np.abs(self.K).max(initial=0.0), 1e-300))
         c = float(self.C_error.max(initial=0.0) / max(np.abs(self.C).max(initial=0.0), 1e-300))
@@ -148,7 +155,7 @@ class LinearModel:
 
         ``points``: body names (their origin) or ``(body, (x, y, z))`` with the point in the body frame.
         """
-        return point_jacobian(self.system, self.q0, points)
+        return point_jacobian(self.system, self.q, points)
 
     def point_input(self, points: list) -> np.ndarray:
         """Input matrix of forces (N, world axes) at body points: Jᵀ (nv × 3·npoints)."""
@@ -166,7 +173,7 @@ class LinearModel:
         def residual(x):
             shift = np.zeros((len(system.supports), 6))
             shift[i] = x
-            return dynamics.inverse_dynamics(system, system.workspace(), self.q0, self.v0, self.a0, self.t0, shift)
+            return dynamics.inverse_dynamics(system, system.workspace(), self.q, self.v, self.a, self.t, shift)
 
         out = -vector_derivative(residual, np.zeros(6), np.full(6, step * system.length_scale))  # Q = −r
         return out[:, :3], out[:, 3:]
@@ -246,10 +253,10 @@ class LinearModel:
 
     def relinearize(self, method: str) -> LinearModel:
         """The same operating point linearised again with ``method`` ("fd" or "analytic")."""
-        return tree_linearize(self.system, self.q0, v=self.v0, t=self.t0, a=self.a0, method=method)
+        return tree_linearize(self.system, self.q, v=self.v, t=self.t, a=self.a, method=method)
 
     def summary(self) -> str:
-        return (f"LinearModel({self.method}, nv={self.nv}, error ≈ {self.error:.1e}, "
+        return (f"LinearModel({self.method}, nv={self.nv}, relative error ≈ {self.relative_error:.1e}, "
                 f"{self.elapsed * 1e3:.2f} ms, {self.evaluations} evaluations)")
 
     def solve_mass(self, B: ArrayLike) -> np.ndarray:
@@ -257,7 +264,7 @@ class LinearModel:
         try:
             return solve_mass(self.M, np.asarray(B, dtype=float))
         except np.linalg.LinAlgError:
-            self.system.check_mass_matrix(self.q0, "the operating point")
+            self.system.check_mass_matrix(self.q, "the operating point")
             raise ModelError("the mass matrix of this linear model is singular or not finite") from None
 
 
@@ -313,6 +320,8 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
     start = time.perf_counter()
     if step is not FD_STEP:
         step = scalar(step, "linearize step", positive=True)
+        if step < EPS:  # (a displacement below q's own round-off: the differences would be round-off over ~0)
+            raise ModelError(f"linearize: step {step:g} is below the machine epsilon {EPS:.1e} (a relative step)")
     if method not in ("fd", "analytic"):
         raise ModelError(f"linearize: unknown method {method!r} (use 'fd' or 'analytic')")
     q0, v0, t0 = reference_state(system, at, v, t)
@@ -364,7 +373,7 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
         checks, disagreement = guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms)
         n += checks
         if disagreement:
-            kinds = sorted({b.joint.kind for b in system.body_infos.values() if b.nv})
+            kinds = sorted({b.joint.type for b in system.body_infos.values() if b.nv})
             warnings.warn(f"linearize: the analytic {disagreement} (joint types here: {', '.join(kinds)}): "
                           "using finite differences instead", stacklevel=3)
             K, C, K_err, C_err, n_fd, rounding = _finite_differences(system, ws, q0, v0, a0, t0, step)

@@ -19,6 +19,7 @@ from scipy.linalg import lapack
 from numpy.typing import ArrayLike
 
 from .._check import all_finite, scalar, vector3
+from .._deprecation import Renamed, RenamedKeyword
 from ..solvers.tracking import mac  # noqa: F401  (vd.mac, and the modes' own use)
 from ..defaults import EPS
 from ..errors import ModelError
@@ -40,6 +41,10 @@ class Modes:
     ``modal_stiffness`` = diag(ΦᵀK_sΦ) = ω² (per unit modal mass) and ``orthogonality`` (the largest of
     |ΦᵀMΦ − 1| and |ΦᵀK_sΦ − Λ| / max|ω²|) are computed on first use, from the eigenproblem that was
     solved (kept in ``eigenproblem``).
+
+    Errors (the error convention, docs/guide/names.md): ``omega_error`` (rad/s) and ``eigenvalue_error`` (1/s)
+    are absolute; ``omega_relative_error``, ``eigenvalue_relative_error`` and ``relative_error`` (the largest of
+    both) relative.
     """
 
     linear: LinearModel = field(repr=False)
@@ -48,7 +53,7 @@ class Modes:
     shapes: np.ndarray  # nv × n, φᵀ M φ = 1
     rigid: np.ndarray
     unstable: np.ndarray
-    omega_error: np.ndarray  # estimated relative error of ω per mode (eigen residual + K's error)
+    omega_relative_error: np.ndarray  # estimated error of ω per mode (eigen residual + K's error), relative
     zero_threshold: float  # 1/s: state eigenvalues this small count as rigid/cyclic
     # damped / non-symmetric part (state form); empty when the model is undamped and symmetric
     eigenvalues: np.ndarray  # all 2nv state eigenvalues (1/s), sorted by |Im|, then Re
@@ -56,7 +61,7 @@ class Modes:
     zeta: np.ndarray  # damping ratio −Re λ / |λ| per damped mode
     omega_n: np.ndarray  # |λ| rad/s
     omega_d: np.ndarray  # |Im λ| rad/s
-    eigenvalue_error: np.ndarray  # estimated relative error of each damped eigenvalue
+    eigenvalue_relative_error: np.ndarray  # estimated error of each damped eigenvalue, relative to |λ|
     complex_shapes: np.ndarray  # nv × m, largest component 1
     classical: bool  # C M⁻¹ K = K M⁻¹ C (proportional damping: real shapes diagonalise C)
     stability: str  # "stable", "unstable" or "neutral"
@@ -66,6 +71,11 @@ class Modes:
     zero: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)  # per state eigenvalue: rigid/cyclic
     damped_zero: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)  # per damped mode: rigid/cyclic
     eigenvalue_uncertainty: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)  # 1/s, per state eigenvalue
+    #: estimated absolute error of ω per mode (rad/s; a rigid mode's: the √δω² its zero may hide)
+    omega_error: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: estimated absolute error of each damped eigenvalue (1/s)
+    eigenvalue_error: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    error = Renamed("relative_error")
 
     def verdict(self, ignore_zeros: int = 0) -> str:
         """Stability with ``ignore_zeros`` zero modes not counted (the cyclic coordinates of a steady motion)."""
@@ -111,10 +121,10 @@ class Modes:
         return self.omega.size
 
     @property
-    def error(self):
+    def relative_error(self) -> float:
         """Largest estimated relative error of the frequencies and damped eigenvalues (per mode:
-        ``omega_error`` and ``eigenvalue_error``)."""
-        return float(max(self.omega_error.max(initial=0.0), self.eigenvalue_error.max(initial=0.0)))
+        ``omega_relative_error`` and ``eigenvalue_relative_error``)."""
+        return float(max(self.omega_relative_error.max(initial=0.0), self.eigenvalue_relative_error.max(initial=0.0)))
 
     def sensitivity(self, params: Any) -> Any:
         """How each mode moves with each named scene parameter (``["k1.stiffness", "m1.mass"]``): a
@@ -153,7 +163,7 @@ class Modes:
             raise ModelError("participation: direction must be a non-zero 3-vector (a translation, or with "
                              "rotation=True an axis)")
         lin = self.linear
-        A_lin, A_ang = lin.system.momentum_matrix(lin.q0, point)
+        A_lin, A_ang = lin.system.momentum_matrix(lin.q, point)
         return (A_ang if rotation else A_lin).T @ (d / n)
 
     def point_shapes(self, points: list, direction: ArrayLike | None = None, complex: bool = False) -> np.ndarray:
@@ -188,7 +198,7 @@ class Modes:
              "omega2": self.omega2.tolist(), "rigid": self.rigid.tolist(), "unstable": self.unstable.tolist(),
              "shapes": self.shapes.tolist(), "coordinates": list(self.linear.coordinates),
              "stability": self.stability, "orthogonality_residual": self.orthogonality,
-             "error_per_mode": self.omega_error.tolist(), "error_estimate": self.error,
+             "omega_error_rad_s": self.omega_error.tolist(), "relative_error": self.relative_error,
              "elapsed_s": self.elapsed}
         if self.note:
             d["note"] = self.note
@@ -197,7 +207,7 @@ class Modes:
                       "zeta": self.zeta.tolist(), "omega_n_rad_s": self.omega_n.tolist(),
                       "omega_d_rad_s": self.omega_d.tolist(), "frequency_d_hz": self.damped_frequency_hz.tolist(),
                       "damped_eigenvalues": [[z.real, z.imag] for z in self.damped_eigenvalues],
-                      "eigenvalue_error": self.eigenvalue_error.tolist(),
+                      "eigenvalue_error_1_s": self.eigenvalue_error.tolist(),
                       "classical_damping": self.classical})
         return d
 
@@ -209,7 +219,7 @@ class Modes:
                        f"{int(self.rigid.sum())} rigid" if self.rigid.any() else "",
                        f"{int(self.unstable.sum())} unstable" if self.unstable.any() else "",
                        f"ζ = {values(self.zeta)}" if self.zeta.size else "", self.stability,
-                       f"error {number(self.error, digits=2)}", duration(self.elapsed))
+                       f"relative error {number(self.relative_error, digits=2)}", duration(self.elapsed))
 
     def _repr_html_(self):
         from .._format import html_table, number
@@ -217,7 +227,7 @@ class Modes:
         rows = [[i + 1, number(w), number(f), "rigid" if r else "unstable" if u else "", number(e, digits=2)]
                 for i, (w, f, r, u, e) in enumerate(zip(self.omega, self.frequency_hz, self.rigid, self.unstable,
                                                         self.omega_error))]
-        return html_table(f"{self.n} modes, {self.stability}", ["mode", "ω rad/s", "f Hz", "", "rel. error"], rows)
+        return html_table(f"{self.n} modes, {self.stability}", ["mode", "ω rad/s", "f Hz", "", "ω error rad/s"], rows)
 
     def __str__(self):
         lines = [f"{'mode':>4} {'ω rad/s':>14} {'f Hz':>12}  note (undamped: ω the undamped natural frequency)"]
@@ -230,7 +240,7 @@ class Modes:
             for i, lam in enumerate(self.damped_eigenvalues):
                 lines.append(f"{i + 1:>4} {lam.real:>14.8g}{lam.imag:>+14.8g}i {self.zeta[i]:>10.6g} "
                              f"{self.omega_n[i]:>12.8g} {self.omega_d[i]:>12.8g}")
-        lines.append(f"stability {self.stability}; error ≈ {self.error:.1e}; {self.elapsed * 1e3:.2f} ms")
+        lines.append(f"stability {self.stability}; relative error ≈ {self.relative_error:.1e}; {self.elapsed * 1e3:.2f} ms")
         if self.note:
             lines.append(self.note)
         return "\n".join(lines)
@@ -254,19 +264,23 @@ GLOSSARY = {
 QR_LIMIT = 24
 
 
-def modes(lin: Any, tolerance: float | None = None) -> Modes:
+_TOLERANCE = RenamedKeyword("modes", "tolerance", "tol")
+
+
+def modes(lin: Any, tol: float | None = None, *, tolerance: float | None = None) -> Modes:
     """Modes of a :class:`vibdyn.analysis.linearize.LinearModel`.
 
     A mode is rigid (ω² cleaned to exactly 0) when |ω²| ≤ 10 × its own uncertainty δω² — the eigen
     residual ‖Kφ − ω²Mφ‖_M⁻¹ plus φᵀ(K's error estimate + n·ε·|K|)φ — so stiff spectra keep their genuine
-    low modes. ``tolerance`` (relative to max|ω²|) overrides this with a fixed threshold.
+    low modes. ``tol`` (relative to max|ω²|) overrides this with a fixed threshold (``tolerance``: its former
+    name).
 
     A finite-difference model cannot tell a rigid mode from a soft one whose ω² is below its round-off
     (stiffness ratios ~1e12): when the "fd" model flags a rigid mode, the analytic model at the same point
     checks it; if that one resolves the mode, its modes are returned (``linear`` is then the analytic model)
     and ``note`` says so.
     """
-    return _modes(lin, tolerance)
+    return _modes(lin, _TOLERANCE(tol, tolerance))
 
 
 def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -> Any:
@@ -274,7 +288,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     what the check of a finite-difference model's rigid modes compares)."""
     start = time.perf_counter()
     if tolerance is not None:
-        tolerance = scalar(tolerance, "modes tolerance", nonnegative=True)
+        tolerance = scalar(tolerance, "modes tol", nonnegative=True)
     M, K, Ke = lin.M, lin.K, lin.K_error
     Kt = K.T
     Ks = K + Kt
@@ -290,7 +304,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         w2, Phi, info = np.zeros(0), np.zeros((0, 0)), 0
     # finite inputs give finite shapes; a non-finite one shows in w2 or, through |Φ|, in the uncertainty below
     if info or not all_finite(w2):
-        lin.system.check_mass_matrix(lin.q0, "the operating point")
+        lin.system.check_mass_matrix(lin.q, "the operating point")
         raise ModelError("modal analysis: the generalized eigenproblem (K, M) failed")
     scale = max(abs(w2[0]), abs(w2[-1]), 1e-300) if n else 1e-300  # w2 is ascending
     # shapes mass-normalised by sygv (φᵀMφ = 1 to its round-off, which ``orthogonality`` reports), with a
@@ -385,6 +399,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     else:
         lam = lam_modes = _NO_COMPLEX
         lam_error = mag = zeta = omega_d = lam_abs = _NO_REAL
+        lam_scale = 1.0
         zero = zero_modes = _NO_BOOL
         shapes_c = np.zeros((n, 0), complex)
         classical = True
@@ -395,7 +410,10 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
                 "error, not unstable")
     return Modes(lin, w2, omega, Phi, rigid, unstable, rel, zero_threshold, lam, lam_modes, zeta, mag, omega_d,
                  lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start, note,
-                 eigenproblem=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes, eigenvalue_uncertainty=lam_abs)
+                 eigenproblem=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes, eigenvalue_uncertainty=lam_abs,
+                 omega_error=np.where(rigid, np.sqrt(uncertainty), rel * omega) if any_rigid else rel * omega,
+                 # (a zero eigenvalue's relative error is relative to the largest |λ|)
+                 eigenvalue_error=lam_error * np.where(zero_modes, lam_scale, mag))
 
 
 _NO_REAL, _NO_COMPLEX, _NO_BOOL = np.zeros(0), np.zeros(0, complex), np.zeros(0, bool)  # undamped: no state form

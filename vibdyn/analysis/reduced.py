@@ -3,7 +3,7 @@ coordinates held at their speed, and their composition, through one path.
 
 About a state (q0, v0) at t0 whose held coordinates follow their laws or speeds and whose independent ones do not
 accelerate (or, with drives, move as the equations say), the tree is linearised (:func:`tree_linearize`) and
-reduced by the basis N (nv × n, ``basis``) of the motions the reduction allows: M_r = NᵀMN, C_r = NᵀCN,
+reduced by the basis N (nv × n, ``null_space``) of the motions the reduction allows: M_r = NᵀMN, C_r = NᵀCN,
 K_r = Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N, λ the loop forces there. Where N depends on q (loops) and the state moves, the
 reduced equations F(z, ż) = N(q)ᵀ r(q, N ż, a) are differenced in the chart of the independent coordinates
 instead (:func:`moving_terms`): their K holds the constraint curvature, the centrifugal and gyroscopic terms
@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .._check import all_finite
+from .._deprecation import Renamed
 from ..defaults import FD_STEP
 from ..errors import ModelError
 from ..model import dynamics
@@ -30,18 +31,19 @@ from .modal import modes as _modes
 @dataclass(frozen=True, eq=False)
 class ReducedLinearModel(LinearModel):
     """Linear model in the independent coordinates ``independent`` (indices in v) of its ``reduction``: M, C,
-    K (n × n) are NᵀM N, NᵀC N and Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N, N (``basis``, nv × n) the motions the reduction
+    K (n × n) are NᵀM N, NᵀC N and Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N, N (``null_space``, nv × n) the motions the reduction
     allows, whose rows at the independent coordinates are the identity. ``system`` is the whole system and
     ``tree`` the nv × nv model (K with the constraint-force curvature); ``coordinates``, ``units`` and
-    :meth:`coordinate_index` are the independent ones'. ``rank``: rank of the loops' Φ_q at q0 (0 without
+    :meth:`coordinate_index` are the independent ones'. ``rank``: rank of the loops' Φ_q at q (0 without
     loops). Inputs and outputs of responses are any tree coordinate (its row of N) and body points (J N)."""
 
-    basis: np.ndarray | None = field(repr=False, default=None)
+    null_space: np.ndarray | None = field(repr=False, default=None)
     tree: LinearModel | None = field(repr=False, default=None)
     multipliers: np.ndarray | None = field(repr=False, default=None)
     rank: int = 0
     independent: tuple = ()
     reduction: Any = field(repr=False, default=None)
+    basis = Renamed("null_space")
 
     @property
     def coordinates(self):
@@ -59,41 +61,41 @@ class ReducedLinearModel(LinearModel):
 
     def point_jacobian(self, points):
         """Displacements (m, world axes) of body points per independent coordinate (3·npoints × n)."""
-        return self.tree.point_jacobian(points) @ self.basis
+        return self.tree.point_jacobian(points) @ self.null_space
 
     def coordinate_row(self, name):
         """(row of N, unit): the tree coordinate ``name`` (independent or not) per independent coordinate."""
         system = self.system
         i = system.coordinate_index(name)
-        return self.basis[i].copy(), system.units[i]
+        return self.null_space[i].copy(), system.units[i]
 
     def joint_input(self, coordinates=None):
         """Reduced input Nᵀ B of generalized forces on the named tree coordinates (n × m; None: the
         independent ones)."""
         names = self.coordinates if coordinates is None else coordinates
-        return self.basis.T @ self.tree.joint_input(names)
+        return self.null_space.T @ self.tree.joint_input(names)
 
     def support_input(self, name, step=FD_STEP):
         """(Nᵀ B_y, Nᵀ B_v): the tree's base-excitation inputs reduced (see :meth:`LinearModel.support_input`)."""
         By, Bv = self.tree.support_input(name, step)
-        return self.basis.T @ By, self.basis.T @ Bv
+        return self.null_space.T @ By, self.null_space.T @ Bv
 
     @property
     def drive(self) -> dict[str, float]:
         """{drive, or coordinate held at its speed: τ}: the force (N or N·m) each holder exerts along its
         coordinate at the operating point (empty without held coordinates)."""
-        tau = dynamics.inverse_dynamics(self.system, self.system.workspace(), self.q0, self.v0, self.a0, self.t0)
+        tau = dynamics.inverse_dynamics(self.system, self.system.workspace(), self.q, self.v, self.a, self.t)
         return self.reduction.held_forces(tau)
 
     def relinearize(self, method):
         """The same operating point linearised again with ``method`` (the tree's part: "fd" or "analytic")."""
-        again = linearize(self.system, self.reduction, self.q0, v=self.v0, t=self.t0, method=method,
-                          multipliers=self.multipliers, a=None if self.reduction.curved else self.a0)
+        again = linearize(self.system, self.reduction, self.q, v=self.v, t=self.t, method=method,
+                          multipliers=self.multipliers, a=None if self.reduction.curved else self.a)
         return type(self)(**{f.name: getattr(again, f.name) for f in fields(type(self))})
 
     def summary(self):
         return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, dof={self.nv}, rank {self.rank}, "
-                f"error ≈ {self.error:.1e}, {self.elapsed * 1e3:.2f} ms)")
+                f"relative error ≈ {self.relative_error:.1e}, {self.elapsed * 1e3:.2f} ms)")
 
 
 def _on_reduced(name):
@@ -120,7 +122,7 @@ class ConstrainedLinearModel(ReducedLinearModel):
     def modes(self, **kwargs):
         """Exactly n modes, shapes in the tree's coordinates (see the class)."""
         m = _modes(self, **kwargs)
-        N = self.basis
+        N = self.null_space
         cs = m.complex_shapes
         return replace(m, linear=self.tree, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
 
@@ -139,10 +141,10 @@ class ConstrainedLinearModel(ReducedLinearModel):
 @dataclass(frozen=True, eq=False)
 class DrivenLinearModel(ConstrainedLinearModel):
     """:class:`ConstrainedLinearModel` of a scene with drives or coordinates held at their speed, in its free
-    coordinates (``basis`` the identity's columns there); ``drive``: {holder: τ} (N or N·m)."""
+    coordinates (``null_space`` the identity's columns there); ``drive``: {holder: τ} (N or N·m)."""
 
     def summary(self):
-        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, free={self.nv}, error ≈ {self.error:.1e}, "
+        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, free={self.nv}, relative error ≈ {self.relative_error:.1e}, "
                 f"{self.elapsed * 1e3:.2f} ms)")
 
 
@@ -219,7 +221,7 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
         terms_r = (tree.K_error_terms[0] @ N, tree.K_error_terms[1] @ aN)
     cls = ConstrainedLinearModel if R.curved else DrivenLinearModel
     return cls(system, q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err, tree.method, time.perf_counter() - start,
-               evaluations, terms_r, basis=N, tree=tree, multipliers=lam if R.curved else None,
+               evaluations, terms_r, null_space=N, tree=tree, multipliers=lam if R.curved else None,
                rank=R.free.size - ind.size if R.curved else 0,
                independent=tuple(int(i) for i in ind), reduction=R)
 

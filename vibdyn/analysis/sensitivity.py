@@ -27,6 +27,7 @@ from typing import Any, Callable
 import numpy as np
 import scipy.linalg as sla
 
+from .._deprecation import Renamed, former_names
 from ..defaults import EPS
 from ..description import parameters as _parameters
 from ..errors import ConvergenceError, ModelError
@@ -36,16 +37,20 @@ from ..model.fd import differences
 STEP = 1e-4
 
 
+@former_names(**{name: f"d_{name}" for name in ("omega", "omega_error", "omega2", "omega2_error", "eigenvalues",
+                                                 "eigenvalues_error", "omega_n", "omega_n_error", "zeta", "zeta_error",
+                                                 "shapes", "shapes_error")})
 @dataclass(frozen=True, eq=False)
 class Sensitivity:
     """Derivatives of the modes of a linear model with respect to named parameters.
 
-    Per mode (rows, in the order of :class:`~vibdyn.analysis.modal.Modes`) and parameter (columns):
-    ``omega`` ∂ω/∂p of the undamped natural frequencies (rad/s per unit of p) and ``omega_error`` (absolute,
-    same unit); ``omega2`` ∂ω²/∂p (rad²/s² per unit); ``shapes`` ∂φ/∂p (nv × n_modes × n_params, of the
-    mass-normalised shapes, zero where ``repeated``: a repeated mode's shape derivative is not unique) with
-    ``shapes_error``. Damped modes (``omega_n``, ``zeta``: rows of the modes' damped eigenvalues): ∂ω_n/∂p
-    (rad/s per unit), ∂ζ/∂p (1 per unit), ∂λ/∂p (``eigenvalues``, 1/s per unit) with their absolute errors.
+    Per mode (rows, in the order of :class:`~vibdyn.analysis.modal.Modes`) and parameter (columns), each
+    derivative named ``d_`` and its quantity (as ``dM``, ``dK``): ``d_omega`` ∂ω/∂p of the undamped natural
+    frequencies ``omega0`` (rad/s per unit of p) and ``d_omega_error`` (absolute, same unit); ``d_omega2``
+    ∂ω²/∂p (rad²/s² per unit); ``d_shapes`` ∂φ/∂p (nv × n_modes × n_params, of the mass-normalised shapes,
+    zero where ``repeated``: a repeated mode's shape derivative is not unique) with ``d_shapes_error``. Damped
+    modes (``d_omega_n``, ``d_zeta``: rows of the modes' damped eigenvalues): ∂ω_n/∂p (rad/s per unit), ∂ζ/∂p
+    (1 per unit), ∂λ/∂p (``d_eigenvalues``, 1/s per unit) with their absolute errors.
     ``dM``, ``dC``, ``dK`` (n_params × nv × nv) and their errors ``dM_error`` …: the linear model's derivatives.
     """
 
@@ -53,17 +58,17 @@ class Sensitivity:
     units: tuple  # unit of each parameter
     values: np.ndarray  # each parameter's value (SI)
     omega0: np.ndarray  # the base undamped ω (rad/s)
-    omega: np.ndarray
-    omega_error: np.ndarray
-    omega2: np.ndarray
-    omega2_error: np.ndarray
+    d_omega: np.ndarray  # ∂ω/∂p (rad/s per unit)
+    d_omega_error: np.ndarray
+    d_omega2: np.ndarray
+    d_omega2_error: np.ndarray
     repeated: np.ndarray  # per mode: its frequency is repeated (derivatives over the subspace)
-    eigenvalues: np.ndarray  # ∂λ/∂p of the damped eigenvalues (n_damped × n_params, 1/s per unit)
-    eigenvalues_error: np.ndarray
-    omega_n: np.ndarray
-    omega_n_error: np.ndarray
-    zeta: np.ndarray
-    zeta_error: np.ndarray
+    d_eigenvalues: np.ndarray  # ∂λ/∂p of the damped eigenvalues (n_damped × n_params, 1/s per unit)
+    d_eigenvalues_error: np.ndarray
+    d_omega_n: np.ndarray
+    d_omega_n_error: np.ndarray
+    d_zeta: np.ndarray
+    d_zeta_error: np.ndarray
     dM: np.ndarray = field(repr=False)
     dC: np.ndarray = field(repr=False)
     dK: np.ndarray = field(repr=False)
@@ -82,14 +87,14 @@ class Sensitivity:
         return self.nelson()
 
     @property
-    def shapes(self) -> np.ndarray:
+    def d_shapes(self) -> np.ndarray:
         """∂φ/∂p of the mass-normalised shapes (nv × n_modes × n_params, per the parameter's unit; 0 where
         ``repeated`` or rigid), by Nelson's method (computed on first use)."""
         return self._shape_derivatives[0]
 
     @property
-    def shapes_error(self) -> np.ndarray:
-        """Absolute error of :attr:`shapes` (same shape)."""
+    def d_shapes_error(self) -> np.ndarray:
+        """Absolute error of :attr:`d_shapes` (same shape)."""
         return self._shape_derivatives[1]
 
     @property
@@ -97,13 +102,15 @@ class Sensitivity:
         """(p/ω) ∂ω/∂p per mode and parameter (dimensionless: the % change of ω per % change of p; 0 for a rigid
         mode)."""
         w = self.omega0[:, None]
-        return np.where(w > 0, self.omega * self.values[None, :] / np.where(w > 0, w, 1.0), 0.0)
+        return np.where(w > 0, self.d_omega * self.values[None, :] / np.where(w > 0, w, 1.0), 0.0)
+
+    error = Renamed("relative_error")
 
     @property
-    def error(self) -> float:
+    def relative_error(self) -> float:
         """Largest error of ∂ω/∂p relative to the largest |∂ω/∂p| of its parameter."""
-        scale = np.maximum(np.abs(self.omega).max(axis=0, initial=0.0), 1e-300)
-        return float((self.omega_error / scale).max(initial=0.0))
+        scale = np.maximum(np.abs(self.d_omega).max(axis=0, initial=0.0), 1e-300)
+        return float((self.d_omega_error / scale).max(initial=0.0))
 
     def column(self, param: str) -> int:
         try:
@@ -115,10 +122,10 @@ class Sensitivity:
 
     def to_dict(self) -> dict[str, Any]:
         return {"params": list(self.params), "units": list(self.units), "values": self.values.tolist(),
-                "omega_rad_s": self.omega0.tolist(), "d_omega_rad_s_per_unit": self.omega.tolist(),
-                "d_omega_error_rad_s_per_unit": self.omega_error.tolist(), "normalised": self.normalised.tolist(),
-                "d_zeta_per_unit": self.zeta.tolist(), "d_zeta_error_per_unit": self.zeta_error.tolist(),
-                "d_omega_n_rad_s_per_unit": self.omega_n.tolist(), "repeated": self.repeated.tolist(),
+                "omega_rad_s": self.omega0.tolist(), "d_omega_rad_s_per_unit": self.d_omega.tolist(),
+                "d_omega_error_rad_s_per_unit": self.d_omega_error.tolist(), "normalised": self.normalised.tolist(),
+                "d_zeta_per_unit": self.d_zeta.tolist(), "d_zeta_error_per_unit": self.d_zeta_error.tolist(),
+                "d_omega_n_rad_s_per_unit": self.d_omega_n.tolist(), "repeated": self.repeated.tolist(),
                 "method": self.method, "elapsed_s": self.elapsed, "note": self.note}
 
     def __str__(self) -> str:
@@ -127,17 +134,17 @@ class Sensitivity:
         rows = []
         for i, w in enumerate(self.omega0):
             for j, p in enumerate(self.params):
-                rows.append([str(i + 1), f"{w:.6g}", p, self.units[j], f"{self.omega[i, j]:.6g}",
-                             f"{self.omega_error[i, j]:.1e}", f"{self.normalised[i, j]:.4g}"])
-        head = ["mode", "ω (rad/s)", "parameter", "unit", "∂ω/∂p (rad/s per unit)", "error (abs)", "(p/ω) ∂ω/∂p"]
+                rows.append([str(i + 1), f"{w:.6g}", p, self.units[j], f"{self.d_omega[i, j]:.6g}",
+                             f"{self.d_omega_error[i, j]:.1e}", f"{self.normalised[i, j]:.4g}"])
+        head = ["mode", "ω (rad/s)", "parameter", "unit", "∂ω/∂p (rad/s per unit)", "error (rad/s per unit)", "(p/ω) ∂ω/∂p"]
         return ("\n".join(table(head, rows)) + f"\n{self.method}, {self.elapsed * 1e3:.1f} ms"
                 + (f"\nnote: {self.note}" if self.note else ""))
 
     def __repr__(self) -> str:
         from .._format import duration, number, summary
 
-        return summary("Sensitivity", f"{self.omega.shape[0]} modes × {len(self.params)} parameters",
-                       f"error {number(self.error, digits=2)}", duration(self.elapsed))
+        return summary("Sensitivity", f"{self.d_omega.shape[0]} modes × {len(self.params)} parameters",
+                       f"relative error {number(self.relative_error, digits=2)}", duration(self.elapsed))
 
 
 # ------------------------------------------------------------------------------------------ the pipeline
@@ -177,21 +184,21 @@ def _regime(system, lin):
         return "declared", {}
     if op.get("held"):
         return "held", {}
-    if np.any(lin.v0):
-        speeds = {system.coordinates[i]: float(lin.v0[i]) for i in np.flatnonzero(lin.v0)}
+    if np.any(lin.v):
+        speeds = {system.coordinates[i]: float(lin.v[i]) for i in np.flatnonzero(lin.v)}
         return "steady", speeds
     # an equilibrium to the solver's own tolerance already (one inverse dynamics), else solved for again
     from ..defaults import EQUILIBRIUM_TOL
 
     unit = system.coordinate_scales
-    r = system.inverse_dynamics(lin.q0, np.zeros(system.nv), np.zeros(system.nv), lin.t0)
+    r = system.inverse_dynamics(lin.q, np.zeros(system.nv), np.zeros(system.nv), lin.t)
     if np.abs(r).max(initial=0.0) <= EQUILIBRIUM_TOL * (np.abs(np.diag(lin.K)) * unit).max(initial=0.0):
         return "static", {}
     try:
-        eq = system.equilibrium(q0=lin.q0)
+        eq = system.equilibrium(q0=lin.q)
     except (ConvergenceError, ModelError):
         return "pose", {}
-    d = np.abs(system.difference(eq.q, lin.q0))
+    d = np.abs(system.difference(eq.q, lin.q))
     return ("static" if np.all(d <= 1e-6 * system.coordinate_scales) else "pose"), {}
 
 
@@ -254,8 +261,8 @@ def _undamped(modes, dM, dK, eM, eK):
     n_m, n_p = len(w2), len(dK)
     omega = modes.omega
     # absolute uncertainty of each ω² (the modes' own estimate: ω_error is relative, half that of ω²)
-    dw2_base = np.where(modes.rigid, modes.omega_error * max(np.abs(w2).max(initial=0.0), 1e-300),
-                        2 * modes.omega_error * np.abs(w2))
+    dw2_base = np.where(modes.rigid, modes.omega_relative_error * max(np.abs(w2).max(initial=0.0), 1e-300),
+                        2 * modes.omega_relative_error * np.abs(w2))
     groups = _clusters(w2, dw2_base)
     repeated = np.zeros(n_m, bool)
     cluster = np.arange(n_m)  # each mode's cluster label
@@ -363,7 +370,7 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
             d_l[r, j] = (w.conj() @ dA @ v) / den
             e_l[r, j] = (np.abs(w) @ eA @ np.abs(v)) / abs(den)
     # the eigenvalue's own uncertainty moves the formula's terms: its relative error times the derivative
-    e_l += np.abs(d_l) * np.asarray(modes.eigenvalue_error)[:, None] * 2
+    e_l += np.abs(d_l) * np.asarray(modes.eigenvalue_relative_error)[:, None] * 2
     zero = np.asarray(modes.damped_zero) if modes.damped_zero.size else np.zeros(n_d, bool)
     d_l[zero] = 0.0
     e_l[zero] = 0.0
@@ -438,7 +445,7 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
                 sc_vals.append(x)
         return _parameters.with_values(scene, plist, sc_vals), sp
 
-    pipeline = _Pipeline(make_scene, lin.q0, lin.v0, regime)
+    pipeline = _Pipeline(make_scene, lin.q, lin.v, regime)
     steps = np.array([_step(values[j], units[j], system.length_scale) for j in range(len(names))])
     direct: dict[int, tuple] = {}
     from ..model.derivatives import untrusted
@@ -477,7 +484,7 @@ def _linear_column(system, lin, p, regime):
     unit = 1.0 if not isinstance(old, tuple) else tuple(
         1.0 if p.index is None or i == p.index else 0.0 for i in range(len(old)))
     group = type(element).group(system, [dataclasses.replace(element, **{p.attribute: unit})])
-    Q1, K1, C1 = element_terms(system, [group], lin.q0, lin.v0, lin.t0)
+    Q1, K1, C1 = element_terms(system, [group], lin.q, lin.v, lin.t)
     n = lin.nv
     noise = 4 * n * EPS
     damped = bool(np.any(C1))
@@ -493,7 +500,7 @@ def _linear_column(system, lin, p, regime):
         scale = np.where(np.array([u == "m" for u in system.units]), system.length_scale, 1.0)
         eps = 1e-4 / max(float(np.max(np.abs(dq) / scale)), 1e-300)
         zero = np.zeros(n)
-        at = {k: system.linearize(system.integrate(lin.q0, k * eps * dq), a=zero, method="analytic")
+        at = {k: system.linearize(system.integrate(lin.q, k * eps * dq), a=zero, method="analytic")
               for k in (-2, -1, 1, 2)}
         D, T = _richardson([(at[k].M, at[k].C, at[k].K) for k in (1, 2, -1, -2)], eps)
         for name, d1, t, X1 in zip(("M", "C", "K"), D, T, (at[1].M, at[1].C, at[1].K)):
@@ -531,7 +538,7 @@ def _of_builder(build, params, start, unused):
     def make_scene(vals):
         return build(**{k: float(x) for k, x in zip(names, vals)}), speeds
 
-    pipeline = _Pipeline(make_scene, tree.q0, tree.v0, regime)
+    pipeline = _Pipeline(make_scene, tree.q, tree.v, regime)
     steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
     lin = getattr(tree, "reduced", tree)  # (a mechanism's: in its independent motions, as the pipeline's)
     return _assemble(pipeline, lin.modes(), lin, names, ["(the builder's)"] * len(names), values, steps,

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from .._deprecation import Renamed
 from ..errors import ModelError
 
 OUTPUTS = ("displacement", "velocity")
@@ -21,8 +22,8 @@ OUTPUTS = ("displacement", "velocity")
 @dataclass(frozen=True, eq=False)
 class StateSpace:
     """ẋ = A x + B u, y = C x + D u about the linear model's operating point; x = (δq, δv) in the tangent
-    space (``states`` names them, ``state_units`` in m, rad, m/s, rad/s). ``error``: the linear model's
-    estimated relative error of K and C, hence of A."""
+    space (``states`` names them, ``state_units`` in m, rad, m/s, rad/s). ``relative_error``: the linear
+    model's estimated relative error of K and C, hence of A."""
 
     A: np.ndarray  # 2nv × 2nv, 1/s and 1/s²
     B: np.ndarray  # 2nv × n_in
@@ -35,14 +36,15 @@ class StateSpace:
     output_units: tuple  # "m"/"rad" (displacement) or "m/s"/"rad/s" (velocity) per output
     state_units: tuple
     output: str  # "displacement" or "velocity"
-    error: float
+    relative_error: float
+    error = Renamed("relative_error")
 
     def __repr__(self):
         from .._format import number, summary
 
         return summary("StateSpace", f"{self.A.shape[0]} states", f"inputs {', '.join(map(str, self.inputs))}",
                        f"outputs {', '.join(map(str, self.outputs))} ({self.output})",
-                       f"error {number(self.error, digits=2)}")
+                       f"relative error {number(self.relative_error, digits=2)}")
 
     @property
     def poles(self):
@@ -92,4 +94,4 @@ def state_space(lin, inputs=None, outputs=None, *, output="displacement", direct
     out_units = cout.units if output == "displacement" else tuple(u + "/s" for u in cout.units)
     return StateSpace(lin.A, lin.state_input(cin.matrix.T), C, np.zeros((len(cout.labels), len(cin.labels))),
                       cin.labels, cout.labels, tuple(f"q[{c}]" for c in names) + tuple(f"v[{c}]" for c in names),
-                      cin.force_units, out_units, units + tuple(u + "/s" for u in units), output, lin.error)
+                      cin.force_units, out_units, units + tuple(u + "/s" for u in units), output, lin.relative_error)

@@ -30,6 +30,7 @@ import pinocchio as pin
 
 from .._check import (kind_of, rotation_matrix, scalar, unit_axis, value_number, value_rotation, value_string,
                       value_vec3, vector3)
+from .._deprecation import Renamed, warn_once
 from ..errors import ModelError
 
 
@@ -45,8 +46,10 @@ class Joint:
     rotation: object = None
     name: str | None = None  # optional joint name (URDF joint name); body name is used otherwise
 
-    kind = "joint"
-    #: scene-file keys every joint takes, and each kind's own (``file_keys``, ``file_required``)
+    type = "joint"  # the joint type: the name scene files give it (``type = "pivot"``)
+    kind = Renamed("type")
+    group = Renamed("lie_group")
+    #: scene-file keys every joint takes, and each type's own (``file_keys``, ``file_required``)
     common_file_keys: ClassVar[dict] = {"type": value_string, "at": value_vec3, "rotation": value_rotation, "name": value_string}
     file_keys: ClassVar[dict] = {}
     file_required: ClassVar[tuple] = ()
@@ -62,7 +65,7 @@ class Joint:
     #: tangent components that are rotations of a curved (Lie-group) joint, whose chart holds only so far
     chart_rotations: ClassVar[tuple[int, ...]] = ()
     #: the Lie group of a curved joint ("SO3", "SE3", "SE2": the symplectic integrator's coadjoint), or None
-    group: ClassVar[str | None] = None
+    lie_group: ClassVar[str | None] = None
     #: a joint spring with one stiffness gives the torque −kφ exactly (no Jacobian of the difference)
     isotropic_spring: ClassVar[bool] = False
     #: the rows a loop closed by this joint makes (None: it cannot close a loop): "position" p_b − p_a (3),
@@ -98,7 +101,7 @@ class Joint:
         """Check and normalise the parameters (ModelError naming the parameter)."""
         if self.name is not None and (not isinstance(self.name, str) or not self.name
                                       or self.name.strip() != self.name):
-            raise ModelError(f"{self.kind} joint name must be a non-empty string without surrounding spaces,"
+            raise ModelError(f"{self.type} joint name must be a non-empty string without surrounding spaces,"
                              f" got {self.name!r}")
         object.__setattr__(self, "at", _floats(vector3(self.at, f"{self._what} 'at'")))
         if self.rotation is not None:
@@ -108,7 +111,7 @@ class Joint:
     @property
     def _what(self):
         """How error messages name this joint: its kind, and its name if it has one."""
-        return f"{self.kind} joint '{self.name}'" if self.name else f"{self.kind} joint"
+        return f"{self.type} joint '{self.name}'" if self.name else f"{self.type} joint"
 
     @property
     def placement(self):
@@ -169,7 +172,7 @@ class Joint:
         return {}
 
     def to_dict(self):
-        d = {"type": self.kind, **self.params(), "at": list(self.at)}
+        d = {"type": self.type, **self.params(), "at": list(self.at)}
         if self.rotation is not None:
             d["rotation"] = [list(r) for r in self.rotation]
         if self.name:
@@ -240,7 +243,7 @@ def _ordered(cls):
 class Pivot(_AxisJoint):
     """Revolute joint: rotation (rad) about ``axis`` through the joint origin."""
 
-    kind = "pivot"
+    type = "pivot"
     file_keys = {"axis": value_vec3}
     file_required = ("axis",)
     suffixes = ("",)
@@ -269,7 +272,7 @@ class Pivot(_AxisJoint):
 class Slider(_AxisJoint):
     """Prismatic joint: translation (m) along ``axis``."""
 
-    kind = "slider"
+    type = "slider"
     file_keys = {"axis": value_vec3}
     file_required = ("axis",)
     suffixes = ("",)
@@ -299,7 +302,7 @@ class Helical(_AxisJoint):
     """
 
     pitch: float = 0.0
-    kind = "helical"
+    type = "helical"
     file_keys = {"axis": value_vec3, "pitch": value_number, "lead": value_number}
     file_required = ("axis",)
     suffixes = ("",)
@@ -352,7 +355,7 @@ class Helical(_AxisJoint):
 class Cylindrical(_AxisJoint):
     """Translation ``s`` (m) along and rotation ``theta`` (rad) about the same ``axis``."""
 
-    kind = "cylindrical"
+    type = "cylindrical"
     file_keys = {"axis": value_vec3}
     file_required = ("axis",)
     suffixes = (".s", ".theta")
@@ -378,7 +381,7 @@ class Universal(Joint):
 
     axis1: tuple = (1.0, 0.0, 0.0)
     axis2: tuple = (0.0, 1.0, 0.0)
-    kind = "universal"
+    type = "universal"
     file_keys = {"axis1": value_vec3, "axis2": value_vec3}
     file_required = ("axis1", "axis2")
     suffixes = (".theta1", ".theta2")
@@ -427,7 +430,7 @@ class Planar(Joint):
     """
 
     normal: tuple = (0.0, 0.0, 1.0)
-    kind = "planar"
+    type = "planar"
     file_keys = {"normal": value_vec3}
     file_required = ("normal",)
     suffixes = (".x", ".y", ".theta")
@@ -435,7 +438,7 @@ class Planar(Joint):
     q_names = ("x", "y", "cos", "sin")
     unit_block = (2, 2)
     chart_rotations = (2,)
-    group = "SE2"
+    lie_group = "SE2"
     pinocchio_models = frozenset({"JointModelPlanar"})
     _positional = ("normal",)
 
@@ -463,13 +466,13 @@ class Planar(Joint):
 class Ball(Joint):
     """Spherical joint: free rotation about the joint origin (unit quaternion, 3 tangent coordinates)."""
 
-    kind = "ball"
+    type = "ball"
     suffixes = (".rx", ".ry", ".rz")
     units = ("rad", "rad", "rad")
     q_names = ("qx", "qy", "qz", "qw")
     unit_block = (0, 4)
     chart_rotations = (0, 1, 2)
-    group = "SO3"
+    lie_group = "SO3"
     isotropic_spring = True
     loop_rows = ("position",)
     pinocchio_models = frozenset({"JointModelSpherical"})
@@ -484,13 +487,13 @@ class Ball(Joint):
 class Free(Joint):
     """Six degrees of freedom (a floating body); q = (position, unit quaternion)."""
 
-    kind = "free"
+    type = "free"
     suffixes = (".x", ".y", ".z", ".rx", ".ry", ".rz")
     units = ("m", "m", "m", "rad", "rad", "rad")
     q_names = ("x", "y", "z", "qx", "qy", "qz", "qw")
     unit_block = (3, 4)
     chart_rotations = (3, 4, 5)
-    group = "SE3"
+    lie_group = "SE3"
     pinocchio_models = frozenset({"JointModelFreeFlyer"})
     _positional = ()
 
@@ -503,7 +506,7 @@ class Free(Joint):
 class Fixed(Joint):
     """Weld: the body moves with its parent (no coordinate)."""
 
-    kind = "fixed"
+    type = "fixed"
     suffixes = ()
     loop_rows = ("position", "locked")
     _positional = ()
@@ -513,14 +516,20 @@ class Fixed(Joint):
 
 
 #: joint type name (a scene file's ``type``) -> class
-JOINT_TYPES = {cls.kind: cls for cls in (Pivot, Slider, Helical, Cylindrical, Universal, Planar, Ball, Free, Fixed)}
+JOINT_TYPES = {cls.type: cls for cls in (Pivot, Slider, Helical, Cylindrical, Universal, Planar, Ball, Free, Fixed)}
 
 
 def joint_type(cls):
     """Declare a joint type (a subclass of :class:`Joint`, frozen dataclass): positional arguments as
-    ``_positional`` says, and its ``kind`` known to scene files. A new type is its class, here or anywhere."""
+    ``_positional`` says, and its ``type`` (the name scene files give it) known to scene files. A new type is its
+    class, here or anywhere."""
+    for former, new in (("kind", "type"), ("group", "lie_group")):  # declared by their former names
+        if former in cls.__dict__ and not isinstance(cls.__dict__[former], Renamed):
+            warn_once(f"Joint.{former}", f"Joint.{former} is Joint.{new} now: declare {new} = ... (the former "
+                      "name works until the next release)")
+            setattr(cls, new, cls.__dict__[former])
     cls = _ordered(cls)
-    JOINT_TYPES[cls.kind] = cls
+    JOINT_TYPES[cls.type] = cls
     return cls
 
 

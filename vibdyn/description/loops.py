@@ -1,10 +1,10 @@
 """Closed loops, as described: joints that close cycles of bodies (compiled by :mod:`vibdyn.model.constraints`).
 
 A loop joins the frame at ``point_a`` of ``body_a`` and the frame at ``point_b`` of ``body_b`` (both with
-their body's axes; ``body_b`` may be "world") by a joint kind whose free motions stay free:
+their body's axes; ``body_b`` may be "world") by a joint type whose free motions stay free:
 
 =============  ==  =====================================================================
-kind           eq  equations
+joint          eq  equations
 =============  ==  =====================================================================
 Ball            3  p_b − p_a = 0 (m, world axes)
 Pivot(u)        5  p_b − p_a = 0; (R_a n_i)·(R_b u) = 0, n_1, n_2 ⊥ u (the axis stays aligned)
@@ -59,7 +59,7 @@ def make_loop(scene, name, a, b, joint):
                          f"Fixed), got {joint!r}")
     if joint.loop_rows is None:
         able = ", ".join(cls.__name__ for cls in _joints.JOINT_TYPES.values() if cls.loop_rows is not None)
-        raise ModelError(f"{what}: a {joint.kind} joint cannot close a loop (use one of {able})")
+        raise ModelError(f"{what}: a {joint.type} joint cannot close a loop (use one of {able})")
     if any(joint.at) or joint.rotation is not None:
         raise ModelError(f"{what}: the joint's 'at'/'rotation' are not used by a loop: the loop frames are at "
                          "point_a and point_b, with their bodies' axes")

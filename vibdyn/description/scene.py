@@ -250,7 +250,7 @@ class Scene:
         b = self.joint_body(coordinate, "limits")
         if b.joint.nv != 1:
             raise ModelError(f"limits on '{coordinate}': only one-coordinate joints (pivot, slider, helical) take "
-                             f"limits, its joint is a {b.joint.kind}")
+                             f"limits, its joint is a {b.joint.type}")
         bounds = []
         for x in (lower, upper):
             if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)) or np.isnan(x):
@@ -262,8 +262,8 @@ class Scene:
         self.limits[b.coordinates[0]] = (float(lo), float(up))
 
     # ---------------------------------------------------------------- queries
-    def elements_of(self, kind: type) -> list:
-        """The elements of one class (e.g. ``Spring``), in insertion order."""
+    def elements_of(self, kind: Any) -> list:
+        """The elements of one kind (its class, e.g. ``Spring``), in insertion order."""
         return [e for e in self.elements.values() if isinstance(e, kind)]
 
     def children(self, name: str) -> list[Body]:
@@ -370,13 +370,13 @@ class Scene:
         b = index[1].get(name)
         return b if b is not None and self.bodies.get(b.name) is b else None
 
-    def joint_body(self, name: str, kind: str) -> Body:
-        """The body with coordinates named ``name`` (or its joint's name), for an element of ``kind``."""
+    def joint_body(self, name: str, noun: str) -> Body:
+        """The body with coordinates named ``name`` (or its joint's name), for an element called ``noun``."""
         b = self.find_body(name)
         if b is None:
-            raise self.unknown_body(name, kind, moving=True)
+            raise self.unknown_body(name, noun, moving=True)
         if b.joint.nv == 0:
-            raise ModelError(f"{kind} on '{name}': body is welded (Fixed joint), it has no coordinate")
+            raise ModelError(f"{noun} on '{name}': body is welded (Fixed joint), it has no coordinate")
         return b
 
     def resolve_attachment(self, value: Any, what: str) -> tuple:
@@ -391,14 +391,14 @@ class Scene:
             body = b.name
         return body, point
 
-    def check_new_name(self, name: str, kind: str) -> None:
-        """A ModelError if ``name`` is not a fresh name for an element of ``kind``."""
+    def check_new_name(self, name: str, noun: str) -> None:
+        """A ModelError if ``name`` is not a fresh name for an element called ``noun``."""
         if not isinstance(name, str) or not name or name.strip() != name:
-            raise ModelError(f"{kind} name must be a non-empty string without surrounding spaces, got {name!r}")
+            raise ModelError(f"{noun} name must be a non-empty string without surrounding spaces, got {name!r}")
         if name == WORLD:
-            raise ModelError(f"{kind} name 'world' is reserved for the fixed frame")
+            raise ModelError(f"{noun} name 'world' is reserved for the fixed frame")
         if name in self.bodies or name in self.elements or self.find_body(name) is not None:
-            raise ModelError(f"duplicate name '{name}' ({kind}): names must be unique in a scene")
+            raise ModelError(f"duplicate name '{name}' ({noun}): names must be unique in a scene")
 
     def add_element(self, element: Any) -> Any:
         """Add a checked element (what each kind's ``add`` ends with)."""

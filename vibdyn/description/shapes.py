@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .._check import finite_array, rotation_matrix, scalar, unit_axis, vector3
+from .._deprecation import Renamed
 from ..errors import ModelError
 
 SHAPE_TYPES = {  # a scene file's type: (required, optional)
@@ -40,21 +41,22 @@ MESH_FORMATS = (".stl", ".obj", ".dae")
 class Shape:
     """One visual shape of a body (see the module documentation); lengths in m, in the body frame."""
 
-    kind: str
+    type: str  # "box", "sphere", "cylinder", "capsule" or "mesh" (the scene file's ``type``)
     size: tuple = ()  # box (x, y, z); cylinder / capsule (radius, length); sphere (radius,); mesh scale (3)
     axis: tuple = (0.0, 0.0, 1.0)
     at: tuple | None = None  # None: the body's centre of mass
     rotation: tuple | None = None  # 3×3, None: identity
     color: tuple | None = None  # (r, g, b) in 0..1
     path: str | None = None  # mesh file
+    kind = Renamed("type")
 
     def to_dict(self):
-        d = {"type": self.kind}
-        if self.kind == "box":
+        d = {"type": self.type}
+        if self.type == "box":
             d["size"] = list(self.size)
-        elif self.kind == "sphere":
+        elif self.type == "sphere":
             d["radius"] = self.size[0]
-        elif self.kind in ("cylinder", "capsule"):
+        elif self.type in ("cylinder", "capsule"):
             d["radius"], d["length"] = self.size
             if self.axis != (0.0, 0.0, 1.0):
                 d["axis"] = list(self.axis)
@@ -96,7 +98,7 @@ def _one(v, what, base):
     for k in required:
         if k not in v:
             raise ModelError(f"{what}: a {kind} needs '{k}'")
-    out = {"kind": kind}
+    out = {"type": kind}
     if kind == "box":
         size = vector3(v["size"], f"{what} size")
         if np.any(size <= 0):

@@ -48,11 +48,11 @@ def command(system, args, out=None):
         p(json.dumps(c.to_dict(), indent=1))
         write_files(p, files, announce=False)
         return c
-    m = c.frequencies.shape[1]
+    m = c.omega.shape[1]
     p(f"Campbell diagram of {system.name}: {len(c.speeds)} speeds of '{c.spin}', {m} modes tracked by MAC "
       f"({c.method} linearisation, {c.elapsed:.2f} s); {spin_state(c)}")
     rows = [[number(s)] + [f"{number(f / (2 * np.pi), digits=6)} {w[:1]}".rstrip() for f, w in zip(fr, wh)]
-            for s, fr, wh in zip(c.speeds, c.frequencies, c.whirl)]
+            for s, fr, wh in zip(c.speeds, c.omega, c.whirl)]
     p("frequencies: damped f_d = ω_d/2π (Hz) of each tracked mode (the glossary's ω_d = |Im λ|)")
     for line in table(["speed rad/s"] + [f"mode {j} f_d Hz" for j in range(m)], rows):
         p(line)

@@ -74,7 +74,7 @@ def describe(scene, system, out=None):
         params = ", ".join(f"{k} {vector(v) if isinstance(v, (list, tuple)) else number(v)}"
                            for k, v in J.params().items())
         coords = ", ".join(f"{c} ({u}{_limits(system, c)})" for c, u in zip(b.coordinates, J.units))
-        p(f"    joint    {J.kind}{', ' + params if params else ''}, {place}"
+        p(f"    joint    {J.type}{', ' + params if params else ''}, {place}"
           + (f"; coordinates {coords}" if coords else ""))
         p(f"    mass     {number(b.mass, 'kg')}, centre of mass {vector(b.com, 'm')}")
         p(f"    inertia  {_inertia(b.inertia)}")
@@ -93,7 +93,7 @@ def describe(scene, system, out=None):
         for lp, n in zip(scene.loops.values(), c.sizes):
             j = lp.joint
             params = ", ".join(f"{k} {vector(v)}" for k, v in j.params().items())
-            rows.append([lp.name, f"{j.kind}{' ' + params if params else ''}",
+            rows.append([lp.name, f"{j.type}{' ' + params if params else ''}",
                          f"{lp.a[0]}{vector(lp.a[1], 'm')} – {lp.b[0]}{vector(lp.b[1], 'm')}", str(n)])
         for line in table(["name", "joint", "ends", "equations"], rows, ["<", "<", "<", ">"]):
             p("  " + line)
@@ -128,7 +128,7 @@ def modal_report(system, method="fd"):
             "q": op.q.tolist(), "v": op.v.tolist(),
             "offsets": system.difference(system.neutral(), op.q).tolist(),
             "speeds": op.speeds, "drive": op.drive, "elapsed_s": op.elapsed},
-        "linearization": {"method": lin.method, "error_estimate": lin.error, "elapsed_s": lin.elapsed,
+        "linearization": {"method": lin.method, "relative_error": lin.relative_error, "elapsed_s": lin.elapsed,
                           "evaluations": lin.evaluations, "M": lin.M.tolist(), "C": lin.C.tolist(),
                           "K": lin.K.tolist()},
         "modes": {**m.to_dict(), "participation": participation(m)},
@@ -166,7 +166,7 @@ def point_shapes_text(m, per_block=8):
         return ""
     S = m.point_shapes([(b.name, b.com) for b in bodies])  # (bodies, 3, n)
     S = S / np.maximum(np.abs(S).max(axis=(0, 1)), 1e-300)
-    cut = 10 * (m.linear.error + m.n * np.finfo(float).eps)
+    cut = 10 * (m.linear.relative_error + m.n * np.finfo(float).eps)
     rows = [(f"{b.name}", axis, S[i, k]) for i, b in enumerate(bodies) for k, axis in enumerate("xyz")
             if np.abs(S[i, k]).max() > cut]
     lines = ["mode shapes at the centres of mass (world displacements x, y, z; each mode scaled so its largest "
@@ -204,7 +204,7 @@ def print_modes(system, method="fd", out=None, report=None):
     out = out or sys.stdout
     op, lin, m, _ = report or modal_report(system, method)
     print(op, file=out)
-    print(f"linearisation ({lin.method}): error ≈ {lin.error:.1e}, {lin.elapsed * 1e3:.2f} ms, "
+    print(f"linearisation ({lin.method}): relative error ≈ {lin.relative_error:.1e}, {lin.elapsed * 1e3:.2f} ms, "
           f"{lin.evaluations} evaluations", file=out)
     print("", file=out)
     print(modes_text(lin, m), file=out)
@@ -239,11 +239,11 @@ def modes_text(lin, m, per_block=8):
             w, f = number(m.omega[j], digits=8), number(m.frequency_hz[j], digits=6)
             note = "rigid" if m.rigid[j] else ""
         rows.append([str(j + 1), number(m.omega2[j], digits=6), w, f, number(m.omega_error[j], digits=1), note])
-    lines += ["  " + x for x in table(["mode", "ω² 1/s²", "ω rad/s", "f Hz", "error", "note"], rows,
+    lines += ["  " + x for x in table(["mode", "ω² 1/s²", "ω rad/s", "f Hz", "ω error rad/s", "note"], rows,
                                       ["<", ">", ">", ">", ">", "<"])]
     if m.n:
         # a shape is known to about K's relative error (first order): entries below it are noise
-        cut = 10 * (lin.error + m.n * np.finfo(float).eps)
+        cut = 10 * (lin.relative_error + m.n * np.finfo(float).eps)
         lines.append("")
         lines.append("mode shapes (each scaled so its largest entry is 1; m or rad per coordinate)")
         S = m.shapes / np.abs(m.shapes).max(axis=0, initial=1e-300)
@@ -261,17 +261,17 @@ def modes_text(lin, m, per_block=8):
                      "frequency)")
         rows = []
         for i, lam in enumerate(m.damped_eigenvalues):
-            err = m.eigenvalue_error[i] * abs(lam)  # absolute: a real part below it is round-off, shown as 0
+            err = m.eigenvalue_error[i]  # (1/s) a real part below it is round-off, shown as 0
             im = "" if lam.imag == 0 else f" ± {number(abs(lam.imag), digits=8)}i"
             wd = number(m.omega_d[i], digits=8) if lam.imag else "-"
             fd = number(m.omega_d[i] / (2 * np.pi), digits=6) if lam.imag else "-"
             rows.append([str(i + 1), number(lam.real, error=err, digits=8) + im,
-                         number(m.zeta[i], error=m.eigenvalue_error[i], digits=6),
+                         number(m.zeta[i], error=m.eigenvalue_relative_error[i], digits=6),
                          number(m.omega_n[i], digits=8), wd, fd, number(m.eigenvalue_error[i], digits=1)])
-        lines += ["  " + x for x in table(["mode", "λ 1/s", "ζ", "ω_n rad/s", "ω_d rad/s", "f_d Hz", "error"],
+        lines += ["  " + x for x in table(["mode", "λ 1/s", "ζ", "ω_n rad/s", "ω_d rad/s", "f_d Hz", "λ error 1/s"],
                                           rows)]
         lines.append("  " + _damped_note(m))
-    lines.append(f"stability {m.stability}; error ≈ {m.error:.1e}; {m.elapsed * 1e3:.2f} ms")
+    lines.append(f"stability {m.stability}; relative error ≈ {m.relative_error:.1e}; {m.elapsed * 1e3:.2f} ms")
     if m.note:
         lines.append(f"note: {m.note}")
     return "\n".join(lines)
@@ -474,7 +474,8 @@ def _add_simulate(sub):
     sim.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance (adaptive methods)")
     sim.add_argument("--atol", type=float, help="absolute tolerance (default rtol × 1 rad or the length scale)")
     sim.add_argument("--dt", type=float, help="step of rk4/symplectic, first step of adaptive methods (s)")
-    sim.add_argument("--error", help="error estimate: local, rerun or richardson (default: the method's own)")
+    sim.add_argument("--error-method", "--error", dest="error", help="how the error is estimated: local, rerun or "
+                     "richardson (default: the method's own; --error: its former name)")
     sim.add_argument("--samples", type=int, help="number of equally spaced outputs (default: every step)")
     sim.add_argument("--offset", type=float, nargs="+",
                      help="initial tangent offsets (m, rad) from neutral (a mechanism with loops: from its declared "

@@ -62,8 +62,8 @@ def print_frf(frf, peaks, hp, out=None, notes=()):
     p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
     p(f"{frf.frf_type} {frf.outputs[0]} / {frf.inputs[0]} ({frf.units()}), {frf.omega.size} frequencies "
       f"{frf.omega[0]:.6g} … {frf.omega[-1]:.6g} rad/s")
-    p(f"method {frf.method}, damping {frf.damping}; residual {frf.residual:.1e}, error ≈ {frf.error:.1e}, "
-      f"{frf.elapsed * 1e3:.1f} ms")
+    p(f"method {frf.method}, damping {frf.damping}; residual {frf.residual:.1e}, relative error ≈ "
+      f"{frf.relative_error:.1e}, {frf.elapsed * 1e3:.1f} ms")
     for n in notes:
         p(f"note: {n}")
     p(f"{'':<16} {'omega rad/s':>14} {'f Hz':>12} {'|H|':>12} {'zeta (half power)':>18}")

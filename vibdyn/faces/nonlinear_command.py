@@ -323,7 +323,7 @@ def backbone_command(scene, args, out=None):
                        "± ω rad/s", "stability"], rows):
         p("  " + line)
     for r in bb.resonances:
-        p(f"{r.kind}: {r.message}")
+        p(f"{r.category}: {r.message}")
     if not bb.resonances:
         p("no internal resonance or fold met on the branch")
     p(f"note: {bb.note}")

@@ -159,7 +159,8 @@ def time_history(response: "TimeResult", outputs=None, *, direction=None, quanti
     a.set_ylabel(quantity)
     a.grid(True, alpha=0.3)
     a.legend(loc="best", fontsize="small")
-    a.set_title(f"{quantity} ({response.method}, error ≈ {response.error:.1e})", fontsize="medium")
+    unit = " or ".join(sorted(set(response.units)))  # the positions' error: absolute (the error convention)
+    a.set_title(f"{quantity} ({response.method}, position error ≈ {response.error:.1e} {unit})", fontsize="medium")
     return save(fig, path, dpi)
 
 
@@ -186,8 +187,8 @@ def campbell(diagram, *, path=None, dpi=100):
         x = min(w[-1], top * 2 * np.pi / order)
         ax.annotate(f"{order:g}×", (x, order * abs(x) / (2 * np.pi)), fontsize=8, color="0.4")
         for c in diagram.critical_speeds(order):
-            ax.plot(c.speed, c.frequency / (2 * np.pi), "o", mfc="none", mec="k", ms=8)
-            ax.annotate(f"{c.speed:.4g} rad/s ({c.whirl or 'no'} whirl)", (c.speed, c.frequency / (2 * np.pi)),
+            ax.plot(c.speed, c.omega / (2 * np.pi), "o", mfc="none", mec="k", ms=8)
+            ax.annotate(f"{c.speed:.4g} rad/s ({c.whirl or 'no'} whirl)", (c.speed, c.omega / (2 * np.pi)),
                         xytext=(6, -12), textcoords="offset points", fontsize=8)
     ax.set_ylim(0, top)
     ax.set_xlim(w[0], w[-1])
@@ -363,6 +364,6 @@ def _through(e, w):
 
 def _resonance_label(r):
     """"3:1 with mode 2" (a tongue: mode numbers from 1) or "fold"."""
-    if r.kind == "fold":
+    if r.category == "fold":
         return "fold"
-    return f"{r.ratio}:1 with mode {r.other_mode + 1}" if r.ratio is not None else r.kind
+    return f"{r.ratio}:1 with mode {r.other_mode + 1}" if r.ratio is not None else r.category

@@ -40,7 +40,7 @@ def command(scene, args, out=None):
 
         p(json.dumps(json_ready(s.to_dict()), indent=1))
         return s
-    p(f"Sensitivities of {system.name}: {s.omega.shape[0]} modes × {len(s.params)} parameters "
+    p(f"Sensitivities of {system.name}: {s.d_omega.shape[0]} modes × {len(s.params)} parameters "
       f"({s.method}, {s.elapsed:.2f} s)")
     p("∂ω/∂p: undamped natural frequency ω (rad/s) per unit of p, with its absolute error; "
       "(p/ω) ∂ω/∂p: the % change of ω per % change of p")
@@ -48,15 +48,15 @@ def command(scene, args, out=None):
     for i, w in enumerate(s.omega0):
         for j, name in enumerate(s.params):
             rows.append([str(i + 1), number(w, digits=6), name, number(s.values[j], s.units[j]),
-                         f"{s.omega[i, j]:.6g}", f"{s.omega_error[i, j]:.1e}",
+                         f"{s.d_omega[i, j]:.6g}", f"{s.d_omega_error[i, j]:.1e}",
                          f"{s.normalised[i, j]:.4g}"])
     for line in table(["mode", "ω rad/s", "parameter", "value", "∂ω/∂p (rad/s per unit)", "± (abs)",
                        "(p/ω) ∂ω/∂p"], rows):
         p(line)
-    if s.zeta.size:
+    if s.d_zeta.size:
         p("damped modes: ∂ζ/∂p (damping ratio per unit of p) and ∂ω_n/∂p (rad/s per unit)")
-        rows = [[str(i + 1), name, f"{s.zeta[i, j]:.4g}", f"{s.zeta_error[i, j]:.1e}", f"{s.omega_n[i, j]:.6g}",
-                 f"{s.omega_n_error[i, j]:.1e}"] for i in range(s.zeta.shape[0]) for j, name in enumerate(s.params)]
+        rows = [[str(i + 1), name, f"{s.d_zeta[i, j]:.4g}", f"{s.d_zeta_error[i, j]:.1e}", f"{s.d_omega_n[i, j]:.6g}",
+                 f"{s.d_omega_n_error[i, j]:.1e}"] for i in range(s.d_zeta.shape[0]) for j, name in enumerate(s.params)]
         for line in table(["mode", "parameter", "∂ζ/∂p", "± (abs)", "∂ω_n/∂p", "± (abs)"], rows):
             p(line)
     if s.note:

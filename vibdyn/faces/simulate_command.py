@@ -24,7 +24,7 @@ def command(system, args, out=None):
     t_eval = None if args.samples is None else np.linspace(0.0, args.t_end, args.samples) if args.t_end > 0 else None
     try:
         traj = simulate(system, args.t_end, q0, args.v0, args.method, args.rtol, args.atol, args.dt, t_eval,
-                        error=args.error, progress=False if args.no_progress else None)
+                        error_method=args.error, progress=False if args.no_progress else None)
         failure = None
     except SimulationError as e:
         traj, failure = e.trajectory, e

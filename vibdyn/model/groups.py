@@ -90,17 +90,17 @@ class TwoPoint(ForceGroup):
             xa = one(kin.points(self.ja[i:i + 1], self.pa[i:i + 1]))[0] + sp[self.sa[i]]
             length = float(one(L)[i])
             if length > 1e-9 * max(1.0, float(np.abs(xa).max())):  # not zero by the scene's geometry: by its own
-                raise ModelError(f"{self.kind} '{self.names[i]}': its length {length:.6g} m is zero to the "
+                raise ModelError(f"{self.noun} '{self.names[i]}': its length {length:.6g} m is zero to the "
                                  f"precision of its force (at most {self.tiny[i]:.3g} m counts as zero beside its "
                                  "free length): the free length is too large for the scene")
-            raise ModelError(f"{self.kind} '{self.names[i]}' reached zero length at the configuration q = "
+            raise ModelError(f"{self.noun} '{self.names[i]}' reached zero length at the configuration q = "
                              f"{np.round(one(kin.q), 9).tolist()} (its two ends coincide at "
                              f"{np.round(xa, 12).tolist()} m):"
                              " its direction, and so its force, is undefined there; start the analysis or the "
                              "motion away from it (q0=, or Scene.set_operating_point(start=...))")
         return d, L
 
-    kind = "element"
+    noun = "element"  # what error messages call a member
 
 
 def as_slice(index):

@@ -14,6 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 from .._check import all_finite, count, finite_result, scalar, unknown_name, vector3
+from .._deprecation import Renamed
 from ..defaults import EQUILIBRIUM_TOL, FD_STEP, MAX_ITER, RTOL
 from ..errors import ModelError
 from . import configuration as config
@@ -102,10 +103,7 @@ class System(Compiled):
         """The calling thread's Pinocchio Data (its :meth:`workspace`'s)."""
         return self.workspace().data
 
-    @property
-    def groups(self) -> tuple:
-        """The former name of :attr:`force_groups`."""
-        return self.force_groups
+    groups = Renamed("force_groups")  # (a Lie group is a joint's lie_group)
 
     # ------------------------------------------------------------- configuration space
     def neutral(self) -> Vector:

@@ -45,6 +45,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .._check import finite_array, scalar, turns_hint
+from .._deprecation import RenamedKeyword
 from ..defaults import EPS
 from ..errors import ModelError, VibdynError
 from ..model.groups import ForceGroup
@@ -62,9 +63,13 @@ PROGRESS_DELAY = 2.0  # s of wall time before a progress bar appears
 SINGULAR_NOTE = 1e-4  # a failed run of a mechanism whose loops are this near a singular position says so
 
 
+_ERROR_METHOD = RenamedKeyword("simulate", "error", "error_method")
+
+
 def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rtol: float = 1e-8, atol=None,
-             dt: float | None = None, t_eval=None, *, error: str | None = None, max_step: float | None = None,
-             progress: bool | None = None, t0: float = 0.0, events=None, variational: bool = False) -> Trajectory:
+             dt: float | None = None, t_eval=None, *, error_method: str | None = None, max_step: float | None = None,
+             progress: bool | None = None, t0: float = 0.0, events=None, variational: bool = False,
+             error: str | None = None) -> Trajectory:
     """Integrate the nonlinear motion of ``system`` from (q0, v0) at ``t0`` (s, default 0) to the absolute
     time ``t_end`` (s): a time-dependent force sees the true t.
 
@@ -78,16 +83,16 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
     velocities alike) or 2·nv numbers (positions then velocities); default rtol × (1 rad, or the scene's
     length scale for m coordinates). ``dt``: the step of fixed-step methods (required; each interval between
     output times gets an even number of equal steps ≤ dt), the first step of adaptive ones. ``t_eval``:
-    output times in [t0, t_end] (default: every step, and t0). ``error``: how the error is estimated
-    (default "rerun" for dop853, radau and bdf, "richardson" for fixed-step methods; "local" for dop853 is
-    cheaper but not a global bound).
+    output times in [t0, t_end] (default: every step, and t0). ``error_method``: how the error is
+    estimated (default "rerun" for dop853, radau and bdf, "richardson" for fixed-step methods; "local" for
+    dop853 is cheaper but not a global bound; ``error``: its former name).
     ``max_step``: largest step of adaptive methods. ``progress``: a tqdm bar for runs longer than a few
     seconds (None: only on a terminal).
 
     ``events``: a callable ``f(t, q, v) → float`` or a list of them (attributes ``direction`` ∈ {−1, 0, 1}
     and ``terminal`` allowed, as in scipy): each zero crossing is located on the step's interpolant, to the
-    step's accuracy (:mod:`vibdyn.simulation.events`): ``traj.events`` (an array of times per function),
-    ``traj.event_q``, ``traj.event_v`` (the states there); a terminal one ends the run there.
+    step's accuracy (:mod:`vibdyn.simulation.events`): ``traj.t_events`` (an array of times per function),
+    ``traj.q_events``, ``traj.v_events`` (the states there), scipy's names; a terminal one ends the run there.
     ``variational``: integrate the tangent-space variational equations with the state (dop853, rk4; not
     with loops): ``traj.state_transition`` (2nv × 2nv) is ∂(q, v)(t_end)/∂(q0, v0) in the tangent spaces,
     ``traj.state_transition_error`` its estimated error (from the error estimate's second run).
@@ -103,6 +108,7 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
     fails) raises :class:`SimulationError` carrying the time reached and the trajectory so far.
     """
     start = time.perf_counter()
+    error = _ERROR_METHOD(error_method, error)
     cfg = _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress, t0, events,
                     variational)
     main = _integrate(system, cfg, "simulate")

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from .._deprecation import Renamed
 from .._format import number
 from ..errors import ConvergenceError, ModelError
 from ..results import TimeResult, check_quantity
@@ -69,12 +70,16 @@ class Trajectory(TimeResult):
     energy0: Any = None  # Energy at t0 (the outputs need not include t0)
     error_elapsed: float = 0.0
     t0: float = 0.0  # s, where the run started
-    events: tuple = ()  # per event function, the times (s) of its crossings
-    event_q: tuple = ()  # per event function, the configurations there (n × nq)
-    event_v: tuple = ()  # per event function, the velocities there (n × nv)
+    t_events: tuple = ()  # per event function, the times (s) of its crossings
+    q_events: tuple = ()  # per event function, the configurations there (n × nq)
+    v_events: tuple = ()  # per event function, the velocities there (n × nv)
     state_transition: np.ndarray | None = field(default=None, repr=False)  # ∂(q, v)(t_end)/∂(q0, v0), tangent
     state_transition_error: float | None = None  # its estimated error (largest entry)
     drive_work: np.ndarray | None = field(default=None, repr=False)  # J per output: the drives' work (in work)
+    events = Renamed("t_events")  # (the event functions are given as simulate's events=; these are found)
+    event_q = Renamed("q_events")
+    event_v = Renamed("v_events")
+    error_kind = Renamed("error_scope")
 
     @property
     def coordinates(self) -> tuple:
@@ -124,9 +129,9 @@ class Trajectory(TimeResult):
         return float(self.q_error.max()) if len(self) else 0.0
 
     @property
-    def error_kind(self) -> str:
+    def error_scope(self) -> str:
         """What :attr:`error` is: "local (not a global bound)" for DOP853's accumulated local error estimates
-        (measured up to ~30× too low on long chaotic or light-bodied runs: use error="rerun" for a global
+        (measured up to ~30× too low on long chaotic or light-bodied runs: use error_method="rerun" for a global
         estimate), else "global estimate (rerun)" or "global estimate (richardson)"; "none" without one."""
         if self.error_method == "local":
             return "local (not a global bound)"
@@ -183,7 +188,7 @@ class Trajectory(TimeResult):
     def summary(self) -> str:
         steps = f"{self.accepted} steps" + ("" if self.rejected is None else f" ({self.rejected} rejected)")
         return (f"{self.method}: t = {self.t[-1] if len(self) else 0.0:.6g} s ({self.status}), {steps}, "
-                f"{self.nfev} evaluations, error ≈ {self.error:.1e} ({self.error_kind}), energy drift "
+                f"{self.nfev} evaluations, error ≈ {self.error:.1e} ({self.error_scope}), energy drift "
                 f"{self.drift:.2e} J ({self.drift_relative:.1e} relative), {self.elapsed:.3g} s")
 
     def __repr__(self):
@@ -211,7 +216,7 @@ class Trajectory(TimeResult):
 
     def _meta(self):
         return {"scene": self.system.name, "method": self.method, "status": self.status, "message": self.message,
-                "error_method": self.error_method, "error_kind": self.error_kind, "error": self.error,
+                "error_method": self.error_method, "error_scope": self.error_scope, "error": self.error,
                 "velocity_error": self.velocity_error,
                 "drift_J": self.drift, "drift_relative": self.drift_relative, "nfev": self.nfev,
                 "njev": self.njev, "nlu": self.nlu, "accepted": self.accepted,

@@ -113,13 +113,13 @@ def _analyse(system, analysis, options) -> dict:
         c = campbell(system, options["spin"], options["speeds"], options.get("orders", (1,)),
                      method=options.get("method", "analytic"))
         crit = [k for o in c.orders for k in c.critical_speeds(o)]
-        return {"critical_speeds": [k.speed for k in crit], "frequencies": c.frequencies.ravel().tolist(),
+        return {"critical_speeds": [k.speed for k in crit], "omega": c.omega.ravel().tolist(),
                 "error": float(c.error.max(initial=0.0))}
     if analysis == "modes":
         m = system.operating_point().linearize().modes()
         return {"omega": m.omega.tolist(), "zeta": m.zeta.tolist() if m.zeta.size else [0.0] * m.n,
-                "rigid": m.rigid.tolist(), "stability": m.stability, "error": float(m.error),
-                "omega_error": (m.omega_error * np.where(m.rigid, 1.0, m.omega)).tolist(),
+                "rigid": m.rigid.tolist(), "stability": m.stability, "relative_error": m.relative_error,
+                "omega_error": m.omega_error.tolist(),
                 "shapes": m.shapes.tolist()}
     raise ModelError(f"sweep: analysis must be one of {ANALYSES} or a callable(system) -> dict, got {analysis!r}")
 

@@ -168,7 +168,7 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
     def jacobian(x):
         sens = model(x)
         idx, _ = paired(sens)
-        return sens.omega[idx] * scale[None, :] / sig[:, None]
+        return sens.d_omega[idx] * scale[None, :] / sig[:, None]
 
     from scipy.optimize import least_squares
 
@@ -180,7 +180,7 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
     x = fit.x
     sens = model(x)
     idx, mac_table = paired(sens)
-    J = sens.omega[idx] / sig[:, None]  # ∂r/∂p in the builder's units
+    J = sens.d_omega[idx] / sig[:, None]  # ∂r/∂p in the builder's units
     u, s, vt = np.linalg.svd(J, full_matrices=True)
     rank = int(np.sum(s > 1e-8 * max(s.max(initial=0.0), 1e-300)))
     if rank < len(names):

@@ -39,6 +39,7 @@ import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
 from ..._check import integer, scalar
+from ..._deprecation import Renamed
 from ..._format import duration, number, summary, table
 from ...errors import ConvergenceError, ModelError
 from ...model.dynamics import energy_gradient
@@ -65,18 +66,19 @@ ARG1 = pin.ArgumentPosition.ARG1
 
 @dataclass(frozen=True)
 class Resonance:
-    """Where the backbone meets an internal resonance or a fold: ``kind`` ("internal resonance": the nontrivial
+    """Where the backbone meets an internal resonance or a fold: ``category`` ("internal resonance": the nontrivial
     Floquet multiplier of linear mode ``other_mode`` reaches +1, its frequency ``ratio`` = k times ω, k:1; or
     "fold": the energy turns back along the branch), ``energy`` (J above the equilibrium's) and ``omega`` (rad/s)
     there, ``energy_range`` (J, the branch points that bracket it: its uncertainty), ``message``."""
 
-    kind: str
+    category: str
     energy: float
     omega: float
     energy_range: tuple
     other_mode: int | None = None
     ratio: int | None = None
     message: str = ""
+    kind = Renamed("category")
 
     @property
     def frequency_hz(self) -> float:
@@ -84,7 +86,7 @@ class Resonance:
         return self.omega / (2 * math.pi)
 
     def to_dict(self) -> dict:
-        return {"kind": self.kind, "energy_J": self.energy, "omega_rad_s": self.omega,
+        return {"category": self.category, "energy_J": self.energy, "omega_rad_s": self.omega,
                 "frequency_hz": self.frequency_hz, "energy_range_J": list(self.energy_range),
                 "other_mode": self.other_mode, "ratio": self.ratio, "message": self.message}
 
@@ -176,7 +178,7 @@ class Backbone:
                 for a, e, w, de, s in zip(self.amplitude, self.energy, self.omega, self.error, self.stability)]
         lines += ["  " + line for line in table(["amplitude", "energy", "ω", "± ω (rad/s)", "f", "stability"], rows)]
         for r in self.resonances:
-            lines.append(f"  {r.kind}: {r.message}")
+            lines.append(f"  {r.category}: {r.message}")
         if not self.resonances:
             lines.append("  no internal resonance or fold met on the branch")
         lines.append(f"  note: {self.note}")
@@ -630,10 +632,10 @@ class _Follower:
             return float(v[c])
 
         scale = self.scales(best)  # (the flow's absolute tolerance from the motion, not from the scene's size)
-        run = simulate(self.system, T, orbit.q0, orbit.v0, rtol=self.rtol, error="rerun", events=turning,
+        run = simulate(self.system, T, orbit.q0, orbit.v0, rtol=self.rtol, error_method="rerun", events=turning,
                        atol=self.rtol * np.concatenate([scale, scale * orbit.omega]))
         extra = 0.0
-        for t, q in zip(run.events[0], run.event_q[0]):
+        for t, q in zip(run.t_events[0], run.q_events[0]):
             if 1e-6 * T < t < (1 - 1e-6) * T:
                 a = abs(float(self.system.difference(self.q_eq, q)[c]))
                 if a > best:

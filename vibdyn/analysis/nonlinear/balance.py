@@ -52,7 +52,7 @@ class Excitation:
 
     def __init__(self, system, force):
         self.system = system
-        self.kind = None
+        self.where = None
         what = "forced_response_curve: force"
         if isinstance(force, PointForce):
             b = system.body_info(force.body) if force.body in system.body_infos else None
@@ -63,7 +63,7 @@ class Excitation:
             if not np.any(d):
                 raise ModelError(f"{what}: direction is the zero vector")
             self.F = _nonzero(force.amplitude, what) * d / np.linalg.norm(d)
-            self.kind, self.label = "point", (f"a point force {number(np.linalg.norm(self.F))} N·cos Ωt on "
+            self.where, self.label = "point", (f"a point force {number(np.linalg.norm(self.F))} N·cos Ωt on "
                                               f"'{force.body}'")
         elif isinstance(force, SupportMotion):
             if force.support not in system.support_index:
@@ -73,17 +73,17 @@ class Excitation:
             self.Y = finite_array(force.amplitude, (3,), f"{what}: support amplitude")
             if not np.any(self.Y):
                 raise ModelError(f"{what}: support amplitude is zero: there is no response to follow")
-            self.kind, self.label = "support", f"support '{force.support}' moving {self.Y.tolist()} m·cos Ωt"
+            self.where, self.label = "support", f"support '{force.support}' moving {self.Y.tolist()} m·cos Ωt"
         elif isinstance(force, (tuple, list)) and len(force) == 2 and isinstance(force[0], str):
             self.i = system.coordinate_index(force[0])
             self.P = _nonzero(force[1], what)
             u = "N" if system.units[self.i] == "m" else "N·m"
-            self.kind, self.label = "joint", f"{number(self.P)} {u}·cos Ωt on '{force[0]}'"
+            self.where, self.label = "joint", f"{number(self.P)} {u}·cos Ωt on '{force[0]}'"
         else:
             raise ModelError(f"{what}: expected (coordinate, amplitude), a PointForce or a SupportMotion, got "
                              f"{force!r}")
         for k, s in enumerate(system.supports):  # other supports must stand still: their motion is not at Ω
-            if self.kind == "support" and k == self.isup:
+            if self.where == "support" and k == self.isup:
                 continue
             for t in (0.0, 0.37, 1.9, 7.3):
                 if np.any(np.asarray(s.motion.velocity(t), float)):
@@ -99,24 +99,24 @@ class Excitation:
         for k, s in enumerate(sys_.supports):
             p, v = np.asarray(s.motion.position(t), float), np.asarray(s.motion.velocity(t), float)
             out[k, :3], out[k, 3:] = -p, -v
-            if self.kind == "support" and k == self.isup:
+            if self.where == "support" and k == self.isup:
                 out[k, :3] += self.Y * math.cos(tau)
                 out[k, 3:] += -omega * self.Y * math.sin(tau)
         return out
 
     def force(self, q, tau):
         """Generalized force of a joint or point excitation at τ (N or N·m per coordinate)."""
-        if self.kind == "joint":
+        if self.where == "joint":
             f = np.zeros(self.system.nv)
             f[self.i] = self.P * math.cos(tau)
             return f
-        if self.kind == "point":
+        if self.where == "point":
             return point_jacobian(self.system, q, [self.point]).T @ self.F * math.cos(tau)
         return np.zeros(self.system.nv)
 
     def forces(self, Q, tau):
         """:meth:`force` at each row of Q and τ (rows of N or N·m)."""
-        if self.kind == "joint":
+        if self.where == "joint":
             f = np.zeros((len(tau), self.system.nv))
             f[:, self.i] = self.P * np.cos(tau)
             return f
@@ -137,13 +137,13 @@ class Balance:
         self.system, self.exc, self.q_eq, self.H, self.n = system, excitation, q_eq, H, system.nv
         self.N = N = 4 * H + 4
         self.tau = 2 * np.pi * np.arange(N) / N
-        self.E, self.E1, self.E2 = basis(self.tau, H)
+        self.E, self.E1, self.E2 = fourier_basis(self.tau, H)
         w = np.full(2 * H + 1, 2.0 / N)
         w[0] = 1.0 / N
         self.P = w[:, None] * self.E.T  # Galerkin projection: exact coefficients of a trig polynomial ≤ H
         self.k, self.iq = system.additive_coordinates
         self.h = steps(system, FD_STEP)
-        self.support = excitation.kind == "support"
+        self.support = excitation.where == "support"
         self.curved = bool(system.curved_coordinates)
         self._memo, self._kept = None, OrderedDict()
         X0 = np.zeros((2 * H + 1) * self.n)
@@ -219,7 +219,7 @@ class Balance:
         K, C = analytic_derivatives_rows(sys_, Q, xd, xdd, t, shift)
         for j, tau in enumerate(self.tau):
             M[j] = dynamics.mass_matrix(sys_.model, ws.data, Q[j])
-            if self.exc.kind == "point":  # J(q)ᵀF turns with the body: its own ∂/∂q, by differences
+            if self.exc.where == "point":  # J(q)ᵀF turns with the body: its own ∂/∂q, by differences
                 K[j] -= tangent_derivative(sys_, lambda q: self.exc.force(q, tau), Q[j], self.h)
         return xd, xdd, r, K, C, M
 
@@ -317,7 +317,7 @@ class Balance:
         k = np.arange(1, self.H + 1)
         ac, as_ = a[1::2], a[2::2]
         grid = np.linspace(0, 2 * np.pi, max(64, 16 * (2 * self.H + 1)), endpoint=False)
-        vals = basis(grid, self.H)[0] @ a
+        vals = fourier_basis(grid, self.H)[0] @ a
         j = int(np.argmax(np.abs(vals)))
         tau, best = grid[j], abs(vals[j])
         for _ in range(8):
@@ -338,7 +338,7 @@ class Balance:
             H2 = 2 * self.H + 1
             big.H, big.N = H2, 4 * H2 + 4
             big.tau = 2 * np.pi * np.arange(big.N) / big.N
-            big.E, big.E1, big.E2 = basis(big.tau, H2)
+            big.E, big.E1, big.E2 = fourier_basis(big.tau, H2)
             w = np.full(2 * H2 + 1, 2.0 / big.N)
             w[0] = 1.0 / big.N
             big.P, big._memo, big._kept, big._refined = w[:, None] * big.E.T, None, OrderedDict(), None
@@ -362,11 +362,11 @@ class Balance:
         dY = np.linalg.lstsq(A, np.append(-big.residual(X2, omega), 0.0), rcond=None)[0]
         dX = dY[:-1]
         grid = np.linspace(0, 2 * np.pi, max(64, 8 * (2 * big.H + 1)), endpoint=False)
-        d = basis(grid, big.H)[0] @ dX.reshape(2 * big.H + 1, self.n)[:, c]
+        d = fourier_basis(grid, big.H)[0] @ dX.reshape(2 * big.H + 1, self.n)[:, c]
         return float(np.max(np.abs(d))), float(abs(dY[-1])), X2 + dX, omega + float(dY[-1])
 
 
-def basis(tau, H):
+def fourier_basis(tau, H):
     """E, dE/dτ, d²E/dτ² at the samples τ: columns 1, cos τ, sin τ, …, cos Hτ, sin Hτ."""
     k = np.arange(1, H + 1)
     kt = np.multiply.outer(tau, k)

@@ -43,7 +43,7 @@ from ...errors import ConvergenceError, ModelError
 from ...solvers.continuation import continuation
 from ...solvers.newton import newton
 from ..equilibrium import static_configuration
-from .balance import Balance, Excitation, PointForce, SupportMotion, basis, embed
+from .balance import Balance, Excitation, PointForce, SupportMotion, embed, fourier_basis
 
 __all__ = ["forced_response_curve", "ForcedResponseCurve", "ResponseFold", "ResponsePeak", "PointForce",
            "SupportMotion"]
@@ -379,7 +379,7 @@ def _amplitude_precision(bal, y, t, c, A, residual):
     rounding."""
     H, n = bal.H, bal.n
     grid = np.linspace(0, 2 * np.pi, max(64, 16 * (2 * H + 1)), endpoint=False)
-    E = basis(grid, H)[0]
+    E = fourier_basis(grid, H)[0]
     x_c = E @ y[:-1].reshape(2 * H + 1, n)[:, c]
     j = int(np.argmax(np.abs(x_c)))
     g = np.zeros(y.size)

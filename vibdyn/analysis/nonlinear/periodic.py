@@ -268,7 +268,7 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
     m = segments if segments is not None else k if k > 1 else growth_segments(first.state_transition)
     shoot = Shooting(system, t0, period, autonomous, m, omega, rtol, phase_spec, energy, scales, max_step)
     if m > 1 and k == 1:  # nodes along a first run from the start
-        run = simulate(system, t0 + period, q_start, v_start, t0=t0, rtol=rtol, error="local",
+        run = simulate(system, t0 + period, q_start, v_start, t0=t0, rtol=rtol, error_method="local",
                        t_eval=[shoot.time(i, period) for i in range(m)])
         nodes = Shooting.impose(system, list(zip(run.q, run.v)), t0, period)
     x0 = shoot.pack(nodes, period)

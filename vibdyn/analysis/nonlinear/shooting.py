@@ -178,7 +178,7 @@ class Shooting:
             a = self.time(i, T)
             t_eval = None if points is None else np.linspace(a, a + h, points + 1)
             runs.append(simulate(self.system, a + h, q, v, rtol=self.rtol, atol=self.atol, t0=a, variational=True,
-                                 error=error, t_eval=t_eval, max_step=self.max_step / refine))
+                                 error_method=error, t_eval=t_eval, max_step=self.max_step / refine))
         self.evaluations += 1
         if cached:
             self._cache = (key, runs)
@@ -337,7 +337,7 @@ class Shooting:
             v1 = np.array(v, dtype=float)
             v1[self.free] += sign * delta[n:]
             run = simulate(self.system, t1, pin.integrate(self.model, q, dq), v1, rtol=self.rtol, atol=self.atol,
-                           t0=t0, error="local", max_step=self.max_step / 2, t_eval=[t1])
+                           t0=t0, error_method="local", max_step=self.max_step / 2, t_eval=[t1])
             ends.append(np.concatenate([pin.difference(self.model, q_end, run.q[-1])[self.free],
                                         (run.v[-1] - v_end)[self.free]]))
         return (ends[0] - ends[1]) / 2
@@ -404,9 +404,9 @@ def first_return(system, q0, v0, t0, omega, rtol) -> float:
     setattr(section, "direction", 1)  # upward crossings only (the event protocol's attribute)
     span = 3 * 2 * math.pi / omega
     for _ in range(5):
-        traj = simulate(system, t0 + span, q0, v0, t0=t0, rtol=max(rtol, 1e-9), error="local", events=section)
+        traj = simulate(system, t0 + span, q0, v0, t0=t0, rtol=max(rtol, 1e-9), error_method="local", events=section)
         dist = np.array([np.linalg.norm(scaled(q, v)) for q, v in zip(traj.q, traj.v)])
-        for tc, qc, vc in zip(traj.events[0], traj.event_q[0], traj.event_v[0]):
+        for tc, qc, vc in zip(traj.t_events[0], traj.q_events[0], traj.v_events[0]):
             dc = float(np.linalg.norm(scaled(qc, vc)))
             went = dist[traj.t < tc].max(initial=0.0)
             if went > 0 and dc < 0.1 * went:

@@ -12,6 +12,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..._check import count, finite_array, unknown_name
+from ..._deprecation import Renamed
 from ...defaults import EPS
 from ...errors import ModelError
 from .channels import channels, vector_label
@@ -30,8 +31,8 @@ class FRF:
     ``frf_type`` "receptance": displacement per force (m/N, rad/(N·m), ...); "transmissibility": displacement
     per support displacement (m/m). ``mobility`` = iωH and ``accelerance`` = −ω²H. ``residual``: largest
     normwise backward residual of (K − ω²M + iωC + iD) X = B over ω (modal sums included: it measures
-    truncation and neglected coupling); ``error``: estimated relative error, condition number × (residual
-    + the linear model's error estimate).
+    truncation and neglected coupling); ``relative_error``: estimated relative error, condition number ×
+    (residual + the linear model's relative error).
     ``elapsed`` (s). ``peaks()``, ``half_power()`` refine on the model, not on the grid.
     """
 
@@ -46,10 +47,11 @@ class FRF:
     damping: str
     residual: float
     condition: float
-    error: float
+    relative_error: float
     elapsed: float
     natural: np.ndarray = field(repr=False)  # natural frequencies of the model (rad/s): seeds for peaks
     evaluate: object = field(repr=False)  # ω array ↦ H (n_ω × n_out × n_in) with the same settings
+    error = Renamed("relative_error")
 
     def __repr__(self):
         from ..._format import duration, number, summary
@@ -57,7 +59,8 @@ class FRF:
         return summary("FRF", f"{self.frf_type} {'/'.join(self.outputs[:2])}{'…' if len(self.outputs) > 2 else ''} per "
                        f"{'/'.join(self.inputs[:2])}{'…' if len(self.inputs) > 2 else ''}",
                        f"{self.omega.size} frequencies {number(self.omega[0])}…{number(self.omega[-1])} rad/s",
-                       self.method, self.damping, f"error {number(self.error, digits=2)}", duration(self.elapsed))
+                       self.method, self.damping, f"relative error {number(self.relative_error, digits=2)}",
+                       duration(self.elapsed))
 
     def _repr_html_(self):
         from ..._format import html_table, number
@@ -71,7 +74,7 @@ class FRF:
                                        for w, a in zip(p.resonances, p.amplitudes)) or "-",
                              ", ".join(number(w) for w in p.antiresonances) or "-"])
         return html_table(f"{self.frf_type}: {self.omega.size} frequencies {number(self.omega[0])} … "
-                          f"{number(self.omega[-1])} rad/s, error {number(self.error, digits=2)}",
+                          f"{number(self.omega[-1])} rad/s, relative error {number(self.relative_error, digits=2)}",
                           ["output / input", "unit", "resonances |H| at ω (rad/s)", "anti-resonances (rad/s)"], rows)
 
     @property
@@ -228,7 +231,7 @@ class FRF:
                 "output_units": list(self.output_units), "input_units": list(self.input_units),
                 "alpha": [[[[z.real, z.imag] for z in row] for row in m] for m in self.alpha],
                 "method": self.method, "damping": self.damping, "residual": self.residual,
-                "condition": self.condition, "error_estimate": self.error, "elapsed_s": self.elapsed}
+                "condition": self.condition, "relative_error": self.relative_error, "elapsed_s": self.elapsed}
 
 
 Receptance = FRF
@@ -237,7 +240,7 @@ Receptance = FRF
 @dataclass(frozen=True, eq=False)
 class Peaks:
     """Resonances and anti-resonances of one |H_jk| (rad/s; ``*_hz`` alongside), with |H| there.
-    ``tolerance``: estimated absolute error of the frequencies (rad/s)."""
+    ``omega_error``: estimated absolute error of the frequencies (rad/s)."""
 
     output: str
     input: str
@@ -246,9 +249,10 @@ class Peaks:
     amplitudes: np.ndarray
     antiresonances: np.ndarray
     antiresonance_amplitudes: np.ndarray
-    tolerance: float
+    omega_error: float
     elapsed: float
     unbounded: np.ndarray | None = None  # per resonance: an undamped resonance (amplitude inf)
+    tolerance = Renamed("omega_error")
 
     def __repr__(self):
         from ..._format import summary, values
@@ -275,7 +279,7 @@ class Peaks:
                 "antiresonances_rad_s": self.antiresonances.tolist(),
                 "antiresonances_hz": self.antiresonances_hz.tolist(),
                 "antiresonance_amplitudes": self.antiresonance_amplitudes.tolist(),
-                "tolerance_rad_s": self.tolerance, "elapsed_s": self.elapsed}
+                "omega_error_rad_s": self.omega_error, "elapsed_s": self.elapsed}
 
 
 ANTIRESONANCE_DEPTH = math.sqrt(2.0)  # (3 dB) how far a damped minimum must fall below both its sides
@@ -347,7 +351,7 @@ def _transfer(model, omega, Bfun, out, method, n_modes=None, offset=None):
         Phi, w2, c, d, _ = model.modal
         keep = slice(None) if n_modes is None else slice(0, _n_modes(n_modes, w2.size))
         Phi, w2, c, d = Phi[:, keep], w2[keep], c[keep], d[keep]
-        dw2 = 2 * np.abs(w2) * model.modes.omega_error[keep]  # each ω²'s uncertainty (residual: relative, of ω)
+        dw2 = 2 * np.abs(w2) * model.modes.omega_relative_error[keep]  # each ω²'s uncertainty (residual: relative, of ω)
     H = None
     residual = condition = amplification = 0.0
     for i, w in enumerate(omega):
@@ -470,9 +474,12 @@ class HarmonicResponse:
     def frequency_hz(self):
         return self.omega / (2 * np.pi)
 
+    error = Renamed("relative_error")
+
     @property
-    def error(self):
-        return self.frf.error
+    def relative_error(self):
+        """The FRF's estimated relative error."""
+        return self.frf.relative_error
 
     def at(self, t):
         """Output time histories Re(X e^{iωt}) (n_t × n_out) for a single frequency."""

@@ -36,10 +36,10 @@ from .frf import EPS
 class TimeResponse(TimeResult):
     """A response in time (a :class:`~vibdyn.results.TimeResult`): ``x`` = δq, ``v`` = δv, ``a`` = δa (n_t × nv,
     m or rad and their rates) at times ``t`` (s), measured from the operating point (displacements, not
-    configurations: a :class:`~vibdyn.simulation.trajectory.Trajectory`'s ``q``). ``error``: estimated error relative to max|δq| (quadrature, eigenvector
-    conditioning or the integrator's tolerance, plus the linear model's error drifting the phase over the
-    time span); ``imaginary``: largest imaginary part left by complex modes
-    (relative, round-off). ``displacement(outputs)`` maps to body points or coordinates."""
+    configurations: a :class:`~vibdyn.simulation.trajectory.Trajectory`'s ``q``). ``relative_error``: estimated
+    error relative to max|δq| (quadrature, eigenvector conditioning or the integrator's tolerance, plus the linear
+    model's error drifting the phase over the time span) and ``error`` that absolute, m or rad (as a
+    Trajectory's); ``imaginary``: largest imaginary part left by complex modes (relative, round-off). ``displacement(outputs)`` maps to body points or coordinates."""
 
     t: np.ndarray
     x: np.ndarray
@@ -48,7 +48,7 @@ class TimeResponse(TimeResult):
     coordinates: tuple
     units: tuple
     method: str
-    error: float
+    relative_error: float
     elapsed: float
     linear: object = field(repr=False)
     imaginary: float = 0.0
@@ -59,7 +59,12 @@ class TimeResponse(TimeResult):
 
         return summary("TimeResponse", f"{self.t.size} times {number(self.t[0])}…{number(self.t[-1])} s" if self.t.size
                        else "empty", f"{len(self.coordinates)} coordinates", self.method,
-                       f"error {number(self.error, digits=2)}", duration(self.elapsed))
+                       f"relative error {number(self.relative_error, digits=2)}", duration(self.elapsed))
+
+    @property
+    def error(self) -> float:
+        """Estimated error of the displacements (m or rad), largest over the times and coordinates."""
+        return self.relative_error * float(np.abs(self.x).max(initial=0.0))
 
     def displacement(self, outputs=None, direction=None):
         """Displacements of outputs (coordinate names, body points with a direction; None: all) (n_t × k)."""
@@ -155,10 +160,10 @@ def _finish(lin, t, q, v, a, method, error, imag, start):
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
         raise ModelError("time response: the response overflows (an unstable mode grows without bound over "
                          "these times)")
-    if lin.error:  # the linear model's own error: a relative frequency error drifting the phase over time
+    if lin.relative_error:  # the linear model's own error: a relative frequency error drifting the phase over time
         m = lin.modes()
         wmax = max(m.omega.max(initial=0.0), m.omega_n.max(initial=0.0))
-        error = error + lin.error * (1 + wmax * float(np.ptp(np.concatenate([[0.0], t]))))
+        error = error + lin.relative_error * (1 + wmax * float(np.ptp(np.concatenate([[0.0], t]))))
     return TimeResponse(t, q, v, a, tuple(lin.coordinates), tuple(lin.units), method, float(error),
                         time.perf_counter() - start, lin, float(imag))
 
@@ -196,7 +201,7 @@ def free_response(lin, t, x0, v0=None, *, method="auto"):
         a = (-k * qm - c * vm) @ Phi.T
         recon = max(np.linalg.norm(Phi @ q0 - x0) / max(np.linalg.norm(x0), 1e-300) if np.any(x0) else 0.0,
                     np.linalg.norm(Phi @ qd0 - v0) / max(np.linalg.norm(v0), 1e-300) if np.any(v0) else 0.0)
-        growth = m.omega_error.max(initial=0.0) * (1 + m.omega.max(initial=0.0) * np.abs(t).max())
+        growth = m.omega_relative_error.max(initial=0.0) * (1 + m.omega.max(initial=0.0) * np.abs(t).max())
         error = recon + growth + m.orthogonality
     elif method == "ivp":
         return _free_by_ivp(lin, model, t, x0, v0, start)

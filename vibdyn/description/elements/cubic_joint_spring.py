@@ -71,7 +71,7 @@ class CubicJointSpring(ElementKind):
         what = f"cubic joint spring '{name}'"
         if not b.joint.scalar:
             raise ModelError(f"{what}: acts on one-coordinate joints (pivot, slider, helical); '{b.name}' has a "
-                             f"{b.joint.kind} joint")
+                             f"{b.joint.type} joint")
         scene.check_new_name(name, "element")
         k = stiffness_like(k3, 1, f"{what} k3")
         return scene.add_element(cls(name, b.name, (float(k[0]),), per_coordinate(rest, 1, what, "rest")))

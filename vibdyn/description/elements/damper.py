@@ -15,7 +15,7 @@ from .base import ElementKind, att_list, end_label, file_attachment
 class Dampers(TwoPoint):
     """Point-to-point viscous dampers: force on end b = −c (u·(v_b − v_a)) u."""
 
-    kind = "damper"
+    noun = "damper"
     rows = True
     uses_point_velocities = True
     needs_velocity_derivatives = True

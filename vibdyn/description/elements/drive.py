@@ -44,7 +44,7 @@ class Drive(ElementKind):
         b = scene.joint_body(body, "drive")
         if b.joint.nv != 1 or b.joint.unit_block is not None:
             raise ModelError(f"drive on '{body}': only a one-coordinate joint (pivot, slider, helical) can be "
-                             f"driven; body '{b.name}' has a {b.joint.kind} joint ({b.joint.nv} coordinates)")
+                             f"driven; body '{b.name}' has a {b.joint.type} joint ({b.joint.nv} coordinates)")
         for other in scene.elements_of(Drive):
             if other.body == b.name:
                 raise ModelError(f"drive on '{body}': the joint of body '{b.name}' is already driven by drive "

@@ -16,7 +16,7 @@ from .base import WORLD, ElementKind, att_list, end_label, file_attachment
 class Springs(TwoPoint):
     """Point-to-point linear springs: force on end b = −k (L − l0) u, u from a to b."""
 
-    kind = "spring"
+    noun = "spring"
     rows = True
 
     def __init__(self, system, elements):

@@ -145,7 +145,7 @@ def content(obj, trajectory=None, speed=1.0):
             modes = system.linearize(q).modes()
             note = f" (no operating point found: {e}; modes about {where}, not an equilibrium)"
     lin = modes.linear if modes is not None else None
-    q0 = lin.q0 if lin is not None else (data[1][0] if data is not None else system.neutral())
+    q0 = lin.q if lin is not None else (data[1][0] if data is not None else system.neutral())
     d = _drawing(system, q0)
     if data is not None:
         d.frame(data[1])  # the camera frames the whole replayed motion

@@ -325,17 +325,17 @@ def _shape_items(node, name, sh, com, color):
     R = np.eye(3) if sh.rotation is None else np.array(sh.rotation)
     M = _placement(R, at)
     mat = phong(color if sh.color is None else rgb(sh.color))
-    if sh.kind == "box":
+    if sh.type == "box":
         return [Item(node, name, box_geometry(sh.size), mat, M)]
-    if sh.kind == "sphere":
+    if sh.type == "sphere":
         return [Item(node, name, sphere_geometry(sh.size[0]), mat, M)]
-    if sh.kind == "mesh":
+    if sh.type == "mesh":
         return [Item(node, name, mesh_geometry(sh.path, f"{node.split('/')[-1]} shape {name}"), mat,
                      M @ np.diag([*sh.size, 1.0]))]
     r, L = sh.size
     A = M @ _placement(rotation_z_to(np.asarray(sh.axis)), np.zeros(3))
     out = [Item(node, name, cylinder_geometry(r, L), mat, A @ Y_TO_Z)] if L > 0 else []
-    if sh.kind == "capsule":
+    if sh.type == "capsule":
         out += [Item(node, f"{name}.cap{k}", sphere_geometry(r), mat, A @ _translate_z(z))
                 for k, z in enumerate((-L / 2, L / 2))]
     return out

@@ -65,7 +65,7 @@ def mode_views(modes):
     model has damping or gyroscopic terms, else the undamped real ones."""
     out = []
     if modes.eigenvalues.size:
-        err = modes.eigenvalue_error * modes.omega_n  # absolute (1/s): a growth within it is no growth
+        err = modes.eigenvalue_error  # (1/s): a growth within it is no growth
         for i, lam in enumerate(modes.damped_eigenvalues):
             phi = modes.complex_shapes[:, i]
             grows = lam.real > err[i]

@@ -43,7 +43,7 @@ def plot_modes(modes, path=None, which=None, amplitude=None, dpi=100, columns=3)
     from .page import plane_normal
 
     lin = modes.linear
-    system, q0 = lin.system, lin.q0
+    system, q0 = lin.system, lin.q
     views = _motion.mode_views(modes)
     idx = list(range(len(views))) if which is None else [int(i) for i in np.atleast_1d(which)]
     if not idx or any(not 0 <= i < len(views) for i in idx):

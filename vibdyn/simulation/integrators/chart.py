@@ -170,8 +170,8 @@ class ChartODE(VectorODE):
         # differences of their tangent columns, grouped by their place in their joint (dDifference is block
         # diagonal, one block per joint: the i-th column of every such joint is differenced in one pass), each
         # with the rows of its joint
-        self.so3_blocks = [slice(b.idx_v, b.idx_v + 3) for b in curved if b.joint.group == "SO3"]
-        differenced = [b for b in curved if b.joint.group != "SO3"]
+        self.so3_blocks = [slice(b.idx_v, b.idx_v + 3) for b in curved if b.joint.lie_group == "SO3"]
+        differenced = [b for b in curved if b.joint.lie_group != "SO3"]
         width = max((b.nv for b in differenced), default=0)
         self.column_groups = [[(b.idx_v + i, slice(b.idx_v, b.idx_v + b.nv)) for b in differenced if i < b.nv]
                               for i in range(width)]

@@ -45,7 +45,7 @@ class AdStar:
 
     def __init__(self, system):
         def blocks(group, width):
-            return np.array([b.idx_v + np.arange(width) for b in system.body_infos.values() if b.joint.group == group],
+            return np.array([b.idx_v + np.arange(width) for b in system.body_infos.values() if b.joint.lie_group == group],
                             dtype=int).reshape(-1, width)
 
         self.nv = system.nv
