@@ -59,6 +59,9 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "studies.sweeps": ("sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked"),
     "analysis.nonlinear.harmonic_balance": ("forced_response_curve", "ForcedResponseCurve", "PointForce",
                                             "SupportMotion"),
+    "model.reduction": ("Reduction",),
+    "model.assembly": ("Assembly",),
+    "model.forcing": ("forcing",),
 }
 # the modules themselves, under their short public names (vd.response, vd.simulate, ...)
 # (never under a function's name: vd.simulate, vd.linearize and vd.equilibrium are the functions)
@@ -188,4 +191,4 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
-           "update", "Update", "simulate", "linearize", "equilibrium"]
+           "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing"]

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import Any
 
 import numpy as np
 
@@ -47,7 +48,7 @@ class Forcing:
         return ", ".join(f"ω = {w:.10g} rad/s ('{n}')" for n, w in self.harmonic)
 
 
-def forcing(system) -> Forcing:
+def forcing(system: Any) -> Forcing:
     """The time-dependent parts of a System's scene and their common period (see the module docstring).
     A harmonic law of zero frequency or zero amplitude is constant: not a source."""
     sources = []
