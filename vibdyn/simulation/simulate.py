@@ -62,7 +62,7 @@ PROGRESS_DELAY = 2.0  # s of wall time before a progress bar appears
 SINGULAR_NOTE = 1e-4  # a failed run of a mechanism whose loops are this near a singular position says so
 
 
-def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rtol: float = 1e-8, atol=None,
+def simulate(system, t_end: float, q0=None, v0=None, method: str | type = "dop853", rtol: float = 1e-8, atol=None,
              dt: float | None = None, t_eval=None, *, error: str | None = None, max_step: float | None = None,
              progress: bool | None = None, t0: float = 0.0, events=None, variational: bool = False) -> Trajectory:
     """Integrate the nonlinear motion of ``system`` from (q0, v0) at ``t0`` (s, default 0) to the absolute
@@ -73,7 +73,8 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
     equilibrium/steady-motion result (then v0 defaults to its v); v0: velocities (default zero). A mechanism
     with loops starts from (q0, v0) put on its loops (q0 assembled, v0 projected in the kinetic-energy
     metric): its energies, work and errors are those of that state. ``method``: a name of :data:`METHODS` — "dop853", "rk4", "radau", "bdf"
-    or "symplectic" (alias "variational") — see the module docstring. ``rtol`` and ``atol`` (adaptive methods): local error per step below atol + rtol·|x|,
+    or "symplectic" (alias "variational") — see the module docstring — or a stepper class
+    (a subclass of :class:`vibdyn.simulation.integrators.Stepper` with a ``name``). ``rtol`` and ``atol`` (adaptive methods): local error per step below atol + rtol·|x|,
     positions measured from the step's start; ``atol`` a number, one per coordinate (positions and
     velocities alike) or 2·nv numbers (positions then velocities); default rtol × (1 rad, or the scene's
     length scale for m coordinates). ``dt``: the step of fixed-step methods (required; each interval between
@@ -138,7 +139,7 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
     if cfg.variational and main.transition is not None:
         other = runs[1].transition if len(runs) > 1 else None
         err = np.inf if other is None else float(np.abs(main.transition - other).max()) / (
-            1.0 if cfg.error == "rerun" else 2.0 ** METHODS[cfg.method].order - 1.0)
+            1.0 if cfg.error == "rerun" else 2.0 ** cfg.stepper.order - 1.0)
         floored = getattr(main.stepper, "floored_steps", 0)
         if floored:  # both runs held these steps' Φ to the same floor: their errors, summed
             err = max(err, DIFFERENCED_RTOL * floored * float(np.abs(main.transition).max()))
@@ -185,6 +186,7 @@ class _Settings:
     t0: float = 0.0
     events: tuple | None = None  # the event functions
     variational: bool = False
+    stepper: type | None = None  # the method's stepper class
 
 
 def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress, t0=0.0,
@@ -198,7 +200,8 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
         raise ModelError(f"{what}: t_end = {t_end:g} s must be after t0 = {t0:g} s (t_end is an absolute time)")
     stepper = method_class(method)
     if stepper is None:
-        raise ModelError(f"{what}: unknown method {method!r} (use one of {', '.join(METHODS)})")
+        raise ModelError(f"{what}: unknown method {method!r} (use one of {', '.join(METHODS)}, or a Stepper "
+                         "subclass)")
     method = stepper.name
     variational = bool(variational)
     if variational and system.constraints is not None:
@@ -281,7 +284,7 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
     work = bool(system.supports or system.drives) or any(type(g).potential is ForceGroup.potential or g.time_dependent
                                          for g in system.force_groups)
     return _Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work, t0,
-                     events, variational)
+                     events, variational, stepper)
 
 
 # ---------------------------------------------------------------------------------------------- one run
@@ -312,7 +315,7 @@ class _Run:
 def _integrate(system, cfg, label, reference=None, stride=2):
     """One integration (the main run, or with ``reference`` an error-estimate run at its output times: for a
     fixed-step method, with every ``stride``-th step of the main run's grid)."""
-    t_end, adaptive = cfg.t_end, METHODS[cfg.method].adaptive
+    t_end, adaptive = cfg.t_end, cfg.stepper.adaptive
     rtol, atol_q, atol_v = cfg.rtol, cfg.atol_q, cfg.atol_v
     if reference is not None and adaptive:  # "rerun": tighter tolerances
         rtol = max(rtol / RERUN_FACTOR, MIN_RTOL)
@@ -322,7 +325,7 @@ def _integrate(system, cfg, label, reference=None, stride=2):
     run.system = system
     progress = _Progress(t_end, cfg.progress, label)
     try:
-        run.stepper = METHODS[cfg.method](system, cfg.q0, cfg.v0, t_end, rtol=rtol, atol_q=atol_q, atol_v=atol_v,
+        run.stepper = cfg.stepper(system, cfg.q0, cfg.v0, t_end, rtol=rtol, atol_q=atol_q, atol_v=atol_v,
                                           first_step=cfg.dt if adaptive else None, max_step=cfg.max_step,
                                           work=cfg.work, t0=cfg.t0, variational=cfg.variational)
         if cfg.events:
@@ -370,26 +373,25 @@ def _adaptive(cfg, run, outputs, progress):
         _record(run, cfg.t0, *stepper.state, _zero_local(stepper))
         k = 1 if outputs is not None else 0
     while stepper.t < cfg.t_end:
-        t_start = stepper.t
-        # (with events every step keeps its interpolant: asking for an output at its start does that)
-        stepper.step(t_start if events else outputs[k] if outputs is not None and k < len(outputs) else None)
+        # (the step's interpolant is made only where an output or an event's crossing falls inside it)
+        stepper.step(outputs[k] if outputs is not None and k < len(outputs) else None)
         t = stepper.t
         stop = None
         if events is not None:
-            dense = stepper.dense
-            stop = events.step(t, *stepper.state[:2], lambda s: dense(s)[:2] if s < t else stepper.state[:2])
+            ends = stepper.state[:2]
+            stop = events.step(t, *ends, lambda s: stepper.interpolant()(s)[:2] if s < t else ends)
         end = t if stop is None else stop
         if outputs is None:
             if stop is None:
                 _record(run, t, *stepper.state, stepper.local_error)
         else:
             while k < len(outputs) and outputs[k] <= end:
-                state = stepper.state if outputs[k] == t else stepper.dense(float(outputs[k]))
+                state = stepper.state if outputs[k] == t else stepper.interpolant()(float(outputs[k]))
                 _record(run, float(outputs[k]), *state, stepper.local_error)
                 k += 1
         if stop is not None:  # a terminal event: the run ends there
             if not run.t or run.t[-1] < stop:
-                _record(run, stop, *stepper.dense(stop), stepper.local_error)
+                _record(run, stop, *stepper.interpolant()(stop), stepper.local_error)
             run.message = f"stopped by a terminal event at t = {stop:.10g} s"
             return
         progress.update(t)
@@ -451,7 +453,7 @@ def _compare(system, main, check, cfg, coarse=None):
     (at most 2^p; 2^p without it), or by 1 where ρ is not within 2× of 2^p (not the asymptotic range); the
     largest so far at each output. Outputs the check runs do not have (steps between theirs) take the
     larger estimate of their neighbours; outputs past their end, inf."""
-    p2 = 2.0 ** METHODS[cfg.method].order
+    p2 = 2.0 ** cfg.stepper.order
     tm = np.array(main.t)
     dq, dv = _differences(system, tm, main, check)
     if cfg.error == "rerun":

@@ -85,7 +85,7 @@ class RK4(RungeKutta):
     B = np.array([1.0, 2.0, 2.0, 1.0]) / 6.0
     C = np.array([0.0, 0.5, 0.5, 1.0])
 
-    def step_to(self, t_new):
+    def _step_impl(self, t_new):
         """One step to t_new (fixed-step methods land on their output times: no dense output)."""
         h = t_new - self.t
         y_new, f_new = self._stages(h)
@@ -130,10 +130,11 @@ class DOP853(RungeKutta):
             first_step = initial_step(self.ode, self.t, self.y, self.f, self.t_end, self.max_step, 7, self.rtol,
                                       self.atol_vector())
         self.h_abs = min(float(first_step), self.max_step)
+        self._last = None  # (h, y_new, f_new, its chart) of the last step, for its dense output on demand
 
-    def step(self, next_output=None):
+    def _step_impl(self, next_output=None):
         """One accepted step (not beyond t_end); its dense output in ``dense`` if ``next_output`` (a time)
-        falls inside it (before its end)."""
+        falls inside it (before its end), else kept for :meth:`interpolant` (the step's end state and chart)."""
         t, y, nv = self.t, self.y, self.ode.nv
         m = 2 * nv
         min_step = 10 * (math.nextafter(t, math.inf) - t)
@@ -186,14 +187,26 @@ class DOP853(RungeKutta):
         self.local_error += (h * c) * np.abs(err[0])
         if self._Y is not None and floored:
             self.floored_steps += 1
-        self.dense = (self._dense_output(h, y_new, f_new)
-                      if next_output is not None and next_output < t_new else None)
+        if next_output is not None and next_output < t_new:
+            self.dense = self._dense_output(h, y_new, f_new)
+            self._last = None
+        else:  # (on demand: the re-centring below changes y_new, f_new and the chart in place)
+            self.dense = None
+            self._last = (h, y_new.copy(), f_new.copy(), self.ode.frozen())
         self._accept(h, y_new, f_new)
         self.t = t_new
 
-    def _dense_output(self, h, y_new, f_new):
-        """The step's interpolant: DOP853's 7th-order dense output in the step's chart."""
-        ode, YK, t, s = self.ode, self.YK, self.t, self.stages + 1
+    def _interpolant(self):
+        if self._last is None:  # (made during the step already)
+            return self.dense
+        h, y_new, f_new, chart = self._last
+        return self._dense_output(h, y_new, f_new, chart, self.t_old)
+
+    def _dense_output(self, h, y_new, f_new, ode=None, t=None):
+        """The step's interpolant: DOP853's 7th-order dense output in the step's chart (``ode``: that chart, default
+        the current one; ``t``: the step's start, default the current time)."""
+        ode = self.ode if ode is None else ode
+        YK, t, s = self.YK, self.t if t is None else t, self.stages + 1
         y_old = YK[0]
         for i, (a, c) in enumerate(zip(_dop.A[s:], _dop.C[s:]), start=s):
             ode.into(t + c * h, y_old + h * (a[:i] @ YK[1:i + 1]), YK[i + 1])
@@ -204,7 +217,7 @@ class DOP853(RungeKutta):
         F[1] = h * K[0] - dy
         F[2] = 2 * dy - h * (f_new + K[0])
         F[3:] = h * (_dop.D @ K)
-        return Interpolant(Dop853Dense(t, h, y_old.copy(), F), ode.frozen())
+        return Interpolant(Dop853Dense(t, h, y_old.copy(), F), ode.frozen() if ode is self.ode else ode)
 
 
 class Dop853Dense:

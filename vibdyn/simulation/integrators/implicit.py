@@ -61,7 +61,7 @@ class Implicit(ODEStepper):
     def nlu(self, value):
         pass
 
-    def step(self, next_output=None):
+    def _step_impl(self, next_output=None):
         s = self.solver
         try:
             message = s.step()
@@ -75,8 +75,8 @@ class Implicit(ODEStepper):
             raise StepError(f"{self.cls.__name__}: the state is not finite")
         self.accepted += 1
         self.t, self.y = s.t, s.y
-        self.dense = (Interpolant(s.dense_output(), self.ode.frozen())
-                      if next_output is not None and next_output < s.t else None)
+        self._last = (s.dense_output(), self.ode.frozen())
+        self.dense = self._last_interpolant() if next_output is not None and next_output < s.t else None
         # re-centre a chart whose rotations grew, and put a mechanism with loops back on its loops once its
         # drift reaches the local tolerance (the solver restarts from the projected state)
         if s.status == "running" and (self.ode.extent(s.y) > RECENTRE or self.ode.drift(s.y) > self.rtol):
@@ -84,6 +84,13 @@ class Implicit(ODEStepper):
             self.ode.recentre(y)
             self.restarts += 1
             self._start(s.t, y, min(s.step_size, self.t_end - s.t))
+
+
+    def _last_interpolant(self):
+        return Interpolant(*self._last)
+
+    def _interpolant(self):
+        return self._last_interpolant()
 
 
 class Radau(Implicit):
