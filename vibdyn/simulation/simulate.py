@@ -106,6 +106,43 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str | type = "dop85
     start = time.perf_counter()
     cfg = _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress, t0, events,
                     variational)
+    return _finish(system, cfg, _solve(system, cfg), start)
+
+
+def _finish(system, cfg, solved, start):
+    """The Trajectory of a solved run (energies at every output), or its SimulationError; ``start``: when the
+    call began (perf_counter s)."""
+    main = solved.main
+    traj = _trajectory(system, cfg, main, solved.runs, solved.q_err, solved.v_err, time.perf_counter() - start,
+                       solved.error_elapsed, solved.error_method)
+    if solved.transition is not None:
+        traj = replace(traj, state_transition=solved.transition, state_transition_error=solved.transition_error)
+    if main.status == "finished" and not np.all(np.isfinite(traj.energy)):
+        raise SimulationError("the energies of the motion overflow (state too large for double precision)",
+                              traj, cfg.t_end)
+    if main.status == "failed":
+        t = _t_reached(main)
+        raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}"
+                              f"{_singular_note(system, traj)}", traj, t) from main.failure
+    return traj
+
+
+@dataclass
+class _Solved:
+    """A run with its error estimate (what :func:`simulate` and :class:`vibdyn.simulation.flow.Flow` report)."""
+    main: "_Run"
+    runs: list
+    q_err: np.ndarray
+    v_err: np.ndarray
+    error_elapsed: float
+    error_method: str
+    transition: np.ndarray | None = None
+    transition_error: float | None = None
+
+
+def _solve(system, cfg):
+    """The main run of ``cfg`` and its error estimate (second run(s) at tighter tolerances or coarser steps, or
+    the summed local errors), and with ``variational`` its state transition and that one's error."""
     main = _integrate(system, cfg, "simulate")
     runs = [main]
     q_err = v_err = None
@@ -134,8 +171,7 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str | type = "dop85
         error_method = "local"
     if q_err is None:  # the run stopped before its error could be estimated
         q_err = v_err = np.full(len(main.t), np.inf)
-    traj = _trajectory(system, cfg, main, runs, q_err, v_err, time.perf_counter() - start, error_elapsed,
-                       error_method)
+    solved = _Solved(main, runs, q_err, v_err, error_elapsed, error_method)
     if cfg.variational and main.transition is not None:
         other = runs[1].transition if len(runs) > 1 else None
         err = np.inf if other is None else float(np.abs(main.transition - other).max()) / (
@@ -143,15 +179,8 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str | type = "dop85
         floored = getattr(main.stepper, "floored_steps", 0)
         if floored:  # both runs held these steps' Φ to the same floor: their errors, summed
             err = max(err, DIFFERENCED_RTOL * floored * float(np.abs(main.transition).max()))
-        traj = replace(traj, state_transition=main.transition, state_transition_error=err)
-    if main.status == "finished" and not np.all(np.isfinite(traj.energy)):
-        raise SimulationError("the energies of the motion overflow (state too large for double precision)",
-                              traj, cfg.t_end)
-    if main.status == "failed":
-        t = _t_reached(main)
-        raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}"
-                              f"{_singular_note(system, traj)}", traj, t) from main.failure
-    return traj
+        solved.transition, solved.transition_error = main.transition, err
+    return solved
 
 
 def _singular_note(system, traj):
