@@ -57,15 +57,16 @@ class Flow:
     takes them, checked here once: ModelError for bad ones), ``error`` estimate ("local" by default: the summed
     local errors; "rerun" a second run at tolerances / 100), ``max_step`` (s) and ``variational`` (the state
     transition). Call it with a state the caller made — (q0, v0) at ``t0`` (s; driven entries at their laws'
-    values, on the loops of a mechanism: not checked again) — and the end time ``t1`` (s): a :class:`FlowResult`
+    values, on the loops of a mechanism: not checked again; ``q0``, ``v0`` of the constructor: a state of the same
+    kind, checked as simulate checks its start, default neutral) — and the end time ``t1`` (s): a :class:`FlowResult`
     (``trajectory=True``: a full :class:`~vibdyn.simulation.trajectory.Trajectory`, energies included).
     ``t_eval``, ``error`` and ``max_step`` may be changed per call. A run that cannot go on raises
     SimulationError; Ctrl-C is raised again (an analysis has no use for a part of a flow)."""
 
-    def __init__(self, system, *, method="dop853", rtol: float = 1e-8, atol=None, error: str = "local",
-                 max_step: float | None = None, variational: bool = False):
+    def __init__(self, system, q0=None, v0=None, *, method="dop853", rtol: float = 1e-8, atol=None,
+                 error: str = "local", max_step: float | None = None, variational: bool = False):
         self.system = system
-        self.settings = _settings(system, 1.0, None, None, method, rtol, atol, None, None, error, max_step, False,
+        self.settings = _settings(system, 1.0, q0, v0, method, rtol, atol, None, None, error, max_step, False,
                                   variational=variational)
         self._errors = self.settings.stepper.error_methods
 

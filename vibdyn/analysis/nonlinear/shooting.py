@@ -124,9 +124,10 @@ class Shooting:
         self.wrap = turning_indices(system, self.free)
         self._cache = (None, None)
         self.evaluations = 0  # sets of flows integrated
-        # the flows (with the variational equations) and the plain ones of the transitions' check: checked once
-        self.flow = Flow(system, rtol=self.rtol, atol=self.atol, variational=True)
-        self.plain = Flow(system, rtol=self.rtol, atol=self.atol)
+        # the flows (with the variational equations) and the plain ones of the transitions' check, checked once
+        # (at the first node flowed from)
+        self._flow: Flow | None = None
+        self._plain: Flow | None = None
 
     # ------------------------------------------------------------------ unknowns
     @staticmethod
@@ -184,12 +185,23 @@ class Shooting:
         for i, (q, v) in enumerate(nodes):
             a = self.time(i, T)
             t_eval = None if points is None else np.linspace(a, a + h, points + 1)
-            runs.append(self.flow(q, v, a, a + h, t_eval=t_eval, error=error, max_step=self.max_step / refine,
-                                  trajectory=full or points is not None))
+            runs.append(self.flow(q, v)(q, v, a, a + h, t_eval=t_eval, error=error, max_step=self.max_step / refine,
+                                        trajectory=full or points is not None))
         self.evaluations += 1
         if cached:
             self._cache = (key, runs)
         return runs
+
+    def flow(self, q, v, variational=True):
+        """The problem's Flow (with the variational equations, or ``variational=False`` the plain one), made on
+        first use with the state (q, v) as its checked start (ModelError for one that cannot start a flow)."""
+        if (self._flow if variational else self._plain) is None:
+            made = Flow(self.system, q, v, rtol=self.rtol, atol=self.atol, variational=variational)
+            if variational:
+                self._flow = made
+            else:
+                self._plain = made
+        return self._flow if variational else self._plain
 
     def seed(self, x, runs):
         """Take ``runs`` as the flows from x (a run the caller made already, with this problem's settings)."""
@@ -343,7 +355,8 @@ class Shooting:
             dq[self.free] = sign * delta[:n]
             v1 = np.array(v, dtype=float)
             v1[self.free] += sign * delta[n:]
-            run = self.plain(pin.integrate(self.model, q, dq), v1, t0, t1, max_step=self.max_step / 2, t_eval=[t1])
+            q1 = pin.integrate(self.model, q, dq)
+            run = self.flow(q1, v1, False)(q1, v1, t0, t1, max_step=self.max_step / 2, t_eval=[t1])
             ends.append(np.concatenate([pin.difference(self.model, q_end, run.q[-1])[self.free],
                                         (run.v[-1] - v_end)[self.free]]))
         return (ends[0] - ends[1]) / 2

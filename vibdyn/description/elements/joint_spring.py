@@ -13,6 +13,7 @@ from ..._check import (finite_array, one_or_each, stiffness_like, value_nonnegat
 from ..._format import with_units
 from ...errors import ModelError
 from ...model.groups import ForceGroup, as_slice, tangent
+from ...model.points import so3_chart_term
 from .base import ElementKind, scalar_or_list
 
 
@@ -58,7 +59,7 @@ class _Layer(ForceGroup):
         self.names = [e.name for e in elements]
         neutral = system.neutral()
         self.q_rest = neutral.copy()
-        iv, k, curved = [], [], []
+        iv, k, curved, balls = [], [], [], []
         for e in elements:
             b = system.body_info(e.body)
             iq = list(range(b.idx_q, b.idx_q + b.nq))
@@ -68,7 +69,8 @@ class _Layer(ForceGroup):
             k += list(e.stiffness)
             # SE(2)/SE(3) joints and anisotropic ball springs need the Jacobian of the difference
             if b.nq != b.nv and (not b.joint.isotropic_spring or len(set(e.stiffness)) > 1):
-                curved.append(len(iv) - b.nv + np.arange(b.nv))
+                # (ball joints' in closed form: see derivatives; planar and free joints' differenced)
+                (balls if b.joint.group == "SO3" else curved).append(len(iv) - b.nv + np.arange(b.nv))
         self.iv, self.k = np.array(iv), np.array(k)
         self.model = model
         self.vector = all(system.body_info(e.body).nq == system.body_info(e.body).nv for e in elements)
@@ -78,7 +80,9 @@ class _Layer(ForceGroup):
             self.rest = self.q_rest[self.iq]
             # the same coordinates as slices where they are contiguous (views instead of gathers)
             self.iq_at, self.iv_at = as_slice(self.iq), as_slice(self.iv)
-        self.curved = np.concatenate(curved) if curved else None
+        self.balls = balls  # positions in iv of the anisotropic ball springs' coordinates, one array per joint
+        self.curved = np.concatenate(curved + balls) if curved or balls else None
+        self.differenced = np.concatenate(curved) if curved else None
 
     def deflection(self, q):
         """q ⊖ q_rest on the sprung coordinates (m or rad; rotation vector for a ball)."""
@@ -114,9 +118,15 @@ class _Layer(ForceGroup):
             return dQ, None
         J = pin.dDifference(self.model, self.q_rest, d.q, pin.ARG1)[np.ix_(self.iv, self.iv)]
         dQ[np.ix_(self.iv, self.iv)] = -(self.k[:, None] * J)
-        if self.curved is not None:  # Q = −Jᵀ K φ: the turning of J is differenced on the group alone
+        if self.balls:  # Q = −Jᵀ K φ, J = J_r⁻¹(φ), Jᵀ = J_r⁻¹(−φ): ∂Q/∂δ = −Jᵀ K J + [∂(J_r⁻¹(ξ) Kφ)/∂ξ]_(ξ=−φ) J
+            phi = self.deflection(d.q)
+            for b in self.balls:
+                Jb, kphi = J[np.ix_(b, b)], self.k[b] * phi[b]
+                rows = self.iv[b]
+                dQ[np.ix_(rows, rows)] = -(Jb.T * self.k[b]) @ Jb + so3_chart_term(-phi[b], kphi) @ Jb
+        if self.differenced is not None:  # planar and free joints: the turning of J differenced on the group alone
             fd = d.element_fd(lambda qq, vv: d.group_force(self, qq, d.v), with_v=False)
-            dQ[:, self.iv[self.curved]] = fd[0][:, self.iv[self.curved]]
+            dQ[:, self.iv[self.differenced]] = fd[0][:, self.iv[self.differenced]]
         return dQ, None
 
 

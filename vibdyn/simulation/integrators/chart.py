@@ -22,35 +22,9 @@ import pinocchio as pin
 
 from ...model import dynamics
 from ...model.derivatives import linear_terms, solve_mass
+from ...model.points import SERIES_BELOW, so3_chart_term  # noqa: F401  (kept importable here)
 
 ARG1 = pin.ArgumentPosition.ARG1
-SERIES_BELOW = 0.2  # rad: the SO(3) chart term's coefficients by their series below this rotation
-
-
-def so3_chart_term(xi, v):
-    """∂(J_r⁻¹(ξ) v)/∂ξ (3 × 3, 1/s): the chart's own term of a ball joint, with J_r⁻¹(ξ) = I + ½[ξ]× + c(θ)[ξ]×²
-    (Pinocchio's Jlog3 of exp3(ξ)), c(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ), θ = |ξ|, ξ (rad) and v (rad/s) the
-    joint's chart and velocity. Pinocchio's Hlog3 is not finite at ξ = 0, where every step's chart starts:
-    c and c′(θ)/θ are taken from their series there."""
-    t2 = float(xi @ xi)
-    if t2 < SERIES_BELOW ** 2:
-        c = 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
-        d = 1 / 360 + t2 * (1 / 7560 + t2 * (1 / 201600 + t2 * (1 / 5987520 + t2 / 189243758)))
-    else:
-        t = t2 ** 0.5
-        sin, cos = np.sin(t), np.cos(t)
-        c = 1 / t2 - (1 + cos) / (2 * t * sin)
-        d = -2 / (t2 * t2) + (t * sin * sin + (1 + cos) * (sin + t * cos)) / (2 * t2 * t * sin * sin)
-    # f = v + ½ ξ × v + c (ξ (ξ·v) − θ² v): ∂f/∂ξ = −½[v]× + c((ξ·v) I + ξ vᵀ − 2 v ξᵀ) + (ξ (ξ·v) − θ² v) c′/θ ξᵀ
-    xv = float(xi @ v)
-    out = np.multiply.outer(c * xi, v)
-    out += np.multiply.outer(d * xv * xi - (d * t2) * v - 2 * c * v, xi)
-    out += pin.skew(-0.5 * v)
-    out.flat[::4] += c * xv
-    return out
-
-
-
 def make_ode(system, q0, v0, work=False, variational=False):
     """The ODE of a system (a chart if it has curved joints) and its initial state y0; with
     ``variational``, augmented with the variational equations (:class:`Variational`)."""
