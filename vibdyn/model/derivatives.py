@@ -43,18 +43,20 @@ class Derivatives:
         self.dFv = {j: np.zeros((6, self.nv)) for j in system.point_joints}
         self.dFq_abs = {j: np.zeros((6, self.nv)) for j in system.point_joints} if magnitudes else None
         self.J, self.R, self.u, self.dV = {}, {}, {}, {}
+        self.turns = {}  # per joint: whether it turns with some coordinate (a slider's frame does not)
         if not (points and system.point_groups):  # joint-space groups need none of the point Jacobians
             return
         pin.computeJointJacobians(model, data, q)
-        pin.forwardKinematics(model, data, q, v)
-        if need_velocity_derivatives:
+        if need_velocity_derivatives:  # (the joints' velocities are read only for the velocity derivatives)
+            pin.forwardKinematics(model, data, q, v)
             pin.computeForwardKinematicsDerivatives(model, data, q, v, a)
         for j in system.point_joints:
-            self.J[j] = pin.getJointJacobian(model, data, j, pin.LOCAL).reshape(6, self.nv).copy()
+            self.J[j] = J = pin.getJointJacobian(model, data, j, pin.LOCAL).reshape(6, self.nv).copy()
+            self.turns[j] = bool(J[3:].any())
             self.R[j] = data.oMi[j].rotation.copy()
-            vj = data.v[j]
-            self.u[j] = (vj.linear.copy(), vj.angular.copy())
             if need_velocity_derivatives:
+                vj = data.v[j]
+                self.u[j] = (vj.linear.copy(), vj.angular.copy())
                 dv_dq, _ = pin.getJointVelocityDerivatives(model, data, j, pin.LOCAL)
                 self.dV[j] = np.asarray(dv_dq).reshape(6, self.nv).copy()
 
@@ -80,8 +82,9 @@ class Derivatives:
             return
         R = self.R[j]
         f_loc = R.T @ F_world
-        turning = _skew(f_loc) @ self.J[j][3:]
-        df_q = R.T @ dF_dq + turning
+        df_q = R.T @ dF_dq
+        if self.turns[j]:  # (a joint frame that turns carries the force it is given in it)
+            df_q += _skew(f_loc) @ self.J[j][3:]
         self.dFq[j][:3] += df_q
         self.dFq[j][3:] += _skew(r) @ df_q
         if self.dFq_abs is not None:

@@ -61,6 +61,8 @@ class VectorODE:
         # (q, v, t) → dv/dt; the point elements' forces of the last evaluation kept for the Jacobian at that state
         self._applied = [None]
         self.accelerations = dynamics.accelerations_function(system, self.ws, keep=self._applied)
+        # J Y by blocks (jacobian_product) where the Jacobian is this class's own (not a subclass's)
+        self._blocks = type(self).jacobian in (VectorODE.jacobian, ChartODE.jacobian)
 
     def __call__(self, t, y):
         out = np.empty(self.n)
@@ -122,6 +124,25 @@ class VectorODE:
         J[nv:2 * nv, :nv] = -MinvK
         J[nv:2 * nv, nv:2 * nv] = -MinvC
         return J
+
+    def jacobian_product(self, t, y, Y, a=None):
+        """J Y (2nv × k) with J the (ξ, v) block of :meth:`jacobian` (``a`` as there), without forming J: the
+        variational equations' right-hand side. (Classes that change the Jacobian, as the driven and projected
+        ODEs, take the product of their own :meth:`jacobian`.)"""
+        if not self._blocks:
+            return self.jacobian(t, y, a)[:2 * self.nv, :2 * self.nv] @ Y
+        nv = self.nv
+        out = np.empty_like(Y)
+        out[:nv] = Y[nv:]
+        out[nv:] = self._acceleration_product(y[:nv], y[nv:2 * nv], t, a, Y[:nv], Y[nv:])
+        return out
+
+    def _acceleration_product(self, q, v, t, a, Zq, Yv):
+        """−M⁻¹(K Zq + C Yv): the accelerations' rows of J Y (Zq: the configuration rows in the tree's tangent
+        space)."""
+        M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0])
+        self.differenced = self.differenced or self.ws.differenced
+        return solve_mass(M, -(K @ Zq + C @ Yv))
 
     def _minv_kc(self, q, v, t, a=None):
         M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0])
@@ -187,9 +208,7 @@ class ChartODE(VectorODE):
 
     def jacobian(self, t, y, a=None):
         """As :meth:`VectorODE.jacobian`, mapped to the chart: ∂v̇/∂ξ = −M⁻¹K dIntegrate(ξ), ∂ξ̇/∂v =
-        dexp⁻¹(ξ), and the chart's own term ∂(dexp⁻¹(ξ) v)/∂ξ: in closed form for ball joints
-        (:func:`so3_chart_term`), by fourth-order differences on the columns of free and planar joints (zero on
-        the others)."""
+        dexp⁻¹(ξ), and the chart's own term ∂(dexp⁻¹(ξ) v)/∂ξ (:meth:`chart_term`)."""
         nv, model, c = self.nv, self.model, self.centre
         xi, v = y[:nv], y[nv:2 * nv].copy()
         q = self.configuration(y)
@@ -198,6 +217,26 @@ class ChartODE(VectorODE):
         J[:nv, nv:2 * nv] = pin.dDifference(model, c, q, ARG1)
         J[nv:2 * nv, :nv] = -MinvK @ pin.dIntegrate(model, c, xi, ARG1)
         J[nv:2 * nv, nv:2 * nv] = -MinvC
+        J[:nv, :nv] = self.chart_term(xi, v)
+        return J
+
+    def jacobian_product(self, t, y, Y, a=None):
+        if not self._blocks:
+            return self.jacobian(t, y, a)[:2 * self.nv, :2 * self.nv] @ Y
+        nv, model, c = self.nv, self.model, self.centre
+        xi, v = y[:nv], y[nv:2 * nv]
+        q = pin.integrate(model, c, xi)
+        Yq, Yv = Y[:nv], Y[nv:]
+        out = np.empty_like(Y)
+        out[:nv] = pin.dDifference(model, c, q, ARG1) @ Yv + self.chart_term(xi, v) @ Yq
+        out[nv:] = self._acceleration_product(q, v, t, a, pin.dIntegrate(model, c, xi, ARG1) @ Yq, Yv)
+        return out
+
+    def chart_term(self, xi, v):
+        """∂(dexp⁻¹(ξ) v)/∂ξ (nv × nv, 1/s): in closed form for ball joints (:func:`so3_chart_term`), by
+        fourth-order differences on the columns of free and planar joints (zero on the others)."""
+        nv, model, c = self.nv, self.model, self.centre
+        J = np.zeros((nv, nv))
         # fourth-order differences of a step 1e-3 (rad or m): truncation ~1e-14 and round-off ~1e-13 relative (a
         # plain central difference of 1e-7 leaves round-off of 1e-9, which the variational step control sees)
         eps = 1e-3
@@ -258,7 +297,7 @@ class Variational:
         out[:m] = f[:m]
         out[m + m * m:] = f[m:]
         # (the base's accelerations just evaluated at this state: the Jacobian need not evaluate them again)
-        out[m:m + m * m] = (self.base.jacobian(t, base, f[self.nv:m])[:m, :m] @ Y).ravel()
+        out[m:m + m * m] = self.base.jacobian_product(t, base, Y, f[self.nv:m]).ravel()
 
     def initial(self, q0, v0, w0=0.0):
         b = self.base.initial(q0, v0, w0)
@@ -291,7 +330,7 @@ class Variational:
         self.base.recentre(y, None if f is None else f, t)
         if f is not None:
             base, Y = self._split(y)
-            f[m:m + m * m] = (self.base.jacobian(self._t if t is None else t, base)[:m, :m] @ Y).ravel()
+            f[m:m + m * m] = self.base.jacobian_product(self._t if t is None else t, base, Y).ravel()
 
     def frozen(self):
         c = object.__new__(Variational)
