@@ -7,7 +7,7 @@ and computes the energies at every output on each call; a :class:`Flow` is made 
 and options checked) once per analysis, then called with a state and a time span: the same stepper, the same
 error estimate (the steps' summed local errors, or a rerun at tolerances / 100) and, with ``variational``, the
 same state transition and its error, without the per-call checks and energies. ``simulate`` is a thin driver
-over the same pieces (:func:`vibdyn.simulation.simulate._solve`).
+over the same pieces (:func:`vibdyn.simulation.simulate.flow_pieces`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .simulate import SimulationError, _finish, _settings, _solve, _t_reached
+from .simulate import SimulationError, flow_pieces
+
+_settings, _solve, _finish, _t_reached = flow_pieces()
 
 __all__ = ["Flow", "FlowResult"]
 

@@ -196,6 +196,12 @@ def _singular_note(system, traj):
             "meet: loosen rtol (the error estimate reruns at rtol/100) or use a fixed-step method (rk4)")
 
 
+def flow_pieces():
+    """(check settings, solve a run with its error estimate, make its Trajectory, the time a run reached): the pieces
+    :func:`simulate` drives, for :class:`vibdyn.simulation.flow.Flow` to drive the same way."""
+    return _settings, _solve, _finish, _t_reached
+
+
 # ---------------------------------------------------------------------------------------------- settings
 @dataclass(frozen=True)
 class _Settings:
