@@ -80,9 +80,13 @@ class _Layer(ForceGroup):
             self.rest = self.q_rest[self.iq]
             # the same coordinates as slices where they are contiguous (views instead of gathers)
             self.iq_at, self.iv_at = as_slice(self.iq), as_slice(self.iv)
-        self.balls = balls  # positions in iv of the anisotropic ball springs' coordinates, one array per joint
         self.curved = np.concatenate(curved + balls) if curved or balls else None
         self.differenced = np.concatenate(curved) if curved else None
+        # index grids made once (np.ix_ costs more than the 3 × 3 products it serves): the layer's block, its
+        # curved block, and per anisotropic ball (its positions in iv, their block, its rows in v and their block)
+        self.block = np.ix_(self.iv, self.iv)
+        self.curved_block = None if self.curved is None else np.ix_(self.curved, self.curved)
+        self.balls = [(b, np.ix_(b, b), self.iv[b], np.ix_(self.iv[b], self.iv[b])) for b in balls]
 
     def deflection(self, q):
         """q ⊖ q_rest on the sprung coordinates (m or rad; rotation vector for a ball)."""
@@ -96,9 +100,9 @@ class _Layer(ForceGroup):
             return
         force = self.k * self.deflection(q)
         if self.curved is not None:
-            J = pin.dDifference(self.model, self.q_rest, q, pin.ARG1)[np.ix_(self.iv, self.iv)]
+            J = pin.dDifference(self.model, self.q_rest, q, pin.ARG1)[self.block]
             c = self.curved
-            force[c] = J[np.ix_(c, c)].T @ force[c]
+            force[c] = J[self.curved_block].T @ force[c]
         Q[self.iv] -= force
 
     def apply_rows(self, t, q, v, Q):
@@ -116,14 +120,13 @@ class _Layer(ForceGroup):
         if self.vector:
             dQ[self.iv, self.iv] = -self.k
             return dQ, None
-        J = pin.dDifference(self.model, self.q_rest, d.q, pin.ARG1)[np.ix_(self.iv, self.iv)]
-        dQ[np.ix_(self.iv, self.iv)] = -(self.k[:, None] * J)
+        J = pin.dDifference(self.model, self.q_rest, d.q, pin.ARG1)[self.block]
+        dQ[self.block] = -(self.k[:, None] * J)
         if self.balls:  # Q = −Jᵀ K φ, J = J_r⁻¹(φ), Jᵀ = J_r⁻¹(−φ): ∂Q/∂δ = −Jᵀ K J + [∂(J_r⁻¹(ξ) Kφ)/∂ξ]_(ξ=−φ) J
             phi = self.deflection(d.q)
-            for b in self.balls:
-                Jb, kphi = J[np.ix_(b, b)], self.k[b] * phi[b]
-                rows = self.iv[b]
-                dQ[np.ix_(rows, rows)] = -(Jb.T * self.k[b]) @ Jb + so3_chart_term(-phi[b], kphi) @ Jb
+            for b, own, _, rows in self.balls:
+                Jb, kb = J[own], self.k[b]
+                dQ[rows] = -(Jb.T * kb) @ Jb + so3_chart_term(-phi[b], kb * phi[b]) @ Jb
         if self.differenced is not None:  # planar and free joints: the turning of J differenced on the group alone
             fd = d.element_fd(lambda qq, vv: d.group_force(self, qq, d.v), with_v=False)
             dQ[:, self.iv[self.differenced]] = fd[0][:, self.iv[self.differenced]]
