@@ -21,6 +21,7 @@ import numpy as np
 
 from . import dop853_tableau as _dop
 from .base import DIFFERENCED_RTOL, Interpolant, ODEStepper, StepError, initial_step
+from .chart import VectorODE
 
 __all__ = ["DOP853", "RK4", "RungeKutta", "StepError"]
 
@@ -190,9 +191,11 @@ class DOP853(RungeKutta):
         if next_output is not None and next_output < t_new:
             self.dense = self._dense_output(h, y_new, f_new)
             self._last = None
-        else:  # (on demand: the re-centring below changes y_new, f_new and the chart in place)
+        else:  # (on demand: the re-centring of a chart or of Φ below changes y_new, f_new and the chart in place)
             self.dense = None
-            self._last = (h, y_new.copy(), f_new.copy(), self.ode.frozen())
+            ode = self.ode
+            self._last = ((h, y_new, f_new, ode) if type(ode).recentre is VectorODE.recentre
+                          else (h, y_new.copy(), f_new.copy(), ode.frozen()))
         self._accept(h, y_new, f_new)
         self.t = t_new
 
