@@ -14,8 +14,11 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
+
+from ..errors import ModelError
 
 from .simulate import SimulationError, flow_pieces
 
@@ -76,10 +79,11 @@ class Flow:
                  max_step: float | None = None, trajectory: bool = False):
         start = time.perf_counter()
         cfg = self.settings
-        changes = {}
+        changes: dict[str, Any] = {}
         if error is not None and error != cfg.error:
             if error not in self._errors:
-                raise ValueError(f"flow: error estimate {error!r} is not one of {self._errors}")
+                raise ModelError(f"flow: error estimate {error!r} is not available for method "
+                                 f"'{cfg.method}' (use {' or '.join(map(repr, self._errors))})")
             changes["error"] = error
         if max_step is not None:
             changes["max_step"] = float(max_step)
