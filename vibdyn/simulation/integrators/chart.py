@@ -63,6 +63,7 @@ class VectorODE:
         self.accelerations = dynamics.accelerations_function(system, self.ws, keep=self._applied)
         # J Y by blocks (jacobian_product) where the Jacobian is this class's own (not a subclass's)
         self._blocks = type(self).jacobian in (VectorODE.jacobian, ChartODE.jacobian)
+        self._terms: tuple = (None, None)  # ((t, q, v) bytes, (M, K, C)) of the last J Y
 
     def __call__(self, t, y):
         out = np.empty(self.n)
@@ -139,9 +140,15 @@ class VectorODE:
 
     def _acceleration_product(self, q, v, t, a, Zq, Yv):
         """−M⁻¹(K Zq + C Yv): the accelerations' rows of J Y (Zq: the configuration rows in the tree's tangent
-        space)."""
-        M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0])
-        self.differenced = self.differenced or self.ws.differenced
+        space). (M, K, C) of the last state are kept: a chart's re-centring asks for them again at the state the
+        step's last stage evaluated (the same q, v and t: the same terms)."""
+        key = (t, q.tobytes(), v.tobytes())
+        if key == self._terms[0]:
+            M, K, C = self._terms[1]
+        else:
+            M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0])
+            self.differenced = self.differenced or self.ws.differenced
+            self._terms = (key, (M, K, C))
         return solve_mass(M, -(K @ Zq + C @ Yv))
 
     def _minv_kc(self, q, v, t, a=None):
@@ -328,7 +335,8 @@ class Variational:
         if self.curved:
             Y[:nv] = pin.dIntegrate(self.base.model, self.base.centre, y[:nv], ARG1) @ Y[:nv]
         self.base.recentre(y, None if f is None else f, t)
-        if f is not None:
+        # (a vector space's trivial re-centring changes neither y nor Y: f's Y part, J Y at y, stands)
+        if f is not None and (self.curved or type(self.base).recentre is not VectorODE.recentre):
             base, Y = self._split(y)
             f[m:m + m * m] = self.base.jacobian_product(self._t if t is None else t, base, Y).ravel()
 
