@@ -64,6 +64,8 @@ class Derivatives:
         """World position Jacobian (3 × nv) of the point r (joint frame) on joint j (zero for the world)."""
         if j == 0:
             return np.zeros((3, self.nv))
+        if not self.turns[j]:  # (no angular part: R (J_lin − [r]× 0))
+            return self.R[j] @ self.J[j][:3]
         return world_point_jacobian(self.R[j], self.J[j], r)
 
     def point_velocity_dq(self, j, r):
@@ -86,7 +88,9 @@ class Derivatives:
         if self.turns[j]:  # (a joint frame that turns carries the force it is given in it)
             df_q += _skew(f_loc) @ self.J[j][3:]
         self.dFq[j][:3] += df_q
-        self.dFq[j][3:] += _skew(r) @ df_q
+        moment = r.any()  # (a force at the joint's origin has no moment about it)
+        if moment:
+            self.dFq[j][3:] += _skew(r) @ df_q
         if self.dFq_abs is not None:
             m = np.abs(R.T) @ (np.abs(dF_dq) if size_q is None else size_q) + np.abs(_skew(f_loc)) @ np.abs(
                 self.J[j][3:])
@@ -95,7 +99,8 @@ class Derivatives:
         if dF_dv is not None:
             df_v = R.T @ dF_dv
             self.dFv[j][:3] += df_v
-            self.dFv[j][3:] += _skew(r) @ df_v
+            if moment:
+                self.dFv[j][3:] += _skew(r) @ df_v
 
     def element_fd(self, fun, with_v=True):
         """Central differences (∂/∂q, ∂/∂v) of an element's own output ``fun(q, v)`` (for user callables,
@@ -202,9 +207,11 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t, shift)
         for g in system.point_groups:
             g.derivatives(d)
+        velocity = any(g.velocity_dependent or g.uses_point_velocities for g in system.point_groups)  # (else no dFv)
         for j in system.point_joints:
             K -= d.J[j].T @ d.dFq[j]
-            C -= d.J[j].T @ d.dFv[j]
+            if velocity:
+                C -= d.J[j].T @ d.dFv[j]
             if with_terms:
                 K_size += np.abs(d.J[j].T) @ d.dFq_abs[j]
     for g in system.joint_groups:
