@@ -84,7 +84,9 @@ class _Layer(ForceGroup):
         self.differenced = np.concatenate(curved) if curved else None
         # index grids made once (np.ix_ costs more than the 3 × 3 products it serves): the layer's block, its
         # curved block, and per anisotropic ball (its positions in iv, their block, its rows in v and their block)
-        self.block = np.ix_(self.iv, self.iv)
+        # (none for a layer of vector joints, which reads its coordinates directly: a sensitivity makes one such
+        # group per parameter)
+        self.block = None if self.vector else np.ix_(self.iv, self.iv)
         self.curved_block = None if self.curved is None else np.ix_(self.curved, self.curved)
         self.balls = [(b, np.ix_(b, b), self.iv[b], np.ix_(self.iv[b], self.iv[b])) for b in balls]
 
