@@ -4,7 +4,11 @@
 from (q0, v0) at t = 0 and returns a :class:`Trajectory`: times, configurations, velocities, energies, the
 work of the non-conservative forces, counters, an error estimate and the elapsed time.
 
-Methods: the registry :data:`METHODS` (name → stepper class, :mod:`vibdyn.simulation.integrators`), all
+Analyses that integrate the same equations many times (shooting, Floquet, backbones) use
+:class:`vibdyn.simulation.flow.Flow`: the same runs and error estimates, settings checked once, no energies.
+
+Methods: the registry :data:`METHODS` (name → stepper class, :mod:`vibdyn.simulation.integrators`; ``method=``
+also takes such a class), all
 exact in order on Lie groups (ball, free and planar joints are stepped in a local chart q = integrate(q_c,
 ξ), see :mod:`vibdyn.simulation.integrators.chart`):
 
