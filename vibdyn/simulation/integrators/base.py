@@ -70,7 +70,7 @@ class Stepper:
         self.t_old = None  # the last step's start (s); None before the first step
         self.direction = 1.0 if self.t_end >= self.t else -1.0
         self.status = "running" if self.t_end != self.t else "finished"
-        self._dense_cache = None  # (t_old, the last step's Interpolant) once asked for
+        self._dense_cache = None  # the last step's Interpolant, once asked for
 
     @property
     def counters(self):
