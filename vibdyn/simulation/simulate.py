@@ -78,7 +78,8 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str | type = "dop85
     with loops starts from (q0, v0) put on its loops (q0 assembled, v0 projected in the kinetic-energy
     metric): its energies, work and errors are those of that state. ``method``: a name of :data:`METHODS` — "dop853", "rk4", "radau", "bdf"
     or "symplectic" (alias "variational") — see the module docstring — or a stepper class
-    (a subclass of :class:`vibdyn.simulation.integrators.Stepper` with a ``name``). ``rtol`` and ``atol`` (adaptive methods): local error per step below atol + rtol·|x|,
+    (a subclass of :class:`vibdyn.simulation.integrators.Stepper` with a ``name``).
+    ``rtol`` and ``atol`` (adaptive methods): local error per step below atol + rtol·|x|,
     positions measured from the step's start; ``atol`` a number, one per coordinate (positions and
     velocities alike) or 2·nv numbers (positions then velocities); default rtol × (1 rad, or the scene's
     length scale for m coordinates). ``dt``: the step of fixed-step methods (required; each interval between
