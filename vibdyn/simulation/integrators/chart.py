@@ -21,7 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from ...model import dynamics
-from ...model.derivatives import linear_terms, solve_mass
+from ...model.derivatives import analytic_derivatives_rows, linear_terms, solve_mass
 from ...model.points import SERIES_BELOW, so3_chart_term  # noqa: F401  (kept importable here)
 
 ARG1 = pin.ArgumentPosition.ARG1
@@ -138,6 +138,35 @@ class VectorODE:
         out[nv:] = self._acceleration_product(y[:nv], y[nv:2 * nv], t, a, Y[:nv], Y[nv:])
         return out
 
+    def jacobians(self, ts, states, accelerations):
+        """J (B × 2nv × 2nv: the (ξ, v) block of :meth:`jacobian`) at B states at once — rows of ``states``
+        (ξ, v), times ``ts`` (s), the accelerations the ODE evaluated there — the point elements' derivatives in
+        one pass (:func:`~vibdyn.model.derivatives.analytic_derivatives_rows`); the last state's (M, K, C) kept as
+        :meth:`_acceleration_product` keeps them."""
+        nv = self.nv
+        Q = self._configurations(states[:, :nv])
+        V = states[:, nv:]
+        K, C = analytic_derivatives_rows(self.system, Q, V, accelerations, ts)
+        M = np.array([dynamics.mass_matrix(self.model, self.data, q) for q in Q])
+        X = np.linalg.solve(M, np.concatenate([K, C], axis=2))
+        if not np.all(np.isfinite(X)):
+            raise np.linalg.LinAlgError("the mass matrix is singular or not finite at this state")
+        self._terms = ((float(ts[-1]), Q[-1].tobytes(), V[-1].tobytes()), (M[-1], K[-1], C[-1]))
+        J = np.zeros((len(ts), 2 * nv, 2 * nv))
+        J[:, nv:, nv:] = -X[:, :, nv:]
+        self._chart_blocks(J, states, Q, X[:, :, :nv])
+        return J
+
+    def _configurations(self, xi):
+        """The configurations of chart coordinates (rows)."""
+        return np.array(xi)
+
+    def _chart_blocks(self, J, states, Q, MinvK):
+        """J's configuration blocks at each row: ∂ξ̇/∂v = 1, ∂v̇/∂ξ = −M⁻¹K (a vector space)."""
+        nv = self.nv
+        J[:, :nv, nv:] = np.eye(nv)
+        J[:, nv:, :nv] = -MinvK
+
     def _acceleration_product(self, q, v, t, a, Zq, Yv):
         """−M⁻¹(K Zq + C Yv): the accelerations' rows of J Y (Zq: the configuration rows in the tree's tangent
         space). (M, K, C) of the last state are kept: a chart's re-centring asks for them again at the state the
@@ -238,6 +267,19 @@ class ChartODE(VectorODE):
         out[:nv] = pin.dDifference(model, c, q, ARG1) @ Yv + self.chart_term(xi, v) @ Yq
         out[nv:] = self._acceleration_product(q, v, t, a, pin.dIntegrate(model, c, xi, ARG1) @ Yq, Yv)
         return out
+
+    def _configurations(self, xi):
+        model, c = self.model, self.centre
+        return np.array([pin.integrate(model, c, x) for x in xi])
+
+    def _chart_blocks(self, J, states, Q, MinvK):
+        """J's configuration blocks at each row in the chart: dexp⁻¹(ξ), the chart's own term, −M⁻¹K dIntegrate(ξ)."""
+        nv, model, c = self.nv, self.model, self.centre
+        for Jr, y, q, X in zip(J, states, Q, MinvK):
+            xi = y[:nv]
+            Jr[:nv, nv:] = pin.dDifference(model, c, q, ARG1)
+            Jr[:nv, :nv] = self.chart_term(xi, y[nv:])
+            Jr[nv:, :nv] = -X @ pin.dIntegrate(model, c, xi, ARG1)
 
     def chart_term(self, xi, v):
         """∂(dexp⁻¹(ξ) v)/∂ξ (nv × nv, 1/s): in closed form for ball joints (:func:`so3_chart_term`), by

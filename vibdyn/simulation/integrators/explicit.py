@@ -55,9 +55,21 @@ class RungeKutta(ODEStepper):
         self._CB = np.ones(s + 1)  # [1, h b]
         self._plan = [(self.C[i], self._CA[i, :i + 1], YK[:i + 1], YK[i + 1]) for i in range(1, s)]
         self._stage = np.empty(ode.n)  # each stage's state (the ODE's ``into`` keeps no reference to it)
+        # the variational equations by stages of the state first, then every stage's Jacobian in one batch (the
+        # state's stages do not depend on Φ): where the ODE is the plain chart's with Φ alone appended, its
+        # Jacobian exact (a differenced one floors Φ's control: the coupled stages keep that bookkeeping) and its
+        # point elements' derivatives vectorised over states (the batch's gain: Kerschen's two masses, 38.7 -> 20.9
+        # ms a period; a pendulum without point elements, 11.3 -> 24.2 ms: not batched)
+        base = getattr(ode, "base", None)
+        groups = system.point_groups
+        self._batched = bool(self.variational and base is not None and base.n == ode.m and getattr(
+            base, "_blocks", False) and not ode.differenced and groups and all(
+            g.derivatives_rows is not None for g in groups))
 
     def _stages(self, h):
         """One step of size h from (t, y, f): (y_new, f_new); YK then holds y and every stage."""
+        if self._batched:
+            return self._batched_stages(h)
         t, YK, s, into, dot, y = self.t, self.YK, self.stages, self.ode.into, np.dot, self._stage
         YK[0], YK[1] = self.y, self.f
         np.multiply(self.A, h, out=self._CA[:, 1:])
@@ -67,6 +79,38 @@ class RungeKutta(ODEStepper):
         y_new = dot(self._CB, YK[:s + 1])
         f_new = YK[s + 1]
         into(t + h, y_new, f_new)
+        return y_new, f_new.copy()
+
+    def _batched_stages(self, h):
+        """:meth:`_stages` with the variational equations: the state's stages (the base ODE's), then J at every
+        stage and at the step's end in one batch (:meth:`~.chart.VectorODE.jacobians`), then Φ's stages
+        K_i = J_i (Φ_n + h Σ a_ij K_j): the same Runge–Kutta step of the coupled system, one batched Jacobian
+        instead of one per stage."""
+        t, YK, s, dot, ode = self.t, self.YK, self.stages, np.dot, self.ode
+        base, m = ode.base, ode.m
+        X, P = slice(0, m), slice(m, m + m * m)  # the state's and Φ's columns
+        YK[0], YK[1] = self.y, self.f
+        np.multiply(self.A, h, out=self._CA[:, 1:])
+        np.multiply(self.B, h, out=self._CB[1:])
+        times = np.empty(s + 1)
+        states = np.empty((s + 1, m))
+        accelerations = np.empty((s + 1, m // 2))
+        for i, (c, a, Y, out) in enumerate(self._plan, start=1):
+            states[i] = dot(a, Y[:, X])
+            times[i] = t + c * h
+            base.into(times[i], states[i], out[X])
+            accelerations[i] = out[m // 2:m]
+        y_new = np.empty(ode.n)
+        y_new[X] = states[s] = dot(self._CB, YK[:s + 1, X])
+        f_new = YK[s + 1]
+        times[s] = t + h
+        base.into(times[s], states[s], f_new[X])
+        accelerations[s] = f_new[m // 2:m]
+        J = base.jacobians(times[1:], states[1:], accelerations[1:])  # (s × m × m): stages 1 … s−1, then the end
+        for i, (c, a, Y, out) in enumerate(self._plan, start=1):
+            out[P] = (J[i - 1] @ dot(a, Y[:, P]).reshape(m, m)).ravel()
+        y_new[P] = dot(self._CB, YK[:s + 1, P])
+        f_new[P] = (J[-1] @ y_new[P].reshape(m, m)).ravel()
         return y_new, f_new.copy()
 
     def _accept(self, h, y_new, f_new):
