@@ -40,13 +40,18 @@ def so3_chart_term(xi, v):
         sin, cos = np.sin(t), np.cos(t)
         c = 1 / t2 - (1 + cos) / (2 * t * sin)
         d = -2 / (t2 * t2) + (t * sin * sin + (1 + cos) * (sin + t * cos)) / (2 * t2 * t * sin * sin)
-    # f = v + ½ ξ × v + c (ξ (ξ·v) − θ² v): ∂f/∂ξ = −½[v]× + c((ξ·v) I + ξ vᵀ − 2 v ξᵀ) + (ξ (ξ·v) − θ² v) c′/θ ξᵀ
-    xv = float(xi @ v)
-    out = np.multiply.outer(c * xi, v)
-    out += np.multiply.outer(d * xv * xi - (d * t2) * v - 2 * c * v, xi)
-    out += pin.skew(-0.5 * v)
-    out.flat[::4] += c * xv
-    return out
+    # f = v + ½ ξ × v + c (ξ (ξ·v) − θ² v): ∂f/∂ξ = −½[v]× + c((ξ·v) I + ξ vᵀ − 2 v ξᵀ) + (ξ (ξ·v) − θ² v) c′/θ ξᵀ,
+    # entry by entry in floats (a 3 × 3 of small numpy operations cost four times more, once per stage)
+    x0, x1, x2 = xi.tolist()
+    v0, v1, v2 = v.tolist()
+    xv = x0 * v0 + x1 * v1 + x2 * v2
+    a0, a1, a2 = c * x0, c * x1, c * x2
+    k, e = d * xv, d * t2 + 2 * c
+    b0, b1, b2 = k * x0 - e * v0, k * x1 - e * v1, k * x2 - e * v2
+    cxv, h0, h1, h2 = c * xv, 0.5 * v0, 0.5 * v1, 0.5 * v2
+    return np.array([[a0 * v0 + b0 * x0 + cxv, a0 * v1 + b0 * x1 + h2, a0 * v2 + b0 * x2 - h1],
+                     [a1 * v0 + b1 * x0 - h2, a1 * v1 + b1 * x1 + cxv, a1 * v2 + b1 * x2 + h0],
+                     [a2 * v0 + b2 * x0 + h1, a2 * v1 + b2 * x1 - h0, a2 * v2 + b2 * x2 + cxv]])
 
 
 _NO_SUPPORT = np.zeros((1, 3))
