@@ -251,12 +251,19 @@ class DOP853(RungeKutta):
 
     def _dense_output(self, h, y_new, f_new, ode=None, t=None):
         """The step's interpolant: DOP853's 7th-order dense output in the step's chart (``ode``: that chart, default
-        the current one; ``t``: the step's start, default the current time)."""
+        the current one; ``t``: the step's start, default the current time); with batched variational equations, of
+        the state only (an :class:`~.base.Interpolant` reads q, v and w)."""
         ode = self.ode if ode is None else ode
         YK, t, s = self.YK, self.t if t is None else t, self.stages + 1
         y_old = YK[0]
-        for i, (a, c) in enumerate(zip(_dop.A[s:], _dop.C[s:]), start=s):
-            ode.into(t + c * h, y_old + h * (a[:i] @ YK[1:i + 1]), YK[i + 1])
+        if self._batched:  # (the interpolant gives (q, v): the extra stages of the state alone, Φ's left at zero)
+            m = ode.m
+            for i, (a, c) in enumerate(zip(_dop.A[s:], _dop.C[s:]), start=s):
+                ode.base.into(t + c * h, y_old[:m] + h * (a[:i] @ YK[1:i + 1, :m]), YK[i + 1, :m])
+                YK[i + 1, m:] = 0.0
+        else:
+            for i, (a, c) in enumerate(zip(_dop.A[s:], _dop.C[s:]), start=s):
+                ode.into(t + c * h, y_old + h * (a[:i] @ YK[1:i + 1]), YK[i + 1])
         K = YK[1:]
         dy = y_new - y_old
         F = np.empty((_dop.INTERPOLATOR_POWER, ode.n))
