@@ -39,9 +39,10 @@ class Derivatives:
         self.nv = system.nv
         self.fkin = None
         self.differenced = False  # element_fd was used: these derivatives are exact only to ~1e-10 (relative)
-        self.dFq = {j: np.zeros((6, self.nv)) for j in system.point_joints}
-        self.dFv = {j: np.zeros((6, self.nv)) for j in system.point_joints}
-        self.dFq_abs = {j: np.zeros((6, self.nv)) for j in system.point_joints} if magnitudes else None
+        joints = system.point_joints if points else ()  # (joint-space groups need no accumulators)
+        self.dFq = {j: np.zeros((6, self.nv)) for j in joints}
+        self.dFv = {j: np.zeros((6, self.nv)) for j in joints}
+        self.dFq_abs = {j: np.zeros((6, self.nv)) for j in joints} if magnitudes else None
         self.J, self.R, self.u, self.dV = {}, {}, {}, {}
         self.turns = {}  # per joint: whether it turns with some coordinate (a slider's frame does not)
         if not (points and system.point_groups):  # joint-space groups need none of the point Jacobians
@@ -272,6 +273,7 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
         Fx, Fq = np.zeros((B, model.njoints, 6)), np.zeros((B, nv))
         for g in system.point_groups:
             g.apply(t, Q, V, d.kin, Fq, Fx)
+    distrusted = untrusted(system)[0].size != 0
     for c in range(B):
         if system.point_groups:
             for j in system.point_joints:
@@ -280,7 +282,7 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
         else:
             out = pin.computeRNEADerivatives(model, data, Q[c], V[c], A[c])
         K[c], C[c] = out[0], out[1]
-        if untrusted(system)[0].size:
+        if distrusted:
             untrusted_columns(system, ws, Q[c], V[c], A[c], ts[c], None, None, C[c],
                               ws.fext if system.point_groups else None)
         if system.joint_groups:
@@ -295,7 +297,7 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
         for g in system.point_groups:
             g.derivatives_rows(d)
         K += d.K
-    if untrusted(system)[0].size:
+    if distrusted:
         for c in range(B):
             untrusted_columns(system, ws, Q[c], V[c], A[c], float(ts[c]), None if shift is None else shift[c],
                               K[c], None, None)
