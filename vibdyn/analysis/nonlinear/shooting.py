@@ -185,8 +185,8 @@ class Shooting:
         for i, (q, v) in enumerate(nodes):
             a = self.time(i, T)
             t_eval = None if points is None else np.linspace(a, a + h, points + 1)
-            runs.append(self.flow(q, v)(q, v, a, a + h, t_eval=t_eval, error=error, max_step=self.max_step / refine,
-                                        trajectory=full or points is not None))
+            runs.append(self.flow(q, v)(q, v, a, a + h, t_eval=t_eval, error_method=error,
+                                        max_step=self.max_step / refine, trajectory=full or points is not None))
         self.evaluations += 1
         if cached:
             self._cache = (key, runs)
