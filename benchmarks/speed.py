@@ -12,6 +12,9 @@ Sensitivities of all modes of the 30-link chain to its 30 stiffnesses: ≤ 10× 
 
 The third target (10-link chain simulated to 1e-8 against MuJoCo RK4 at equal error) is the
 ``equal_error`` figure of simulation.py's chain cases.
+
+The nonlinear analyses' targets (backbones against a hand-written scipy shooting, one ball-pendulum request) and
+where their time goes: :mod:`benchmarks.nonlinear_speed` (quick and full runs).
 """
 
 import time
@@ -352,5 +355,7 @@ def case_sensitivity(S):
 
 
 def run(S):
+    from . import nonlinear_speed
+
     cases = [case_lin10(S), case_floor(S), case_point_elements(S), case_sensitivity(S)]
-    return cases if S.smoke else cases + [case_scale(S)]
+    return cases if S.smoke else cases + [case_scale(S)] + nonlinear_speed.cases(S)

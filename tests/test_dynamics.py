@@ -597,6 +597,38 @@ def test_potential_consistency(make):
         assert_close(system.generalized_forces(q, z), Q, 1e-12, scale=1.0, what="springs Jᵀf")
 
 
+def test_anisotropic_ball_spring_stiffness_in_closed_form():
+    """Q = −Jᵀ K φ of a ball spring with three stiffnesses and a rest rotation: its ∂Q/∂q in closed form (no
+    differences: the workspace is not marked differenced) equals central differences of Q in the tangent space
+    within their own Richardson truncation estimate, at rotations up to ~2 rad (past the series' range)."""
+    from vibdyn.defaults import EPS
+    from vibdyn.model.derivatives import Derivatives
+    from vibdyn.model.fd import tangent_derivative
+
+    s = vd.Scene("aniso ball")
+    s.add_body("ball", joint=vd.Ball(), mass=1.0, com=(0.1, 0, -0.3), inertia=vd.inertia.box(1.0, (0.2, 0.3, 0.5)))
+    s.add_joint_spring("ball", (3.0, 5.0, 9.0), rest=(0.1, 0.2, -0.2))
+    system = s.build()
+    (group,) = system.joint_groups
+    rng = np.random.default_rng(3)
+    z = np.zeros(3)
+    ws = system.workspace()
+    for amplitude in (0.05, 0.5, 2.0):
+        q = system.integrate(system.neutral(), amplitude * rng.standard_normal(3))
+        d = Derivatives(system, ws, q, z, z, 0.0, False, points=False)
+        dQ, _ = group.derivatives(d)
+        assert not d.differenced
+
+        def Q(x):
+            out = np.zeros(3)
+            group.apply(0.0, x, z, None, out, None)
+            return out
+
+        D, T = tangent_derivative(system, Q, q, np.full(3, 2.0**-12), estimate=True)
+        assert np.abs(dQ - D).max() <= np.abs(T).max() + 1e3 * EPS * np.abs(D).max()
+        assert np.abs(T).max() < 1e-4 * np.abs(D).max()  # (the differences resolve it: the check can fail)
+
+
 def test_unstressed_spring_and_rest_positions():
     """A spring without free length is unstressed at the neutral configuration; joint springs on ball,
     free and planar joints vanish exactly at their rest offsets (and not elsewhere)."""

@@ -200,3 +200,61 @@ def test_a_ball_joints_chart_term_in_closed_form_matches_pinocchios_hessian_and_
     u = rng.standard_normal(3)
     below, above = (SERIES_BELOW * (1 + s * 1e-12) * u / np.linalg.norm(u) for s in (-1, 1))
     assert np.abs(so3_chart_term(below, v) - so3_chart_term(above, v)).max() <= 1e-13
+
+
+def test_the_stepper_base_keeps_time_direction_status_and_its_last_step():
+    """scipy's OdeSolver bookkeeping in the base class: t_old is the last step's start, direction +1, status
+    "running" until t_end is reached, then "finished", and a step past it is refused; the last step's dense
+    output (on demand) meets the state at both ends of the step and the closed form inside it."""
+    cls = METHODS["dop853"]
+    atol = np.array([1e-10])
+    stepper = cls(SYSTEM, Q0, np.zeros(1), 1.0, rtol=1e-10, atol_q=atol, atol_v=atol)
+    assert stepper.t_old is None and stepper.direction == 1.0 and stepper.status == "running"
+    with pytest.raises(StepError):
+        stepper.interpolant()
+    while stepper.status == "running":
+        q_old = stepper.state[0]
+        stepper.step()
+        dense = stepper.interpolant()
+        assert dense is stepper.interpolant()  # (made once per step)
+        assert abs(dense(stepper.t_old)[0][0] - q_old[0]) <= 1e-14
+        assert abs(dense(stepper.t)[0][0] - stepper.state[0][0]) <= 1e-14
+        mid = 0.5 * (stepper.t_old + stepper.t)
+        assert abs(dense(mid)[0][0] - exact(mid)) <= 1e-8 * X0
+    assert stepper.t == 1.0 and stepper.status == "finished" and stepper.t_old < 1.0
+    with pytest.raises(StepError, match="finished"):
+        stepper.step()
+
+
+def test_simulate_takes_a_stepper_class():
+    """method= a Stepper subclass (here DOP853 under another name): the same run as by its registered name."""
+    class Renamed(METHODS["dop853"]):
+        name = "my dop853"
+
+    a, b = run("dop853"), SYSTEM.simulate(T_END, q0=Q0, method=Renamed, rtol=1e-8)
+    assert b.method == "my dop853" and np.array_equal(a.q, b.q) and np.array_equal(a.q_error, b.q_error)
+    assert method_class(Renamed) is Renamed and method_class(Stepper) is None  # (a class without a name: no method)
+    with pytest.raises(vd.ModelError, match="unknown method"):
+        SYSTEM.simulate(T_END, q0=Q0, method=int)
+
+
+def test_a_flow_is_simulate_without_its_per_call_checks():
+    """vibdyn.simulation.flow.Flow, checked once, then called per state: the same end state, error estimate,
+    state transition and its error as simulate with the same settings (bit for bit: the same pieces); bad
+    settings refused when it is made; a Trajectory (energies) when asked for."""
+    from vibdyn.simulation.flow import Flow
+
+    v0 = np.array([0.05])
+    for error in ("local", "rerun"):
+        flow = Flow(SYSTEM, rtol=1e-9, variational=True, error_method=error)
+        for t0, t1 in ((0.0, 1.0), (0.5, 3.0)):
+            r = flow(Q0, v0, t0, t1)
+            s = vd.simulate(SYSTEM, t1, Q0, v0, t0=t0, rtol=1e-9, variational=True, error=error)
+            assert np.array_equal(r.q[-1], s.q[-1]) and np.array_equal(r.v[-1], s.v[-1])
+            assert np.array_equal(r.state_transition, s.state_transition)
+            assert r.state_transition_error == s.state_transition_error and r.error == s.error
+            assert r.error_method == s.error_method == error
+    traj = flow(Q0, v0, 0.0, 1.0, t_eval=[0.25, 0.5, 1.0], trajectory=True)
+    assert isinstance(traj, vd.Trajectory) and len(traj.energy) == 3
+    with pytest.raises(vd.ModelError, match="rtol"):
+        Flow(SYSTEM, rtol=2.0)

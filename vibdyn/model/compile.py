@@ -130,12 +130,34 @@ class Compiled:
     def _compile_elements(self) -> None:
         """The force-element groups, once the tree is compiled (they use the System's lookups:
         ``attachments``, ``body_info``, ...), and what they need."""
-        self.force_groups = groups = tuple(compile_groups(self, self.scene))
-        self.point_groups = tuple(g for g in groups if g.uses_points)
-        self.joint_groups = tuple(g for g in groups if not g.uses_points)
-        self.point_joints = tuple(sorted({int(j) for g in self.point_groups for j in g.joints} - {0}))
-        self.uses_point_velocities = any(g.uses_point_velocities for g in groups)
-        self.depends_on_velocity = any(g.velocity_dependent for g in groups)
+        for key, value in _group_tables(compile_groups(self, self.scene)).items():
+            setattr(self, key, value)
+
+    def without_groups(self, dropped: Any) -> Any:
+        """A view of this compiled system with the force groups ``dropped`` left out (the same model, bodies and
+        tables, their force-group tables made again; workspaces of its own): e.g. its conservative part, dampers
+        off. Its ``scene`` is still this one's."""
+        from .workspace import PerThread
+
+        view = object.__new__(type(self))
+        view.__dict__.update(self.__dict__)
+        groups = tuple(g for g in self.force_groups if not any(g is d for d in dropped))
+        view.__dict__.update(_group_tables(groups), _per_thread=PerThread())
+        view.__dict__["depends_on_time"] = any(g.time_dependent for g in groups) or bool(
+            self.supports or getattr(self, "drives", None))
+        return view
+
+
+def _group_tables(groups: Any) -> dict:
+    """The force-group tables of a compiled system: the groups, those with and without points, the joints point
+    elements attach to, and what they depend on."""
+    groups = tuple(groups)
+    point = tuple(g for g in groups if g.uses_points)
+    return {"force_groups": groups, "point_groups": point,
+            "joint_groups": tuple(g for g in groups if not g.uses_points),
+            "point_joints": tuple(sorted({int(j) for g in point for j in g.joints} - {0})),
+            "uses_point_velocities": any(g.uses_point_velocities for g in groups),
+            "depends_on_velocity": any(g.velocity_dependent for g in groups)}
 
 
 def attachments(system: Any, atts: Any) -> tuple[np.ndarray, np.ndarray]:

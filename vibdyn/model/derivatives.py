@@ -39,22 +39,25 @@ class Derivatives:
         self.nv = system.nv
         self.fkin = None
         self.differenced = False  # element_fd was used: these derivatives are exact only to ~1e-10 (relative)
-        self.dFq = {j: np.zeros((6, self.nv)) for j in system.point_joints}
-        self.dFv = {j: np.zeros((6, self.nv)) for j in system.point_joints}
-        self.dFq_abs = {j: np.zeros((6, self.nv)) for j in system.point_joints} if magnitudes else None
+        joints = system.point_joints if points else ()  # (joint-space groups need no accumulators)
+        self.dFq = {j: np.zeros((6, self.nv)) for j in joints}
+        self.dFv = {j: np.zeros((6, self.nv)) for j in joints}
+        self.dFq_abs = {j: np.zeros((6, self.nv)) for j in joints} if magnitudes else None
         self.J, self.R, self.u, self.dV = {}, {}, {}, {}
+        self.turns = {}  # per joint: whether it turns with some coordinate (a slider's frame does not)
         if not (points and system.point_groups):  # joint-space groups need none of the point Jacobians
             return
         pin.computeJointJacobians(model, data, q)
-        pin.forwardKinematics(model, data, q, v)
-        if need_velocity_derivatives:
+        if need_velocity_derivatives:  # (the joints' velocities are read only for the velocity derivatives)
+            pin.forwardKinematics(model, data, q, v)
             pin.computeForwardKinematicsDerivatives(model, data, q, v, a)
         for j in system.point_joints:
-            self.J[j] = pin.getJointJacobian(model, data, j, pin.LOCAL).reshape(6, self.nv).copy()
+            self.J[j] = J = pin.getJointJacobian(model, data, j, pin.LOCAL).reshape(6, self.nv).copy()
+            self.turns[j] = bool(J[3:].any())
             self.R[j] = data.oMi[j].rotation.copy()
-            vj = data.v[j]
-            self.u[j] = (vj.linear.copy(), vj.angular.copy())
             if need_velocity_derivatives:
+                vj = data.v[j]
+                self.u[j] = (vj.linear.copy(), vj.angular.copy())
                 dv_dq, _ = pin.getJointVelocityDerivatives(model, data, j, pin.LOCAL)
                 self.dV[j] = np.asarray(dv_dq).reshape(6, self.nv).copy()
 
@@ -62,6 +65,8 @@ class Derivatives:
         """World position Jacobian (3 × nv) of the point r (joint frame) on joint j (zero for the world)."""
         if j == 0:
             return np.zeros((3, self.nv))
+        if not self.turns[j]:  # (no angular part: R (J_lin − [r]× 0))
+            return self.R[j] @ self.J[j][:3]
         return world_point_jacobian(self.R[j], self.J[j], r)
 
     def point_velocity_dq(self, j, r):
@@ -80,10 +85,13 @@ class Derivatives:
             return
         R = self.R[j]
         f_loc = R.T @ F_world
-        turning = _skew(f_loc) @ self.J[j][3:]
-        df_q = R.T @ dF_dq + turning
+        df_q = R.T @ dF_dq
+        if self.turns[j]:  # (a joint frame that turns carries the force it is given in it)
+            df_q += _skew(f_loc) @ self.J[j][3:]
         self.dFq[j][:3] += df_q
-        self.dFq[j][3:] += _skew(r) @ df_q
+        moment = r.any()  # (a force at the joint's origin has no moment about it)
+        if moment:
+            self.dFq[j][3:] += _skew(r) @ df_q
         if self.dFq_abs is not None:
             m = np.abs(R.T) @ (np.abs(dF_dq) if size_q is None else size_q) + np.abs(_skew(f_loc)) @ np.abs(
                 self.J[j][3:])
@@ -92,7 +100,8 @@ class Derivatives:
         if dF_dv is not None:
             df_v = R.T @ dF_dv
             self.dFv[j][:3] += df_v
-            self.dFv[j][3:] += _skew(r) @ df_v
+            if moment:
+                self.dFv[j][3:] += _skew(r) @ df_v
 
     def element_fd(self, fun, with_v=True):
         """Central differences (∂/∂q, ∂/∂v) of an element's own output ``fun(q, v)`` (for user callables,
@@ -250,6 +259,7 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
         Fx, Fq = np.zeros((B, model.njoints, 6)), np.zeros((B, nv))
         for g in system.point_groups:
             g.apply(t, Q, V, d.kin, Fq, Fx)
+    distrusted = untrusted(system)[0].size != 0
     for c in range(B):
         if system.point_groups:
             for j in system.point_joints:
@@ -258,7 +268,7 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
         else:
             out = pin.computeRNEADerivatives(model, data, Q[c], V[c], A[c])
         K[c], C[c] = out[0], out[1]
-        if untrusted(system)[0].size:
+        if distrusted:
             untrusted_columns(system, ws, Q[c], V[c], A[c], ts[c], None, None, C[c],
                               ws.fext if system.point_groups else None)
         if system.joint_groups:
@@ -273,7 +283,7 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
         for g in system.point_groups:
             g.derivatives_rows(d)
         K += d.K
-    if untrusted(system)[0].size:
+    if distrusted:
         for c in range(B):
             untrusted_columns(system, ws, Q[c], V[c], A[c], float(ts[c]), None if shift is None else shift[c],
                               K[c], None, None)
@@ -351,9 +361,11 @@ def subtract_group_derivatives(system, d, point, joint, K, C, K_size=None):
     for g in point:
         g.derivatives(d)
     if point:
+        velocity = any(g.velocity_dependent or g.uses_point_velocities for g in point)  # (else no dFv)
         for j in system.point_joints:
             K -= d.J[j].T @ d.dFq[j]
-            C -= d.J[j].T @ d.dFv[j]
+            if velocity:
+                C -= d.J[j].T @ d.dFv[j]
             if K_size is not None and not np.isscalar(K_size):
                 K_size += np.abs(d.J[j].T) @ d.dFq_abs[j]
     for g in joint:

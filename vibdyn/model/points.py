@@ -23,6 +23,37 @@ def skew(a):
     return np.einsum("ijk,...j->...ik", _LEVI_CIVITA, a)
 
 
+SERIES_BELOW = 0.2  # rad: the SO(3) chart term's coefficients by their series below this rotation
+
+
+def so3_chart_term(xi, v):
+    """∂(J_r⁻¹(ξ) v)/∂ξ (3 × 3, 1/s): the chart's own term of a ball joint, with J_r⁻¹(ξ) = I + ½[ξ]× + c(θ)[ξ]×²
+    (Pinocchio's Jlog3 of exp3(ξ)), c(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ), θ = |ξ|, ξ (rad) and v (rad/s) the
+    joint's chart and velocity. Pinocchio's Hlog3 is not finite at ξ = 0, where every step's chart starts:
+    c and c′(θ)/θ are taken from their series there."""
+    t2 = float(xi @ xi)
+    if t2 < SERIES_BELOW ** 2:
+        c = 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
+        d = 1 / 360 + t2 * (1 / 7560 + t2 * (1 / 201600 + t2 * (1 / 5987520 + t2 / 189243758)))
+    else:
+        t = t2 ** 0.5
+        sin, cos = np.sin(t), np.cos(t)
+        c = 1 / t2 - (1 + cos) / (2 * t * sin)
+        d = -2 / (t2 * t2) + (t * sin * sin + (1 + cos) * (sin + t * cos)) / (2 * t2 * t * sin * sin)
+    # f = v + ½ ξ × v + c (ξ (ξ·v) − θ² v): ∂f/∂ξ = −½[v]× + c((ξ·v) I + ξ vᵀ − 2 v ξᵀ) + (ξ (ξ·v) − θ² v) c′/θ ξᵀ,
+    # entry by entry in floats (a 3 × 3 of small numpy operations cost four times more, once per stage)
+    x0, x1, x2 = xi.tolist()
+    v0, v1, v2 = v.tolist()
+    xv = x0 * v0 + x1 * v1 + x2 * v2
+    a0, a1, a2 = c * x0, c * x1, c * x2
+    k, e = d * xv, d * t2 + 2 * c
+    b0, b1, b2 = k * x0 - e * v0, k * x1 - e * v1, k * x2 - e * v2
+    cxv, h0, h1, h2 = c * xv, 0.5 * v0, 0.5 * v1, 0.5 * v2
+    return np.array([[a0 * v0 + b0 * x0 + cxv, a0 * v1 + b0 * x1 + h2, a0 * v2 + b0 * x2 - h1],
+                     [a1 * v0 + b1 * x0 - h2, a1 * v1 + b1 * x1 + cxv, a1 * v2 + b1 * x2 + h0],
+                     [a2 * v0 + b2 * x0 + h1, a2 * v1 + b2 * x1 - h0, a2 * v2 + b2 * x2 + cxv]])
+
+
 _NO_SUPPORT = np.zeros((1, 3))
 ONES3 = np.ones(3)
 

@@ -4,7 +4,11 @@
 from (q0, v0) at t = 0 and returns a :class:`Trajectory`: times, configurations, velocities, energies, the
 work of the non-conservative forces, counters, an error estimate and the elapsed time.
 
-Methods: the registry :data:`METHODS` (name → stepper class, :mod:`vibdyn.simulation.integrators`), all
+Analyses that integrate the same equations many times (shooting, Floquet, backbones) use
+:class:`vibdyn.simulation.flow.Flow`: the same runs and error estimates, settings checked once, no energies.
+
+Methods: the registry :data:`METHODS` (name → stepper class, :mod:`vibdyn.simulation.integrators`; ``method=``
+also takes such a class), all
 exact in order on Lie groups (ball, free and planar joints are stepped in a local chart q = integrate(q_c,
 ξ), see :mod:`vibdyn.simulation.integrators.chart`):
 
@@ -66,7 +70,7 @@ SINGULAR_NOTE = 1e-4  # a failed run of a mechanism whose loops are this near a 
 _ERROR_METHOD = RenamedKeyword("simulate", "error", "error_method")
 
 
-def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rtol: float = 1e-8, atol=None,
+def simulate(system, t_end: float, q0=None, v0=None, method: str | type = "dop853", rtol: float = 1e-8, atol=None,
              dt: float | None = None, t_eval=None, *, error_method: str | None = None, max_step: float | None = None,
              progress: bool | None = None, t0: float = 0.0, events=None, variational: bool = False,
              error: str | None = None) -> Trajectory:
@@ -78,7 +82,9 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
     equilibrium/steady-motion result (then v0 defaults to its v); v0: velocities (default zero). A mechanism
     with loops starts from (q0, v0) put on its loops (q0 assembled, v0 projected in the kinetic-energy
     metric): its energies, work and errors are those of that state. ``method``: a name of :data:`METHODS` — "dop853", "rk4", "radau", "bdf"
-    or "symplectic" (alias "variational") — see the module docstring. ``rtol`` and ``atol`` (adaptive methods): local error per step below atol + rtol·|x|,
+    or "symplectic" (alias "variational") — see the module docstring — or a stepper class
+    (a subclass of :class:`vibdyn.simulation.integrators.Stepper` with a ``name``).
+    ``rtol`` and ``atol`` (adaptive methods): local error per step below atol + rtol·|x|,
     positions measured from the step's start; ``atol`` a number, one per coordinate (positions and
     velocities alike) or 2·nv numbers (positions then velocities); default rtol × (1 rad, or the scene's
     length scale for m coordinates). ``dt``: the step of fixed-step methods (required; each interval between
@@ -111,6 +117,43 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
     error = _ERROR_METHOD(error_method, error)
     cfg = _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress, t0, events,
                     variational)
+    return _finish(system, cfg, _solve(system, cfg), start)
+
+
+def _finish(system, cfg, solved, start):
+    """The Trajectory of a solved run (energies at every output), or its SimulationError; ``start``: when the
+    call began (perf_counter s)."""
+    main = solved.main
+    traj = _trajectory(system, cfg, main, solved.runs, solved.q_err, solved.v_err, time.perf_counter() - start,
+                       solved.error_elapsed, solved.error_method)
+    if solved.transition is not None:
+        traj = replace(traj, state_transition=solved.transition, state_transition_error=solved.transition_error)
+    if main.status == "finished" and not np.all(np.isfinite(traj.energy)):
+        raise SimulationError("the energies of the motion overflow (state too large for double precision)",
+                              traj, cfg.t_end)
+    if main.status == "failed":
+        t = _t_reached(main)
+        raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}"
+                              f"{_singular_note(system, traj)}", traj, t) from main.failure
+    return traj
+
+
+@dataclass
+class _Solved:
+    """A run with its error estimate (what :func:`simulate` and :class:`vibdyn.simulation.flow.Flow` report)."""
+    main: "_Run"
+    runs: list
+    q_err: np.ndarray
+    v_err: np.ndarray
+    error_elapsed: float
+    error_method: str
+    transition: np.ndarray | None = None
+    transition_error: float | None = None
+
+
+def _solve(system, cfg):
+    """The main run of ``cfg`` and its error estimate (second run(s) at tighter tolerances or coarser steps, or
+    the summed local errors), and with ``variational`` its state transition and that one's error."""
     main = _integrate(system, cfg, "simulate")
     runs = [main]
     q_err = v_err = None
@@ -139,24 +182,16 @@ def simulate(system, t_end: float, q0=None, v0=None, method: str = "dop853", rto
         error_method = "local"
     if q_err is None:  # the run stopped before its error could be estimated
         q_err = v_err = np.full(len(main.t), np.inf)
-    traj = _trajectory(system, cfg, main, runs, q_err, v_err, time.perf_counter() - start, error_elapsed,
-                       error_method)
+    solved = _Solved(main, runs, q_err, v_err, error_elapsed, error_method)
     if cfg.variational and main.transition is not None:
         other = runs[1].transition if len(runs) > 1 else None
         err = np.inf if other is None else float(np.abs(main.transition - other).max()) / (
-            1.0 if cfg.error == "rerun" else 2.0 ** METHODS[cfg.method].order - 1.0)
+            1.0 if cfg.error == "rerun" else 2.0 ** cfg.stepper.order - 1.0)
         floored = getattr(main.stepper, "floored_steps", 0)
         if floored:  # both runs held these steps' Φ to the same floor: their errors, summed
             err = max(err, DIFFERENCED_RTOL * floored * float(np.abs(main.transition).max()))
-        traj = replace(traj, state_transition=main.transition, state_transition_error=err)
-    if main.status == "finished" and not np.all(np.isfinite(traj.energy)):
-        raise SimulationError("the energies of the motion overflow (state too large for double precision)",
-                              traj, cfg.t_end)
-    if main.status == "failed":
-        t = _t_reached(main)
-        raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}"
-                              f"{_singular_note(system, traj)}", traj, t) from main.failure
-    return traj
+        solved.transition, solved.transition_error = main.transition, err
+    return solved
 
 
 def _singular_note(system, traj):
@@ -169,6 +204,12 @@ def _singular_note(system, traj):
     return (f"; the loops are at a singular position there (σ_min/σ_max of their Jacobian {cond:.1e}): the "
             "index-1 accelerations lose about 1/σ² of round-off near it, which bounds the tolerance a step can "
             "meet: loosen rtol (the error estimate reruns at rtol/100) or use a fixed-step method (rk4)")
+
+
+def flow_pieces():
+    """(check settings, solve a run with its error estimate, make its Trajectory, the time a run reached): the pieces
+    :func:`simulate` drives, for :class:`vibdyn.simulation.flow.Flow` to drive the same way."""
+    return _settings, _solve, _finish, _t_reached
 
 
 # ---------------------------------------------------------------------------------------------- settings
@@ -190,6 +231,7 @@ class _Settings:
     t0: float = 0.0
     events: tuple | None = None  # the event functions
     variational: bool = False
+    stepper: type | None = None  # the method's stepper class
 
 
 def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress, t0=0.0,
@@ -203,7 +245,8 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
         raise ModelError(f"{what}: t_end = {t_end:g} s must be after t0 = {t0:g} s (t_end is an absolute time)")
     stepper = method_class(method)
     if stepper is None:
-        raise ModelError(f"{what}: unknown method {method!r} (use one of {', '.join(METHODS)})")
+        raise ModelError(f"{what}: unknown method {method!r} (use one of {', '.join(METHODS)}, or a Stepper "
+                         "subclass)")
     method = stepper.name
     variational = bool(variational)
     if variational and system.reduction.curved:
@@ -285,7 +328,7 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
     work = bool(system.supports) or system.reduction.time_laws or any(type(g).potential is ForceGroup.potential or g.time_dependent
                                          for g in system.force_groups)
     return _Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work, t0,
-                     events, variational)
+                     events, variational, stepper)
 
 
 # ---------------------------------------------------------------------------------------------- one run
@@ -316,7 +359,7 @@ class _Run:
 def _integrate(system, cfg, label, reference=None, stride=2):
     """One integration (the main run, or with ``reference`` an error-estimate run at its output times: for a
     fixed-step method, with every ``stride``-th step of the main run's grid)."""
-    t_end, adaptive = cfg.t_end, METHODS[cfg.method].adaptive
+    t_end, adaptive = cfg.t_end, cfg.stepper.adaptive
     rtol, atol_q, atol_v = cfg.rtol, cfg.atol_q, cfg.atol_v
     if reference is not None and adaptive:  # "rerun": tighter tolerances
         rtol = max(rtol / RERUN_FACTOR, MIN_RTOL)
@@ -326,7 +369,7 @@ def _integrate(system, cfg, label, reference=None, stride=2):
     run.system = system
     progress = _Progress(t_end, cfg.progress, label)
     try:
-        run.stepper = METHODS[cfg.method](system, cfg.q0, cfg.v0, t_end, rtol=rtol, atol_q=atol_q, atol_v=atol_v,
+        run.stepper = cfg.stepper(system, cfg.q0, cfg.v0, t_end, rtol=rtol, atol_q=atol_q, atol_v=atol_v,
                                           first_step=cfg.dt if adaptive else None, max_step=cfg.max_step,
                                           work=cfg.work, t0=cfg.t0, variational=cfg.variational)
         if cfg.events:
@@ -374,26 +417,25 @@ def _adaptive(cfg, run, outputs, progress):
         _record(run, cfg.t0, *stepper.state, _zero_local(stepper))
         k = 1 if outputs is not None else 0
     while stepper.t < cfg.t_end:
-        t_start = stepper.t
-        # (with events every step keeps its interpolant: asking for an output at its start does that)
-        stepper.step(t_start if events else outputs[k] if outputs is not None and k < len(outputs) else None)
+        # (the step's interpolant is made only where an output or an event's crossing falls inside it)
+        stepper.step(outputs[k] if outputs is not None and k < len(outputs) else None)
         t = stepper.t
         stop = None
         if events is not None:
-            dense = stepper.dense
-            stop = events.step(t, *stepper.state[:2], lambda s: dense(s)[:2] if s < t else stepper.state[:2])
+            ends = stepper.state[:2]
+            stop = events.step(t, *ends, lambda s: stepper.interpolant()(s)[:2] if s < t else ends)
         end = t if stop is None else stop
         if outputs is None:
             if stop is None:
                 _record(run, t, *stepper.state, stepper.local_error)
         else:
             while k < len(outputs) and outputs[k] <= end:
-                state = stepper.state if outputs[k] == t else stepper.dense(float(outputs[k]))
+                state = stepper.state if outputs[k] == t else stepper.interpolant()(float(outputs[k]))
                 _record(run, float(outputs[k]), *state, stepper.local_error)
                 k += 1
         if stop is not None:  # a terminal event: the run ends there
             if not run.t or run.t[-1] < stop:
-                _record(run, stop, *stepper.dense(stop), stepper.local_error)
+                _record(run, stop, *stepper.interpolant()(stop), stepper.local_error)
             run.message = f"stopped by a terminal event at t = {stop:.10g} s"
             return
         progress.update(t)
@@ -455,7 +497,7 @@ def _compare(system, main, check, cfg, coarse=None):
     (at most 2^p; 2^p without it), or by 1 where ρ is not within 2× of 2^p (not the asymptotic range); the
     largest so far at each output. Outputs the check runs do not have (steps between theirs) take the
     larger estimate of their neighbours; outputs past their end, inf."""
-    p2 = 2.0 ** METHODS[cfg.method].order
+    p2 = 2.0 ** cfg.stepper.order
     tm = np.array(main.t)
     dq, dv = _differences(system, tm, main, check)
     if cfg.error == "rerun":

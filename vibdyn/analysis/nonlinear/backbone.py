@@ -285,7 +285,8 @@ def _bad_coordinate(coordinate, what):
 
 
 def _conservative_part(system, what):
-    """(the scene without dampers and velocity-dependent forces, rebuilt if anything was dropped; the note)."""
+    """(the System with its dampers and velocity-dependent forces off — a view of the compiled System, nothing
+    rebuilt — and the note)."""
     if system.reduction.curved:
         raise ModelError(f"{what}: not available for a mechanism with closed loops")
     if system.nv == 0:
@@ -298,17 +299,20 @@ def _conservative_part(system, what):
                          "autonomous scene")
     note = "conservative scene: the backbone of its own free motion"
     if not conservative(system):
-        scene = system.scene.copy()
-        dropped = [name for name, e in scene.elements.items() if _velocity_dependent(e)]
-        for name in dropped:
-            del scene.elements[name]
-        system = scene.build()
-        if not conservative(system):
-            kinds = sorted({type(g).__name__ for g in system.force_groups
-                            if type(g).potential is ForceGroup.potential})
+        # a view of the compiled System with its velocity-dependent groups (dampers, velocity-dependent laws) off;
+        # a group that holds other elements too would take them with it: those are refused below, as remaining
+        dropped = [g for g in system.force_groups if g.velocity_dependent]
+        kinds = {type(g) for g in dropped}
+        names = [name for name, e in system.scene.elements.items() if type(e).group in kinds]
+        mixed = [name for name in names if not _velocity_dependent(system.scene.elements[name])]
+        view = system.without_groups(dropped)
+        if mixed or not conservative(view):
+            kinds = sorted({type(g).__name__ for g in view.force_groups if type(g).potential is ForceGroup.potential}
+                           | {type(g).__name__ for g in dropped if mixed})
             raise ModelError(f"{what}: forces without a potential remain once dampers are dropped "
                              f"({', '.join(kinds) or 'applied forces'}): a backbone needs a conservative scene")
-        note = (f"damping left out: the backbone of the conservative part ({', '.join(dropped)} dropped: dampers "
+        system = view
+        note = (f"damping left out: the backbone of the conservative part ({', '.join(names)} dropped: dampers "
                 "and velocity-dependent forces)")
     return system, note
 

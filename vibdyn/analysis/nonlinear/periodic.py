@@ -257,7 +257,7 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
     max_step = STEP_RESOLUTION / omega_v
     trial = Shooting(system, t0, period * (1 if k == 1 else 1.0 / k), False, 1, omega, rtol, max_step=max_step)
     try:
-        first = trial.flows(trial.pack([nodes[0]]))[0]
+        first = trial.flows(trial.pack([nodes[0]]), full=True)[0]
     except SimulationError as e:
         raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "
                                "start closer to the orbit, or give nodes along it (q0, v0 one row each)",

@@ -8,9 +8,9 @@ autonomous orbit. Equations, per segment i (node m is node 0):
     difference(q_{i+1}, q(t_i + T/m; x_i)) = 0,        v(t_i + T/m; x_i) − v_{i+1} = 0
 
 (angles of pivots compared modulo 2π, so that a rotating orbit closes), with the Jacobian [D₁ Φ_i, D₀; Φ_vi, −1]
-from each segment's state transition Φ_i (:func:`vibdyn.simulation.simulate.simulate` with
-``variational=True``, tangent spaces) and Pinocchio's dDifference D₀, D₁, and ∂/∂T = (D₁ v, a)/m at each
-segment's end. An autonomous orbit adds a phase condition on x_0 (its tangent displacement from the start is
+from each segment's state transition Φ_i (the time layer's :class:`vibdyn.simulation.flow.Flow` with
+``variational=True``, tangent spaces: its settings checked once per problem) and Pinocchio's dDifference D₀,
+D₁, and ∂/∂T = (D₁ v, a)/m at each segment's end. An autonomous orbit adds a phase condition on x_0 (its tangent displacement from the start is
 orthogonal to the start's flow (v, a), or a chosen velocity is zero); a conservative one also keeps the
 start's energy E(x_0) = E_start (its orbits form a family in the energy: fixing it picks one member). The
 residuals and unknowns are scaled: positions by the coordinate scales (1 rad, the scene's length), velocities
@@ -30,6 +30,7 @@ from ...description.elements.joint_damper import JointDampers
 from ...errors import ConvergenceError, ModelError
 from ...model.dynamics import energy_gradient
 from ...model.groups import ForceGroup
+from ...simulation.flow import Flow
 from ...simulation.simulate import SimulationError, simulate
 from ...solvers.newton import Steps, newton
 
@@ -122,6 +123,10 @@ class Shooting:
         self.wrap = turning_indices(system, self.free)
         self._cache = (None, None)
         self.evaluations = 0  # sets of flows integrated
+        # the flows (with the variational equations) and the plain ones of the transitions' check, checked once
+        # (at the first node flowed from)
+        self._flow: Flow | None = None
+        self._plain: Flow | None = None
 
     # ------------------------------------------------------------------ unknowns
     @staticmethod
@@ -164,12 +169,13 @@ class Shooting:
         return self.pack(out, T)
 
     # ------------------------------------------------------------------ flows
-    def flows(self, x, error="local", points=None, refine=1):
-        """One run per segment from its node (variational equations included): a list of Trajectory.
-        ``points``: equally spaced outputs per segment (None: every step); steps at most max_step / ``refine``
-        (the error estimate's run halves the steps: the variational equations' own convergence)."""
+    def flows(self, x, error="local", points=None, refine=1, full=False):
+        """One run per segment from its node (variational equations included): a list of
+        :class:`~vibdyn.simulation.flow.FlowResult`, or of Trajectory (energies at every output) with ``points``
+        or ``full``. ``points``: equally spaced outputs per segment (None: every step); steps at most max_step /
+        ``refine`` (the error estimate's run halves the steps: the variational equations' own convergence)."""
         key = x.tobytes()
-        cached = error == "local" and points is None and refine == 1
+        cached = error == "local" and points is None and refine == 1 and not full
         if cached and self._cache[0] == key:
             return self._cache[1]
         nodes, T = self.unpack(x)
@@ -177,12 +183,23 @@ class Shooting:
         for i, (q, v) in enumerate(nodes):
             a = self.time(i, T)
             t_eval = None if points is None else np.linspace(a, a + h, points + 1)
-            runs.append(simulate(self.system, a + h, q, v, rtol=self.rtol, atol=self.atol, t0=a, variational=True,
-                                 error_method=error, t_eval=t_eval, max_step=self.max_step / refine))
+            runs.append(self.flow(q, v)(q, v, a, a + h, t_eval=t_eval, error_method=error,
+                                        max_step=self.max_step / refine, trajectory=full or points is not None))
         self.evaluations += 1
         if cached:
             self._cache = (key, runs)
         return runs
+
+    def flow(self, q, v, variational=True):
+        """The problem's Flow (with the variational equations, or ``variational=False`` the plain one), made on
+        first use with the state (q, v) as its checked start (ModelError for one that cannot start a flow)."""
+        if (self._flow if variational else self._plain) is None:
+            made = Flow(self.system, q, v, rtol=self.rtol, atol=self.atol, variational=variational)
+            if variational:
+                self._flow = made
+            else:
+                self._plain = made
+        return self._flow if variational else self._plain
 
     def seed(self, x, runs):
         """Take ``runs`` as the flows from x (a run the caller made already, with this problem's settings)."""
@@ -336,8 +353,8 @@ class Shooting:
             dq[self.free] = sign * delta[:n]
             v1 = np.array(v, dtype=float)
             v1[self.free] += sign * delta[n:]
-            run = simulate(self.system, t1, pin.integrate(self.model, q, dq), v1, rtol=self.rtol, atol=self.atol,
-                           t0=t0, error_method="local", max_step=self.max_step / 2, t_eval=[t1])
+            q1 = pin.integrate(self.model, q, dq)
+            run = self.flow(q1, v1, False)(q1, v1, t0, t1, max_step=self.max_step / 2, t_eval=[t1])
             ends.append(np.concatenate([pin.difference(self.model, q_end, run.q[-1])[self.free],
                                         (run.v[-1] - v_end)[self.free]]))
         return (ends[0] - ends[1]) / 2

@@ -13,6 +13,7 @@ from ..._check import (finite_array, one_or_each, stiffness_like, value_nonnegat
 from ..._format import with_units
 from ...errors import ModelError
 from ...model.groups import ForceGroup, as_slice, tangent
+from ...model.points import so3_chart_term
 from .base import ElementKind, scalar_or_list
 
 
@@ -58,7 +59,7 @@ class _Layer(ForceGroup):
         self.names = [e.name for e in elements]
         neutral = system.neutral()
         self.q_rest = neutral.copy()
-        iv, k, curved = [], [], []
+        iv, k, curved, balls = [], [], [], []
         for e in elements:
             b = system.body_info(e.body)
             iq = list(range(b.idx_q, b.idx_q + b.nq))
@@ -68,7 +69,8 @@ class _Layer(ForceGroup):
             k += list(e.stiffness)
             # SE(2)/SE(3) joints and anisotropic ball springs need the Jacobian of the difference
             if b.nq != b.nv and (not b.joint.isotropic_spring or len(set(e.stiffness)) > 1):
-                curved.append(len(iv) - b.nv + np.arange(b.nv))
+                # (ball joints' in closed form: see derivatives; planar and free joints' differenced)
+                (balls if b.joint.group == "SO3" else curved).append(len(iv) - b.nv + np.arange(b.nv))
         self.iv, self.k = np.array(iv), np.array(k)
         self.model = model
         self.vector = all(system.body_info(e.body).nq == system.body_info(e.body).nv for e in elements)
@@ -78,7 +80,15 @@ class _Layer(ForceGroup):
             self.rest = self.q_rest[self.iq]
             # the same coordinates as slices where they are contiguous (views instead of gathers)
             self.iq_at, self.iv_at = as_slice(self.iq), as_slice(self.iv)
-        self.curved = np.concatenate(curved) if curved else None
+        self.curved = np.concatenate(curved + balls) if curved or balls else None
+        self.differenced = np.concatenate(curved) if curved else None
+        # index grids made once (np.ix_ costs more than the 3 × 3 products it serves): the layer's block, its
+        # curved block, and per anisotropic ball (its positions in iv, their block, its rows in v and their block)
+        # (none for a layer of vector joints, which reads its coordinates directly: a sensitivity makes one such
+        # group per parameter)
+        self.block = None if self.vector else np.ix_(self.iv, self.iv)
+        self.curved_block = None if self.curved is None else np.ix_(self.curved, self.curved)
+        self.balls = [(b, np.ix_(b, b), self.iv[b], np.ix_(self.iv[b], self.iv[b])) for b in balls]
 
     def deflection(self, q):
         """q ⊖ q_rest on the sprung coordinates (m or rad; rotation vector for a ball)."""
@@ -92,9 +102,9 @@ class _Layer(ForceGroup):
             return
         force = self.k * self.deflection(q)
         if self.curved is not None:
-            J = pin.dDifference(self.model, self.q_rest, q, pin.ARG1)[np.ix_(self.iv, self.iv)]
+            J = pin.dDifference(self.model, self.q_rest, q, pin.ARG1)[self.block]
             c = self.curved
-            force[c] = J[np.ix_(c, c)].T @ force[c]
+            force[c] = J[self.curved_block].T @ force[c]
         Q[self.iv] -= force
 
     def apply_rows(self, t, q, v, Q):
@@ -112,11 +122,16 @@ class _Layer(ForceGroup):
         if self.vector:
             dQ[self.iv, self.iv] = -self.k
             return dQ, None
-        J = pin.dDifference(self.model, self.q_rest, d.q, pin.ARG1)[np.ix_(self.iv, self.iv)]
-        dQ[np.ix_(self.iv, self.iv)] = -(self.k[:, None] * J)
-        if self.curved is not None:  # Q = −Jᵀ K φ: the turning of J is differenced on the group alone
+        J = pin.dDifference(self.model, self.q_rest, d.q, pin.ARG1)[self.block]
+        dQ[self.block] = -(self.k[:, None] * J)
+        if self.balls:  # Q = −Jᵀ K φ, J = J_r⁻¹(φ), Jᵀ = J_r⁻¹(−φ): ∂Q/∂δ = −Jᵀ K J + [∂(J_r⁻¹(ξ) Kφ)/∂ξ]_(ξ=−φ) J
+            phi = self.deflection(d.q)
+            for b, own, _, rows in self.balls:
+                Jb, kb = J[own], self.k[b]
+                dQ[rows] = -(Jb.T * kb) @ Jb + so3_chart_term(-phi[b], kb * phi[b]) @ Jb
+        if self.differenced is not None:  # planar and free joints: the turning of J differenced on the group alone
             fd = d.element_fd(lambda qq, vv: d.group_force(self, qq, d.v), with_v=False)
-            dQ[:, self.iv[self.curved]] = fd[0][:, self.iv[self.curved]]
+            dQ[:, self.iv[self.differenced]] = fd[0][:, self.iv[self.differenced]]
         return dQ, None
 
 

@@ -15,8 +15,11 @@ METHODS: dict[str, type[Stepper]] = {cls.name: cls for cls in (DOP853, RK4, Rada
 ALIASES = {"variational": "symplectic"}  # other names accepted for a method
 
 
-def method_class(name: str) -> type[Stepper] | None:
-    """The stepper class of a method name (case-insensitive, aliases allowed), or None."""
+def method_class(name: str | type[Stepper]) -> type[Stepper] | None:
+    """The stepper class of a method name (case-insensitive, aliases allowed) or the class itself (a
+    :class:`Stepper` subclass with a ``name``), or None."""
+    if isinstance(name, type) and issubclass(name, Stepper) and name.name:
+        return name
     if not isinstance(name, str):
         return None
     key = name.lower()

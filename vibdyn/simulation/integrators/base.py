@@ -1,12 +1,18 @@
 """The stepper protocol every time integrator follows (in the manner of scipy's ``OdeSolver``).
 
-A stepper advances the motion of a system from (q0, v0) at t = 0. It declares what it is — ``order``,
-``adaptive`` (it chooses its steps: :meth:`Stepper.step`) or fixed (the caller gives each step's end:
+A stepper advances the motion of a system from (q0, v0) at t0 towards t_end. It declares what it is —
+``order``, ``adaptive`` (it chooses its steps: :meth:`Stepper.step`) or fixed (the caller gives each step's end:
 :meth:`Stepper.step_to`), ``error_methods`` (how a run's error can be estimated, the default first),
-``dense_output`` (it interpolates inside its last step) — and counts its work: ``nfev`` dynamics evaluations,
+``dense_output`` (it interpolates inside its last step, on demand: :meth:`Stepper.interpolant`) — and counts its
+work: ``nfev`` dynamics evaluations,
 ``njev`` Jacobians, ``nlu`` LU factorisations (or inverses), ``accepted`` steps and ``rejected`` ones (None
 when the underlying solver does not report them). ``state`` is (q, v, w) now (w: work integral, J), and
 ``local_error`` the accumulated local error per (q, v) component (tangent space) or None.
+
+As in scipy's ``OdeSolver``, the base class owns the bookkeeping — ``t``, ``t_old`` (the last step's start),
+``direction`` (+1: forward in time) and ``status`` ("running", "finished" at t_end, "failed" after a
+:class:`StepError`) — and its :meth:`~Stepper.step` / :meth:`~Stepper.step_to` call the subclass's
+``_step_impl``.
 
 :data:`vibdyn.simulation.integrators.METHODS` maps each method name to its class.
 """
@@ -29,8 +35,9 @@ class StepError(Exception):
 
 
 class Stepper:
-    """Base class of the integrators; subclasses set the class attributes and implement ``step`` (adaptive)
-    or ``step_to`` (fixed step).
+    """Base class of the integrators; subclasses set the class attributes and implement ``_step_impl(target)``:
+    one step, ``target`` the next output time or None (adaptive methods) or the step's end (fixed-step ones); and,
+    with dense output, ``_interpolant()`` (the last step's :class:`Interpolant`).
 
     Constructor, shared by all: ``(system, q0, v0, t_end, *, rtol, atol_q, atol_v, first_step, max_step,
     work, t0, variational)`` — rtol and atol_q/atol_v (arrays, tangent units) bound the local error per step
@@ -60,6 +67,10 @@ class Stepper:
         self.njev = self.nlu = 0
         self.local_error = None
         self.dense = None  # an Interpolant of the last step when asked for (adaptive methods)
+        self.t_old = None  # the last step's start (s); None before the first step
+        self.direction = 1.0 if self.t_end >= self.t else -1.0
+        self.status = "running" if self.t_end != self.t else "finished"
+        self._dense_cache = None  # the last step's Interpolant, once asked for
 
     @property
     def counters(self):
@@ -73,12 +84,45 @@ class Stepper:
 
     def step(self, next_output=None):
         """One accepted step (adaptive methods), not beyond t_end; if ``next_output`` (s) falls inside it,
-        ``dense`` is set to its interpolant, else None."""
-        raise NotImplementedError(f"{self.name} takes fixed steps: use step_to")
+        ``dense`` is set to its interpolant, else None (the interpolant is also there on demand:
+        :meth:`interpolant`)."""
+        if not self.adaptive:
+            raise NotImplementedError(f"{self.name} takes fixed steps: use step_to")
+        self._advance(next_output)
 
     def step_to(self, t_new):
         """One step to ``t_new`` (s) (fixed-step methods)."""
-        raise NotImplementedError(f"{self.name} chooses its own steps: use step")
+        if self.adaptive:
+            raise NotImplementedError(f"{self.name} chooses its own steps: use step")
+        self._advance(t_new)
+
+    def _advance(self, target):
+        if self.status != "running":
+            raise StepError(f"{self.name}: no step to take ({self.status} at t = {self.t:.6g} s)")
+        t = self.t
+        try:
+            self._step_impl(target)
+        except StepError:
+            self.status = "failed"
+            raise
+        self.t_old, self._dense_cache = t, None
+        if self.direction * (self.t - self.t_end) >= 0:
+            self.status = "finished"
+
+    def _step_impl(self, target):
+        raise NotImplementedError
+
+    def interpolant(self):
+        """The last step's dense output, an :class:`Interpolant` over [t_old, t] (made on first request, kept
+        until the next step); methods without dense output raise NotImplementedError."""
+        if self.t_old is None:
+            raise StepError(f"{self.name}: no step taken yet: nothing to interpolate")
+        if self._dense_cache is None:
+            self._dense_cache = self._interpolant()
+        return self._dense_cache
+
+    def _interpolant(self):
+        raise NotImplementedError(f"{self.name} keeps no dense output")
 
     @property
     def state_transition(self):

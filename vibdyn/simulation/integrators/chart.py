@@ -21,36 +21,10 @@ import numpy as np
 import pinocchio as pin
 
 from ...model import dynamics
-from ...model.derivatives import linear_terms, solve_mass
+from ...model.derivatives import analytic_derivatives_rows, linear_terms, solve_mass
+from ...model.points import SERIES_BELOW, so3_chart_term  # noqa: F401  (kept importable here)
 
 ARG1 = pin.ArgumentPosition.ARG1
-SERIES_BELOW = 0.2  # rad: the SO(3) chart term's coefficients by their series below this rotation
-
-
-def so3_chart_term(xi, v):
-    """∂(J_r⁻¹(ξ) v)/∂ξ (3 × 3, 1/s): the chart's own term of a ball joint, with J_r⁻¹(ξ) = I + ½[ξ]× + c(θ)[ξ]×²
-    (Pinocchio's Jlog3 of exp3(ξ)), c(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ), θ = |ξ|, ξ (rad) and v (rad/s) the
-    joint's chart and velocity. Pinocchio's Hlog3 is not finite at ξ = 0, where every step's chart starts:
-    c and c′(θ)/θ are taken from their series there."""
-    t2 = float(xi @ xi)
-    if t2 < SERIES_BELOW ** 2:
-        c = 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
-        d = 1 / 360 + t2 * (1 / 7560 + t2 * (1 / 201600 + t2 * (1 / 5987520 + t2 / 189243758)))
-    else:
-        t = t2 ** 0.5
-        sin, cos = np.sin(t), np.cos(t)
-        c = 1 / t2 - (1 + cos) / (2 * t * sin)
-        d = -2 / (t2 * t2) + (t * sin * sin + (1 + cos) * (sin + t * cos)) / (2 * t2 * t * sin * sin)
-    # f = v + ½ ξ × v + c (ξ (ξ·v) − θ² v): ∂f/∂ξ = −½[v]× + c((ξ·v) I + ξ vᵀ − 2 v ξᵀ) + (ξ (ξ·v) − θ² v) c′/θ ξᵀ
-    xv = float(xi @ v)
-    out = np.multiply.outer(c * xi, v)
-    out += np.multiply.outer(d * xv * xi - (d * t2) * v - 2 * c * v, xi)
-    out += pin.skew(-0.5 * v)
-    out.flat[::4] += c * xv
-    return out
-
-
-
 def make_ode(system, q0, v0, work=False, variational=False):
     """The ODE of a system (a chart if it has curved joints) and its initial state y0; with
     ``variational``, augmented with the variational equations (:class:`Variational`)."""
@@ -87,6 +61,9 @@ class VectorODE:
         # (q, v, t) → dv/dt; the point elements' forces of the last evaluation kept for the Jacobian at that state
         self._applied = [None]
         self.accelerations = dynamics.accelerations_function(system, self.ws, keep=self._applied)
+        # J Y by blocks (jacobian_product) where the Jacobian is this class's own (not a subclass's)
+        self._blocks = type(self).jacobian in (VectorODE.jacobian, ChartODE.jacobian)
+        self._terms: tuple = (None, None)  # ((t, q, v) bytes, (M, K, C)) of the last J Y
 
     def __call__(self, t, y):
         out = np.empty(self.n)
@@ -148,6 +125,60 @@ class VectorODE:
         J[nv:2 * nv, :nv] = -MinvK
         J[nv:2 * nv, nv:2 * nv] = -MinvC
         return J
+
+    def jacobian_product(self, t, y, Y, a=None):
+        """J Y (2nv × k) with J the (ξ, v) block of :meth:`jacobian` (``a`` as there), without forming J: the
+        variational equations' right-hand side. (Classes that change the Jacobian, as the driven and projected
+        ODEs, take the product of their own :meth:`jacobian`.)"""
+        if not self._blocks:
+            return self.jacobian(t, y, a)[:2 * self.nv, :2 * self.nv] @ Y
+        nv = self.nv
+        out = np.empty_like(Y)
+        out[:nv] = Y[nv:]
+        out[nv:] = self._acceleration_product(y[:nv], y[nv:2 * nv], t, a, Y[:nv], Y[nv:])
+        return out
+
+    def jacobians(self, ts, states, accelerations):
+        """J (B × 2nv × 2nv: the (ξ, v) block of :meth:`jacobian`) at B states at once — rows of ``states``
+        (ξ, v), times ``ts`` (s), the accelerations the ODE evaluated there — the point elements' derivatives in
+        one pass (:func:`~vibdyn.model.derivatives.analytic_derivatives_rows`); the last state's (M, K, C) kept as
+        :meth:`_acceleration_product` keeps them."""
+        nv = self.nv
+        Q = self._configurations(states[:, :nv])
+        V = states[:, nv:]
+        K, C = analytic_derivatives_rows(self.system, Q, V, accelerations, ts)
+        M = np.array([dynamics.mass_matrix(self.model, self.data, q) for q in Q])
+        X = np.linalg.solve(M, np.concatenate([K, C], axis=2))
+        if not np.all(np.isfinite(X)):
+            raise np.linalg.LinAlgError("the mass matrix is singular or not finite at this state")
+        self._terms = ((float(ts[-1]), Q[-1].tobytes(), V[-1].tobytes()), (M[-1], K[-1], C[-1]))
+        J = np.zeros((len(ts), 2 * nv, 2 * nv))
+        J[:, nv:, nv:] = -X[:, :, nv:]
+        self._chart_blocks(J, states, Q, X[:, :, :nv])
+        return J
+
+    def _configurations(self, xi):
+        """The configurations of chart coordinates (rows)."""
+        return np.array(xi)
+
+    def _chart_blocks(self, J, states, Q, MinvK):
+        """J's configuration blocks at each row: ∂ξ̇/∂v = 1, ∂v̇/∂ξ = −M⁻¹K (a vector space)."""
+        nv = self.nv
+        J[:, :nv, nv:] = np.eye(nv)
+        J[:, nv:, :nv] = -MinvK
+
+    def _acceleration_product(self, q, v, t, a, Zq, Yv):
+        """−M⁻¹(K Zq + C Yv): the accelerations' rows of J Y (Zq: the configuration rows in the tree's tangent
+        space). (M, K, C) of the last state are kept: a chart's re-centring asks for them again at the state the
+        step's last stage evaluated (the same q, v and t: the same terms)."""
+        key = (t, q.tobytes(), v.tobytes())
+        if key == self._terms[0]:
+            M, K, C = self._terms[1]
+        else:
+            M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0])
+            self.differenced = self.differenced or self.ws.differenced
+            self._terms = (key, (M, K, C))
+        return solve_mass(M, -(K @ Zq + C @ Yv))
 
     def _minv_kc(self, q, v, t, a=None):
         M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0])
@@ -213,9 +244,7 @@ class ChartODE(VectorODE):
 
     def jacobian(self, t, y, a=None):
         """As :meth:`VectorODE.jacobian`, mapped to the chart: ∂v̇/∂ξ = −M⁻¹K dIntegrate(ξ), ∂ξ̇/∂v =
-        dexp⁻¹(ξ), and the chart's own term ∂(dexp⁻¹(ξ) v)/∂ξ: in closed form for ball joints
-        (:func:`so3_chart_term`), by fourth-order differences on the columns of free and planar joints (zero on
-        the others)."""
+        dexp⁻¹(ξ), and the chart's own term ∂(dexp⁻¹(ξ) v)/∂ξ (:meth:`chart_term`)."""
         nv, model, c = self.nv, self.model, self.centre
         xi, v = y[:nv], y[nv:2 * nv].copy()
         q = self.configuration(y)
@@ -224,6 +253,39 @@ class ChartODE(VectorODE):
         J[:nv, nv:2 * nv] = pin.dDifference(model, c, q, ARG1)
         J[nv:2 * nv, :nv] = -MinvK @ pin.dIntegrate(model, c, xi, ARG1)
         J[nv:2 * nv, nv:2 * nv] = -MinvC
+        J[:nv, :nv] = self.chart_term(xi, v)
+        return J
+
+    def jacobian_product(self, t, y, Y, a=None):
+        if not self._blocks:
+            return self.jacobian(t, y, a)[:2 * self.nv, :2 * self.nv] @ Y
+        nv, model, c = self.nv, self.model, self.centre
+        xi, v = y[:nv], y[nv:2 * nv]
+        q = pin.integrate(model, c, xi)
+        Yq, Yv = Y[:nv], Y[nv:]
+        out = np.empty_like(Y)
+        out[:nv] = pin.dDifference(model, c, q, ARG1) @ Yv + self.chart_term(xi, v) @ Yq
+        out[nv:] = self._acceleration_product(q, v, t, a, pin.dIntegrate(model, c, xi, ARG1) @ Yq, Yv)
+        return out
+
+    def _configurations(self, xi):
+        model, c = self.model, self.centre
+        return np.array([pin.integrate(model, c, x) for x in xi])
+
+    def _chart_blocks(self, J, states, Q, MinvK):
+        """J's configuration blocks at each row in the chart: dexp⁻¹(ξ), the chart's own term, −M⁻¹K dIntegrate(ξ)."""
+        nv, model, c = self.nv, self.model, self.centre
+        for Jr, y, q, X in zip(J, states, Q, MinvK):
+            xi = y[:nv]
+            Jr[:nv, nv:] = pin.dDifference(model, c, q, ARG1)
+            Jr[:nv, :nv] = self.chart_term(xi, y[nv:])
+            Jr[nv:, :nv] = -X @ pin.dIntegrate(model, c, xi, ARG1)
+
+    def chart_term(self, xi, v):
+        """∂(dexp⁻¹(ξ) v)/∂ξ (nv × nv, 1/s): in closed form for ball joints (:func:`so3_chart_term`), by
+        fourth-order differences on the columns of free and planar joints (zero on the others)."""
+        nv, model, c = self.nv, self.model, self.centre
+        J = np.zeros((nv, nv))
         # fourth-order differences of a step 1e-3 (rad or m): truncation ~1e-14 and round-off ~1e-13 relative (a
         # plain central difference of 1e-7 leaves round-off of 1e-9, which the variational step control sees)
         eps = 1e-3
@@ -284,7 +346,7 @@ class Variational:
         out[:m] = f[:m]
         out[m + m * m:] = f[m:]
         # (the base's accelerations just evaluated at this state: the Jacobian need not evaluate them again)
-        out[m:m + m * m] = (self.base.jacobian(t, base, f[self.nv:m])[:m, :m] @ Y).ravel()
+        out[m:m + m * m] = self.base.jacobian_product(t, base, Y, f[self.nv:m]).ravel()
 
     def initial(self, q0, v0, w0=0.0):
         b = self.base.initial(q0, v0, w0)
@@ -315,9 +377,10 @@ class Variational:
         if self.curved:
             Y[:nv] = pin.dIntegrate(self.base.model, self.base.centre, y[:nv], ARG1) @ Y[:nv]
         self.base.recentre(y, None if f is None else f, t)
-        if f is not None:
+        # (a vector space's trivial re-centring changes neither y nor Y: f's Y part, J Y at y, stands)
+        if f is not None and (self.curved or type(self.base).recentre is not VectorODE.recentre):
             base, Y = self._split(y)
-            f[m:m + m * m] = (self.base.jacobian(self._t if t is None else t, base)[:m, :m] @ Y).ravel()
+            f[m:m + m * m] = self.base.jacobian_product(self._t if t is None else t, base, Y).ravel()
 
     def frozen(self):
         c = object.__new__(Variational)

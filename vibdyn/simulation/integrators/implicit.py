@@ -61,7 +61,7 @@ class Implicit(ODEStepper):
     def nlu(self, value):
         pass
 
-    def step(self, next_output=None):
+    def _step_impl(self, next_output=None):
         s = self.solver
         try:
             message = s.step()
@@ -75,15 +75,20 @@ class Implicit(ODEStepper):
             raise StepError(f"{self.cls.__name__}: the state is not finite")
         self.accepted += 1
         self.t, self.y = s.t, s.y
-        self.dense = (Interpolant(s.dense_output(), self.ode.frozen())
-                      if next_output is not None and next_output < s.t else None)
+        self._last = (s, self.ode)  # (the step's dense output made on demand: scipy's until its next step)
+        self.dense = self._interpolant() if next_output is not None and next_output < s.t else None
         # re-centre a chart whose rotations grew, and put a mechanism with loops back on its loops once its
         # drift reaches the local tolerance (the solver restarts from the projected state)
         if s.status == "running" and (self.ode.extent(s.y) > RECENTRE or self.ode.drift(s.y) > self.rtol):
+            self._last = (s, self.ode.frozen())  # (the step's chart, before it moves)
             y = s.y.copy()
             self.ode.recentre(y)
             self.restarts += 1
             self._start(s.t, y, min(s.step_size, self.t_end - s.t))
+
+    def _interpolant(self):
+        solver, chart = self._last
+        return Interpolant(solver.dense_output(), chart.frozen() if chart is self.ode else chart)
 
 
 class Radau(Implicit):

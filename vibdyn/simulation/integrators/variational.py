@@ -137,7 +137,7 @@ class Variational(Stepper):
         self.nlu += 1
         self._W = (np.linalg.inv(-(M / h + 0.25 * h * K + 0.5 * C)), h)
 
-    def step_to(self, t_new):
+    def _step_impl(self, t_new):
         h = t_new - self.t
         t_mid = self.t + 0.5 * h
         a = dynamics.accelerations(self.system, self.ws, self.q, self.v, self.t)

@@ -1,0 +1,109 @@
+"""The time layer's lean entry for analyses: :class:`Flow`, the motion of one system from any state, its
+settings checked once.
+
+Shooting, Floquet multipliers and backbones integrate the same equations hundreds of times (one run per node,
+per Newton iteration, per continuation step). :func:`vibdyn.simulation.simulate.simulate` checks its input
+and computes the energies at every output on each call; a :class:`Flow` is made (and its method, tolerances
+and options checked) once per analysis, then called with a state and a time span: the same stepper, the same
+error estimate (the steps' summed local errors, or a rerun at tolerances / 100) and, with ``variational``, the
+same state transition and its error, without the per-call checks and energies. ``simulate`` is a thin driver
+over the same pieces (:func:`vibdyn.simulation.simulate.flow_pieces`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ..errors import ModelError
+
+from .simulate import SimulationError, flow_pieces
+
+_settings, _solve, _finish, _t_reached = flow_pieces()
+
+__all__ = ["Flow", "FlowResult"]
+
+
+@dataclass(frozen=True, eq=False)
+class FlowResult:
+    """One flow: output times ``t`` (s), configurations ``q`` (n × nq) and velocities ``v`` (n × nv) there, their
+    estimated errors ``q_error`` and ``v_error`` per output (tangent space: m or rad, m/s or rad/s), with
+    ``variational`` the ``state_transition`` ∂(q, v)(t_end)/∂(q0, v0) (2nv × 2nv, tangent spaces) and its
+    ``state_transition_error``; ``error_method`` (how the errors were estimated: "local", "rerun", "richardson",
+    or "none"); ``nfev``, ``accepted``, ``rejected`` (the main run's) and ``elapsed`` (s)."""
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    q_error: np.ndarray
+    v_error: np.ndarray
+    state_transition: np.ndarray | None
+    state_transition_error: float | None
+    error_method: str
+    nfev: int
+    accepted: int
+    rejected: int | None
+    elapsed: float
+
+    @property
+    def error(self) -> float:
+        """Largest estimated configuration error over the outputs (m or rad)."""
+        return float(self.q_error.max()) if len(self.t) else 0.0
+
+    @property
+    def velocity_error(self) -> float:
+        """Largest estimated velocity error over the outputs (m/s or rad/s)."""
+        return float(self.v_error.max()) if len(self.t) else 0.0
+
+
+class Flow:
+    """The motion of ``system`` by ``method`` at ``rtol``/``atol`` (as :func:`~vibdyn.simulation.simulate.simulate`
+    takes them, checked here once: ModelError for bad ones), ``error_method`` ("local" by default: the summed
+    local errors; "rerun" a second run at tolerances / 100), ``max_step`` (s) and ``variational`` (the state
+    transition). Call it with a state the caller made — (q0, v0) at ``t0`` (s; driven entries at their laws'
+    values, on the loops of a mechanism: not checked again; ``q0``, ``v0`` of the constructor: a state of the same
+    kind, checked as simulate checks its start, default neutral) — and the end time ``t1`` (s): a :class:`FlowResult`
+    (``trajectory=True``: a full :class:`~vibdyn.simulation.trajectory.Trajectory`, energies included).
+    ``t_eval``, ``error_method`` and ``max_step`` may be changed per call. A run that cannot go on raises
+    SimulationError; Ctrl-C is raised again (an analysis has no use for a part of a flow)."""
+
+    def __init__(self, system, q0=None, v0=None, *, method="dop853", rtol: float = 1e-8, atol=None,
+                 error_method: str = "local", max_step: float | None = None, variational: bool = False):
+        self.system = system
+        self.settings = _settings(system, 1.0, q0, v0, method, rtol, atol, None, None, error_method, max_step, False,
+                                  variational=variational)
+        self._errors = self.settings.stepper.error_methods
+
+    def __call__(self, q0, v0, t0: float, t1: float, *, t_eval=None, error_method: str | None = None,
+                 max_step: float | None = None, trajectory: bool = False):
+        start = time.perf_counter()
+        cfg = self.settings
+        changes: dict[str, Any] = {}
+        if error_method is not None and error_method != cfg.error:
+            if error_method not in self._errors:
+                raise ModelError(f"flow: error estimate {error_method!r} is not available for method "
+                                 f"'{cfg.method}' (use {' or '.join(map(repr, self._errors))})")
+            changes["error"] = error_method
+        if max_step is not None:
+            changes["max_step"] = float(max_step)
+        cfg = replace(cfg, q0=np.array(q0, dtype=float), v0=np.array(v0, dtype=float), t0=float(t0),
+                      t_end=float(t1), t_eval=None if t_eval is None else np.asarray(t_eval, dtype=float), **changes)
+        solved = _solve(self.system, cfg)
+        main = solved.main
+        if main.status == "interrupted":
+            raise KeyboardInterrupt
+        if trajectory:
+            return _finish(self.system, cfg, solved, start)
+        if main.status == "failed":
+            t = _t_reached(main)
+            raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}", None,
+                                  t) from main.failure
+        n = len(main.t)
+        nfev, _, _, accepted, rejected = main.stepper.counters
+        return FlowResult(np.array(main.t, dtype=float), np.array(main.q).reshape(n, self.system.nq),
+                          np.array(main.v).reshape(n, self.system.nv), np.asarray(solved.q_err, dtype=float),
+                          np.asarray(solved.v_err, dtype=float), solved.transition, solved.transition_error,
+                          solved.error_method, nfev, accepted, rejected, time.perf_counter() - start)
