@@ -137,7 +137,7 @@ def stage_cost(system, rounds=5):
                 return flow(q, v, 0.0, 1.0)
         except ImportError:  # (the code before the Flow)
             def run():
-                return vd.simulate(system, 1.0, q, v, rtol=1e-9, error="local", variational=variational)
+                return vd.simulate(system, 1.0, q, v, rtol=1e-9, error_method="local", variational=variational)
         best = math.inf
         for _ in range(rounds):
             t = time.perf_counter()

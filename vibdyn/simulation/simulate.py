@@ -45,6 +45,7 @@ import sys
 import time
 import warnings
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -70,7 +71,7 @@ SINGULAR_NOTE = 1e-4  # a failed run of a mechanism whose loops are this near a 
 _ERROR_METHOD = RenamedKeyword("simulate", "error", "error_method")
 
 
-def simulate(system, t_end: float, q0=None, v0=None, method: str | type = "dop853", rtol: float = 1e-8, atol=None,
+def simulate(system, t_end: float, q0=None, v0=None, method: Any = "dop853", rtol: float = 1e-8, atol=None,
              dt: float | None = None, t_eval=None, *, error_method: str | None = None, max_step: float | None = None,
              progress: bool | None = None, t0: float = 0.0, events=None, variational: bool = False,
              error: str | None = None) -> Trajectory:
