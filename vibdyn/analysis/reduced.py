@@ -208,17 +208,21 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
         G, T = tangent_derivative(system, R.constraint_force(lam), q0, h, estimate=True)
         tree = replace(tree, K=tree.K - G, K_error=tree.K_error + fd_error(G, T, terms, h))
         evaluations += 4 * system.nv + 1
-    M_r = N.T @ tree.M @ N
-    M_r = 0.5 * (M_r + M_r.T)
-    if R.curved and moving:
-        K_r, C_r, K_err, C_err = moving_terms(system, R, q0, v0, t0, ind, h, aN.T @ terms)
-        evaluations += 8 * ind.size
+    if not R.curved:  # N: columns of the identity, the free block itself
+        ii = np.ix_(ind, ind)
+        M_r, C_r, K_r, K_err, C_err = tree.M[ii], tree.C[ii], tree.K[ii], tree.K_error[ii], tree.C_error[ii]
     else:
-        C_r, K_r = N.T @ tree.C @ N, N.T @ tree.K @ N
-        K_err, C_err = aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN
+        M_r = N.T @ tree.M @ N
+        M_r = 0.5 * (M_r + M_r.T)
+        if moving:
+            K_r, C_r, K_err, C_err = moving_terms(system, R, q0, v0, t0, ind, h, aN.T @ terms)
+            evaluations += 8 * ind.size
+        else:
+            C_r, K_r = N.T @ tree.C @ N, N.T @ tree.K @ N
+            K_err, C_err = aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN
     terms_r = None
     if tree.K_error_terms is not None and not R.curved:  # (the held rows dropped: columns of the identity)
-        terms_r = (tree.K_error_terms[0] @ N, tree.K_error_terms[1] @ aN)
+        terms_r = (tree.K_error_terms[0][:, ind], tree.K_error_terms[1][:, ind])
     cls = ConstrainedLinearModel if R.curved else DrivenLinearModel
     return cls(system, q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err, tree.method, time.perf_counter() - start,
                evaluations, terms_r, null_space=N, tree=tree, multipliers=lam if R.curved else None,

@@ -35,9 +35,11 @@ class Reduction:
     def __init__(self, system: Any, loops: Any = None, drives: Any = None, held_speeds: dict | None = None):
         self._system, self._loops, self._drives = system, loops, drives
         self.held_speeds = {int(i): float(s) for i, s in (held_speeds or {}).items()}
-        driven = [] if drives is None else [int(i) for i in drives.index]
-        self.held = np.array(sorted(set(driven) | set(self.held_speeds)), dtype=int)
-        self.free = np.setdiff1d(np.arange(system.nv), self.held)
+        mask = np.zeros(system.nv, dtype=bool)  # (a mask, not set operations: Campbell makes one per speed)
+        if drives is not None:
+            mask[drives.index] = True
+        mask[list(self.held_speeds)] = True
+        self.held, self.free = np.flatnonzero(mask), np.flatnonzero(~mask)
         for a in (self.held, self.free):
             a.flags.writeable = False
         parts = (["loops"] if loops is not None else []) + (["held"] if self.held.size else [])
