@@ -181,7 +181,7 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
     if R.curved or (a is None and hasattr(at, "drive")):
         a0 = R.reference_acceleration(ws, q0, v0, t0, ind)
     elif a is None:
-        a0 = R.accelerations(ws, q0, v0, t0)
+        a0 = R.accelerations(system, ws, q0, v0, t0)
         if not all_finite(a0):
             system.check_mass_matrix(q0, "the operating point")
             raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t0})")

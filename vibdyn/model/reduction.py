@@ -33,16 +33,24 @@ class Reduction:
     coordinates held at a constant speed (not by a drive's law)."""
 
     def __init__(self, system: Any, loops: Any = None, drives: Any = None, held_speeds: dict | None = None):
-        self._system, self._loops, self._drives = system, loops, drives
-        self.held_speeds = {int(i): float(s) for i, s in (held_speeds or {}).items()}
-        mask = np.zeros(system.nv, dtype=bool)  # (a mask, not set operations: Campbell makes one per speed)
-        if drives is not None:
-            mask[drives.index] = True
+        # what it needs of the system, not the system: the System holds its reduction, and a reference back
+        # would be a cycle keeping every System built (and its Pinocchio Data) alive until the garbage collector
+        # runs (a 100-body build took twice as long); methods that compute take the system, as Drives' do
+        self.nv, self.coordinates, self.model = system.nv, tuple(system.coordinates), system.model
+        self._loops, self._drives = loops, drives
+        self._hold(held_speeds or {})
+
+    def _hold(self, held_speeds: dict) -> None:
+        """Set the held coordinates: the drives' and ``held_speeds`` ({index in v: speed})."""
+        self.held_speeds = {int(i): float(s) for i, s in held_speeds.items()}
+        mask = np.zeros(self.nv, dtype=bool)  # (a mask, not set operations: Campbell makes one per speed)
+        if self._drives is not None:
+            mask[self._drives.index] = True
         mask[list(self.held_speeds)] = True
         self.held, self.free = np.flatnonzero(mask), np.flatnonzero(~mask)
         for a in (self.held, self.free):
             a.flags.writeable = False
-        parts = (["loops"] if loops is not None else []) + (["held"] if self.held.size else [])
+        parts = (["loops"] if self._loops is not None else []) + (["held"] if self.held.size else [])
         self.kind = ", ".join(parts) or "tree"
 
     # ------------------------------------------------------------------ what it is
@@ -63,7 +71,7 @@ class Reduction:
 
     @property
     def held_names(self) -> tuple[str, ...]:
-        return tuple(self._system.coordinates[i] for i in self.held)
+        return tuple(self.coordinates[i] for i in self.held)
 
     def describe(self) -> str:
         """What reduces the coordinates, in the user's words (for messages)."""
@@ -73,7 +81,7 @@ class Reduction:
         if self._drives is not None:
             out.append(f"drives {', '.join(self._drives.names)}")
         if self.held_speeds:
-            out.append(f"held speeds of {', '.join(self._system.coordinates[i] for i in self.held_speeds)}")
+            out.append(f"held speeds of {', '.join(self.coordinates[i] for i in self.held_speeds)}")
         return "; ".join(out) or "nothing (a tree)"
 
     def holding(self, speeds: dict) -> Reduction:
@@ -82,9 +90,12 @@ class Reduction:
         driven = set() if self._drives is None else {int(i) for i in self._drives.index}
         for i in speeds:
             if int(i) in driven:
-                raise ModelError(f"coordinate '{self._system.coordinates[int(i)]}' is driven: its speed is its "
+                raise ModelError(f"coordinate '{self.coordinates[int(i)]}' is driven: its speed is its "
                                  "drive's")
-        return Reduction(self._system, self._loops, self._drives, {**self.held_speeds, **speeds})
+        out = object.__new__(Reduction)
+        out.__dict__.update(self.__dict__)
+        out._hold({**self.held_speeds, **speeds})
+        return out
 
     # ------------------------------------------------------------------ states on the reduction
     def impose(self, q, v, t: float) -> tuple[np.ndarray, np.ndarray]:
@@ -154,7 +165,7 @@ class Reduction:
         """(ind, N): the independent coordinates (indices in v) and the basis N (nv × len(ind)) at q, N's rows
         at ``ind`` the identity, zero on the held rows. ``keep``: these independent coordinates (a smooth
         basis along a path) instead of choosing them (loops: QR with column pivoting)."""
-        nv = self._system.nv
+        nv = self.nv
         if self._loops is None:
             ind = self.free if keep is None else np.asarray(keep, dtype=int)
             return ind, np.eye(nv)[:, ind]
@@ -162,7 +173,7 @@ class Reduction:
         if keep is not None:
             return self._loops.partition(J, keep)
         ind, N = self._loops.partition(J)
-        tied = [self._system.coordinates[i] for i in self.held if i not in ind]
+        tied = [self.coordinates[i] for i in self.held if i not in ind]
         if tied:
             raise ModelError(f"{', '.join(tied)} cannot be held on its own: the loops tie it to the other "
                              "coordinates (hold a coordinate the loops leave free)")
@@ -179,14 +190,14 @@ class Reduction:
         import pinocchio as pin
 
         _, N0 = self.independent(q0, ind)
-        q = pin.integrate(self._system.model, q0, N0 @ dz)
+        q = pin.integrate(self.model, q0, N0 @ dz)
         return q if self._loops is None else self._loops.close(q, self.dependent(ind))
 
     def reference_acceleration(self, ws, q, v, t: float, ind) -> np.ndarray:
         """Accelerations (nv) of the reference motion whose independent coordinates do not accelerate: the
         drives' laws' a_d at t on the driven rows, zero on the other held ones and on ``ind``, and what keeps the
         loops closed (Φ_q a + γ = 0) on the dependent ones."""
-        a = np.zeros(self._system.nv)
+        a = np.zeros(self.nv)
         if self._drives is not None:
             a[self._drives.index] = self._drives.values(t)[2]
         if self._loops is not None and np.any(v):
@@ -194,20 +205,20 @@ class Reduction:
             a += c.dependent_solution(c.jacobian(q), -c.bias(q, v), self.dependent(ind))
         return a
 
-    def accelerations(self, ws, q, v, t: float) -> np.ndarray:
-        """dv/dt of the held motion: a_d from the laws, the free rows from the equations of motion (drives;
-        held speeds are not accelerated); unchecked (see :meth:`Drives.accelerations`)."""
+    def accelerations(self, system, ws, q, v, t: float) -> np.ndarray:
+        """dv/dt of ``system``'s held motion in its workspace ``ws``: a_d from the laws, the free rows from the
+        equations of motion (drives; held speeds are not accelerated); unchecked (:meth:`Drives.accelerations`)."""
         if self._drives is None and not self.held_speeds:
-            return dynamics.accelerations(self._system, ws, q, v, t).copy()
+            return dynamics.accelerations(system, ws, q, v, t).copy()
         if self._drives is not None and not self.held_speeds:
-            return self._drives.accelerations(self._system, ws, q, v, t)
+            return self._drives.accelerations(system, ws, q, v, t)
         f = self.free
-        a = np.zeros(self._system.nv)
+        a = np.zeros(self.nv)
         if self._drives is not None:
             a[self._drives.index] = self._drives.values(t)[2]
-        h = dynamics.inverse_dynamics(self._system, ws, q, v, a, t)
+        h = dynamics.inverse_dynamics(system, ws, q, v, a, t)
         if f.size:
-            M = dynamics.mass_matrix(self._system.model, ws.data, q)
+            M = dynamics.mass_matrix(self.model, ws.data, q)
             a[f] = np.linalg.solve(M[np.ix_(f, f)], -h[f])
         return a
 
@@ -234,14 +245,13 @@ class Reduction:
         """{drive name, or coordinate held at a speed: the entry of ``tau`` (nv, N or N·m) there}: the force
         each holder exerts along its coordinate, from the inverse dynamics τ = M a + b + g − Q."""
         out = {} if self._drives is None else self._drives.of(tau)
-        out.update({self._system.coordinates[i]: float(tau[i]) for i in self.held_speeds})
+        out.update({self.coordinates[i]: float(tau[i]) for i in self.held_speeds})
         return out
 
     def refuse(self, name: str, independent) -> ModelError:
         """The error for a coordinate ``name`` that is not one of ``independent`` (names) of a reduced model."""
-        system = self._system
-        if name in system.coordinates:
-            i = system.coordinate_index(name)
+        if name in self.coordinates:
+            i = self.coordinates.index(name)
             if self._drives is not None and i in self._drives.index:
                 k = list(self._drives.index).index(i)
                 return ModelError(f"coordinate '{name}' is driven (drive '{self._drives.names[k]}' prescribes it): "
