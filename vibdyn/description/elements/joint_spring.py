@@ -70,7 +70,7 @@ class _Layer(ForceGroup):
             # SE(2)/SE(3) joints and anisotropic ball springs need the Jacobian of the difference
             if b.nq != b.nv and (not b.joint.isotropic_spring or len(set(e.stiffness)) > 1):
                 # (ball joints' in closed form: see derivatives; planar and free joints' differenced)
-                (balls if b.joint.group == "SO3" else curved).append(len(iv) - b.nv + np.arange(b.nv))
+                (balls if b.joint.lie_group == "SO3" else curved).append(len(iv) - b.nv + np.arange(b.nv))
         self.iv, self.k = np.array(iv), np.array(k)
         self.model = model
         self.vector = all(system.body_info(e.body).nq == system.body_info(e.body).nv for e in elements)
