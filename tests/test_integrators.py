@@ -249,7 +249,7 @@ def test_a_flow_is_simulate_without_its_per_call_checks():
         flow = Flow(SYSTEM, rtol=1e-9, variational=True, error_method=error)
         for t0, t1 in ((0.0, 1.0), (0.5, 3.0)):
             r = flow(Q0, v0, t0, t1)
-            s = vd.simulate(SYSTEM, t1, Q0, v0, t0=t0, rtol=1e-9, variational=True, error=error)
+            s = vd.simulate(SYSTEM, t1, Q0, v0, t0=t0, rtol=1e-9, variational=True, error_method=error)
             assert np.array_equal(r.q[-1], s.q[-1]) and np.array_equal(r.v[-1], s.v[-1])
             assert np.array_equal(r.state_transition, s.state_transition)
             assert r.state_transition_error == s.state_transition_error and r.error == s.error
