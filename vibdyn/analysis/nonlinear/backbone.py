@@ -60,7 +60,7 @@ CONTINUATION_RTOL = 1e-9  # the flows along the branch (each request is solved a
 CONTINUATION_TOL = 1e-8  # and the branch's closing tolerance (scaled)
 REQUEST_WEIGHT = 100.0  # a request's row weighs this much more than the closing rows when it is solved exactly
 MIN_STEP = 1e-4  # steps halved below this (scaled) end the branch: it cannot be followed further
-MAX_STEP = 0.25  # and its largest (the multipliers' angles are followed from point to point)
+MAX_STEP = 1.0  # and its largest (each leg starts with the last one's step, in its own units)
 ARG1 = pin.ArgumentPosition.ARG1
 
 
@@ -455,7 +455,7 @@ class _Follower:
         q0, v0, T = self.state(z)
         lam = self.energy(q0, v0) if self.requested == "energy" else float(z[self.c])
         self.monitor(z, lam, None)
-        out, steps = [], 0
+        out, steps, h, a_last = [], 0, FIRST_STEP, None
         for target in targets:
             if target == lam and out:
                 out.append(out[-1])
@@ -465,9 +465,11 @@ class _Follower:
             shoot = self.shooting(T, False, a)
             fun, jac = self.equations(shoot, max(target, lam))
             xi = self.scales(a)
+            if a_last is not None:  # the last leg's step, in this leg's units
+                h = min(max(h * max(a_last, self.a0) / max(a, self.a0), FIRST_STEP), MAX_STEP)
             self.failure = ""
             try:
-                branch = continuation(fun, z, lam, float(target), step=FIRST_STEP, jacobian=jac,
+                branch = continuation(fun, z, lam, float(target), step=h, jacobian=jac, curved=True,
                                       tol=max(self.tol, CONTINUATION_TOL),
                                       max_steps=max(1, max_steps - steps), max_step=MAX_STEP, min_step=MIN_STEP,
                                       scale=np.concatenate([xi, xi * 2 * math.pi / T, [T], [max(target, lam)]]),
@@ -477,6 +479,7 @@ class _Follower:
                 self.why = self.why or f"the motion could not be integrated further: {e.__cause__ or e}"
                 self.beyond(target, None)
             steps += branch.steps
+            h, a_last = branch.step, a
             for f in branch.folds:
                 q, v, Tf = self.state(f.x)
                 e = self.energy(q, v)
