@@ -55,7 +55,7 @@ from .shooting import RCOND, Shooting, conservative, energy_roundoff
 __all__ = ["Backbone", "Resonance", "backbone"]
 START_SHIFT = 1e-2  # the linear start: its potential departs from the linear mode's quadratic by at most this share
 MAX_PERIOD_GROWTH = 50.0  # the branch stops where T exceeds this × the linear period (a separatrix near)
-FIRST_STEP = 0.05  # the continuation's first arclength step (variables scaled by each leg's: see _Follower.run)
+FIRST_STEP = 0.4  # the continuation's first arclength step (variables scaled by each leg's: see _Follower.run)
 CONTINUATION_RTOL = 1e-9  # the flows along the branch (each request is solved again at the caller's rtol)
 CONTINUATION_TOL = 1e-8  # and the branch's closing tolerance (scaled)
 REQUEST_WEIGHT = 100.0  # a request's row weighs this much more than the closing rows when it is solved exactly
