@@ -49,7 +49,7 @@ from ...solvers.continuation import continuation
 from ...solvers.newton import Steps, newton
 from ...solvers.tracking import assign
 from ..equilibrium import static_configuration
-from .periodic import MIN_ENERGY_RATIO, RTOL, STEP_RESOLUTION, TOL, periodic_orbit
+from .periodic import MIN_ENERGY_RATIO, RTOL, STEP_RESOLUTION, TOL, orbit_from
 from .shooting import RCOND, Shooting, conservative, energy_roundoff
 
 __all__ = ["Backbone", "Resonance", "backbone"]
@@ -232,8 +232,8 @@ def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energi
     order = np.argsort(requests, kind="stable")
     solved = follower.run(requests[order], max_steps)
     out: list[Any] = [None] * len(requests)
-    for i, (z, slope) in zip(order, solved):
-        out[i] = follower.request(z, slope, float(requests[i]))
+    for i, (z, slope, runs) in zip(order, solved):
+        out[i] = follower.request(z, slope, float(requests[i]), runs)
     cols = [np.array([o[j] for o in out]) for j in range(6)]
     orbits = tuple(o[6] for o in out)
     if follower.jumps:
@@ -450,7 +450,8 @@ class _Follower:
 
     # ------------------------------------------------------------------ the run
     def run(self, targets, max_steps):
-        """[(z at each target (ascending), dω/dλ there)]; ConvergenceError past the branch's end."""
+        """[(z at each target (ascending), dω/dλ there, the flows from z or None)]; ConvergenceError past the
+        branch's end."""
         z = self.z0
         q0, v0, T = self.state(z)
         lam = self.energy(q0, v0) if self.requested == "energy" else float(z[self.c])
@@ -491,18 +492,19 @@ class _Follower:
                 self.beyond(target, branch)
             if branch.lam.size > 1 and self.last is not None:
                 self.monitor(branch.x[-1], float(branch.lam[-1]), shoot)
-            z, lam = self.exact(branch.x[-1], float(target)), float(target)
+            (z, runs), lam = self.exact(branch.x[-1], float(target)), float(target)
             slope = 0.0
             if branch.lam.size > 1 and branch.lam[-1] != branch.lam[-2]:
                 slope = float((2 * math.pi / branch.x[-1, -1] - 2 * math.pi / branch.x[-2, -1])
                               / (branch.lam[-1] - branch.lam[-2]))
-            out.append((z, slope))
+            out.append((z, slope, runs))
         return out
 
     def exact(self, z, target):
         """The branch point at λ = target solved again with the request's tolerances (tol, rtol), the request's
         row weighted REQUEST_WEIGHT times the closing rows (down to the energy's round-off): the orbit meets the
-        request well within its own closing error."""
+        request well within its own closing error. Returns (z, the flows from z where they are the last ones made,
+        else None)."""
         shoot = self.shooting(self.state(z)[2], True, abs(float(z[self.c])))
         noise = 100 * np.finfo(float).eps * (abs(self.E_eq) + target) / self.tol if self.requested == "energy" else 0
         fun, jac = self.equations(shoot, max(target / REQUEST_WEIGHT, noise))
@@ -514,7 +516,8 @@ class _Follower:
             raise ConvergenceError(f"backbone: the {self.requested} {self.request_text(target)} was reached along "
                                    f"the branch, but its orbit could not be closed to tol = {self.tol:.1e} ({why}): "
                                    "try a looser tol, or a tighter rtol", residual=res.residual, best=res.x)
-        return res.x
+        q0, v0, T = self.state(res.x)
+        return res.x, shoot.cached(shoot.pack([(q0, v0)], T))
 
     def request_unit(self):
         return "J" if self.requested == "energy" else self.unit()
@@ -607,13 +610,15 @@ class _Follower:
         return out
 
     # ------------------------------------------------------------------ a request
-    def request(self, z, slope, target):
+    def request(self, z, slope, target, runs=None):
         """(ω, its error, amplitude, its error, energy, its error, PeriodicOrbit) at the branch point z solved for
         the request ``target`` (J or m/rad): ω's error is that of ω at the request — the orbit's own, plus dω/dλ
-        times how far the orbit's energy or amplitude is from the request (the closing tolerance's share)."""
+        times how far the orbit's energy or amplitude is from the request (the closing tolerance's share).
+        ``runs``: the flows from z at the request's rtol (the exact solve's), the orbit's first run."""
         q0, v0, T = self.state(z)
         name = self.system.coordinates[self.c]
-        orbit = periodic_orbit(self.system, q0, v0, T, phase=name, tol=self.tol, rtol=self.rtol)
+        orbit = orbit_from(self.system, q0, v0, T, phase=name, tol=self.tol, rtol=self.rtol,
+                           first=None if runs is None else runs[0])
         omega = orbit.omega
         err_w = 2 * math.pi * orbit.period_error / orbit.period**2 + 16 * np.finfo(float).eps * omega  # (+ round-off)
         amp, amp_extra = self.amplitude(orbit)
