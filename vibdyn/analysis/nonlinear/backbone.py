@@ -456,7 +456,7 @@ class _Follower:
         q0, v0, T = self.state(z)
         lam = self.energy(q0, v0) if self.requested == "energy" else float(z[self.c])
         self.monitor(z, lam, None)
-        out, steps, h, a_last = [], 0, FIRST_STEP, None
+        out, steps, h, a_last, runs = [], 0, FIRST_STEP, None, None
         for target in targets:
             if target == lam and out:
                 out.append(out[-1])
@@ -464,6 +464,9 @@ class _Follower:
             # each leg's scales: its end's amplitude (or energy) and its start's period, not the scene's size
             T, a = self.state(z)[2], max(abs(float(z[self.c])), self.amplitude_of(target))
             shoot = self.shooting(T, False, a)
+            if runs is not None:  # the last request's flows from z (at its tighter rtol): the leg's start as they are
+                q0, v0, _ = self.state(z)
+                shoot.seed(shoot.pack([(q0, v0)], T), runs)
             fun, jac = self.equations(shoot, max(target, lam))
             xi = self.scales(a)
             if a_last is not None:  # the last leg's step, in this leg's units
