@@ -260,6 +260,8 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
         for g in system.point_groups:
             g.apply(t, Q, V, d.kin, Fq, Fx)
     distrusted = untrusted(system)[0].size != 0
+    batched = [(g, g.joint_rows(Q, V, ts)) for g in system.joint_groups]  # (None: row by row)
+    single = [g for g, rows in batched if rows is None]
     for c in range(B):
         if system.point_groups:
             for j in system.point_joints:
@@ -271,14 +273,20 @@ def analytic_derivatives_rows(system, Q, V, A, t, shift=None):
         if distrusted:
             untrusted_columns(system, ws, Q[c], V[c], A[c], ts[c], None, None, C[c],
                               ws.fext if system.point_groups else None)
-        if system.joint_groups:
+        if single:
             dj = Derivatives(system, ws, Q[c], V[c], A[c], float(ts[c]), False, points=False)
-            for g in system.joint_groups:
+            for g in single:
                 dq, dv = g.derivatives(dj)
                 if dq is not None:
                     K[c] -= dq
                 if dv is not None:
                     C[c] -= dv
+    for _, rows in batched:
+        if rows is not None:
+            if rows[0] is not None:
+                K -= rows[0]
+            if rows[1] is not None:
+                C -= rows[1]
     if system.point_groups:
         for g in system.point_groups:
             g.derivatives_rows(d)

@@ -39,6 +39,12 @@ class ForceGroup:
     # size of its rounding (N); None where the group's forces do not turn world-position round-off into force
     force_rounding = None
 
+    def joint_rows(self, q, v, t):
+        """A joint group's (∂Q/∂q, ∂Q/∂v) at many states at once — rows of q (B × nq) and v (B × nv), t (s, or B
+        of them) — each B × nv × nv or None for zero; None where the group has them one state at a time only
+        (:meth:`derivatives`)."""
+        return None
+
     def derivatives(self, d):
         """Analytic derivatives (see :mod:`vibdyn.model.derivatives`, whose ``d`` gives the point Jacobians,
         force accumulators and finite differences of user callables): a point group adds its forces'

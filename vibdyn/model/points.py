@@ -4,6 +4,8 @@ them (:class:`PointSet` and :class:`ScatteredPoints`, chosen by :func:`point_set
 kind here: the kinds (:mod:`vibdyn.description.elements`) use them.
 """
 
+import math
+
 import numpy as np
 import pinocchio as pin
 
@@ -31,19 +33,20 @@ def so3_chart_term(xi, v):
     (Pinocchio's Jlog3 of exp3(ξ)), c(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ), θ = |ξ|, ξ (rad) and v (rad/s) the
     joint's chart and velocity. Pinocchio's Hlog3 is not finite at ξ = 0, where every step's chart starts:
     c and c′(θ)/θ are taken from their series there."""
-    t2 = float(xi @ xi)
+    # f = v + ½ ξ × v + c (ξ (ξ·v) − θ² v): ∂f/∂ξ = −½[v]× + c((ξ·v) I + ξ vᵀ − 2 v ξᵀ) + (ξ (ξ·v) − θ² v) c′/θ ξᵀ,
+    # entry by entry in floats, with math's functions (a 3 × 3 of small numpy operations, or numpy's sin and cos
+    # of a float, cost several times more, twice per stage: the chart's and a ball spring's)
+    x0, x1, x2 = xi.tolist()
+    v0, v1, v2 = v.tolist()
+    t2 = x0 * x0 + x1 * x1 + x2 * x2
     if t2 < SERIES_BELOW ** 2:
         c = 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
         d = 1 / 360 + t2 * (1 / 7560 + t2 * (1 / 201600 + t2 * (1 / 5987520 + t2 / 189243758)))
     else:
-        t = t2 ** 0.5
-        sin, cos = np.sin(t), np.cos(t)
+        t = math.sqrt(t2)
+        sin, cos = math.sin(t), math.cos(t)
         c = 1 / t2 - (1 + cos) / (2 * t * sin)
         d = -2 / (t2 * t2) + (t * sin * sin + (1 + cos) * (sin + t * cos)) / (2 * t2 * t * sin * sin)
-    # f = v + ½ ξ × v + c (ξ (ξ·v) − θ² v): ∂f/∂ξ = −½[v]× + c((ξ·v) I + ξ vᵀ − 2 v ξᵀ) + (ξ (ξ·v) − θ² v) c′/θ ξᵀ,
-    # entry by entry in floats (a 3 × 3 of small numpy operations cost four times more, once per stage)
-    x0, x1, x2 = xi.tolist()
-    v0, v1, v2 = v.tolist()
     xv = x0 * v0 + x1 * v1 + x2 * v2
     a0, a1, a2 = c * x0, c * x1, c * x2
     k, e = d * xv, d * t2 + 2 * c

@@ -48,15 +48,19 @@ class Branch:
     elapsed: float = 0.0
     residual: float = 0.0
     reason: str = "finished"
+    step: float = 0.0  # the arclength step (scaled) the branch would have taken next: where a following one starts
 
 
+CLOSE = 0.01  # (``curved``) a correction within this × the step from the predictor doubles the next step
+HARD = 5  # and one of this many iterations or more halves it (else ×1.5 after an easy correction)
 FLOOR_FACTOR = 10.0  # a corrector failing with ‖F‖ within this factor of tol has met F's own error floor
 
 
 def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, step: float = 0.05,
                  jacobian: Callable | None = None, tol: float = 1e-10, max_steps: int = 2000,
                  min_step: float = 1e-9, max_step: float | None = None, scale: np.ndarray | None = None,
-                 stop: Callable | None = None, chord: float | None = None, parameter: str = "λ") -> Branch:
+                 stop: Callable | None = None, chord: float | None = None, parameter: str = "λ",
+                 curved: bool = False) -> Branch:
     """Follow the branch of F(x, λ) = 0 from (x0, lam0) (x0 corrected first at λ = lam0) towards λ = lam_end.
 
     ``fun(x, lam)`` → ℝᵐ, m ≥ n (m > n: a consistent system with redundant rows, solved in least squares, as
@@ -73,7 +77,10 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     Jacobian and keeps it while each step cuts the residual ``chord`` times (:func:`.newton`): one Jacobian per
     point where the branch is smooth (for Jacobians dearer than residuals). A predictor where F is not finite
     (outside its domain) is a failed correction: the step is halved. ``parameter``: λ's name in the messages,
-    with its unit (e.g. "Ω (rad/s)")."""
+    with its unit (e.g. "Ω (rad/s)"). ``curved``: the predictor follows the branch's curvature too (from the change
+    of the tangent over the last step: y + h t + h²κ/2; along the tangent alone after a failed correction), the
+    step doubles after a correction of at most 2 iterations that moved less than ``CLOSE`` × h from the predictor
+    and halves after one of ``HARD`` iterations or more: fewer, longer steps where the branch is smooth."""
     start = time.perf_counter()
     x0 = np.asarray(x0, dtype=float)
     n = x0.size
@@ -107,6 +114,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     reason = "finished"
     residual = first.residual
     recent: list[bool] = []  # the last corrections: True for a failure at the residual's floor
+    bend = np.zeros(n + 1)  # the branch's curvature d²y/ds² from the last step (``curved``)
     while True:
         if steps >= max_steps:
             status, message, reason = "stopped", f"{max_steps} steps taken before {parameter} = {lam_end:g}", \
@@ -115,7 +123,8 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         reach = (lam_end / w[n] - y[n]) / t[n] if t[n] != 0 else np.inf
         if 0 < reach <= h and abs(t[n]) > 0.5:
             # lam_end within this step, the branch steep in λ (no fold near): solve there from the predictor
-            end = newton(lambda x: F(np.append(x, lam_end / w[n])), y[:n] + reach * t[:n],
+            guess = y[:n] + reach * t[:n] + (0.5 * reach * reach) * bend[:n]
+            end = newton(lambda x: F(np.append(x, lam_end / w[n])), guess,
                          lambda x: J(np.append(x, lam_end / w[n]))[:, :n], tol=tol, max_iter=8)
             if end.converged:
                 y_end = np.append(end.x, lam_end / w[n])
@@ -127,7 +136,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
                     steps += 1
                     y, t = y_end, t_end
                     break
-        yp = y + h * t
+        yp = y + h * t + (0.5 * h * h) * bend
         corr = newton(lambda z: np.append(F(z), t @ (z - yp)), yp, lambda z: np.vstack([J(z), t]), tol=tol,
                       max_iter=8 if chord is None else 12, chord=chord,
                       start=(None, None if chord is None else np.vstack([Jy, t])))
@@ -144,6 +153,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         if not corr.converged:
             h *= 0.5
             rejected += 1
+            bend[:] = 0.0  # (retried along the tangent alone: the curvature is an estimate from the last step)
             if h < min_step:
                 status, reason = "failed", "step"
                 message = (f"the corrector could not go on at {parameter} = {y[n] * w[n]:.10g}: a branch point, or "
@@ -165,17 +175,24 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         ys.append(y_new.copy())
         ss.append(ss[-1] + float(np.linalg.norm(y_new - y)))
         residual = max(residual, corr.residual)
+        if curved:
+            bend = (t_new - t) / max(ss[-1] - ss[-2], 1e-300)
         y, t, Jy = y_new, t_new, Jy_new
         if crossed:
             break
         if stop is not None and stop(y[:n] * w[:n], y[n] * w[n]):
             status, message, reason = "stopped", f"stopped on request at {parameter} = {y[n] * w[n]:.10g}", "stop"
             break
-        if corr.iterations <= 3 if chord is None else corr.jacobians <= 1 and corr.iterations <= 6:
+        if curved and chord is None and corr.iterations <= 2 and float(np.linalg.norm(y_new - yp)) <= CLOSE * h:
+            # (a predictor that lands this close: its error falls as h³, not h²)
+            h = min(2.0 * h, max_step)
+        elif corr.iterations <= 3 if chord is None else corr.jacobians <= 1 and corr.iterations <= 6:
             h = min(1.5 * h, max_step)
+        elif curved and chord is None and corr.iterations >= HARD:  # (its long steps: shortened where it turns)
+            h *= 0.5
     Y = np.array(ys)
     return Branch(Y[:, :n] * w[:n], Y[:, n] * w[n], np.array(ss), folds, status, message, steps, rejected,
-                  time.perf_counter() - start, residual, reason)
+                  time.perf_counter() - start, residual, reason, h)
 
 
 def _tangent(Jy, previous, lam_sign):

@@ -49,18 +49,18 @@ from ...solvers.continuation import continuation
 from ...solvers.newton import Steps, newton
 from ...solvers.tracking import assign
 from ..equilibrium import static_configuration
-from .periodic import MIN_ENERGY_RATIO, RTOL, STEP_RESOLUTION, TOL, periodic_orbit
+from .periodic import MIN_ENERGY_RATIO, RTOL, STEP_RESOLUTION, TOL, orbit_from
 from .shooting import RCOND, Shooting, conservative, energy_roundoff
 
 __all__ = ["Backbone", "Resonance", "backbone"]
 START_SHIFT = 1e-2  # the linear start: its potential departs from the linear mode's quadratic by at most this share
 MAX_PERIOD_GROWTH = 50.0  # the branch stops where T exceeds this × the linear period (a separatrix near)
-FIRST_STEP = 0.05  # the continuation's first arclength step (variables scaled by each leg's: see _Follower.run)
+FIRST_STEP = 0.4  # the continuation's first arclength step (variables scaled by each leg's: see _Follower.run)
 CONTINUATION_RTOL = 1e-9  # the flows along the branch (each request is solved again at the caller's rtol)
 CONTINUATION_TOL = 1e-8  # and the branch's closing tolerance (scaled)
 REQUEST_WEIGHT = 100.0  # a request's row weighs this much more than the closing rows when it is solved exactly
 MIN_STEP = 1e-4  # steps halved below this (scaled) end the branch: it cannot be followed further
-MAX_STEP = 0.25  # and its largest (the multipliers' angles are followed from point to point)
+MAX_STEP = 1.0  # and its largest (each leg starts with the last one's step, in its own units)
 ARG1 = pin.ArgumentPosition.ARG1
 
 
@@ -232,8 +232,8 @@ def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energi
     order = np.argsort(requests, kind="stable")
     solved = follower.run(requests[order], max_steps)
     out: list[Any] = [None] * len(requests)
-    for i, (z, slope) in zip(order, solved):
-        out[i] = follower.request(z, slope, float(requests[i]))
+    for i, (z, slope, runs) in zip(order, solved):
+        out[i] = follower.request(z, slope, float(requests[i]), runs)
     cols = [np.array([o[j] for o in out]) for j in range(6)]
     orbits = tuple(o[6] for o in out)
     if follower.jumps:
@@ -450,12 +450,13 @@ class _Follower:
 
     # ------------------------------------------------------------------ the run
     def run(self, targets, max_steps):
-        """[(z at each target (ascending), dω/dλ there)]; ConvergenceError past the branch's end."""
+        """[(z at each target (ascending), dω/dλ there, the flows from z or None)]; ConvergenceError past the
+        branch's end."""
         z = self.z0
         q0, v0, T = self.state(z)
         lam = self.energy(q0, v0) if self.requested == "energy" else float(z[self.c])
         self.monitor(z, lam, None)
-        out, steps = [], 0
+        out, steps, h, a_last, runs = [], 0, FIRST_STEP, None, None
         for target in targets:
             if target == lam and out:
                 out.append(out[-1])
@@ -463,11 +464,16 @@ class _Follower:
             # each leg's scales: its end's amplitude (or energy) and its start's period, not the scene's size
             T, a = self.state(z)[2], max(abs(float(z[self.c])), self.amplitude_of(target))
             shoot = self.shooting(T, False, a)
+            if runs is not None:  # the last request's flows from z (at its tighter rtol): the leg's start as they are
+                q0, v0, _ = self.state(z)
+                shoot.seed(shoot.pack([(q0, v0)], T), runs)
             fun, jac = self.equations(shoot, max(target, lam))
             xi = self.scales(a)
+            if a_last is not None:  # the last leg's step, in this leg's units
+                h = min(max(h * max(a_last, self.a0) / max(a, self.a0), FIRST_STEP), MAX_STEP)
             self.failure = ""
             try:
-                branch = continuation(fun, z, lam, float(target), step=FIRST_STEP, jacobian=jac,
+                branch = continuation(fun, z, lam, float(target), step=h, jacobian=jac, curved=True,
                                       tol=max(self.tol, CONTINUATION_TOL),
                                       max_steps=max(1, max_steps - steps), max_step=MAX_STEP, min_step=MIN_STEP,
                                       scale=np.concatenate([xi, xi * 2 * math.pi / T, [T], [max(target, lam)]]),
@@ -477,6 +483,7 @@ class _Follower:
                 self.why = self.why or f"the motion could not be integrated further: {e.__cause__ or e}"
                 self.beyond(target, None)
             steps += branch.steps
+            h, a_last = branch.step, a
             for f in branch.folds:
                 q, v, Tf = self.state(f.x)
                 e = self.energy(q, v)
@@ -488,18 +495,19 @@ class _Follower:
                 self.beyond(target, branch)
             if branch.lam.size > 1 and self.last is not None:
                 self.monitor(branch.x[-1], float(branch.lam[-1]), shoot)
-            z, lam = self.exact(branch.x[-1], float(target)), float(target)
+            (z, runs), lam = self.exact(branch.x[-1], float(target)), float(target)
             slope = 0.0
             if branch.lam.size > 1 and branch.lam[-1] != branch.lam[-2]:
                 slope = float((2 * math.pi / branch.x[-1, -1] - 2 * math.pi / branch.x[-2, -1])
                               / (branch.lam[-1] - branch.lam[-2]))
-            out.append((z, slope))
+            out.append((z, slope, runs))
         return out
 
     def exact(self, z, target):
         """The branch point at λ = target solved again with the request's tolerances (tol, rtol), the request's
         row weighted REQUEST_WEIGHT times the closing rows (down to the energy's round-off): the orbit meets the
-        request well within its own closing error."""
+        request well within its own closing error. Returns (z, the flows from z where they are the last ones made,
+        else None)."""
         shoot = self.shooting(self.state(z)[2], True, abs(float(z[self.c])))
         noise = 100 * np.finfo(float).eps * (abs(self.E_eq) + target) / self.tol if self.requested == "energy" else 0
         fun, jac = self.equations(shoot, max(target / REQUEST_WEIGHT, noise))
@@ -511,7 +519,8 @@ class _Follower:
             raise ConvergenceError(f"backbone: the {self.requested} {self.request_text(target)} was reached along "
                                    f"the branch, but its orbit could not be closed to tol = {self.tol:.1e} ({why}): "
                                    "try a looser tol, or a tighter rtol", residual=res.residual, best=res.x)
-        return res.x
+        q0, v0, T = self.state(res.x)
+        return res.x, shoot.cached(shoot.pack([(q0, v0)], T))
 
     def request_unit(self):
         return "J" if self.requested == "energy" else self.unit()
@@ -604,13 +613,15 @@ class _Follower:
         return out
 
     # ------------------------------------------------------------------ a request
-    def request(self, z, slope, target):
+    def request(self, z, slope, target, runs=None):
         """(ω, its error, amplitude, its error, energy, its error, PeriodicOrbit) at the branch point z solved for
         the request ``target`` (J or m/rad): ω's error is that of ω at the request — the orbit's own, plus dω/dλ
-        times how far the orbit's energy or amplitude is from the request (the closing tolerance's share)."""
+        times how far the orbit's energy or amplitude is from the request (the closing tolerance's share).
+        ``runs``: the flows from z at the request's rtol (the exact solve's), the orbit's first run."""
         q0, v0, T = self.state(z)
         name = self.system.coordinates[self.c]
-        orbit = periodic_orbit(self.system, q0, v0, T, phase=name, tol=self.tol, rtol=self.rtol)
+        orbit = orbit_from(self.system, q0, v0, T, phase=name, tol=self.tol, rtol=self.rtol,
+                           first=None if runs is None else runs[0])
         omega = orbit.omega
         err_w = 2 * math.pi * orbit.period_error / orbit.period**2 + 16 * np.finfo(float).eps * omega  # (+ round-off)
         amp, amp_extra = self.amplitude(orbit)

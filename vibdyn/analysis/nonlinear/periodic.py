@@ -207,6 +207,16 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
     Raises ModelError for bad input (a period ≤ 0 or not finite, a scene with loops, ...), ConvergenceError
     (with the residual reached and what to try) when the orbit is not found.
     """
+    return orbit_from(system, q0, v0, period, t0, segments=segments, phase=phase, tol=tol, rtol=rtol,
+                      max_iter=max_iter, points=points)
+
+
+def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None, t0: float = 0.0, *,
+               segments: int | None = None, phase: str | None = None, tol: float = TOL, rtol: float = RTOL,
+               max_iter: int = 20, points: int = POINTS, first: Any = None) -> PeriodicOrbit:
+    """:func:`periodic_orbit`, with ``first`` a flow over one period from (q0, v0) with the variational equations at
+    ``rtol`` that the caller made already (a backbone's request, solved there: a FlowResult of every step), taken
+    as the first run instead of integrating it again (None: integrated here)."""
     start = time.perf_counter()
     what = "periodic_orbit"
     if system.reduction.curved:
@@ -255,16 +265,20 @@ def periodic_orbit(system: Any, q0: Any = None, v0: ArrayLike | None = None, per
     k = len(nodes)
     omega_v = max(_omega_guess(system, q_start, v_start, t0, free), 2 * math.pi / period)
     max_step = STEP_RESOLUTION / omega_v
-    trial = Shooting(system, t0, period * (1 if k == 1 else 1.0 / k), False, 1, omega, rtol, max_step=max_step)
-    try:
-        first = trial.flows(trial.pack([nodes[0]]), full=True)[0]
-    except SimulationError as e:
-        raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "
-                               "start closer to the orbit, or give nodes along it (q0, v0 one row each)",
-                               best=nodes) from e
+    if first is None or k != 1:
+        trial = Shooting(system, t0, period * (1 if k == 1 else 1.0 / k), False, 1, omega, rtol, max_step=max_step)
+        try:
+            first = trial.flows(trial.pack([nodes[0]]), full=True)[0]
+        except SimulationError as e:
+            raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "
+                                   "start closer to the orbit, or give nodes along it (q0, v0 one row each)",
+                                   best=nodes) from e
+        kinetic = float(np.max(first.kinetic))
+    else:
+        kinetic = max(system.energy(q, v, t).kinetic for q, v, t in zip(first.q, first.v, first.t)) if cons else 0.0
     scales = motion_scales(system, first, omega, relative=autonomous)
     phase_spec = _phase(system, q_start, v_start, t0, omega, free, phase, scales, what) if autonomous else None
-    energy = _energy_condition(system, q_start, v_start, t0, first, scales, free, tol, what) if cons else None
+    energy = _energy_condition(system, q_start, v_start, t0, kinetic, scales, free, tol, what) if cons else None
     m = segments if segments is not None else k if k > 1 else growth_segments(first.state_transition)
     shoot = Shooting(system, t0, period, autonomous, m, omega, rtol, phase_spec, energy, scales, max_step)
     if m > 1 and k == 1:  # nodes along a first run from the start
@@ -375,13 +389,13 @@ def _phase(system, q, v, t, omega, free, phase, scales, what):
     return ("flow", np.array(q), np.array(v), u / norm)
 
 
-def _energy_condition(system, q, v, t, first, scales, free, tol, what):
-    """(E_start J, the energy row's scale J) of a conservative orbit: the largest kinetic energy of the first run
-    (the total's own variation across the orbit: gravity and a spring holding it against each other trade far
-    more), or the energy's round-off / tol where that is larger (the row then holds E to its round-off).
+def _energy_condition(system, q, v, t, moving, scales, free, tol, what):
+    """(E_start J, the energy row's scale J) of a conservative orbit: ``moving``, the largest kinetic energy (J) of the
+    first run (the total's own variation across the orbit: gravity and a spring holding it against each other trade
+    far more), or the energy's round-off / tol where that is larger (the row then holds E to its round-off).
     ModelError where the motion's energy is within MIN_ENERGY_RATIO × the round-off: the start is too close to
     rest for its orbit to be told from its neighbours (the amplitude below which this happens is named)."""
-    noise, moving = energy_roundoff(system, q, v, t), float(np.max(first.kinetic))
+    noise = energy_roundoff(system, q, v, t)
     if not moving > MIN_ENERGY_RATIO * noise:
         cs = np.asarray(system.coordinate_scales, dtype=float)[free]
         k = int(np.argmax(np.asarray(scales, dtype=float)[free] / cs))
@@ -484,6 +498,7 @@ def _polish(shoot, x, residual, iterations):
     x2 = shoot.retract(x, np.linalg.lstsq(J, -r, rcond=RCOND)[0])
     r2 = shoot.residual(x2)
     if not np.all(np.isfinite(r2)):
+        shoot.seed(x, before)  # (x's flows are the ones wanted next, not integrated again)
         return x, residual, iterations, 0.0
     after = shoot.flows(x2)
     mono = [_product([P for P, _, _ in shoot.segment_maps(*nr)], [0.0] * shoot.m)[0]
@@ -492,6 +507,7 @@ def _polish(shoot, x, residual, iterations):
     res2 = float(np.abs(r2).max())
     if res2 < float(np.abs(r).max()):
         return x2, res2, iterations + 1, deviation
+    shoot.seed(x, before)
     return x, residual, iterations, deviation
 
 

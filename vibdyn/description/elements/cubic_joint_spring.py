@@ -27,6 +27,7 @@ class CubicJointSprings(ForceGroup):
         self.iv = np.array([system.body_info(e.body).idx_v for e in elements])
         self.k3 = np.array([e.k3[0] for e in elements])
         self.rest = np.array([e.rest[0] for e in elements])
+        self.nv = system.nv
 
     def apply(self, t, q, v, kin, Q, F):
         x = q[self.iq] - self.rest
@@ -41,9 +42,12 @@ class CubicJointSprings(ForceGroup):
         return 0.25 * float(self.k3 @ x**4)
 
     def derivatives(self, d):
-        x = d.q[self.iq] - self.rest
-        dQ = np.zeros((d.system.nv, d.system.nv))
-        np.add.at(dQ, (self.iv, self.iv), -3.0 * self.k3 * x**2)
+        return self.joint_rows(d.q[None, :], None, d.t)[0][0], None
+
+    def joint_rows(self, q, v, t):
+        x = q[:, self.iq] - self.rest
+        dQ = np.zeros((len(q), self.nv, self.nv))
+        np.add.at(dQ, (slice(None), self.iv, self.iv), -3.0 * self.k3 * x**2)
         return dQ, None
 
 

@@ -44,6 +44,14 @@ class JointSprings(ForceGroup):
     def potential(self, q, kin):
         return sum(layer.potential(q, kin) for layer in self.layers)
 
+    def joint_rows(self, q, v, t):
+        if not all(layer.vector for layer in self.layers):  # (balls and other groups: state by state)
+            return None
+        dQ = np.zeros((len(q), self.layers[0].model.nv, self.layers[0].model.nv))
+        for layer in self.layers:  # (vector joints: −k on the diagonal, whatever the state)
+            dQ[:, layer.iv, layer.iv] -= layer.k
+        return dQ, None
+
     def derivatives(self, d):
         dQ = self.layers[0].derivatives(d)[0]
         for layer in self.layers[1:]:
