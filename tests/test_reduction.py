@@ -115,3 +115,13 @@ def test_a_built_tree_is_freed_without_the_garbage_collector():
     finally:
         if enabled:
             gc.enable()
+
+
+def test_held_speed_accelerations_are_the_rotating_frame_closed_form():
+    """Hub held at Ω, slider at rest at r = 0.4 m with its spring at rest: the hub does not accelerate and the
+    slider's acceleration is the centripetal term Ω² r (m/s²); the held path shares the drives' solve."""
+    system = rotor_with_slider()
+    R = system.reduction.holding({0: 3.0})
+    q, v = R.impose(system.neutral(), np.zeros(2), 0.0)
+    a = R.accelerations(system, system.workspace(), q, v, 0.0)
+    assert a[0] == 0.0 and a[1] == pytest.approx(9.0 * 0.4, rel=1e-12)

@@ -196,9 +196,9 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
                              "for the motion's)")
     tree = tree_linearize(system, q0, v=v0, t=t0, a=a0, method=method, step=step)
     evaluations = tree.evaluations
-    lam = np.zeros(0)
-    aN = np.abs(N)
+    lam = None
     if R.curved:
+        aN = np.abs(N)
         r = dynamics.inverse_dynamics(system, ws, q0, v0, a0, t0)
         if multipliers is None:
             multipliers = getattr(at, "multipliers", None)
@@ -225,7 +225,7 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
         terms_r = (tree.K_error_terms[0][:, ind], tree.K_error_terms[1][:, ind])
     cls = ConstrainedLinearModel if R.curved else DrivenLinearModel
     return cls(system, q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err, tree.method, time.perf_counter() - start,
-               evaluations, terms_r, null_space=N, tree=tree, multipliers=lam if R.curved else None,
+               evaluations, terms_r, null_space=N, tree=tree, multipliers=lam,
                rank=R.free.size - ind.size if R.curved else 0,
                independent=tuple(int(i) for i in ind), reduction=R)
 

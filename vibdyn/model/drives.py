@@ -78,17 +78,8 @@ class Drives:
         d, f = self.index, self.free
         a = np.zeros(system.nv)
         a[d] = self.values(t)[2]
-        h = dynamics.inverse_dynamics(system, ws, q, v, a, t)  # M a⁰ + b + g − Q, a⁰ = (a_f = 0, a_d)
-        if not f.size:
-            ws.drive_forces = h[d]
-            return a
-        M = dynamics.mass_matrix(system.model, ws.data, q)
-        from scipy.linalg import lapack  # (on first use: not at `import vibdyn`)
-
-        _, x, info = lapack.dposv(M[np.ix_(f, f)], -h[f])
-        # (not positive definite: the free coordinates have no inertia here; the checks say which)
-        a[f] = x if info == 0 else np.nan
-        ws.drive_forces = h[d] + M[np.ix_(d, f)] @ a[f]
+        a, h, M = dynamics.held_accelerations(system, ws, q, v, t, a, f)
+        ws.drive_forces = h[d] if M is None else h[d] + M[np.ix_(d, f)] @ a[f]
         return a
 
     def forces(self, q, v, t: float = 0.0, a=None) -> dict[str, float]:

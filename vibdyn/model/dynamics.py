@@ -196,6 +196,24 @@ def accelerations(system, ws, q, v, t, applied=None):
     return a
 
 
+def held_accelerations(system, ws, q, v, t, a, free):
+    """(a, h, M): dv/dt at (q, v, t) with the held coordinates' accelerations given in ``a`` (nv; its ``free``
+    entries are filled in place) and the free ones from their rows of the equations of motion,
+    M_ff a_f = −h_f with h = RNEA(q, v, a⁰) − Q at a⁰ = (a_f = 0, the held ones) (Cholesky of M_ff by CRBA, no
+    inverse; NaN where M_ff is not positive definite: the free coordinates have no inertia there, which the
+    callers' checks name). ``h`` and ``M`` (None without free coordinates) give the holders' forces,
+    h_held + M_held,f a_f. Unchecked (the hot path of a driven scene)."""
+    h = inverse_dynamics(system, ws, q, v, a, t)
+    if not free.size:
+        return a, h, None
+    M = mass_matrix(system.model, ws.data, q)
+    from scipy.linalg import lapack  # (on first use: not at `import vibdyn`)
+
+    _, x, info = lapack.dposv(M[np.ix_(free, free)], -h[free])
+    a[free] = x if info == 0 else np.nan
+    return a, h, M
+
+
 def accelerations_function(system, ws, keep=None):
     """``accelerations(system, ws, q, v, t)`` as a function of (q, v, t) made once for this scene (the hot path
     of time integration): a scene with neither drives, loops nor point elements runs ABA on its joint-space

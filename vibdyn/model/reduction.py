@@ -212,15 +212,10 @@ class Reduction:
             return dynamics.accelerations(system, ws, q, v, t).copy()
         if self._drives is not None and not self.held_speeds:
             return self._drives.accelerations(system, ws, q, v, t)
-        f = self.free
         a = np.zeros(self.nv)
         if self._drives is not None:
             a[self._drives.index] = self._drives.values(t)[2]
-        h = dynamics.inverse_dynamics(system, ws, q, v, a, t)
-        if f.size:
-            M = dynamics.mass_matrix(self.model, ws.data, q)
-            a[f] = np.linalg.solve(M[np.ix_(f, f)], -h[f])
-        return a
+        return dynamics.held_accelerations(system, ws, q, v, t, a, self.free)[0]
 
     # ------------------------------------------------------------------ forces of the reduction
     def multipliers(self, q, r) -> np.ndarray:
