@@ -637,22 +637,29 @@ class _Follower:
 
     def amplitude(self, orbit):
         """(max over the orbit of |q_c − q_c,eq|, the error it adds to the orbit's own): at the start (a turning
-        point of c by the phase condition: nothing to add) or at the other turning points (zeros of v_c, located
-        by the simulation's events: that run's global error estimate; the location's own error costs nothing at
-        a turning point, where q_c is stationary)."""
-        c, T = self.c, orbit.period
+        point of c by the phase condition: nothing to add) or at the other turning points (zeros of v_c). Each of
+        those lies between two samples of the orbit's trajectory where v_c changes sign; it is located by a
+        simulation's events over that interval alone, from the first sample (that sample's estimated error, carried
+        over the interval, plus that run's global error estimate; the location's own error costs nothing at a
+        turning point, where q_c is stationary)."""
+        c, T, traj = self.c, orbit.period, orbit.trajectory
         best = abs(float(self.system.difference(self.q_eq, orbit.q0)[c]))
 
         def turning(t, q, v):
             return float(v[c])
 
         scale = self.scales(best)  # (the flow's absolute tolerance from the motion, not from the scene's size)
-        run = simulate(self.system, T, orbit.q0, orbit.v0, rtol=self.rtol, error_method="rerun", events=turning,
-                       atol=self.rtol * np.concatenate([scale, scale * orbit.omega]))
-        extra = 0.0
-        for t, q in zip(run.t_events[0], run.q_events[0]):
-            if 1e-6 * T < t < (1 - 1e-6) * T:
-                a = abs(float(self.system.difference(self.q_eq, q)[c]))
-                if a > best:
-                    best, extra = a, run.error  # (largest over the outputs and coordinates)
+        atol = self.rtol * np.concatenate([scale, scale * orbit.omega])
+        t0, extra = float(traj.t[0]), 0.0
+        vc = np.asarray(traj.v)[:, c]
+        for k in np.flatnonzero(vc[:-1] * vc[1:] <= 0.0):
+            a, b = float(traj.t[k]), float(traj.t[k + 1])
+            run = simulate(self.system, b, traj.q[k], traj.v[k], t0=a, rtol=self.rtol, error_method="rerun",
+                           events=turning, atol=atol)
+            carried = float(traj.q_error[k]) + float(traj.v_error[k]) * (b - a)
+            for t, q in zip(run.t_events[0], run.q_events[0]):
+                if 1e-6 * T < t - t0 < (1 - 1e-6) * T:
+                    amp = abs(float(self.system.difference(self.q_eq, q)[c]))
+                    if amp > best:
+                        best, extra = amp, carried + run.error  # (largest over the outputs and coordinates)
         return best, extra
