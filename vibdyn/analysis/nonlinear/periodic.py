@@ -289,7 +289,7 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
     if m == 1 and k == 1:
         shoot.seed(x0, [first])
     x, residual, iterations = shoot.solve(x0, tol, max_iter)
-    orbit = _result(system, shoot, x, residual, iterations, points, cons, start)
+    orbit = _result(system, shoot, x, residual, iterations, points, cons, start, tol)
     if autonomous:
         _moves(system, shoot, orbit, tol, damping is not None, what)
         if not math.isfinite(orbit.period_error):
@@ -437,14 +437,16 @@ def _moves(system, shoot, orbit, tol, damped, what):
                            best=[(orbit.q0, orbit.v0)])
 
 
-def _result(system, shoot, x, residual, iterations, points, cons, start):
+def _result(system, shoot, x, residual, iterations, points, cons, start, tol):
     m, n = shoot.m, shoot.n
     per = max(2, 2 * math.ceil(points / (2 * m)))  # outputs per segment (even: the half-grid quadrature)
-    x, residual, iterations, deviation = _polish(shoot, x, residual, iterations)
+    x, residual, iterations, deviation, runs, coarse = _polish(shoot, x, residual, iterations, per, tol)
     nodes, T = shoot.unpack(x)
-    coarse = shoot.flows(x)
-    runs = shoot.flows(x, error="rerun", points=per, refine=2)
-    # the variational equations' own error: halving the largest step (DOP853, order 8: counted as if order 4)
+    if runs is None:  # (the polish step not taken: the error estimate's runs from x)
+        runs = shoot.flows(x, error="rerun", points=per, refine=2)
+    # the variational equations' own error: halving the largest step (DOP853, order 8: counted as if order 4);
+    # against the flows before the polish step where it was taken (their difference also holds the step's own
+    # change of Φ, the deviation: a larger estimate, never a smaller one)
     runs = [replace(r, state_transition_error=max(float(r.state_transition_error), float(
         np.abs(np.asarray(r.state_transition) - np.asarray(c.state_transition)).max()) / 15.0))
         for r, c in zip(runs, coarse)]
@@ -486,29 +488,38 @@ def _result(system, shoot, x, residual, iterations, points, cons, start):
                          iterations, shoot.free_period, cons, time.perf_counter() - start)
 
 
-def _polish(shoot, x, residual, iterations):
-    """One more Newton step from the converged x, taken if it lowers the residual: (x, residual, iterations,
-    deviation) with ``deviation`` the 2-norm of the change of the monodromy across that step — the monodromy's
-    error from the orbit's own closing error (Φ at a point a residual away from the orbit), which decides the
-    split of a defective multiplier such as the double 1 of a conservative orbit."""
+def _polish(shoot, x, residual, iterations, per, tol):
+    """One more Newton step from the converged x, taken if it lowers the residual or keeps it within ``tol``:
+    (x, residual, iterations, deviation, runs, coarse) with ``deviation`` the 2-norm of the change of the monodromy
+    across that step — the monodromy's error from the orbit's own closing error (Φ at a point a residual away from
+    the orbit), which decides the split of a defective multiplier such as the double 1 of a conservative orbit.
+    The flows from the step's end are the error estimate's (``per`` outputs a segment, steps halved, a rerun at
+    tolerances / 100): ``runs`` those where the step is taken (else None: the caller makes them from x), ``coarse``
+    the Newton's flows from x (the halved steps' comparison)."""
     nodes, T = shoot.unpack(x)
     before = shoot.flows(x)
     r = shoot.residual_of(nodes, before)
     J = shoot.jacobian_of(nodes, T, before)
     x2 = shoot.retract(x, np.linalg.lstsq(J, -r, rcond=RCOND)[0])
-    r2 = shoot.residual(x2)
-    if not np.all(np.isfinite(r2)):
+    nodes2, T2 = shoot.unpack(x2)
+    after = None
+    if T2 > 0:
+        try:
+            after = shoot.flows(x2, error="rerun", points=per, refine=2)
+        except SimulationError:
+            pass
+    r2 = None if after is None else shoot.residual_of(nodes2, after)
+    if r2 is None or not np.all(np.isfinite(r2)):
         shoot.seed(x, before)  # (x's flows are the ones wanted next, not integrated again)
-        return x, residual, iterations, 0.0
-    after = shoot.flows(x2)
+        return x, residual, iterations, 0.0, None, before
     mono = [_product([P for P, _, _ in shoot.segment_maps(*nr)], [0.0] * shoot.m)[0]
-            for nr in ((nodes, before), (shoot.unpack(x2)[0], after))]
+            for nr in ((nodes, before), (nodes2, after))]
     deviation = float(np.linalg.norm(mono[1] - mono[0], 2))
     res2 = float(np.abs(r2).max())
-    if res2 < float(np.abs(r).max()):
-        return x2, res2, iterations + 1, deviation
+    if res2 < float(np.abs(r).max()) or res2 <= tol:
+        return x2, res2, iterations + 1, deviation, after, before
     shoot.seed(x, before)
-    return x, residual, iterations, deviation
+    return x, residual, iterations, deviation, None, before
 
 
 def _product(mats, errs):
