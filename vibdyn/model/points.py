@@ -57,6 +57,88 @@ def so3_chart_term(xi, v):
                      [a2 * v0 + b2 * x0 + h1, a2 * v1 + b2 * x1 - h0, a2 * v2 + b2 * x2 + cxv]])
 
 
+def so3_dexp_inv(xi, v):
+    """J_r⁻¹(ξ) v (rad/s) for one ball joint's chart ξ (3, rad) and velocity v (3, rad/s): v + ½ ξ × v + c (ξ (ξ·v) − θ² v),
+    c as in :func:`so3_chart_term`. Pinocchio 4.1's Jlog3 (its dDifference on a ball) is off by up to 1e-10 for θ
+    between about 2e-4 and 2e-3 rad (its series threshold), where every step's chart starts: a vector-field error
+    no tolerance sees; this closed form is exact to round-off."""
+    x0, x1, x2 = xi.tolist()
+    v0, v1, v2 = v.tolist()
+    t2 = x0 * x0 + x1 * x1 + x2 * x2
+    if t2 < SERIES_BELOW ** 2:
+        c = 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
+    else:
+        t = math.sqrt(t2)
+        c = 1 / t2 - (1 + math.cos(t)) / (2 * t * math.sin(t))
+    xv = c * (x0 * v0 + x1 * v1 + x2 * v2)
+    w = 1.0 - c * t2
+    return np.array([w * v0 + 0.5 * (x1 * v2 - x2 * v1) + xv * x0, w * v1 + 0.5 * (x2 * v0 - x0 * v2) + xv * x1,
+                     w * v2 + 0.5 * (x0 * v1 - x1 * v0) + xv * x2])
+
+
+def so3_jr_inv(xi):
+    """J_r⁻¹(ξ) (3 × 3) of one rotation vector ξ (rad): (1 − cθ²) I + ½[ξ]× + c ξξᵀ, c as in :func:`so3_chart_term`
+    (floats: a state's hot path; :func:`so3_jacobians` for many at once). Pinocchio's Jlog3 instead: see
+    :func:`so3_dexp_inv`."""
+    x0, x1, x2 = xi.tolist()
+    t2 = x0 * x0 + x1 * x1 + x2 * x2
+    if t2 < SERIES_BELOW ** 2:
+        c = 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
+    else:
+        t = math.sqrt(t2)
+        c = 1 / t2 - (1 + math.cos(t)) / (2 * t * math.sin(t))
+    w = 1.0 - c * t2
+    h0, h1, h2 = 0.5 * x0, 0.5 * x1, 0.5 * x2
+    c0, c1, c2 = c * x0, c * x1, c * x2
+    return np.array([[w + c0 * x0, c0 * x1 - h2, c0 * x2 + h1],
+                     [c1 * x0 + h2, w + c1 * x1, c1 * x2 - h0],
+                     [c2 * x0 - h1, c2 * x1 + h0, w + c2 * x2]])
+
+
+# the series of (a, b, c, d) below in θ² (rows: a, b, c, d; columns: powers 0 … 4 of θ²)
+_SO3_SERIES = np.array([[1 / 2, -1 / 24, 1 / 720, -1 / 40320, 1 / 3628800],
+                        [1 / 6, -1 / 120, 1 / 5040, -1 / 362880, 1 / 39916800],
+                        [1 / 12, 1 / 720, 1 / 30240, 1 / 1209600, 1 / 47900160],
+                        [1 / 360, 1 / 7560, 1 / 201600, 1 / 5987520, 1 / 189243758]]).T
+_POWERS = np.arange(5)
+
+
+def _so3_coefficients(t2):
+    """For rows of θ² (rad²): (a, b, c, d) with J_r = I − a[ξ]× + b[ξ]×², J_r⁻¹ = I + ½[ξ]× + c[ξ]×² and d = c′(θ)/θ
+    (:func:`so3_chart_term`'s): a = (1 − cos θ)/θ², b = (θ − sin θ)/θ³, c = 1/θ² − (1 + cos θ)/(2θ sin θ), by their
+    series below SERIES_BELOW (B × 4, one column each)."""
+    out = np.power.outer(t2, _POWERS) @ _SO3_SERIES
+    big = t2 >= SERIES_BELOW ** 2
+    if big.any():
+        T2 = t2[big]
+        t = np.sqrt(T2)
+        sin, cos = np.sin(t), np.cos(t)
+        out[big] = np.stack([(1 - cos) / T2, (t - sin) / (T2 * t), 1 / T2 - (1 + cos) / (2 * t * sin),
+                             -2 / (T2 * T2) + (t * sin * sin + (1 + cos) * (sin + t * cos)) / (2 * T2 * t * sin * sin)],
+                            axis=-1)
+    return out
+
+
+def so3_jacobians(xi, v=None):
+    """(J_r(ξ), J_r⁻¹(ξ)) at rows of rotation vectors ξ (B × 3, rad), B × 3 × 3 each: a ball joint's blocks of
+    Pinocchio's dIntegrate(c, ξ, ARG1) and dDifference(c, c ⊕ ξ, ARG1), for many states in one pass; with
+    velocities ``v`` (B × 3, rad/s), also :func:`so3_chart_term` at each row."""
+    t2 = np.einsum("bi,bi->b", xi, xi)
+    k = _so3_coefficients(t2)
+    X = skew(xi)
+    X2 = X @ X
+    eye = np.eye(3)
+    out = (eye - k[:, 0, None, None] * X + k[:, 1, None, None] * X2, eye + 0.5 * X + k[:, 2, None, None] * X2)
+    if v is None:
+        return out
+    c, d = k[:, 2], k[:, 3]
+    xv = np.einsum("bi,bi->b", xi, v)
+    a = c[:, None] * xi
+    b = (d * xv)[:, None] * xi - (d * t2 + 2 * c)[:, None] * v
+    term = a[:, :, None] * v[:, None, :] + b[:, :, None] * xi[:, None, :] + (c * xv)[:, None, None] * eye - 0.5 * skew(v)
+    return out + (term,)
+
+
 _NO_SUPPORT = np.zeros((1, 3))
 ONES3 = np.ones(3)
 

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from .._check import scalar
 from ..errors import ModelError
 
 from .simulate import SimulationError, flow_pieces
@@ -62,8 +63,9 @@ class FlowResult:
 class Flow:
     """The motion of ``system`` by ``method`` at ``rtol``/``atol`` (as :func:`~vibdyn.simulation.simulate.simulate`
     takes them, checked here once: ModelError for bad ones), ``error_method`` ("local" by default: the summed
-    local errors; "rerun" a second run at tolerances / 100), ``max_step`` (s) and ``variational`` (the state
-    transition). Call it with a state the caller made — (q0, v0) at ``t0`` (s; driven entries at their laws'
+    local errors; "rerun" a second run at tolerances / 100), ``max_step`` (s), ``variational`` (the state
+    transition) and ``transition_rtol`` (the state transition's own error control, at least rtol; None: rtol's —
+    looser where the transition only feeds a Newton step's Jacobian). Call it with a state the caller made — (q0, v0) at ``t0`` (s; driven entries at their laws'
     values, on the loops of a mechanism: not checked again; ``q0``, ``v0`` of the constructor: a state of the same
     kind, checked as simulate checks its start, default neutral) — and the end time ``t1`` (s): a :class:`FlowResult`
     (``trajectory=True``: a full :class:`~vibdyn.simulation.trajectory.Trajectory`, energies included).
@@ -71,10 +73,18 @@ class Flow:
     SimulationError; Ctrl-C is raised again (an analysis has no use for a part of a flow)."""
 
     def __init__(self, system, q0=None, v0=None, *, method="dop853", rtol: float = 1e-8, atol=None,
-                 error_method: str = "local", max_step: float | None = None, variational: bool = False):
+                 error_method: str = "local", max_step: float | None = None, variational: bool = False,
+                 transition_rtol: float | None = None):
         self.system = system
         self.settings = _settings(system, 1.0, q0, v0, method, rtol, atol, None, None, error_method, max_step, False,
                                   variational=variational)
+        if transition_rtol is not None:
+            transition_rtol = scalar(transition_rtol, "flow: transition_rtol", positive=True)
+            if not self.settings.rtol <= transition_rtol < 1.0:
+                raise ModelError(f"flow: transition_rtol must be in [rtol, 1) (the variational equations' own "
+                                 f"tolerance, never tighter than the state's rtol = {self.settings.rtol:g}), got "
+                                 f"{transition_rtol:g}")
+            self.settings = replace(self.settings, transition_rtol=transition_rtol)
         self._errors = self.settings.stepper.error_methods
 
     def __call__(self, q0, v0, t0: float, t1: float, *, t_eval=None, error_method: str | None = None,

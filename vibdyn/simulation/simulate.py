@@ -233,6 +233,7 @@ class _Settings:
     events: tuple | None = None  # the event functions
     variational: bool = False
     stepper: type | None = None  # the method's stepper class
+    transition_rtol: float | None = None  # the variational equations' own rtol (None: rtol)
 
 
 def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress, t0=0.0,
@@ -362,9 +363,12 @@ def _integrate(system, cfg, label, reference=None, stride=2):
     fixed-step method, with every ``stride``-th step of the main run's grid)."""
     t_end, adaptive = cfg.t_end, cfg.stepper.adaptive
     rtol, atol_q, atol_v = cfg.rtol, cfg.atol_q, cfg.atol_v
+    transition_rtol = cfg.transition_rtol
     if reference is not None and adaptive:  # "rerun": tighter tolerances
         rtol = max(rtol / RERUN_FACTOR, MIN_RTOL)
         atol_q, atol_v = atol_q / RERUN_FACTOR, atol_v / RERUN_FACTOR
+        if transition_rtol is not None:
+            transition_rtol = max(transition_rtol / RERUN_FACTOR, MIN_RTOL)
     outputs = reference.t if reference is not None else cfg.t_eval
     run = _Run([], [], [], [], [])
     run.system = system
@@ -372,7 +376,8 @@ def _integrate(system, cfg, label, reference=None, stride=2):
     try:
         run.stepper = cfg.stepper(system, cfg.q0, cfg.v0, t_end, rtol=rtol, atol_q=atol_q, atol_v=atol_v,
                                           first_step=cfg.dt if adaptive else None, max_step=cfg.max_step,
-                                          work=cfg.work, t0=cfg.t0, variational=cfg.variational)
+                                          work=cfg.work, t0=cfg.t0, variational=cfg.variational,
+                                          transition_rtol=transition_rtol)
         if cfg.events:
             from .events import Events
 

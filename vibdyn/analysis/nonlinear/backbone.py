@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -58,6 +58,10 @@ MAX_PERIOD_GROWTH = 50.0  # the branch stops where T exceeds this × the linear 
 FIRST_STEP = 0.4  # the continuation's first arclength step (variables scaled by each leg's: see _Follower.run)
 CONTINUATION_RTOL = 1e-9  # the flows along the branch (each request is solved again at the caller's rtol)
 CONTINUATION_TOL = 1e-8  # and the branch's closing tolerance (scaled)
+# the state transitions' own tolerance along the branch: they make the corrector's Newton steps and the predictor's
+# tangent only (the branch points are solved again at each request with every tolerance the caller's); held to the
+# state's 1e-9 they took 33-50 % more steps than the state needs (Kerschen's two masses: 540 -> 361 steps)
+CONTINUATION_TRANSITION_RTOL = 1e-7
 REQUEST_WEIGHT = 100.0  # a request's row weighs this much more than the closing rows when it is solved exactly
 MIN_STEP = 1e-4  # steps halved below this (scaled) end the branch: it cannot be followed further
 MAX_STEP = 1.0  # and its largest (each leg starts with the last one's step, in its own units)
@@ -342,6 +346,19 @@ def _mode_index(mode, modes, what):
     return k
 
 
+def _joined(first, then):
+    """One Branch of a continuation ``first`` and the one ``then`` that goes on from its last point."""
+    if not first.lam.size:
+        return replace(then, steps=first.steps + then.steps, rejected=first.rejected + then.rejected,
+                       elapsed=first.elapsed + then.elapsed)
+    k = 1 if then.lam.size else 0  # (then's first point is first's last)
+    return replace(then, x=np.vstack([first.x, then.x[k:]]), lam=np.concatenate([first.lam, then.lam[k:]]),
+                   s=np.concatenate([first.s, first.s[-1] + then.s[k:] - (then.s[0] if then.s.size else 0.0)]),
+                   folds=list(first.folds) + list(then.folds), steps=first.steps + then.steps,
+                   rejected=first.rejected + then.rejected, elapsed=first.elapsed + then.elapsed,
+                   residual=max(first.residual, then.residual))
+
+
 # ---------------------------------------------------------------------------------------------- the branch
 class _Follower:
     """The continuation of one NNM: unknowns z = (ξ, v0, T) (q0 = q_eq ⊕ ξ), parameter λ (the energy above the
@@ -406,15 +423,16 @@ class _Follower:
         s = self.scales(abs(float(pin.difference(self.model, self.q_eq, q)[self.c])))
         return energy_gradient(self.system, q, v, 1e-6 * s, reference=self.E_eq)
 
-    def shooting(self, T, tight, a):
+    def shooting(self, T, tight, a, loose=False):
         """The shooting equations at period guess T for orbits where c moves by about a (m or rad: the residual's
         scales): flows at the caller's rtol for a request (``tight``), at CONTINUATION_RTOL along the branch
-        (steps resolve the orbit's own ω; DOP853 controls the rest)."""
+        (steps resolve the orbit's own ω; DOP853 controls the rest); ``loose``: their state transitions at
+        CONTINUATION_TRANSITION_RTOL."""
         omega = 2 * math.pi / T
         rtol = self.rtol if tight else max(self.rtol, CONTINUATION_RTOL)
         fastest = max(self.omega_max, omega) if tight else omega
         return Shooting(self.system, 0.0, T, True, 1, omega, rtol, ("velocity", self.c), None, self.scales(a),
-                        STEP_RESOLUTION / fastest)
+                        STEP_RESOLUTION / fastest, max(rtol, CONTINUATION_TRANSITION_RTOL) if loose else None)
 
     # ------------------------------------------------------------------ equations
     def equations(self, shoot, row_scale):
@@ -462,26 +480,17 @@ class _Follower:
                 out.append(out[-1])
                 continue
             # each leg's scales: its end's amplitude (or energy) and its start's period, not the scene's size
-            T, a = self.state(z)[2], max(abs(float(z[self.c])), self.amplitude_of(target))
-            shoot = self.shooting(T, False, a)
-            if runs is not None:  # the last request's flows from z (at its tighter rtol): the leg's start as they are
-                q0, v0, _ = self.state(z)
-                shoot.seed(shoot.pack([(q0, v0)], T), runs)
-            fun, jac = self.equations(shoot, max(target, lam))
-            xi = self.scales(a)
+            a = max(abs(float(z[self.c])), self.amplitude_of(target))
             if a_last is not None:  # the last leg's step, in this leg's units
                 h = min(max(h * max(a_last, self.a0) / max(a, self.a0), FIRST_STEP), MAX_STEP)
-            self.failure = ""
-            try:
-                branch = continuation(fun, z, lam, float(target), step=h, jacobian=jac, curved=True,
-                                      tol=max(self.tol, CONTINUATION_TOL),
-                                      max_steps=max(1, max_steps - steps), max_step=MAX_STEP, min_step=MIN_STEP,
-                                      scale=np.concatenate([xi, xi * 2 * math.pi / T, [T], [max(target, lam)]]),
-                                      stop=lambda x, lm: self.monitor(x, lm, shoot),
-                                      parameter=f"the {self.requested} ({self.request_unit()})")
-            except (SimulationError, np.linalg.LinAlgError) as e:
-                self.why = self.why or f"the motion could not be integrated further: {e.__cause__ or e}"
-                self.beyond(target, None)
+            branch, shoot = self.leg(z, lam, target, h, a, runs, max(1, max_steps - steps), loose=True)
+            if branch.reason in ("floor", "step") and not self.why:
+                # the looser transitions may be what stalls the corrector where the Jacobian is nearly singular (a
+                # separatrix near): the leg goes on from where it stopped with transitions at the flows' rtol
+                start = (branch.x[-1], float(branch.lam[-1])) if branch.lam.size else (z, lam)
+                more, shoot = self.leg(*start, target, branch.step or h, a, None,
+                                       max(1, max_steps - steps - branch.steps), loose=False)
+                branch = _joined(branch, more)
             steps += branch.steps
             h, a_last = branch.step, a
             for f in branch.folds:
@@ -502,6 +511,30 @@ class _Follower:
                               / (branch.lam[-1] - branch.lam[-2]))
             out.append((z, slope, runs))
         return out
+
+    def leg(self, z, lam, target, h, a, runs, max_steps, loose):
+        """The continuation from (z, λ) to λ = target with first step h, scaled for orbits where c moves by a (m or
+        rad); ``runs`` the flows from z if made already; ``loose``: the state transitions at
+        CONTINUATION_TRANSITION_RTOL (else at the flows' rtol). Returns (the Branch, its shooting problem); a flow
+        that cannot be integrated ends the branch (ConvergenceError)."""
+        T = self.state(z)[2]
+        shoot = self.shooting(T, False, a, loose)
+        if runs is not None:  # the last request's flows from z (at its tighter rtol): the leg's start as they are
+            q0, v0, _ = self.state(z)
+            shoot.seed(shoot.pack([(q0, v0)], T), runs)
+        fun, jac = self.equations(shoot, max(target, lam))
+        xi = self.scales(a)
+        self.failure = ""
+        try:
+            return continuation(fun, z, lam, float(target), step=h, jacobian=jac, curved=True,
+                                tol=max(self.tol, CONTINUATION_TOL), max_steps=max_steps, max_step=MAX_STEP,
+                                min_step=MIN_STEP, scale=np.concatenate([xi, xi * 2 * math.pi / T, [T],
+                                                                         [max(target, lam)]]),
+                                stop=lambda x, lm: self.monitor(x, lm, shoot),
+                                parameter=f"the {self.requested} ({self.request_unit()})"), shoot
+        except (SimulationError, np.linalg.LinAlgError) as e:
+            self.why = self.why or f"the motion could not be integrated further: {e.__cause__ or e}"
+            self.beyond(target, None)
 
     def exact(self, z, target):
         """The branch point at λ = target solved again with the request's tolerances (tol, rtol), the request's

@@ -92,13 +92,15 @@ class Shooting:
     """The shooting equations of one problem (see the module docstring). ``phase``: None (the period is
     given), ("flow", q_ref, v_ref, u) with u the unit scaled flow at the start, or ("velocity", k) (the free
     velocity number k is zero at t0); ``energy``: None or (E_target J, E_scale J); ``scales``: per tangent
-    coordinate (m or rad; default the system's coordinate scales)."""
+    coordinate (m or rad; default the system's coordinate scales); ``transition_rtol``: the state transitions'
+    own tolerance (None: rtol; looser where they only make the Newton steps, as along a continuation)."""
 
     def __init__(self, system, t0, period, free_period, segments, omega, rtol, phase=None, energy=None, scales=None,
-                 max_step=math.inf):
+                 max_step=math.inf, transition_rtol=None):
         self.system, self.model, self.t0, self.m = system, system.model, float(t0), int(segments)
         self.period, self.free_period, self.rtol = float(period), bool(free_period), float(rtol)
         self.max_step = float(max_step)
+        self.transition_rtol = transition_rtol
         self.reduction = system.reduction
         self.free = free_indices(system)
         self.free2 = np.concatenate([self.free, self.free + system.nv])
@@ -194,7 +196,8 @@ class Shooting:
         """The problem's Flow (with the variational equations, or ``variational=False`` the plain one), made on
         first use with the state (q, v) as its checked start (ModelError for one that cannot start a flow)."""
         if (self._flow if variational else self._plain) is None:
-            made = Flow(self.system, q, v, rtol=self.rtol, atol=self.atol, variational=variational)
+            made = Flow(self.system, q, v, rtol=self.rtol, atol=self.atol, variational=variational,
+                        transition_rtol=self.transition_rtol if variational else None)
             if variational:
                 self._flow = made
             else:

@@ -13,7 +13,7 @@ from ..._check import (finite_array, one_or_each, stiffness_like, value_nonnegat
 from ..._format import with_units
 from ...errors import ModelError
 from ...model.groups import ForceGroup, as_slice, tangent
-from ...model.points import so3_chart_term
+from ...model.points import so3_chart_term, so3_jacobians, so3_jr_inv
 from .base import ElementKind, scalar_or_list
 
 
@@ -45,11 +45,12 @@ class JointSprings(ForceGroup):
         return sum(layer.potential(q, kin) for layer in self.layers)
 
     def joint_rows(self, q, v, t):
-        if not all(layer.vector for layer in self.layers):  # (balls and other groups: state by state)
+        rows = [layer.joint_rows(q, v, t) for layer in self.layers]
+        if any(r is None for r in rows):  # (planar and free joints: state by state)
             return None
-        dQ = np.zeros((len(q), self.layers[0].model.nv, self.layers[0].model.nv))
-        for layer in self.layers:  # (vector joints: −k on the diagonal, whatever the state)
-            dQ[:, layer.iv, layer.iv] -= layer.k
+        dQ = rows[0][0]
+        for r in rows[1:]:
+            dQ += r[0]
         return dQ, None
 
     def derivatives(self, d):
@@ -67,7 +68,7 @@ class _Layer(ForceGroup):
         self.names = [e.name for e in elements]
         neutral = system.neutral()
         self.q_rest = neutral.copy()
-        iv, k, curved, balls = [], [], [], []
+        iv, k, curved, balls, so3 = [], [], [], [], []
         for e in elements:
             b = system.body_info(e.body)
             iq = list(range(b.idx_q, b.idx_q + b.nq))
@@ -75,6 +76,8 @@ class _Layer(ForceGroup):
                 self.q_rest[iq] = pin.integrate(model, neutral, tangent(model, b, e.rest))[iq]
             iv += list(range(b.idx_v, b.idx_v + b.nv))
             k += list(e.stiffness)
+            if b.joint.lie_group == "SO3":
+                so3.append(len(iv) - 3 + np.arange(3))
             # SE(2)/SE(3) joints and anisotropic ball springs need the Jacobian of the difference
             if b.nq != b.nv and (not b.joint.isotropic_spring or len(set(e.stiffness)) > 1):
                 # (ball joints' in closed form: see derivatives; planar and free joints' differenced)
@@ -97,6 +100,17 @@ class _Layer(ForceGroup):
         self.block = None if self.vector else np.ix_(self.iv, self.iv)
         self.curved_block = None if self.curved is None else np.ix_(self.curved, self.curved)
         self.balls = [(b, np.ix_(b, b), self.iv[b], np.ix_(self.iv[b], self.iv[b])) for b in balls]
+        self.so3 = [(b, np.ix_(b, b)) for b in so3]  # every ball (its positions in iv, their block)
+
+    def jacobian(self, q, phi):
+        """∂(q ⊖ q_rest)/∂q on the layer's block at q (``phi`` its deflection): the identity on vector joints,
+        balls' J_r⁻¹(φ) in closed form (:func:`so3_jr_inv`; Pinocchio's Jlog3 rounds off to 1e-10 near 1e-3 rad),
+        Pinocchio's on planar and free joints."""
+        J = (pin.dDifference(self.model, self.q_rest, q, pin.ARG1)[self.block] if self.differenced is not None
+             else np.eye(len(self.iv)))
+        for b, own in self.so3:
+            J[own] = so3_jr_inv(phi[b])
+        return J
 
     def deflection(self, q):
         """q ⊖ q_rest on the sprung coordinates (m or rad; rotation vector for a ball)."""
@@ -108,9 +122,10 @@ class _Layer(ForceGroup):
         if self.vector:
             Q[self.iv_at] -= self.k * (q[self.iq_at] - self.rest)
             return
-        force = self.k * self.deflection(q)
+        phi = self.deflection(q)
+        force = self.k * phi
         if self.curved is not None:
-            J = pin.dDifference(self.model, self.q_rest, q, pin.ARG1)[self.block]
+            J = self.jacobian(q, phi)
             c = self.curved
             force[c] = J[self.curved_block].T @ force[c]
         Q[self.iv] -= force
@@ -124,19 +139,45 @@ class _Layer(ForceGroup):
         phi = self.deflection(q)
         return 0.5 * float(self.k @ phi**2)
 
+    def joint_rows(self, q, v, t):
+        """(∂Q/∂q at each row of q, None): −k on the diagonal for vector joints, whatever the state; balls' in closed
+        form, every row at once; None for planar and free joints (their turning differenced: state by state)."""
+        nv = self.model.nv
+        dQ = np.zeros((len(q), nv, nv))
+        if self.vector:
+            dQ[:, self.iv, self.iv] = -self.k
+            return dQ, None
+        if self.differenced is not None:
+            return None
+        # vector joints and balls: every row at once (each ball's J_r⁻¹(φ) and chart term by so3_jacobians)
+        phi = np.array([pin.difference(self.model, self.q_rest, qc) for qc in q])[:, self.iv]
+        J = np.broadcast_to(np.eye(len(self.iv)), (len(q), len(self.iv), len(self.iv))).copy()
+        for b, own in self.so3:
+            J[(slice(None),) + own] = so3_jacobians(phi[:, b])[1]
+        dQ[(slice(None),) + self.block] = -(self.k[:, None] * J)
+        for b, own, _, rows in self.balls:
+            Jb, kb = J[(slice(None),) + own], self.k[b]
+            term = so3_jacobians(-phi[:, b], kb * phi[:, b])[2]
+            dQ[(slice(None),) + rows] = -(np.swapaxes(Jb, 1, 2) * kb) @ Jb + term @ Jb
+        return dQ, None
+
+    def _curved_stiffness(self, q, dQ):
+        """∂Q/∂q at q of a layer with curved joints, into dQ (nv × nv, zero outside the layer's block)."""
+        phi = self.deflection(q)
+        J = self.jacobian(q, phi)
+        dQ[self.block] = -(self.k[:, None] * J)
+        if self.balls:  # Q = −Jᵀ K φ, J = J_r⁻¹(φ), Jᵀ = J_r⁻¹(−φ): ∂Q/∂δ = −Jᵀ K J + [∂(J_r⁻¹(ξ) Kφ)/∂ξ]_(ξ=−φ) J
+            for b, own, _, rows in self.balls:
+                Jb, kb = J[own], self.k[b]
+                dQ[rows] = -(Jb.T * kb) @ Jb + so3_chart_term(-phi[b], kb * phi[b]) @ Jb
+
     def derivatives(self, d):
         nv = d.system.nv
         dQ = np.zeros((nv, nv))
         if self.vector:
             dQ[self.iv, self.iv] = -self.k
             return dQ, None
-        J = pin.dDifference(self.model, self.q_rest, d.q, pin.ARG1)[self.block]
-        dQ[self.block] = -(self.k[:, None] * J)
-        if self.balls:  # Q = −Jᵀ K φ, J = J_r⁻¹(φ), Jᵀ = J_r⁻¹(−φ): ∂Q/∂δ = −Jᵀ K J + [∂(J_r⁻¹(ξ) Kφ)/∂ξ]_(ξ=−φ) J
-            phi = self.deflection(d.q)
-            for b, own, _, rows in self.balls:
-                Jb, kb = J[own], self.k[b]
-                dQ[rows] = -(Jb.T * kb) @ Jb + so3_chart_term(-phi[b], kb * phi[b]) @ Jb
+        self._curved_stiffness(d.q, dQ)
         if self.differenced is not None:  # planar and free joints: the turning of J differenced on the group alone
             fd = d.element_fd(lambda qq, vv: d.group_force(self, qq, d.v), with_v=False)
             dQ[:, self.iv[self.differenced]] = fd[0][:, self.iv[self.differenced]]

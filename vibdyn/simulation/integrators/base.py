@@ -40,11 +40,12 @@ class Stepper:
     with dense output, ``_interpolant()`` (the last step's :class:`Interpolant`).
 
     Constructor, shared by all: ``(system, q0, v0, t_end, *, rtol, atol_q, atol_v, first_step, max_step,
-    work, t0, variational)`` — rtol and atol_q/atol_v (arrays, tangent units) bound the local error per step
+    work, t0, variational, transition_rtol)`` — rtol and atol_q/atol_v (arrays, tangent units) bound the local error per step
     of adaptive methods, first_step and max_step (s) bound their steps; ``work`` integrates the power of the
     force elements alongside (the energy balance); ``t0`` (s) the start time (t_end is absolute);
     ``variational`` integrates the tangent-space variational equations with the state (methods that declare
-    ``supports_variational``: :attr:`state_transition`)."""
+    ``supports_variational``: :attr:`state_transition`), whose own error an adaptive method holds to
+    ``transition_rtol`` (None: rtol; a looser one where only a Newton step's Jacobian needs it)."""
 
     name: str = ""
     order: int = 0
@@ -58,9 +59,10 @@ class Stepper:
     nfev: int = 0  # counters (instance values; see the module docstring)
 
     def __init__(self, system, q0, v0, t_end, *, rtol=None, atol_q=None, atol_v=None, first_step=None,
-                 max_step=math.inf, work=False, t0=0.0, variational=False):
+                 max_step=math.inf, work=False, t0=0.0, variational=False, transition_rtol=None):
         self.system, self.t_end, self.t = system, float(t_end), float(t0)
         self.variational = variational
+        self.transition_rtol = transition_rtol  # the variational equations' own rtol (None: rtol's)
         self.rtol, self.atol_q, self.atol_v = rtol, atol_q, atol_v
         self.first_step, self.max_step, self.work = first_step, max_step, work
         self.accepted, self.rejected = 0, 0

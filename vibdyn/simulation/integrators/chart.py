@@ -22,7 +22,7 @@ import pinocchio as pin
 
 from ...model import dynamics
 from ...model.derivatives import analytic_derivatives_rows, linear_terms, solve_mass
-from ...model.points import SERIES_BELOW, so3_chart_term  # noqa: F401  (kept importable here)
+from ...model.points import SERIES_BELOW, so3_chart_term, so3_dexp_inv, so3_jacobians, so3_jr_inv  # noqa: F401
 
 ARG1 = pin.ArgumentPosition.ARG1
 def make_ode(system, q0, v0, work=False, variational=False):
@@ -207,13 +207,28 @@ class ChartODE(VectorODE):
         self.column_groups = [[(b.idx_v + i, slice(b.idx_v, b.idx_v + b.nv)) for b in differenced if i < b.nv]
                               for i in range(width)]
         self.centre = None
+        self._eye = np.eye(self.nv)
+
+    def dexp_inv(self, xi, q):
+        """dexp⁻¹(ξ) = dDifference(centre, q, ARG1) at q = centre ⊕ ξ (nv × nv): the identity on vector joints,
+        balls' blocks in closed form (:func:`so3_jacobians`: Pinocchio's Jlog3 rounds off to 1e-10 near 1e-3 rad),
+        Pinocchio's on free and planar joints."""
+        D = pin.dDifference(self.model, self.centre, q, ARG1) if self.column_groups else self._eye.copy()
+        for b in self.so3_blocks:
+            D[b, b] = so3_jr_inv(xi[b])
+        return D
 
     def into(self, t, y, out):
         self.nfev += 1
         nv, model, c = self.nv, self.model, self.centre
         xi, v = y[:nv], y[nv:2 * nv]
         q = pin.integrate(model, c, xi)
-        out[:nv] = pin.dDifference(model, c, q, ARG1) @ v
+        if self.column_groups:
+            out[:nv] = self.dexp_inv(xi, q) @ v
+        else:  # (vector joints and balls: ξ̇ = v, and J_r⁻¹(ξ) v on each ball)
+            out[:nv] = v
+            for b in self.so3_blocks:
+                out[b] = so3_dexp_inv(xi[b], v[b])
         out[nv:2 * nv] = self.accelerations(q, v, t)
         if self.work:
             out[-1] = np.vdot(v, pin.rnea(model, self.data, q, v, out[nv:2 * nv]))
@@ -250,7 +265,7 @@ class ChartODE(VectorODE):
         q = self.configuration(y)
         MinvK, MinvC = self._minv_kc(q, v, t, a)
         J = np.zeros((self.n, self.n))
-        J[:nv, nv:2 * nv] = pin.dDifference(model, c, q, ARG1)
+        J[:nv, nv:2 * nv] = self.dexp_inv(xi, q)
         J[nv:2 * nv, :nv] = -MinvK @ pin.dIntegrate(model, c, xi, ARG1)
         J[nv:2 * nv, nv:2 * nv] = -MinvC
         J[:nv, :nv] = self.chart_term(xi, v)
@@ -264,7 +279,7 @@ class ChartODE(VectorODE):
         q = pin.integrate(model, c, xi)
         Yq, Yv = Y[:nv], Y[nv:]
         out = np.empty_like(Y)
-        out[:nv] = pin.dDifference(model, c, q, ARG1) @ Yv + self.chart_term(xi, v) @ Yq
+        out[:nv] = self.dexp_inv(xi, q) @ Yv + self.chart_term(xi, v) @ Yq
         out[nv:] = self._acceleration_product(q, v, t, a, pin.dIntegrate(model, c, xi, ARG1) @ Yq, Yv)
         return out
 
@@ -273,13 +288,23 @@ class ChartODE(VectorODE):
         return np.array([pin.integrate(model, c, x) for x in xi])
 
     def _chart_blocks(self, J, states, Q, MinvK):
-        """J's configuration blocks at each row in the chart: dexp⁻¹(ξ), the chart's own term, −M⁻¹K dIntegrate(ξ)."""
+        """J's configuration blocks at each row in the chart: dexp⁻¹(ξ), the chart's own term, −M⁻¹K dIntegrate(ξ)
+        (vector joints and balls only: every row at once, in closed form)."""
         nv, model, c = self.nv, self.model, self.centre
-        for Jr, y, q, X in zip(J, states, Q, MinvK):
-            xi = y[:nv]
-            Jr[:nv, nv:] = pin.dDifference(model, c, q, ARG1)
-            Jr[:nv, :nv] = self.chart_term(xi, y[nv:])
-            Jr[nv:, :nv] = -X @ pin.dIntegrate(model, c, xi, ARG1)
+        if self.column_groups:
+            for Jr, y, q, X in zip(J, states, Q, MinvK):
+                xi = y[:nv]
+                Jr[:nv, nv:] = self.dexp_inv(xi, q)
+                Jr[:nv, :nv] = self.chart_term(xi, y[nv:])
+                Jr[nv:, :nv] = -X @ pin.dIntegrate(model, c, xi, ARG1)
+            return
+        B = len(states)
+        D = np.broadcast_to(self._eye, (B, nv, nv)).copy()  # dIntegrate(ξ) at each row
+        J[:, :nv, nv:] = self._eye
+        for b in self.so3_blocks:
+            xi, v = states[:, b], states[:, nv + b.start:nv + b.stop]
+            D[:, b, b], J[:, b, nv + b.start:nv + b.stop], J[:, b, b] = so3_jacobians(xi, v)
+        J[:, nv:, :nv] = -MinvK @ D
 
     def chart_term(self, xi, v):
         """∂(dexp⁻¹(ξ) v)/∂ξ (nv × nv, 1/s): in closed form for ball joints (:func:`so3_chart_term`), by

@@ -164,8 +164,10 @@ class DOP853(RungeKutta):
         # the variational equations are controlled too (a state at rest would otherwise take steps that leave Φ
         # unresolved): Φ made dimensionless by the tolerances, Φ̂_ij = Φ_ij atol_j / atol_i, held to
         # rtol·max(1, max|Φ̂|) (normwise relative: an entry's scale is that of the largest, as in a matrix norm);
-        # not below DIFFERENCED_RTOL where the Jacobian differences a user callable (its noise would stall the steps)
+        # not below DIFFERENCED_RTOL where the Jacobian differences a user callable (its noise would stall the steps);
+        # held to transition_rtol instead where the caller asks for a looser one (never tighter than the state's)
         self._Y = None
+        self.rtol_Y = self.rtol if self.transition_rtol is None else max(self.transition_rtol, self.rtol)
         self.floored_steps = 0  # accepted steps whose Φ was held to DIFFERENCED_RTOL rather than rtol
         if self.variational:
             self._Y = slice(2 * nv, 2 * nv + 4 * nv * nv)
@@ -207,11 +209,11 @@ class DOP853(RungeKutta):
             error_norm = 0.0 if n5 == 0 and n3 == 0 else h * n5 / math.sqrt((n5 + 0.01 * n3) * m)
             if self._Y is not None:
                 Yhat = np.abs(y_new[self._Y] * self._Yscale).max()
-                rtol_Y = max(rtol, DIFFERENCED_RTOL) if self.ode.differenced else rtol
+                rtol_Y = max(self.rtol_Y, DIFFERENCED_RTOL) if self.ode.differenced else self.rtol_Y
                 errY = np.dot(E, self.YK[1:self.stages + 2, self._Y]) * (self._Yscale / (rtol_Y * max(1.0, Yhat)))
                 y5, y3 = np.square(errY).sum(axis=1).tolist()
                 y_norm = h * y5 / math.sqrt((y5 + 0.01 * y3) * m * m) if y5 > 0 else 0.0
-                floored = y_norm > error_norm and rtol_Y > rtol  # this step's Φ is held to the floor only
+                floored = y_norm > error_norm and rtol_Y > self.rtol_Y  # this step's Φ is held to the floor only
                 error_norm = max(error_norm, y_norm)
             if error_norm <= 1:  # accepted: PI control (Lund stabilisation) with the previous error norm
                 factor = SAFETY * (error_norm ** -self.alpha if error_norm > 0 else math.inf) * self._previous ** BETA
