@@ -80,12 +80,17 @@ class TwoPoint(ForceGroup):
         return (kin.velocities(self.ja, self.pa) + kin.sv[..., self.sa, :],
                 kin.velocities(self.jb, self.pb) + kin.sv[..., self.sb, :])
 
-    def geometry(self, kin):
-        """(d, L): d = xb − xa between the world ends (m) and the lengths L (m); a length at or below ``tiny``
-        is a ModelError naming the element."""
+    def separation(self, kin):
+        """d = xb − xa between the world ends (m), (rows ×) n × 3."""
         d = self.ends.positions(kin)
         if self.on_supports:
             d += kin.sp[..., self.sb, :] - kin.sp[..., self.sa, :]
+        return d
+
+    def geometry(self, kin):
+        """(d, L): d = xb − xa between the world ends (m) and the lengths L (m); a length at or below ``tiny``
+        is a ModelError naming the element."""
+        d = self.separation(kin)
         L = np.sqrt((d * d) @ ONES3)
         zero = (L <= self.tiny).tolist() if L.ndim == 1 else (L <= self.tiny).ravel().tolist()  # (a list: faster
         # than a numpy reduction on a few elements)

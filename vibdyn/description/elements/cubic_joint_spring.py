@@ -13,7 +13,7 @@ import numpy as np
 from ..._check import stiffness_like, value_nonnegative_number_or_list, value_number_or_list, value_string
 from ..._format import with_units
 from ...errors import ModelError
-from ...model.groups import ForceGroup
+from ...model.groups import ForceGroup, as_slice
 from .base import ElementKind, scalar_or_list
 from .joint_spring import per_coordinate
 
@@ -28,10 +28,16 @@ class CubicJointSprings(ForceGroup):
         self.k3 = np.array([e.k3[0] for e in elements])
         self.rest = np.array([e.rest[0] for e in elements])
         self.nv = system.nv
+        # one spring per coordinate: plain indexing (np.subtract.at, for coordinates with several, costs more)
+        self.distinct = len(set(self.iv.tolist())) == len(self.iv)
+        self.iq_at, self.iv_at = as_slice(self.iq), as_slice(self.iv)
 
     def apply(self, t, q, v, kin, Q, F):
-        x = q[self.iq] - self.rest
-        np.subtract.at(Q, self.iv, self.k3 * x**3)
+        x = q[self.iq_at] - self.rest
+        if self.distinct:
+            Q[self.iv_at] -= self.k3 * (x * x * x)
+        else:
+            np.subtract.at(Q, self.iv, self.k3 * x**3)
 
     def apply_rows(self, t, q, v, Q):
         x = q[:, self.iq] - self.rest

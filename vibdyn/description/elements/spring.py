@@ -29,11 +29,16 @@ class Springs(TwoPoint):
         # (below it d is zero to double precision); the others are longer than tiny (None: no such spring)
         self.L_floor = np.where(self.zero_l0, np.finfo(float).tiny, 0.0) if self.zero_l0.any() else None
         self.minus_k = -self.k
+        self.linear = bool(self.zero_l0.all())
+        self.minus_k_column = self.minus_k[:, None]
 
     def apply(self, t, q, v, kin, Q, F):
-        d, L = self.geometry(kin)
-        Ls = L if self.L_floor is None else np.maximum(L, self.L_floor)
-        fb = (self.minus_k * ((L - self.l0) / Ls))[..., None] * d
+        if self.linear:  # (zero free lengths: −k d, no length, nothing singular)
+            fb = self.minus_k_column * self.separation(kin)
+        else:
+            d, L = self.geometry(kin)
+            Ls = L if self.L_floor is None else np.maximum(L, self.L_floor)
+            fb = (self.minus_k * ((L - self.l0) / Ls))[..., None] * d
         self.ends.add_forces(F, kin, fb)  # fb on every end b, −fb on every end a
 
     def potential(self, q, kin):
