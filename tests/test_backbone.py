@@ -209,6 +209,33 @@ def test_a_request_beyond_the_branch_names_how_far_it_went():
         vd.backbone(system, 1, energies=[0.1, 10.0])
 
 
+def test_an_asymmetric_pendulums_amplitude_is_its_farther_turning_point_by_energy():
+    """A pendulum (1 kg, centre 0.5 m below a pivot) with a torsion spring of 5 N·m/rad resting at −0.5 rad: its
+    potential V = ½k(θ + 0.5)² − m g d cos θ is not even about the equilibrium, so an orbit started A from it turns
+    farther away on the other side, at T/2 (a sample of the orbit: the turning point found there, not missed at
+    the interval's end). The amplitude (the largest |θ − θ_eq| over the orbit) equals the farther root of
+    V(θ) = V(θ₀) (brentq: an oracle by energy, no flow) within its own error."""
+    from scipy.optimize import brentq
+
+    k, m, d = 5.0, 1.0, 0.5
+    sc = vd.Scene("asymmetric pendulum", gravity=(0, 0, -G))
+    sc.add_body("bar", joint=vd.Pivot(axis=(1, 0, 0)), mass=m, com=(0, 0, -d),
+                inertia=vd.inertia.box(m, (0.01, 0.01, 0.01)))
+    sc.add_joint_spring("bar", k, rest=-0.5)
+    bb = vd.backbone(sc.build(), 0, amplitudes=[0.6, 1.2])
+
+    def V(th):
+        return 0.5 * k * (th + 0.5) ** 2 - m * G * d * math.cos(th)
+
+    q_eq = float(bb.q_eq[0])
+    for orbit, amplitude, error in zip(bb.orbits, bb.amplitude, bb.amplitude_error):
+        th0 = float(orbit.q0[0])
+        far = 3 * abs(th0 - q_eq) * (-1 if th0 > q_eq else 1)
+        other = brentq(lambda th: V(th) - V(th0), *sorted((q_eq, q_eq + far)), xtol=1e-15, rtol=1e-15)
+        assert abs(other - q_eq) > abs(th0 - q_eq)  # (the other side is the farther one)
+        assert abs(amplitude - abs(other - q_eq)) <= error + 1e-14
+
+
 def test_a_pendulum_past_its_separatrix_is_refused_near_pi_and_says_why():
     """A rod on a pivot asked for a swing of 3.5 rad (beyond the separatrix at π, where the period becomes
     infinite): the branch is followed up to within 0.01 rad of π, then ends where the shooting residual stalls

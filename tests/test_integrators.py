@@ -289,3 +289,29 @@ def test_a_flow_is_simulate_without_its_per_call_checks():
     assert isinstance(traj, vd.Trajectory) and len(traj.energy) == 3
     with pytest.raises(vd.ModelError, match="rtol"):
         Flow(SYSTEM, rtol=2.0)
+
+
+def test_a_flows_state_transition_may_be_held_to_its_own_looser_tolerance():
+    """Flow(transition_rtol=): DOP853 holds Φ's error to it instead of rtol (never tighter than rtol's). On the
+    ball pendulum with a point spring, Φ at 1e-6 beside a state at 1e-10 takes fewer steps than Φ at 1e-10, the
+    state's end the same within both runs' own error estimates (the state is still held to rtol), Φ within 100×
+    its looser tolerance of the tight Φ; a rerun's estimate of Φ's error reruns it at transition_rtol / 100 too, and
+    covers the difference to the tight Φ. A transition_rtol below rtol is refused."""
+    from vibdyn.simulation.flow import Flow
+
+    from benchmarks.nonlinear_speed import ball_point_spring
+
+    system = ball_point_spring()
+    q0 = system.integrate(system.neutral(), np.array([0.0, 0.8, 0.0]))
+    v0 = np.zeros(3)
+    tight = Flow(system, q0, v0, rtol=1e-10, variational=True, error_method="rerun")(q0, v0, 0.0, 1.5)
+    loose = Flow(system, q0, v0, rtol=1e-10, variational=True, transition_rtol=1e-6,
+                 error_method="rerun")(q0, v0, 0.0, 1.5)
+    assert loose.accepted < tight.accepted
+    assert np.abs(system.difference(tight.q[-1], loose.q[-1])).max() <= tight.error + loose.error
+    gap = np.abs(loose.state_transition - tight.state_transition).max()
+    scale = np.abs(tight.state_transition).max()
+    assert gap <= 100 * 1e-6 * scale
+    assert gap <= loose.state_transition_error + tight.state_transition_error
+    with pytest.raises(vd.ModelError, match="transition_rtol"):
+        Flow(system, q0, v0, rtol=1e-8, variational=True, transition_rtol=1e-9)

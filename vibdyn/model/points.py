@@ -57,6 +57,15 @@ def so3_chart_term(xi, v):
                      [a2 * v0 + b2 * x0 + h1, a2 * v1 + b2 * x1 - h0, a2 * v2 + b2 * x2 + cxv]])
 
 
+def _jr_inv_coefficient(t2):
+    """c(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ) of J_r⁻¹ = I + ½[ξ]× + c[ξ]×² at θ² (rad², a float), by its series below
+    SERIES_BELOW."""
+    if t2 < SERIES_BELOW ** 2:
+        return 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
+    t = math.sqrt(t2)
+    return 1 / t2 - (1 + math.cos(t)) / (2 * t * math.sin(t))
+
+
 def so3_dexp_inv(xi, v):
     """J_r⁻¹(ξ) v (rad/s) for one ball joint's chart ξ (3, rad) and velocity v (3, rad/s): v + ½ ξ × v + c (ξ (ξ·v) − θ² v),
     c as in :func:`so3_chart_term`. Pinocchio 4.1's Jlog3 (its dDifference on a ball) is off by up to 1e-10 for θ
@@ -65,11 +74,7 @@ def so3_dexp_inv(xi, v):
     x0, x1, x2 = xi.tolist()
     v0, v1, v2 = v.tolist()
     t2 = x0 * x0 + x1 * x1 + x2 * x2
-    if t2 < SERIES_BELOW ** 2:
-        c = 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
-    else:
-        t = math.sqrt(t2)
-        c = 1 / t2 - (1 + math.cos(t)) / (2 * t * math.sin(t))
+    c = _jr_inv_coefficient(t2)
     xv = c * (x0 * v0 + x1 * v1 + x2 * v2)
     w = 1.0 - c * t2
     return np.array([w * v0 + 0.5 * (x1 * v2 - x2 * v1) + xv * x0, w * v1 + 0.5 * (x2 * v0 - x0 * v2) + xv * x1,
@@ -82,11 +87,7 @@ def so3_jr_inv(xi):
     :func:`so3_dexp_inv`."""
     x0, x1, x2 = xi.tolist()
     t2 = x0 * x0 + x1 * x1 + x2 * x2
-    if t2 < SERIES_BELOW ** 2:
-        c = 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
-    else:
-        t = math.sqrt(t2)
-        c = 1 / t2 - (1 + math.cos(t)) / (2 * t * math.sin(t))
+    c = _jr_inv_coefficient(t2)
     w = 1.0 - c * t2
     h0, h1, h2 = 0.5 * x0, 0.5 * x1, 0.5 * x2
     c0, c1, c2 = c * x0, c * x1, c * x2

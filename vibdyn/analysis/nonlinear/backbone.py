@@ -672,7 +672,7 @@ class _Follower:
         """(max over the orbit of |q_c − q_c,eq|, the error it adds to the orbit's own): at the start (a turning
         point of c by the phase condition: nothing to add) or at the other turning points (zeros of v_c). Each of
         those lies between two samples of the orbit's trajectory where v_c changes sign; it is located by a
-        simulation's events over that interval alone, from the first sample (that sample's estimated error, carried
+        simulation's events over that interval (and half the next) alone, from the first sample (that sample's estimated error, carried
         over the interval, plus that run's global error estimate; the location's own error costs nothing at a
         turning point, where q_c is stationary)."""
         c, T, traj = self.c, orbit.period, orbit.trajectory
@@ -685,10 +685,13 @@ class _Follower:
         atol = self.rtol * np.concatenate([scale, scale * orbit.omega])
         t0, extra = float(traj.t[0]), 0.0
         vc = np.asarray(traj.v)[:, c]
+        end = float(traj.t[-1])
         for k in np.flatnonzero(vc[:-1] * vc[1:] <= 0.0):
+            # (on to half the next interval: a turning point at a sample, as T/2 of a reversible orbit is, may fall
+            # just past the interval in the run from k)
             a, b = float(traj.t[k]), float(traj.t[k + 1])
-            run = simulate(self.system, b, traj.q[k], traj.v[k], t0=a, rtol=self.rtol, error_method="rerun",
-                           events=turning, atol=atol)
+            run = simulate(self.system, min(b + 0.5 * (b - a), end), traj.q[k], traj.v[k], t0=a, rtol=self.rtol,
+                           error_method="rerun", events=turning, atol=atol)
             carried = float(traj.q_error[k]) + float(traj.v_error[k]) * (b - a)
             for t, q in zip(run.t_events[0], run.q_events[0]):
                 if 1e-6 * T < t - t0 < (1 - 1e-6) * T:
