@@ -59,6 +59,16 @@ CASES = {
         "vd.forced_response_curve(s, ('mass', 0.1), (0.5, 2.0), 'mass')", 1),
     "rotor_slider sensitivity (stiffness)": (
         "s = vd.load_scene('rotor_slider').build()", "vd.sensitivity(s, ['radial_spring.stiffness'])", 3),
+    "two_mass_cubic simulate 50 s": (
+        "s = vd.load_scene('two_mass_cubic').build(); q = s.configuration([1.3, 2.2])",
+        "s.simulate(50.0, q)", 2),
+    "ball pendulum simulate 5 s with Φ": (
+        "from benchmarks.nonlinear_speed import ball_point_spring\nimport numpy as np\n"
+        "s = ball_point_spring(); q = s.integrate(s.neutral(), np.array([0.3, 0.5, 0.2]))",
+        "s.simulate(5.0, q, variational=True)", 2),
+    "ball chain simulate 1 s": (
+        "from benchmarks.bench_simulate import ball_chain\nimport numpy as np\n"
+        "s = ball_chain(5); q = s.integrate(s.neutral(), 0.2 * np.ones(s.nv))", "s.simulate(1.0, q)", 2),
 }
 
 RUNNER = """

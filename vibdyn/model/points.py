@@ -66,19 +66,24 @@ def _jr_inv_coefficient(t2):
     return 1 / t2 - (1 + math.cos(t)) / (2 * t * math.sin(t))
 
 
-def so3_dexp_inv(xi, v):
-    """J_r⁻¹(ξ) v (rad/s) for one ball joint's chart ξ (3, rad) and velocity v (3, rad/s): v + ½ ξ × v + c (ξ (ξ·v) − θ² v),
-    c as in :func:`so3_chart_term`. Pinocchio 4.1's Jlog3 (its dDifference on a ball) is off by up to 1e-10 for θ
-    between about 2e-4 and 2e-3 rad (its series threshold), where every step's chart starts: a vector-field error
-    no tolerance sees; this closed form is exact to round-off."""
-    x0, x1, x2 = xi.tolist()
-    v0, v1, v2 = v.tolist()
-    t2 = x0 * x0 + x1 * x1 + x2 * x2
-    c = _jr_inv_coefficient(t2)
-    xv = c * (x0 * v0 + x1 * v1 + x2 * v2)
-    w = 1.0 - c * t2
-    return np.array([w * v0 + 0.5 * (x1 * v2 - x2 * v1) + xv * x0, w * v1 + 0.5 * (x2 * v0 - x0 * v2) + xv * x1,
-                     w * v2 + 0.5 * (x0 * v1 - x1 * v0) + xv * x2])
+def so3_dexp_inv(xi, v, starts=(0,)):
+    """ξ̇ (rad/s, a list) of a chart ξ (rad) and velocities v whose balls start at ``starts`` (their three rotation
+    components): J_r⁻¹(ξ_b) v_b = v_b + ½ ξ_b × v_b + c (ξ_b (ξ_b·v_b) − θ² v_b) on each ball, c as in
+    :func:`so3_chart_term`, v elsewhere. Pinocchio 4.1's Jlog3 (its dDifference on a ball) is off by up to 2e-9
+    for θ between about 1.2e-4 and 3e-3 rad (its series threshold), where every step's chart starts: a vector-field
+    error no tolerance sees; this closed form is exact to round-off (floats: a stage's hot path)."""
+    out = v.tolist()
+    x = xi.tolist()
+    for i in starts:
+        x0, x1, x2 = x[i:i + 3]
+        v0, v1, v2 = out[i:i + 3]
+        t2 = x0 * x0 + x1 * x1 + x2 * x2
+        c = _jr_inv_coefficient(t2)
+        xv = c * (x0 * v0 + x1 * v1 + x2 * v2)
+        w = 1.0 - c * t2
+        out[i:i + 3] = (w * v0 + 0.5 * (x1 * v2 - x2 * v1) + xv * x0, w * v1 + 0.5 * (x2 * v0 - x0 * v2) + xv * x1,
+                        w * v2 + 0.5 * (x0 * v1 - x1 * v0) + xv * x2)
+    return out
 
 
 def so3_jr_inv(xi):

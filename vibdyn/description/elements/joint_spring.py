@@ -104,7 +104,7 @@ class _Layer(ForceGroup):
 
     def jacobian(self, q, phi):
         """∂(q ⊖ q_rest)/∂q on the layer's block at q (``phi`` its deflection): the identity on vector joints,
-        balls' J_r⁻¹(φ) in closed form (:func:`so3_jr_inv`; Pinocchio's Jlog3 rounds off to 1e-10 near 1e-3 rad),
+        balls' J_r⁻¹(φ) in closed form (:func:`so3_jr_inv`; Pinocchio's Jlog3 rounds off to 2e-9 near 1e-3 rad),
         Pinocchio's on planar and free joints."""
         J = (pin.dDifference(self.model, self.q_rest, q, pin.ARG1)[self.block] if self.differenced is not None
              else np.eye(len(self.iv)))

@@ -208,10 +208,11 @@ class ChartODE(VectorODE):
                               for i in range(width)]
         self.centre = None
         self._eye = np.eye(self.nv)
+        self.so3_starts = [b.start for b in self.so3_blocks]
 
     def dexp_inv(self, xi, q):
         """dexp⁻¹(ξ) = dDifference(centre, q, ARG1) at q = centre ⊕ ξ (nv × nv): the identity on vector joints,
-        balls' blocks in closed form (:func:`so3_jacobians`: Pinocchio's Jlog3 rounds off to 1e-10 near 1e-3 rad),
+        balls' blocks in closed form (:func:`so3_jacobians`: Pinocchio's Jlog3 rounds off to 2e-9 near 1e-3 rad),
         Pinocchio's on free and planar joints."""
         D = pin.dDifference(self.model, self.centre, q, ARG1) if self.column_groups else self._eye.copy()
         for b in self.so3_blocks:
@@ -226,9 +227,7 @@ class ChartODE(VectorODE):
         if self.column_groups:
             out[:nv] = self.dexp_inv(xi, q) @ v
         else:  # (vector joints and balls: ξ̇ = v, and J_r⁻¹(ξ) v on each ball)
-            out[:nv] = v
-            for b in self.so3_blocks:
-                out[b] = so3_dexp_inv(xi[b], v[b])
+            out[:nv] = so3_dexp_inv(xi, v, self.so3_starts)
         out[nv:2 * nv] = self.accelerations(q, v, t)
         if self.work:
             out[-1] = np.vdot(v, pin.rnea(model, self.data, q, v, out[nv:2 * nv]))
