@@ -629,6 +629,46 @@ def test_anisotropic_ball_spring_stiffness_in_closed_form():
         assert np.abs(T).max() < 1e-4 * np.abs(D).max()  # (the differences resolve it: the check can fail)
 
 
+def test_joint_springs_stiffness_rows_at_once_equal_each_state_and_differences():
+    """Joint springs on a ball (anisotropic, with a rest rotation; a second, isotropic one on the same ball: two
+    layers), a pivot and an isotropic ball: their ∂Q/∂q at many states at once (``joint_rows``, as the variational
+    equations ask for a step's stages) equals the one-state closed form at each, and central differences of Q in
+    the tangent space within their own Richardson truncation estimate, at rotations from 1e-3 to ~2 rad."""
+    from vibdyn.defaults import EPS
+    from vibdyn.model.derivatives import Derivatives
+    from vibdyn.model.fd import tangent_derivative
+
+    s = vd.Scene("sprung chain")
+    box = vd.inertia.box(1.0, (0.1, 0.2, 1.0))
+    s.add_body("a", joint=vd.Ball(), mass=1.0, com=(0, 0, -0.5), inertia=box)
+    s.add_body("b", parent="a", joint=vd.Pivot(axis=(1, 0, 0), at=(0, 0, -1)), mass=1.0, com=(0, 0, -0.5),
+               inertia=box)
+    s.add_body("c", parent="b", joint=vd.Ball(at=(0, 0, -1)), mass=1.0, com=(0, 0, -0.5), inertia=box)
+    s.add_joint_spring("a", (1.0, 2.0, 5.0), rest=(0.1, 0.0, 0.2))
+    s.add_joint_spring("a", 0.7, name="a.second")
+    s.add_joint_spring("b", 3.0)
+    s.add_joint_spring("c", 4.0)
+    system = s.build()
+    (group,) = system.joint_groups
+    rng = np.random.default_rng(5)
+    Q = np.array([system.integrate(system.neutral(), a * rng.standard_normal(system.nv))
+                  for a in (1e-3, 0.05, 0.5, 1.0, 2.0)])
+    V = rng.standard_normal((len(Q), system.nv))
+    rows, _ = group.joint_rows(Q, V, np.zeros(len(Q)))
+    ws = system.workspace()
+    for q, v, dQ_rows in zip(Q, V, rows):
+        dQ, _ = group.derivatives(Derivatives(system, ws, q, v, np.zeros(system.nv), 0.0, False, points=False))
+        assert np.abs(dQ_rows - dQ).max() <= 1e3 * EPS * max(1.0, np.abs(dQ).max())
+
+        def force(x):
+            out = np.zeros(system.nv)
+            group.apply(0.0, x, v, None, out, None)
+            return out
+
+        D, T = tangent_derivative(system, force, q, np.full(system.nv, 2.0**-12), estimate=True)
+        assert np.abs(dQ_rows - D).max() <= np.abs(T).max() + 1e3 * EPS * np.abs(D).max()
+
+
 def test_unstressed_spring_and_rest_positions():
     """A spring without free length is unstressed at the neutral configuration; joint springs on ball,
     free and planar joints vanish exactly at their rest offsets (and not elsewhere)."""

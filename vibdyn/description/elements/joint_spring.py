@@ -45,12 +45,12 @@ class JointSprings(ForceGroup):
         return sum(layer.potential(q, kin) for layer in self.layers)
 
     def joint_rows(self, q, v, t):
-        rows = [layer.joint_rows(q, v, t) for layer in self.layers]
-        if any(r is None for r in rows):  # (planar and free joints: state by state)
+        if any(layer.differenced is not None for layer in self.layers):  # (planar and free joints: state by state)
             return None
-        dQ = rows[0][0]
-        for r in rows[1:]:
-            dQ += r[0]
+        nv = self.layers[0].model.nv
+        dQ = np.zeros((len(q), nv, nv))
+        for layer in self.layers:
+            layer.add_rows(q, dQ)
         return dQ, None
 
     def derivatives(self, d):
@@ -142,24 +142,27 @@ class _Layer(ForceGroup):
     def joint_rows(self, q, v, t):
         """(∂Q/∂q at each row of q, None): −k on the diagonal for vector joints, whatever the state; balls' in closed
         form, every row at once; None for planar and free joints (their turning differenced: state by state)."""
-        nv = self.model.nv
-        dQ = np.zeros((len(q), nv, nv))
-        if self.vector:
-            dQ[:, self.iv, self.iv] = -self.k
-            return dQ, None
         if self.differenced is not None:
             return None
-        # vector joints and balls: every row at once (each ball's J_r⁻¹(φ) and chart term by so3_jacobians)
+        dQ = np.zeros((len(q), self.model.nv, self.model.nv))
+        self.add_rows(q, dQ)
+        return dQ, None
+
+    def add_rows(self, q, dQ):
+        """Add ∂Q/∂q at each row of q into dQ (B × nv × nv) (vector joints and balls only)."""
+        if self.vector:
+            dQ[:, self.iv, self.iv] -= self.k
+            return
+        # every row at once: each ball's J_r⁻¹(φ) and chart term by so3_jacobians
         phi = np.array([pin.difference(self.model, self.q_rest, qc) for qc in q])[:, self.iv]
         J = np.broadcast_to(np.eye(len(self.iv)), (len(q), len(self.iv), len(self.iv))).copy()
         for b, own in self.so3:
             J[(slice(None),) + own] = so3_jacobians(phi[:, b])[1]
-        dQ[(slice(None),) + self.block] = -(self.k[:, None] * J)
-        for b, own, _, rows in self.balls:
+        dQ[(slice(None),) + self.block] -= self.k[:, None] * J
+        for b, own, _, rows in self.balls:  # (−Jᵀ K J + the chart term, in place of the −K J just added)
             Jb, kb = J[(slice(None),) + own], self.k[b]
             term = so3_jacobians(-phi[:, b], kb * phi[:, b])[2]
-            dQ[(slice(None),) + rows] = -(np.swapaxes(Jb, 1, 2) * kb) @ Jb + term @ Jb
-        return dQ, None
+            dQ[(slice(None),) + rows] += -(np.swapaxes(Jb, 1, 2) * kb) @ Jb + term @ Jb + kb[:, None] * Jb
 
     def _curved_stiffness(self, q, dQ):
         """∂Q/∂q at q of a layer with curved joints, into dQ (nv × nv, zero outside the layer's block)."""
