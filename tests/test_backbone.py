@@ -209,6 +209,21 @@ def test_a_request_beyond_the_branch_names_how_far_it_went():
         vd.backbone(system, 1, energies=[0.1, 10.0])
 
 
+def test_kerschens_backbone_at_loose_tolerances_is_within_its_error_at_the_request():
+    """Kerschen's two masses (two_mass_cubic), in-phase NNM at x₁ = 0.1, 0.3, 0.5 m with tol 1e-6, rtol 1e-7: each
+    orbit meets its request only to ~1e-7 relative, so ω at the request is off by dω/dA times that miss (3e-9 rad/s
+    at 0.5 m). The stated error covers it: ω against a hand-written scipy shooting of the same equations at rtol
+    1e-12 (an independent reference) within the error, whose slope is the branch's tangent at the request (the
+    last step's secant alone lags a hardening backbone: it gave 2.78e-9 for an error of 2.94e-9)."""
+    from benchmarks.nonlinear import scipy_backbone, two_mass_ode
+
+    A = [0.1, 0.3, 0.5]
+    reference = scipy_backbone(*two_mass_ode(0), A, 1e-12, step=0.025)
+    bb = vd.backbone(vd.load_scene("two_mass_cubic").build(), 0, amplitudes=A, coordinate="m1", tol=1e-6, rtol=1e-7)
+    assert np.all(np.abs(bb.omega - reference) <= bb.error)
+    assert np.abs(bb.omega - reference).max() > 1e-9  # (the miss matters here: the check can fail)
+
+
 def test_an_asymmetric_pendulums_amplitude_is_its_farther_turning_point_by_energy():
     """A pendulum (1 kg, centre 0.5 m below a pivot) with a torsion spring of 5 N·m/rad resting at −0.5 rad: its
     potential V = ½k(θ + 0.5)² − m g d cos θ is not even about the equilibrium, so an orbit started A from it turns

@@ -504,11 +504,12 @@ class _Follower:
                 self.beyond(target, branch)
             if branch.lam.size > 1 and self.last is not None:
                 self.monitor(branch.x[-1], float(branch.lam[-1]), shoot)
-            (z, runs), lam = self.exact(branch.x[-1], float(target)), float(target)
-            slope = 0.0
+            (z, runs, slope), lam = self.exact(branch.x[-1], float(target)), float(target)
+            # |dω/dλ|: the tangent's at the request, and the last step's secant (the larger: a secant lags the
+            # tangent of a bending backbone, and the tangent is only as good as the Jacobian)
             if branch.lam.size > 1 and branch.lam[-1] != branch.lam[-2]:
-                slope = float((2 * math.pi / branch.x[-1, -1] - 2 * math.pi / branch.x[-2, -1])
-                              / (branch.lam[-1] - branch.lam[-2]))
+                slope = max(slope, abs(float((2 * math.pi / branch.x[-1, -1] - 2 * math.pi / branch.x[-2, -1])
+                                             / (branch.lam[-1] - branch.lam[-2]))))
             out.append((z, slope, runs))
         return out
 
@@ -540,7 +541,7 @@ class _Follower:
         """The branch point at λ = target solved again with the request's tolerances (tol, rtol), the request's
         row weighted REQUEST_WEIGHT times the closing rows (down to the energy's round-off): the orbit meets the
         request well within its own closing error. Returns (z, the flows from z where they are the last ones made,
-        else None)."""
+        else None, |dω/dλ| there: the branch's tangent from the Jacobian at z, in rad/s per J or per m or rad)."""
         shoot = self.shooting(self.state(z)[2], True, abs(float(z[self.c])))
         noise = 100 * np.finfo(float).eps * (abs(self.E_eq) + target) / self.tol if self.requested == "energy" else 0
         fun, jac = self.equations(shoot, max(target / REQUEST_WEIGHT, noise))
@@ -553,7 +554,15 @@ class _Follower:
                                    f"the branch, but its orbit could not be closed to tol = {self.tol:.1e} ({why}): "
                                    "try a looser tol, or a tighter rtol", residual=res.residual, best=res.x)
         q0, v0, T = self.state(res.x)
-        return res.x, shoot.cached(shoot.pack([(q0, v0)], T))
+        runs = shoot.cached(shoot.pack([(q0, v0)], T))
+        # the tangent: the closing rows hold along the branch and the request's row moves with λ (J dz = −∂F/∂λ);
+        # at z's flows (the last ones made: none integrated here) where they are at hand
+        slope = 0.0
+        if runs is not None:
+            J = jac(res.x, target)
+            dz = np.linalg.lstsq(J[:, :-1], -J[:, -1], rcond=RCOND)[0]
+            slope = abs(2 * math.pi / T**2 * float(dz[-1]))
+        return res.x, runs, slope
 
     def request_unit(self):
         return "J" if self.requested == "energy" else self.unit()
