@@ -171,6 +171,45 @@ def test_initial_step_of_a_state_too_large_for_the_arithmetic_is_a_step_error():
         s.build().simulate(1e-3, v0=[1e160])
 
 
+def test_a_chains_chart_velocity_is_exact_on_every_ball_and_pinocchio_outside_the_band_it_corrects():
+    """ξ̇ = J_r⁻¹(ξ) v on each ball of a chart (ChartODE.into), for 2 balls (closed form on all) and 6 (Pinocchio's
+    product, corrected inside JLOG3_BAND): equal to the exact oracle (inverse of ∫₀¹ exp(−s[ξ]×) ds by scipy's
+    expm) to 1e-14 with each ball's rotation at 1e-5 … 0.3 rad, inside Pinocchio 4.1's inexact band too. And the
+    band's premise: Pinocchio's Jlog3 is exact (1e-14) at rotations outside it — were a later Pinocchio to round
+    off elsewhere, this says so."""
+    import pinocchio as pin
+    from scipy.linalg import expm
+
+    from benchmarks.bench_simulate import ball_chain
+    from vibdyn.simulation.integrators.chart import JLOG3_BAND, make_ode
+
+    def exact_inverse(xi):
+        block = np.zeros((6, 6))
+        block[:3, :3], block[:3, 3:] = -pin.skew(xi), np.eye(3)
+        return np.linalg.inv(expm(block)[:3, 3:])
+
+    rng = np.random.default_rng(12)
+    thetas = [1e-5, 1.3e-4, 5e-4, 2e-3, 0.05, 0.3]
+    for n in (2, 6):
+        system = ball_chain(n)
+        q0 = system.integrate(system.neutral(), 0.3 * rng.standard_normal(system.nv))
+        ode, y = make_ode(system, q0, np.zeros(system.nv))
+        for _ in range(3):
+            xi = np.concatenate([t * u / np.linalg.norm(u) for t, u in
+                                 zip(rng.permutation(thetas)[:n], rng.standard_normal((n, 3)))])
+            v = rng.standard_normal(system.nv)
+            y[:system.nv], y[system.nv:2 * system.nv] = xi, v
+            out = np.empty(ode.n)
+            ode.into(0.0, y, out)
+            exact = np.concatenate([exact_inverse(xi[3 * i:3 * i + 3]) @ v[3 * i:3 * i + 3] for i in range(n)])
+            assert np.abs(out[:system.nv] - exact).max() <= 1e-14 * max(1.0, np.abs(v).max())
+    for theta in (1e-7, 1e-5, 0.9e-4, 1.1e-2, 0.1, 1.0):
+        xi = theta * rng.standard_normal(3)
+        xi *= theta / np.linalg.norm(xi)
+        assert not JLOG3_BAND[0] < theta ** 2 < JLOG3_BAND[1]
+        assert np.abs(pin.Jlog3(pin.exp3(xi)) - exact_inverse(xi)).max() <= 1e-14
+
+
 def test_a_ball_joints_chart_term_in_closed_form_matches_pinocchios_hessian_and_its_limit():
     """∂(J_r⁻¹(ξ) v)/∂ξ, the chart's own term in the Jacobian of a ball joint (variational equations, implicit
     steps): equal to Pinocchio's Hlog3(exp3 ξ, v)ᵀ Jexp3(−ξ) where that is finite (θ ≥ 0.05 rad, to 1e-12), to
