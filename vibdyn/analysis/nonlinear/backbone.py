@@ -553,6 +553,13 @@ class _Follower:
             raise ConvergenceError(f"backbone: the {self.requested} {self.request_text(target)} was reached along "
                                    f"the branch, but its orbit could not be closed to tol = {self.tol:.1e} ({why}): "
                                    "try a looser tol, or a tighter rtol", residual=res.residual, best=res.x)
+        if res.iterations == 0 and res.residual > 0:
+            # the branch point met tol already (a loose tol, the continuation's own): one Newton step all the same,
+            # for the request's row to be met to its closing error rather than to tol (J from z's flows)
+            y = res.x + np.linalg.lstsq(jac(res.x, target)[:, :-1], -fun(res.x, target), rcond=RCOND)[0]
+            r = float(np.abs(fun(y, target)).max())
+            if r < res.residual:
+                res = replace(res, x=y, residual=r, iterations=1)
         q0, v0, T = self.state(res.x)
         runs = shoot.cached(shoot.pack([(q0, v0)], T))
         # the tangent: the closing rows hold along the branch and the request's row moves with λ (J dz = −∂F/∂λ);
