@@ -171,17 +171,17 @@ def test_initial_step_of_a_state_too_large_for_the_arithmetic_is_a_step_error():
         s.build().simulate(1e-3, v0=[1e160])
 
 
-def test_a_chains_chart_velocity_is_exact_on_every_ball_and_pinocchio_outside_the_band_it_corrects():
-    """ξ̇ = J_r⁻¹(ξ) v on each ball of a chart (ChartODE.into), for 2 balls (closed form on all) and 6 (Pinocchio's
-    product, corrected inside JLOG3_BAND): equal to the exact oracle (inverse of ∫₀¹ exp(−s[ξ]×) ds by scipy's
-    expm) to 1e-14 with each ball's rotation at 1e-5 … 0.3 rad, inside Pinocchio 4.1's inexact band too. And the
-    band's premise: Pinocchio's Jlog3 is exact (1e-14) at rotations outside it — were a later Pinocchio to round
-    off elsewhere, this says so."""
+def test_a_chains_chart_velocity_is_exact_on_every_ball():
+    """ξ̇ = J_r⁻¹(ξ) v on each ball of a chart (ChartODE.into), for chains of 2 and 6 balls: equal to the exact
+    oracle (the inverse of ∫₀¹ exp(−s[ξ]×) ds by scipy's expm) to 1e-14 with each ball's rotation at 1e-5 … 0.3 rad,
+    inside Pinocchio 4.1's inexact Jlog3 band too (1.2e-4 … 2.4e-3 rad, where its product is off by up to 2e-9).
+    Its effect on a run: the 10-ball chain at rtol 1e-11 and 1e-13 differed by 7.3e-10 rad with estimates of 2.1e-10
+    and 3.3e-10 (the tighter run's larger: noise); now by 9.9e-11, estimates 1.1e-10 and 2.1e-11."""
     import pinocchio as pin
     from scipy.linalg import expm
 
     from benchmarks.bench_simulate import ball_chain
-    from vibdyn.simulation.integrators.chart import JLOG3_BAND, make_ode
+    from vibdyn.simulation.integrators.chart import make_ode
 
     def exact_inverse(xi):
         block = np.zeros((6, 6))
@@ -203,11 +203,6 @@ def test_a_chains_chart_velocity_is_exact_on_every_ball_and_pinocchio_outside_th
             ode.into(0.0, y, out)
             exact = np.concatenate([exact_inverse(xi[3 * i:3 * i + 3]) @ v[3 * i:3 * i + 3] for i in range(n)])
             assert np.abs(out[:system.nv] - exact).max() <= 1e-14 * max(1.0, np.abs(v).max())
-    for theta in (1e-7, 1e-5, 0.9e-4, 1.1e-2, 0.1, 1.0):
-        xi = theta * rng.standard_normal(3)
-        xi *= theta / np.linalg.norm(xi)
-        assert not JLOG3_BAND[0] < theta ** 2 < JLOG3_BAND[1]
-        assert np.abs(pin.Jlog3(pin.exp3(xi)) - exact_inverse(xi)).max() <= 1e-14
 
 
 def test_a_ball_joints_chart_term_in_closed_form_matches_pinocchios_hessian_and_its_limit():

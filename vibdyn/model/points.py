@@ -74,15 +74,18 @@ def so3_dexp_inv(xi, v, starts=(0,)):
     error no tolerance sees; this closed form is exact to round-off (floats: a stage's hot path)."""
     out = v.tolist()
     x = xi.tolist()
-    for i in starts:
-        x0, x1, x2 = x[i:i + 3]
-        v0, v1, v2 = out[i:i + 3]
+    small = SERIES_BELOW ** 2
+    for i in starts:  # (inlined: a call per stage for every ball of a chain)
+        j, k = i + 1, i + 2
+        x0, x1, x2, v0, v1, v2 = x[i], x[j], x[k], out[i], out[j], out[k]
         t2 = x0 * x0 + x1 * x1 + x2 * x2
-        c = _jr_inv_coefficient(t2)
+        c = (1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))) if t2 < small else \
+            _jr_inv_coefficient(t2)
         xv = c * (x0 * v0 + x1 * v1 + x2 * v2)
         w = 1.0 - c * t2
-        out[i:i + 3] = (w * v0 + 0.5 * (x1 * v2 - x2 * v1) + xv * x0, w * v1 + 0.5 * (x2 * v0 - x0 * v2) + xv * x1,
-                        w * v2 + 0.5 * (x0 * v1 - x1 * v0) + xv * x2)
+        out[i] = w * v0 + 0.5 * (x1 * v2 - x2 * v1) + xv * x0
+        out[j] = w * v1 + 0.5 * (x2 * v0 - x0 * v2) + xv * x1
+        out[k] = w * v2 + 0.5 * (x0 * v1 - x1 * v0) + xv * x2
     return out
 
 

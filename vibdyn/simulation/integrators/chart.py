@@ -25,11 +25,6 @@ from ...model.derivatives import analytic_derivatives_rows, linear_terms, solve_
 from ...model.points import SERIES_BELOW, so3_chart_term, so3_dexp_inv, so3_jacobians, so3_jr_inv  # noqa: F401
 
 ARG1 = pin.ArgumentPosition.ARG1
-# θ² (rad²) where Pinocchio 4.1's Jlog3 (dDifference on a ball) rounds off, up to 2e-9 (θ between 1.22e-4 and 2.4e-3
-# rad, where its series gives way to its closed form), with a margin: the chart's ξ̇ of a ball there is vibdyn's
-# closed form (exact elsewhere too, but a call per ball costs more than Pinocchio's one product for the chain)
-JLOG3_BAND = (1e-4 ** 2, 1e-2 ** 2)
-CLOSED_FORM_BALLS = 3  # (measured: 1 ball 3.0 µs a stage in closed form, 3.7 by Pinocchio and the band; 10 balls 12.9, 11.1)
 def make_ode(system, q0, v0, work=False, variational=False):
     """The ODE of a system (a chart if it has curved joints) and its initial state y0; with
     ``variational``, augmented with the variational equations (:class:`Variational`)."""
@@ -214,9 +209,6 @@ class ChartODE(VectorODE):
         self.centre = None
         self._eye = np.eye(self.nv)
         self.so3_starts = [b.start for b in self.so3_blocks]
-        # ξ̇ of up to CLOSED_FORM_BALLS balls (and no free or planar joint) all in closed form: cheaper then than
-        # Pinocchio's one product and the band's check
-        self.closed_form = not self.column_groups and len(self.so3_blocks) <= CLOSED_FORM_BALLS
 
     def dexp_inv(self, xi, q):
         """dexp⁻¹(ξ) = dDifference(centre, q, ARG1) at q = centre ⊕ ξ (nv × nv): the identity on vector joints,
@@ -232,14 +224,10 @@ class ChartODE(VectorODE):
         nv, model, c = self.nv, self.model, self.centre
         xi, v = y[:nv], y[nv:2 * nv]
         q = pin.integrate(model, c, xi)
-        if self.closed_form:  # (vector joints and a few balls: ξ̇ = v, and J_r⁻¹(ξ) v on each ball)
+        if self.column_groups:
+            out[:nv] = self.dexp_inv(xi, q) @ v
+        else:  # (vector joints and balls: ξ̇ = v, and J_r⁻¹(ξ) v on each ball)
             out[:nv] = so3_dexp_inv(xi, v, self.so3_starts)
-        else:
-            out[:nv] = pin.dDifference(model, c, q, ARG1) @ v
-            x = xi.tolist()
-            for i in self.so3_starts:  # balls inside Pinocchio's inexact band: J_r⁻¹(ξ) v in closed form
-                if JLOG3_BAND[0] < x[i] * x[i] + x[i + 1] * x[i + 1] + x[i + 2] * x[i + 2] < JLOG3_BAND[1]:
-                    out[i:i + 3] = so3_dexp_inv(xi, v, (i,))[i:i + 3]
         out[nv:2 * nv] = self.accelerations(q, v, t)
         if self.work:
             out[-1] = np.vdot(v, pin.rnea(model, self.data, q, v, out[nv:2 * nv]))
