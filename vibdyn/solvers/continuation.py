@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -49,6 +49,17 @@ class Branch:
     residual: float = 0.0
     reason: str = "finished"
     step: float = 0.0  # the arclength step (scaled) the branch would have taken next: where a following one starts
+
+    def then(self, more: "Branch") -> "Branch":
+        """This branch and ``more``, a continuation that goes on from its last point, as one (``more``'s status)."""
+        joined = replace(more, steps=self.steps + more.steps, rejected=self.rejected + more.rejected,
+                         elapsed=self.elapsed + more.elapsed)
+        if not self.lam.size:
+            return joined
+        k = 1 if more.lam.size else 0  # (more's first point is this one's last)
+        return replace(joined, x=np.vstack([self.x, more.x[k:]]), lam=np.concatenate([self.lam, more.lam[k:]]),
+                       s=np.concatenate([self.s, self.s[-1] + more.s[k:] - (more.s[0] if more.s.size else 0.0)]),
+                       folds=list(self.folds) + list(more.folds), residual=max(self.residual, more.residual))
 
 
 CLOSE = 0.01  # (``curved``) a correction within this × the step from the predictor doubles the next step

@@ -346,19 +346,6 @@ def _mode_index(mode, modes, what):
     return k
 
 
-def _joined(first, then):
-    """One Branch of a continuation ``first`` and the one ``then`` that goes on from its last point."""
-    if not first.lam.size:
-        return replace(then, steps=first.steps + then.steps, rejected=first.rejected + then.rejected,
-                       elapsed=first.elapsed + then.elapsed)
-    k = 1 if then.lam.size else 0  # (then's first point is first's last)
-    return replace(then, x=np.vstack([first.x, then.x[k:]]), lam=np.concatenate([first.lam, then.lam[k:]]),
-                   s=np.concatenate([first.s, first.s[-1] + then.s[k:] - (then.s[0] if then.s.size else 0.0)]),
-                   folds=list(first.folds) + list(then.folds), steps=first.steps + then.steps,
-                   rejected=first.rejected + then.rejected, elapsed=first.elapsed + then.elapsed,
-                   residual=max(first.residual, then.residual))
-
-
 # ---------------------------------------------------------------------------------------------- the branch
 class _Follower:
     """The continuation of one NNM: unknowns z = (ξ, v0, T) (q0 = q_eq ⊕ ξ), parameter λ (the energy above the
@@ -490,7 +477,7 @@ class _Follower:
                 start = (branch.x[-1], float(branch.lam[-1])) if branch.lam.size else (z, lam)
                 more, shoot = self.leg(*start, target, branch.step or h, a, None,
                                        max(1, max_steps - steps - branch.steps), loose=False)
-                branch = _joined(branch, more)
+                branch = branch.then(more)
             steps += branch.steps
             h, a_last = branch.step, a
             for f in branch.folds:
@@ -505,8 +492,7 @@ class _Follower:
             if branch.lam.size > 1 and self.last is not None:
                 self.monitor(branch.x[-1], float(branch.lam[-1]), shoot)
             (z, runs, slope), lam = self.exact(branch.x[-1], float(target)), float(target)
-            # |dω/dλ|: the tangent's at the request, and the last step's secant (the larger: a secant lags the
-            # tangent of a bending backbone, and the tangent is only as good as the Jacobian)
+            # |dω/dλ|: the larger of the tangent's and the last step's secant (which lags a bending backbone)
             if branch.lam.size > 1 and branch.lam[-1] != branch.lam[-2]:
                 slope = max(slope, abs(float((2 * math.pi / branch.x[-1, -1] - 2 * math.pi / branch.x[-2, -1])
                                              / (branch.lam[-1] - branch.lam[-2]))))
@@ -514,10 +500,9 @@ class _Follower:
         return out
 
     def leg(self, z, lam, target, h, a, runs, max_steps, loose):
-        """The continuation from (z, λ) to λ = target with first step h, scaled for orbits where c moves by a (m or
-        rad); ``runs`` the flows from z if made already; ``loose``: the state transitions at
-        CONTINUATION_TRANSITION_RTOL (else at the flows' rtol). Returns (the Branch, its shooting problem); a flow
-        that cannot be integrated ends the branch (ConvergenceError)."""
+        """(Branch, its Shooting) from (z, λ) to λ = target, first step h, scaled for orbits where c moves by a (m or
+        rad); ``runs``: z's flows if made; ``loose``: Φ at CONTINUATION_TRANSITION_RTOL. ConvergenceError where a flow
+        cannot be integrated."""
         T = self.state(z)[2]
         shoot = self.shooting(T, False, a, loose)
         if runs is not None:  # the last request's flows from z (at its tighter rtol): the leg's start as they are
@@ -554,16 +539,14 @@ class _Follower:
                                    f"the branch, but its orbit could not be closed to tol = {self.tol:.1e} ({why}): "
                                    "try a looser tol, or a tighter rtol", residual=res.residual, best=res.x)
         if res.iterations == 0 and res.residual > 0:
-            # the branch point met tol already (a loose tol, the continuation's own): one Newton step all the same,
-            # for the request's row to be met to its closing error rather than to tol (J from z's flows)
+            # (a loose tol, met at the branch point: one step all the same, the request met to its closing error)
             y = res.x + np.linalg.lstsq(jac(res.x, target)[:, :-1], -fun(res.x, target), rcond=RCOND)[0]
             r = float(np.abs(fun(y, target)).max())
             if r < res.residual:
                 res = replace(res, x=y, residual=r, iterations=1)
         q0, v0, T = self.state(res.x)
         runs = shoot.cached(shoot.pack([(q0, v0)], T))
-        # the tangent: the closing rows hold along the branch and the request's row moves with λ (J dz = −∂F/∂λ);
-        # at z's flows (the last ones made: none integrated here) where they are at hand
+        # the tangent (J dz = −∂F/∂λ: the closing rows hold, the request's moves with λ) from z's flows, if at hand
         slope = 0.0
         if runs is not None:
             J = jac(res.x, target)
