@@ -2,6 +2,7 @@
 tracking by MAC — against closed forms."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -50,6 +51,29 @@ def test_continuation_follows_an_s_curve_through_both_folds():
     br = continuation(lambda x, lam: np.array([x[0] ** 3 - x[0] - lam]), [-1.3], -1.0, 1.0, step=0.05,
                       stop=lambda x, lam: x[0] > 0.0)
     assert br.status == "stopped" and br.x[-1, 0] > 0 and len(br.folds) == 1
+
+
+def test_a_branch_goes_on_as_one_from_where_it_stopped():
+    """Branch.then: the S-curve x³ − x − λ = 0 stopped at x > 0.7 (past both folds), then continued from its last
+    point to λ = 1, is one
+    branch — its points in order and on the curve (the joint point once), the arclength increasing, both folds,
+    the steps summed, the end and status of the second — as a branch that did not stop; a first branch with no
+    point gives the second's points."""
+    def F(x, lam):
+        return np.array([x[0] ** 3 - x[0] - lam])
+
+    def J(x, lam):
+        return np.array([[3 * x[0] ** 2 - 1.0, -1.0]])
+
+    first = continuation(F, [-1.3], -1.0, 1.0, step=0.05, jacobian=J, stop=lambda x, lam: x[0] > 0.7)
+    more = continuation(F, first.x[-1], float(first.lam[-1]), 1.0, step=first.step, jacobian=J)
+    whole = first.then(more)
+    assert whole.status == "finished" and whole.lam[-1] == 1.0 and len(whole.folds) == 2
+    assert len(whole.lam) == len(first.lam) + len(more.lam) - 1 and whole.x.shape == (len(whole.lam), 1)
+    assert np.abs(whole.x[:, 0] ** 3 - whole.x[:, 0] - whole.lam).max() <= 1e-10
+    assert np.all(np.diff(whole.s) > 0) and whole.steps == first.steps + more.steps
+    empty = replace(first, x=first.x[:0], lam=first.lam[:0], s=first.s[:0])
+    assert np.array_equal(empty.then(more).x, more.x) and empty.then(more).steps == first.steps + more.steps
 
 
 def test_continuation_round_a_circle_finds_its_two_folds():
