@@ -39,14 +39,7 @@ def so3_chart_term(xi, v):
     x0, x1, x2 = xi.tolist()
     v0, v1, v2 = v.tolist()
     t2 = x0 * x0 + x1 * x1 + x2 * x2
-    if t2 < SERIES_BELOW ** 2:
-        c = 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
-        d = 1 / 360 + t2 * (1 / 7560 + t2 * (1 / 201600 + t2 * (1 / 5987520 + t2 / 189243758)))
-    else:
-        t = math.sqrt(t2)
-        sin, cos = math.sin(t), math.cos(t)
-        c = 1 / t2 - (1 + cos) / (2 * t * sin)
-        d = -2 / (t2 * t2) + (t * sin * sin + (1 + cos) * (sin + t * cos)) / (2 * t2 * t * sin * sin)
+    c, d = _jr_inv_coefficient(t2), _jr_inv_coefficient_rate(t2)
     xv = x0 * v0 + x1 * v1 + x2 * v2
     a0, a1, a2 = c * x0, c * x1, c * x2
     k, e = d * xv, d * t2 + 2 * c
@@ -57,30 +50,48 @@ def so3_chart_term(xi, v):
                      [a2 * v0 + b2 * x0 + h1, a2 * v1 + b2 * x1 - h0, a2 * v2 + b2 * x2 + cxv]])
 
 
+# the series of (a, b, c, d) below in θ² (rows: a, b, c, d; columns: powers 0 … 4 of θ²)
+_SO3_SERIES = np.array([[1 / 2, -1 / 24, 1 / 720, -1 / 40320, 1 / 3628800],
+                        [1 / 6, -1 / 120, 1 / 5040, -1 / 362880, 1 / 39916800],
+                        [1 / 12, 1 / 720, 1 / 30240, 1 / 1209600, 1 / 47900160],
+                        [1 / 360, 1 / 7560, 1 / 201600, 1 / 5987520, 1 / 189243758]]).T
+_POWERS = np.arange(5)
+_C_SERIES, _D_SERIES = (tuple(column) for column in _SO3_SERIES[:, 2:].T.tolist())  # (floats: the scalar hot paths)
+
+
 def _jr_inv_coefficient(t2):
     """c(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ) of J_r⁻¹ = I + ½[ξ]× + c[ξ]×² at θ² (rad², a float), by its series below
     SERIES_BELOW."""
     if t2 < SERIES_BELOW ** 2:
-        return 1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))
+        c0, c1, c2, c3, c4 = _C_SERIES
+        return c0 + t2 * (c1 + t2 * (c2 + t2 * (c3 + t2 * c4)))
     t = math.sqrt(t2)
     return 1 / t2 - (1 + math.cos(t)) / (2 * t * math.sin(t))
+
+
+def _jr_inv_coefficient_rate(t2):
+    """d = c′(θ)/θ (rad⁻⁴) at θ² (rad², a float), by its series below SERIES_BELOW."""
+    if t2 < SERIES_BELOW ** 2:
+        d0, d1, d2, d3, d4 = _D_SERIES
+        return d0 + t2 * (d1 + t2 * (d2 + t2 * (d3 + t2 * d4)))
+    t = math.sqrt(t2)
+    sin, cos = math.sin(t), math.cos(t)
+    return -2 / (t2 * t2) + (t * sin * sin + (1 + cos) * (sin + t * cos)) / (2 * t2 * t * sin * sin)
 
 
 def so3_dexp_inv(xi, v, starts=(0,)):
     """ξ̇ (rad/s, a list) of a chart ξ (rad) and velocities v whose balls start at ``starts`` (their three rotation
     components): J_r⁻¹(ξ_b) v_b = v_b + ½ ξ_b × v_b + c (ξ_b (ξ_b·v_b) − θ² v_b) on each ball, c as in
     :func:`so3_chart_term`, v elsewhere. Pinocchio 4.1's Jlog3 (its dDifference on a ball) is off by up to 2e-9
-    for θ between about 1.2e-4 and 3e-3 rad (its series threshold), where every step's chart starts: a vector-field
-    error no tolerance sees; this closed form is exact to round-off (floats: a stage's hot path)."""
+    for θ between about 1.2e-4 and 2.4e-3 rad (past its series threshold), where every step's chart starts: a
+    vector-field error no tolerance sees; this closed form is exact to round-off (floats: a stage's hot path)."""
     out = v.tolist()
     x = xi.tolist()
-    small = SERIES_BELOW ** 2
-    for i in starts:  # (inlined: a call per stage for every ball of a chain)
+    for i in starts:
         j, k = i + 1, i + 2
         x0, x1, x2, v0, v1, v2 = x[i], x[j], x[k], out[i], out[j], out[k]
         t2 = x0 * x0 + x1 * x1 + x2 * x2
-        c = (1 / 12 + t2 * (1 / 720 + t2 * (1 / 30240 + t2 * (1 / 1209600 + t2 / 47900160)))) if t2 < small else \
-            _jr_inv_coefficient(t2)
+        c = _jr_inv_coefficient(t2)
         xv = c * (x0 * v0 + x1 * v1 + x2 * v2)
         w = 1.0 - c * t2
         out[i] = w * v0 + 0.5 * (x1 * v2 - x2 * v1) + xv * x0
@@ -102,14 +113,6 @@ def so3_jr_inv(xi):
     return np.array([[w + c0 * x0, c0 * x1 - h2, c0 * x2 + h1],
                      [c1 * x0 + h2, w + c1 * x1, c1 * x2 - h0],
                      [c2 * x0 - h1, c2 * x1 + h0, w + c2 * x2]])
-
-
-# the series of (a, b, c, d) below in θ² (rows: a, b, c, d; columns: powers 0 … 4 of θ²)
-_SO3_SERIES = np.array([[1 / 2, -1 / 24, 1 / 720, -1 / 40320, 1 / 3628800],
-                        [1 / 6, -1 / 120, 1 / 5040, -1 / 362880, 1 / 39916800],
-                        [1 / 12, 1 / 720, 1 / 30240, 1 / 1209600, 1 / 47900160],
-                        [1 / 360, 1 / 7560, 1 / 201600, 1 / 5987520, 1 / 189243758]]).T
-_POWERS = np.arange(5)
 
 
 def _so3_coefficients(t2):
@@ -144,7 +147,8 @@ def so3_jacobians(xi, v=None):
     xv = np.einsum("bi,bi->b", xi, v)
     a = c[:, None] * xi
     b = (d * xv)[:, None] * xi - (d * t2 + 2 * c)[:, None] * v
-    term = a[:, :, None] * v[:, None, :] + b[:, :, None] * xi[:, None, :] + (c * xv)[:, None, None] * eye - 0.5 * skew(v)
+    term = (a[:, :, None] * v[:, None, :] + b[:, :, None] * xi[:, None, :] + (c * xv)[:, None, None] * eye
+            - 0.5 * skew(v))
     return out + (term,)
 
 
