@@ -212,7 +212,7 @@ def test_a_ball_joints_chart_term_in_closed_form_matches_pinocchios_hessian_and_
     and the derivative of Pinocchio's Jlog3 · v by fourth-order differences at rotations where Jlog3 is exact."""
     import pinocchio as pin
 
-    from vibdyn.simulation.integrators.chart import SERIES_BELOW, so3_chart_term
+    from vibdyn.model.points import SERIES_BELOW, so3_chart_term
 
     rng = np.random.default_rng(7)
     for theta in (0.05, 0.19, 0.21, 0.5, 1.0, 2.0, 3.0):

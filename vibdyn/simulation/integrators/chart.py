@@ -22,7 +22,7 @@ import pinocchio as pin
 
 from ...model import dynamics
 from ...model.derivatives import analytic_derivatives_rows, linear_terms, solve_mass
-from ...model.points import SERIES_BELOW, so3_chart_term, so3_dexp_inv, so3_jacobians, so3_jr_inv  # noqa: F401
+from ...model.points import so3_chart_term, so3_dexp_inv, so3_jacobians, so3_jr_inv
 
 ARG1 = pin.ArgumentPosition.ARG1
 def make_ode(system, q0, v0, work=False, variational=False):
@@ -212,7 +212,7 @@ class ChartODE(VectorODE):
 
     def dexp_inv(self, xi, q):
         """dexp⁻¹(ξ) = dDifference(centre, q, ARG1) at q = centre ⊕ ξ (nv × nv): the identity on vector joints,
-        balls' blocks in closed form (:func:`so3_jacobians`: Pinocchio's Jlog3 rounds off to 2e-9 near 1e-3 rad),
+        balls' blocks in closed form (:func:`so3_jr_inv`: Pinocchio's Jlog3 rounds off to 2e-9 near 1e-3 rad),
         Pinocchio's on free and planar joints."""
         D = pin.dDifference(self.model, self.centre, q, ARG1) if self.column_groups else self._eye.copy()
         for b in self.so3_blocks:
@@ -288,7 +288,8 @@ class ChartODE(VectorODE):
 
     def _chart_blocks(self, J, states, Q, MinvK):
         """J's configuration blocks at each row in the chart: dexp⁻¹(ξ), the chart's own term, −M⁻¹K dIntegrate(ξ)
-        (vector joints and balls only: every row at once, in closed form)."""
+        (of vector joints and balls alone: every row at once, in closed form; with free or planar joints, row by
+        row)."""
         nv, model, c = self.nv, self.model, self.centre
         if self.column_groups:
             for Jr, y, q, X in zip(J, states, Q, MinvK):
