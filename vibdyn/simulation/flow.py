@@ -21,9 +21,9 @@ import numpy as np
 from .._check import scalar
 from ..errors import ModelError
 
-from .simulate import SimulationError, flow_pieces
+from .simulate import flow_pieces
 
-_settings, _solve, _finish, _t_reached = flow_pieces()
+_settings, _error_method, _solve, _finish, _stopped = flow_pieces()
 
 __all__ = ["Flow", "FlowResult"]
 
@@ -65,10 +65,11 @@ class Flow:
     takes them, checked here once: ModelError for bad ones), ``error_method`` ("local" by default: the summed
     local errors; "rerun" a second run at tolerances / 100), ``max_step`` (s), ``variational`` (the state
     transition) and ``transition_rtol`` (the state transition's own error control, at least rtol; None: rtol's —
-    looser where the transition only feeds a Newton step's Jacobian). Call it with a state the caller made — (q0, v0) at ``t0`` (s; driven entries at their laws'
-    values, on the loops of a mechanism: not checked again; ``q0``, ``v0`` of the constructor: a state of the same
-    kind, checked as simulate checks its start, default neutral) — and the end time ``t1`` (s): a :class:`FlowResult`
-    (``trajectory=True``: a full :class:`~vibdyn.simulation.trajectory.Trajectory`, energies included).
+    looser where the transition only feeds a Newton step's Jacobian). Call it with a state the caller made —
+    (q0, v0) at ``t0`` (s; driven entries at their laws' values, on the loops of a mechanism: not checked again;
+    ``q0``, ``v0`` of the constructor: a state of the same kind, checked as simulate checks its start, default
+    neutral) — and the end time ``t1`` (s): a :class:`FlowResult` (``trajectory=True``: a full
+    :class:`~vibdyn.simulation.trajectory.Trajectory`, energies included).
     ``t_eval``, ``error_method`` and ``max_step`` may be changed per call. A run that cannot go on raises
     SimulationError; Ctrl-C is raised again (an analysis has no use for a part of a flow)."""
 
@@ -85,7 +86,6 @@ class Flow:
                                  f"tolerance, never tighter than the state's rtol = {self.settings.rtol:g}), got "
                                  f"{transition_rtol:g}")
             self.settings = replace(self.settings, transition_rtol=transition_rtol)
-        self._errors = self.settings.stepper.error_methods
 
     def __call__(self, q0, v0, t0: float, t1: float, *, t_eval=None, error_method: str | None = None,
                  max_step: float | None = None, trajectory: bool = False):
@@ -93,10 +93,7 @@ class Flow:
         cfg = self.settings
         changes: dict[str, Any] = {}
         if error_method is not None and error_method != cfg.error:
-            if error_method not in self._errors:
-                raise ModelError(f"flow: error estimate {error_method!r} is not available for method "
-                                 f"'{cfg.method}' (use {' or '.join(map(repr, self._errors))})")
-            changes["error"] = error_method
+            changes["error"] = _error_method(cfg.stepper, error_method, "flow")
         if max_step is not None:
             changes["max_step"] = float(max_step)
         cfg = replace(cfg, q0=np.array(q0, dtype=float), v0=np.array(v0, dtype=float), t0=float(t0),
@@ -108,9 +105,7 @@ class Flow:
         if trajectory:
             return _finish(self.system, cfg, solved, start)
         if main.status == "failed":
-            t = _t_reached(main)
-            raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}", None,
-                                  t) from main.failure
+            raise _stopped(self.system, cfg, main) from main.failure
         n = len(main.t)
         nfev, _, _, accepted, rejected = main.stepper.counters
         return FlowResult(np.array(main.t, dtype=float), np.array(main.q).reshape(n, self.system.nq),

@@ -133,10 +133,16 @@ def _finish(system, cfg, solved, start):
         raise SimulationError("the energies of the motion overflow (state too large for double precision)",
                               traj, cfg.t_end)
     if main.status == "failed":
-        t = _t_reached(main)
-        raise SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}"
-                              f"{_singular_note(system, traj)}", traj, t) from main.failure
+        raise _stopped(system, cfg, main, traj) from main.failure
     return traj
+
+
+def _stopped(system, cfg, main, traj=None):
+    """The SimulationError of a failed run: where it stopped and why (with ``traj``, the run so far, and a note
+    where a mechanism's loops are near a singular position)."""
+    t = _t_reached(main)
+    note = "" if traj is None else _singular_note(system, traj)
+    return SimulationError(f"simulation stopped at t = {t:.6g} s (of {cfg.t_end:g}): {main.message}{note}", traj, t)
 
 
 @dataclass
@@ -208,9 +214,19 @@ def _singular_note(system, traj):
 
 
 def flow_pieces():
-    """(check settings, solve a run with its error estimate, make its Trajectory, the time a run reached): the pieces
-    :func:`simulate` drives, for :class:`vibdyn.simulation.flow.Flow` to drive the same way."""
-    return _settings, _solve, _finish, _t_reached
+    """(check settings, check an error method, solve a run with its error estimate, make its Trajectory, the error of
+    a failed run): the pieces :func:`simulate` drives, for :class:`vibdyn.simulation.flow.Flow` to drive the same
+    way."""
+    return _settings, _error_method, _solve, _finish, _stopped
+
+
+def _error_method(stepper, error, what):
+    """``error`` (None: the stepper's default), checked against the error estimates the stepper offers."""
+    error = stepper.error_methods[0] if error is None else error
+    if error not in stepper.error_methods:
+        raise ModelError(f"{what}: error estimate {error!r} is not available for method '{stepper.name}' (use "
+                         f"{' or '.join(map(repr, stepper.error_methods))})")
+    return error
 
 
 # ---------------------------------------------------------------------------------------------- settings
@@ -320,10 +336,7 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
         if t_eval[0] < t0 or t_eval[-1] > t_end:
             raise ModelError(f"{what}: t_eval must lie in [t0 = {t0:g}, t_end = {t_end:g}] s, got [{t_eval[0]:g}, "
                              f"{t_eval[-1]:g}]")
-    error = stepper.error_methods[0] if error is None else error
-    if error not in stepper.error_methods:
-        raise ModelError(f"{what}: error estimate {error!r} is not available for method '{method}' (use "
-                         f"{' or '.join(map(repr, stepper.error_methods))})")
+    error = _error_method(stepper, error, what)
     max_step = np.inf if max_step is None else scalar(max_step, f"{what}: max_step (s)", positive=True)
     if progress not in (None, True, False):
         raise ModelError(f"{what}: progress must be None, True or False, got {progress!r}")
