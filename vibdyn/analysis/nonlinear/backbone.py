@@ -669,11 +669,11 @@ class _Follower:
 
     def amplitude(self, orbit):
         """(max over the orbit of |q_c − q_c,eq|, the error it adds to the orbit's own): at the start (a turning
-        point of c by the phase condition: nothing to add) or at the other turning points (zeros of v_c). Each of
-        those lies between two samples of the orbit's trajectory where v_c changes sign; it is located by a
-        simulation's events over that interval (and half the next) alone, from the first sample (that sample's estimated error, carried
-        over the interval, plus that run's global error estimate; the location's own error costs nothing at a
-        turning point, where q_c is stationary)."""
+        point of c by the phase condition: nothing to add) or at the other turning points (zeros of v_c), each
+        between two samples of the orbit's trajectory where v_c changes sign, located by a simulation's events over
+        that interval (and half the next) from the first sample: that sample's estimated error carried over the
+        interval plus that run's global error estimate (the location's own error costs nothing at a turning point,
+        where q_c is stationary)."""
         c, T, traj = self.c, orbit.period, orbit.trajectory
         best = abs(float(self.system.difference(self.q_eq, orbit.q0)[c]))
 

@@ -40,9 +40,9 @@ class Stepper:
     with dense output, ``_interpolant()`` (the last step's :class:`Interpolant`).
 
     Constructor, shared by all: ``(system, q0, v0, t_end, *, rtol, atol_q, atol_v, first_step, max_step,
-    work, t0, variational, transition_rtol)`` — rtol and atol_q/atol_v (arrays, tangent units) bound the local error per step
-    of adaptive methods, first_step and max_step (s) bound their steps; ``work`` integrates the power of the
-    force elements alongside (the energy balance); ``t0`` (s) the start time (t_end is absolute);
+    work, t0, variational, transition_rtol)`` — rtol and atol_q/atol_v (arrays, tangent units) bound the local
+    error per step of adaptive methods, first_step and max_step (s) bound their steps; ``work`` integrates the
+    power of the force elements alongside (the energy balance); ``t0`` (s) the start time (t_end is absolute);
     ``variational`` integrates the tangent-space variational equations with the state (methods that declare
     ``supports_variational``: :attr:`state_transition`), whose own error an adaptive method holds to
     ``transition_rtol`` (None: rtol; a looser one where only a Newton step's Jacobian needs it)."""
