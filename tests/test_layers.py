@@ -361,3 +361,15 @@ def test_no_analysis_class_forwards_by_getattr(name):
 def test_the_reduction_checkers_see_one():
     assert reads_of_loops_or_drives("a = system.drives\nb = getattr(s, 'constraints', None)\nc = s.reduction") == [1, 2]
     assert forwarding_classes("class V:\n    def __getattr__(self, n):\n        return 1\n") == ["V"]
+
+
+def test_the_solver_kit_stays_small():
+    """One place per setting: continuation takes at most 8 parameters (its stepping in one Arclength), and the
+    Hungarian assignment is called only by the one tracker (vibdyn.solvers.tracking)."""
+    import inspect
+
+    from vibdyn.solvers.continuation import continuation
+
+    assert len(inspect.signature(continuation).parameters) <= 8
+    callers = [n for n, p in MODULES.items() if "linear_sum_assignment" in p.read_text()]
+    assert callers == ["vibdyn.solvers.tracking"], callers

@@ -45,7 +45,7 @@ from ...errors import ConvergenceError, ModelError
 from ...model.dynamics import energy_gradient
 from ...model.groups import ForceGroup
 from ...simulation.simulate import SimulationError, simulate
-from ...solvers.continuation import continuation
+from ...solvers.continuation import Arclength, continuation
 from ...solvers.newton import Steps, newton
 from ...solvers.tracking import assign
 from ..equilibrium import static_configuration
@@ -512,10 +512,10 @@ class _Follower:
         xi = self.scales(a)
         self.failure = ""
         try:
-            return continuation(fun, z, lam, float(target), step=h, jacobian=jac, curved=True,
-                                tol=max(self.tol, CONTINUATION_TOL), max_steps=max_steps, max_step=MAX_STEP,
-                                min_step=MIN_STEP, scale=np.concatenate([xi, xi * 2 * math.pi / T, [T],
-                                                                         [max(target, lam)]]),
+            path = Arclength(step=h, tol=max(self.tol, CONTINUATION_TOL), max_steps=max_steps, max_step=MAX_STEP,
+                             min_step=MIN_STEP, curved=True,
+                             scale=np.concatenate([xi, xi * 2 * math.pi / T, [T], [max(target, lam)]]))
+            return continuation(fun, z, lam, float(target), jacobian=jac, path=path,
                                 stop=lambda x, lm: self.monitor(x, lm, shoot),
                                 parameter=f"the {self.requested} ({self.request_unit()})"), shoot
         except (SimulationError, np.linalg.LinAlgError) as e:
