@@ -62,7 +62,7 @@ class Branch:
                        folds=list(self.folds) + list(more.folds), residual=max(self.residual, more.residual))
 
 
-CLOSE = 0.01  # (``curved``) a correction within this × the step from the predictor doubles the next step
+CLOSE = 0.01  # (``curvature``) a correction within this × the step from the predictor doubles the next step
 HARD = 5  # and one of this many iterations or more halves it (else ×1.5 after an easy correction)
 FLOOR_FACTOR = 10.0  # a corrector failing with ‖F‖ within this factor of tol has met F's own error floor
 
@@ -75,7 +75,7 @@ class Arclength:
     ``min_step`` (below it the branch ends "failed"); ``tol``: the corrector's tolerance on ‖F‖_∞;
     ``max_steps``: the branch ends "stopped" after that many; ``chord``: the corrector starts from the last
     point's Jacobian and keeps it while each step cuts the residual ``chord`` times (:func:`.newton`): one
-    Jacobian per point where the branch is smooth (for Jacobians dearer than residuals); ``curved``: the
+    Jacobian per point where the branch is smooth (for Jacobians dearer than residuals); ``curvature``: the
     predictor follows the branch's curvature too (from the change of the tangent over the last step:
     y + h t + h²κ/2; along the tangent alone after a failed correction), the step doubles after a correction of
     at most 2 iterations that moved less than ``CLOSE`` × h from the predictor and halves after one of ``HARD``
@@ -88,7 +88,7 @@ class Arclength:
     max_step: float | None = None
     scale: np.ndarray | None = None
     chord: float | None = None
-    curved: bool = False
+    curvature: bool = False
 
 
 def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, jacobian: Callable | None = None,
@@ -107,7 +107,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     ``parameter``: λ's name in the messages, with its unit (e.g. "Ω (rad/s)")."""
     start = time.perf_counter()
     step, tol, max_steps, min_step = path.step, path.tol, path.max_steps, path.min_step
-    scale, chord, curved = path.scale, path.chord, path.curved
+    scale, chord, bends = path.scale, path.chord, path.curvature
     x0 = np.asarray(x0, dtype=float)
     n = x0.size
     w = np.ones(n + 1) if scale is None else np.asarray(scale, dtype=float)
@@ -140,7 +140,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     reason = "finished"
     residual = first.residual
     recent: list[bool] = []  # the last corrections: True for a failure at the residual's floor
-    bend = np.zeros(n + 1)  # the branch's curvature d²y/ds² from the last step (``curved``)
+    bend = np.zeros(n + 1)  # the branch's curvature d²y/ds² from the last step (``curvature``)
     while True:
         if steps >= max_steps:
             status, message, reason = "stopped", f"{max_steps} steps taken before {parameter} = {lam_end:g}", \
@@ -201,7 +201,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         ys.append(y_new.copy())
         ss.append(ss[-1] + float(np.linalg.norm(y_new - y)))
         residual = max(residual, corr.residual)
-        if curved:
+        if bends:
             bend = (t_new - t) / max(ss[-1] - ss[-2], 1e-300)
         y, t, Jy = y_new, t_new, Jy_new
         if crossed:
@@ -209,12 +209,12 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         if stop is not None and stop(y[:n] * w[:n], y[n] * w[n]):
             status, message, reason = "stopped", f"stopped on request at {parameter} = {y[n] * w[n]:.10g}", "stop"
             break
-        if curved and chord is None and corr.iterations <= 2 and float(np.linalg.norm(y_new - yp)) <= CLOSE * h:
+        if bends and chord is None and corr.iterations <= 2 and float(np.linalg.norm(y_new - yp)) <= CLOSE * h:
             # (a predictor that lands this close: its error falls as h³, not h²)
             h = min(2.0 * h, max_step)
         elif corr.iterations <= 3 if chord is None else corr.jacobians <= 1 and corr.iterations <= 6:
             h = min(1.5 * h, max_step)
-        elif curved and chord is None and corr.iterations >= HARD:  # (its long steps: shortened where it turns)
+        elif bends and chord is None and corr.iterations >= HARD:  # (its long steps: shortened where it turns)
             h *= 0.5
     Y = np.array(ys)
     return Branch(Y[:, :n] * w[:n], Y[:, n] * w[n], np.array(ss), folds, status, message, steps, rejected,
