@@ -81,6 +81,8 @@ def test_a_damped_pendulum_has_the_backbone_of_its_conservative_part(rod_backbon
     assert "damping left out" in bb.note and "bar.damper" in bb.note
     # the conservative part is a view of the compiled scene (its model shared, nothing rebuilt), dampers off
     assert bb.system.model is damped.model and not bb.system.depends_on_velocity and damped.depends_on_velocity
+    # and it shows what it computes: its scene lists no damper (the damped system's still does)
+    assert "bar.damper" not in bb.system.scene.elements and "bar.damper" in damped.scene.elements
     assert abs(bb.omega[0] - rod_backbone.omega[1]) <= bb.error[0] + rod_backbone.error[1]
     assert abs(bb.omega[0] - elliptic_omega(0.5)) <= bb.error[0]
 

@@ -361,3 +361,36 @@ def test_no_analysis_class_forwards_by_getattr(name):
 def test_the_reduction_checkers_see_one():
     assert reads_of_loops_or_drives("a = system.drives\nb = getattr(s, 'constraints', None)\nc = s.reduction") == [1, 2]
     assert forwarding_classes("class V:\n    def __getattr__(self, n):\n        return 1\n") == ["V"]
+
+
+def test_the_solver_kit_stays_small():
+    """One place per setting: continuation takes at most 8 parameters (its stepping in one Arclength), and the
+    Hungarian assignment is called only by the one tracker (vibdyn.solvers.tracking)."""
+    import inspect
+
+    from vibdyn.solvers.continuation import continuation
+
+    assert len(inspect.signature(continuation).parameters) <= 8
+    callers = [n for n, p in MODULES.items() if "linear_sum_assignment" in p.read_text()]
+    assert callers == ["vibdyn.solvers.tracking"], callers
+
+
+def calls_of_simulate(source):
+    """Lines that import the public ``simulate`` (the function or its module) or call a name ``simulate``."""
+    tree = ast.parse(source)
+    return sorted({n.lineno for n in ast.walk(tree)
+                   if (isinstance(n, ast.ImportFrom) and n.module and n.module.endswith("simulation.simulate"))
+                   or (isinstance(n, ast.ImportFrom) and n.module and n.module.endswith("simulation")
+                       and any(a.name == "simulate" for a in n.names))
+                   or (isinstance(n, ast.Call) and getattr(n.func, "id", None) == "simulate")})
+
+
+@pytest.mark.parametrize("name", sorted(n for n in MODULES if n.startswith(("vibdyn.analysis", "vibdyn.studies"))))
+def test_analyses_integrate_through_the_flow_not_simulate(name):
+    """simulate is the users' driver (checks and energies at every output); analyses integrate through Flow."""
+    assert not calls_of_simulate(MODULES[name].read_text()), name
+
+
+def test_the_simulate_checker_sees_one():
+    assert calls_of_simulate("from ...simulation.simulate import SimulationError\nx = simulate(s, 1.0)") == [1, 2]
+    assert calls_of_simulate("from ..simulation import simulate\nflow(q, v, 0, 1)") == [1]

@@ -472,13 +472,13 @@ def test_a_run_stopped_at_a_singular_position_says_so():
     a run stopped elsewhere)."""
     from types import SimpleNamespace
 
-    from vibdyn.simulation.simulate import _singular_note
+    from vibdyn.simulation.runs import singular_note
 
     system = vd.load_scene(MODELS / "iftomm_a02.toml").build()
     flat = system.integrate(system.neutral(), [-math.pi / 2 if c.startswith("crank") else math.pi / 2
                                                for c in system.coordinates])
     near = system.integrate(flat, 1e-6 * np.array([1.0 if c.startswith("crank") else -1.0
                                                    for c in system.coordinates]))
-    note = _singular_note(system, SimpleNamespace(t=[0.0, 1.0], q=[system.neutral(), near]))
+    note = singular_note(system, SimpleNamespace(t=[0.0, 1.0], q=[system.neutral(), near]))
     assert "singular position" in note and "loosen rtol" in note
-    assert _singular_note(system, SimpleNamespace(t=[0.0], q=[system.neutral()])) == ""
+    assert singular_note(system, SimpleNamespace(t=[0.0], q=[system.neutral()])) == ""

@@ -112,6 +112,12 @@ def test_a_built_tree_is_freed_without_the_garbage_collector():
         ref = weakref.ref(system)
         del system
         assert ref() is None
+        driven = vd.load_scene("shaken_pendulum").build()  # (its compiled Drives: no reference back either)
+        driven.simulate(0.01, driven.neutral())
+        assert len(driven.drives.forces(driven.neutral(), np.zeros(driven.nv), 0.0)) == 1
+        ref = weakref.ref(driven)
+        del driven
+        assert ref() is None
     finally:
         if enabled:
             gc.enable()

@@ -8,7 +8,6 @@ import pytest
 from conftest import MODELS
 
 import vibdyn as vd
-from vibdyn.simulation import simulate as sim  # (the module: vd.simulate is the function)
 
 SHORT = 400
 
@@ -63,8 +62,10 @@ def test_html_tables(damped):
 
 
 def test_progress_bar_clock_starts_with_the_run(monkeypatch, capsys):
-    monkeypatch.setattr(sim, "PROGRESS_DELAY", 0.2)
-    p = sim._Progress(1.0, True, "run")
+    from vibdyn.simulation import runs
+
+    monkeypatch.setattr(runs, "PROGRESS_DELAY", 0.2)
+    p = runs.Progress(1.0, True, "run")
     time.sleep(0.3)
     p.update(0.5)
     try:

@@ -587,9 +587,9 @@ def test_import_vibdyn_pays_nothing_for_simulation():
 
 def test_progress_bar_on_long_runs(monkeypatch, capsys):
     """A run longer than PROGRESS_DELAY shows a tqdm bar on stderr when asked (or on a terminal)."""
-    import vibdyn.simulation.simulate as sim
+    import vibdyn.simulation.runs as runs
 
-    monkeypatch.setattr(sim, "PROGRESS_DELAY", 0.0)
+    monkeypatch.setattr(runs, "PROGRESS_DELAY", 0.0)
     A01.build().simulate(2.0, progress=True)
     err = capsys.readouterr().err
     assert "simulate:" in err and "of 2 s" in err

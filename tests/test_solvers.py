@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import vibdyn as vd
-from vibdyn.solvers.continuation import continuation
+from vibdyn.solvers.continuation import Arclength, continuation
 from vibdyn.solvers.newton import Steps, newton
 from vibdyn.solvers.tracking import mac, match
 
@@ -37,7 +37,8 @@ def test_newton_solves_square_singular_and_manifold_problems():
 def test_continuation_follows_an_s_curve_through_both_folds():
     """x³ − x − λ = 0 from λ = −1 (x ≈ −1.32) to λ = 1: the branch turns at the folds x = ±1/√3,
     λ = ∓2/(3√3), located exactly; every point is on the curve; the end is at λ = 1 exactly."""
-    br = continuation(lambda x, lam: np.array([x[0] ** 3 - x[0] - lam]), [-1.3], -1.0, 1.0, step=0.05,
+    br = continuation(lambda x, lam: np.array([x[0] ** 3 - x[0] - lam]), [-1.3], -1.0, 1.0,
+                      path=Arclength(step=0.05),
                       jacobian=lambda x, lam: np.array([[3 * x[0] ** 2 - 1.0, -1.0]]))
     assert br.status == "finished" and br.lam[-1] == 1.0
     assert np.abs(br.x[:, 0] ** 3 - br.x[:, 0] - br.lam).max() <= 1e-10
@@ -48,7 +49,8 @@ def test_continuation_follows_an_s_curve_through_both_folds():
     assert f[1].lam == pytest.approx(c, abs=1e-10) and f[1].x[0] == pytest.approx(-1 / math.sqrt(3), abs=1e-8)
     assert br.x[-1, 0] == pytest.approx(1.3247179572447460, abs=1e-10)  # the real root of x³ − x − 1
     # without a Jacobian (central differences) and with a stop request
-    br = continuation(lambda x, lam: np.array([x[0] ** 3 - x[0] - lam]), [-1.3], -1.0, 1.0, step=0.05,
+    br = continuation(lambda x, lam: np.array([x[0] ** 3 - x[0] - lam]), [-1.3], -1.0, 1.0,
+                      path=Arclength(step=0.05),
                       stop=lambda x, lam: x[0] > 0.0)
     assert br.status == "stopped" and br.x[-1, 0] > 0 and len(br.folds) == 1
 
@@ -65,8 +67,9 @@ def test_a_branch_goes_on_as_one_from_where_it_stopped():
     def J(x, lam):
         return np.array([[3 * x[0] ** 2 - 1.0, -1.0]])
 
-    first = continuation(F, [-1.3], -1.0, 1.0, step=0.05, jacobian=J, stop=lambda x, lam: x[0] > 0.7)
-    more = continuation(F, first.x[-1], float(first.lam[-1]), 1.0, step=first.step, jacobian=J)
+    first = continuation(F, [-1.3], -1.0, 1.0, path=Arclength(step=0.05), jacobian=J,
+                         stop=lambda x, lam: x[0] > 0.7)
+    more = continuation(F, first.x[-1], float(first.lam[-1]), 1.0, path=Arclength(step=first.step), jacobian=J)
     whole = first.then(more)
     assert whole.status == "finished" and whole.lam[-1] == 1.0 and len(whole.folds) == 2
     assert len(whole.lam) == len(first.lam) + len(more.lam) - 1 and whole.x.shape == (len(whole.lam), 1)
@@ -78,8 +81,8 @@ def test_a_branch_goes_on_as_one_from_where_it_stopped():
 
 def test_continuation_round_a_circle_finds_its_two_folds():
     """x² + λ² = 1 from (0, −1) towards λ = 2 (never reached): it goes round through the folds at λ = ±1."""
-    br = continuation(lambda x, lam: np.array([x[0] ** 2 + lam ** 2 - 1.0]), [0.99], 0.0, 2.0, step=0.1,
-                      max_steps=80)
+    br = continuation(lambda x, lam: np.array([x[0] ** 2 + lam ** 2 - 1.0]), [0.99], 0.0, 2.0,
+                      path=Arclength(step=0.1, max_steps=80))
     assert br.status == "stopped"
     lams = sorted(f.lam for f in br.folds)
     assert lams[0] == pytest.approx(-1.0, abs=1e-10) and lams[-1] == pytest.approx(1.0, abs=1e-10)
@@ -131,8 +134,8 @@ def test_continuation_with_chord_corrector_finds_the_same_branch_with_fewer_jaco
             calls[chord] += 1
             return np.array([[3 * x[0] ** 2 - 1.0, -1.0]])
 
-        return continuation(lambda x, lam: np.array([x[0] ** 3 - x[0] - lam]), [-1.3], -1.0, 1.0, step=0.05,
-                            jacobian=jac, chord=0.1 if chord else None)
+        return continuation(lambda x, lam: np.array([x[0] ** 3 - x[0] - lam]), [-1.3], -1.0, 1.0, jacobian=jac,
+                            path=Arclength(step=0.05, chord=0.1 if chord else None))
 
     plain, chord = run(False), run(True)
     assert chord.status == "finished" and chord.lam[-1] == 1.0
@@ -157,11 +160,13 @@ def test_continuation_ends_at_once_where_the_residual_has_a_floor_above_tol():
         return np.array([[1.0, -2.0 * lam]])
 
     calls: list = []
-    br = continuation(quantised(4e-10, calls), [0.0], 0.0, 1.0, step=0.05, tol=1e-10, jacobian=jac, min_step=1e-9)
+    br = continuation(quantised(4e-10, calls), [0.0], 0.0, 1.0, jacobian=jac,
+                      path=Arclength(step=0.05, tol=1e-10, min_step=1e-9))
     assert br.status == "failed" and "stalls just above the tolerance" in br.message
     assert 0.4 < br.lam[-1] <= 0.5 and np.abs(br.x[:, 0] - br.lam ** 2).max() <= 1e-10
     assert br.rejected <= 3 and len(calls) < 150  # (halving down to min_step took 35 rejections, 587 calls)
-    br = continuation(quantised(1e-10, []), [0.0], 0.0, 1.0, step=0.05, tol=1e-10, jacobian=jac, min_step=1e-9)
+    br = continuation(quantised(1e-10, []), [0.0], 0.0, 1.0, jacobian=jac,
+                      path=Arclength(step=0.05, tol=1e-10, min_step=1e-9))
     assert br.status == "finished" and br.lam[-1] == 1.0
 
 
@@ -178,7 +183,8 @@ def test_continuation_shortens_a_step_whose_predictor_leaves_the_domain():
             raise ValueError("outside the domain")
         return np.array([[1.0 / x[0], -1.0]])
 
-    br = continuation(F, [1.0], 0.0, -6.0, step=1.0, max_step=20.0, jacobian=jac, tol=1e-12, scale=[0.01, 1.0])
+    br = continuation(F, [1.0], 0.0, -6.0, jacobian=jac,
+                      path=Arclength(step=1.0, max_step=20.0, tol=1e-12, scale=[0.01, 1.0]))
     assert br.status == "finished" and br.lam[-1] == -6.0 and br.rejected >= 1
     assert np.abs(np.log(br.x[:, 0]) - br.lam).max() <= 1e-12  # (every point solved to tol)
     res = newton(lambda x: F(x, 0.0), [-1.0], lambda x: jac(x, 0.0)[:, :1])

@@ -25,7 +25,7 @@ from .._deprecation import Renamed
 from .._format import number
 from ..errors import ConvergenceError, ModelError
 from ..model.fd import tangent_derivative
-from ..solvers.continuation import continuation
+from ..solvers.continuation import Arclength, continuation
 from ..solvers.tracking import mac, match
 
 
@@ -156,7 +156,7 @@ class Campbell:
             return np.array([[((w2 - w1) / (x2 - x1) - mu * np.sign(x[0])) / f0, -abs(x[0]) / f0]])
 
         branch = continuation(lambda x, mu: np.array([(omega(x[0]) - mu * abs(x[0])) / f0]), np.array([s0]), mu0,
-                              order, step=2.0, tol=tol, scale=scale, max_steps=50, jacobian=jacobian,
+                              order, jacobian=jacobian, path=Arclength(step=2.0, tol=tol, scale=scale, max_steps=50),
                               parameter="the mode's frequency over the speed (the engine order)")
         if branch.status != "finished":
             raise ConvergenceError(f"campbell: the crossing of a mode with engine order {order:g} in "

@@ -136,13 +136,17 @@ class Compiled:
     def without_groups(self, dropped: Any) -> Any:
         """A view of this compiled system with the force groups ``dropped`` left out (the same model, bodies and
         tables, their force-group tables made again; workspaces of its own): e.g. its conservative part, dampers
-        off. Its ``scene`` is still this one's."""
+        off. Its ``scene`` is a copy of this one's without the dropped groups' elements: what it shows is what it
+        computes (a scene file written from it, its table of elements)."""
         from .workspace import PerThread
 
         view = object.__new__(type(self))
         view.__dict__.update(self.__dict__)
         groups = tuple(g for g in self.force_groups if not any(g is d for d in dropped))
-        view.__dict__.update(_group_tables(groups), _per_thread=PerThread())
+        gone = {name for g in dropped for name in g.members}
+        scene = self.scene.copy()
+        scene.elements = {name: e for name, e in scene.elements.items() if name not in gone}
+        view.__dict__.update(_group_tables(groups), _per_thread=PerThread(), scene=scene)
         view.__dict__["depends_on_time"] = any(g.time_dependent for g in groups) or bool(
             self.supports or getattr(self, "drives", None))
         return view

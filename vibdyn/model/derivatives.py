@@ -178,14 +178,15 @@ def untrusted_columns(system, ws, q, v, a, t, shift, K, C, fext, estimate=False)
     return (k, h, T_q, hv, T_v) if estimate else None
 
 
-def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, applied=None):
+def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, applied=None, flags=None):
     """(K, C, terms, K_size) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|, Σ |J|ᵀ |∂f|) at (q, v, a, t), analytically;
     ``terms`` (N or N·m per coordinate) is the size of what cancels in r, ``K_size`` (nv × nv) that of the
     point elements' terms summed into K: the scales of their round-off (None unless ``with_terms``; 0.0
     without point elements). ``shift``: offsets of the supports' motion, as :func:`vibdyn.model.dynamics.forces`
     takes them; ``applied``: the forces at (q, v, t) as that function gives them, if already evaluated.
     With ``with_terms``, a fifth item: None, or (k, h, T_q, hv, T_v) of :func:`untrusted_columns` (the columns of
-    joints Pinocchio gets wrong, differenced: their steps and truncation estimates)."""
+    joints Pinocchio gets wrong, differenced: their steps and truncation estimates). ``flags``: a dict in which
+    ``"differenced"`` is set (whether a user callable or a joint's columns were differenced: exact to ~1e-10 only)."""
     ws = system.workspace()
     model, data = system.model, ws.data
     Q, fext = dynamics.forces(system, ws, q, v, t, shift) if applied is None else applied
@@ -211,7 +212,8 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
         in_q = untrusted_columns(system, ws, q, v, a, t, shift, K, None, None, with_terms)
         if with_terms:
             differenced = in_q[:3] + in_v[3:]
-    ws.differenced = d.differenced or bool(differenced)
+    if flags is not None:
+        flags["differenced"] = d.differenced or bool(differenced)
     return (K, C, terms, K_size, differenced or None) if with_terms else (K, C, terms, K_size)
 
 
@@ -325,16 +327,17 @@ def solve_mass(M, B):
     raise np.linalg.LinAlgError("the mass matrix is singular or not finite at this state")
 
 
-def linear_terms(system, q, v, t, a=None, applied=None):
+def linear_terms(system, q, v, t, a=None, applied=None, flags=None):
     """(M, K, C) at (q, v, t) for the Newton iterations of implicit integrators: M by CRBA, K = ∂r/∂q and
     C = ∂r/∂v analytically about the acceleration ``a`` (the free one if None), in the tree's coordinates;
     ``applied``: the forces at (q, v, t) as :func:`vibdyn.model.dynamics.forces` gives them, if already
-    evaluated. No error estimate, no checks (the analyses' :func:`vibdyn.analysis.linearize.linearize` adds them)."""
+    evaluated; ``flags`` as :func:`analytic_derivatives` takes it. No error estimate, no checks (the analyses'
+    :func:`vibdyn.analysis.linearize.linearize` adds them)."""
     ws = system.workspace()
     if a is None:
         a = dynamics.accelerations(system, ws, q, v, t, applied).copy()
     M = dynamics.mass_matrix(system.model, ws.data, q)
-    K, C, _, _ = analytic_derivatives(system, q, v, a, t, applied=applied)
+    K, C, _, _ = analytic_derivatives(system, q, v, a, t, applied=applied, flags=flags)
     return M, K, C
 
 

@@ -11,6 +11,7 @@ inverse dynamics at the motion's accelerations. ``nq``, ``nv`` and ``coordinates
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
@@ -39,7 +40,7 @@ class Drives:
         self.coordinates = tuple(system.coordinates[i] for i in self.index)
         self.free_coordinates = tuple(system.coordinates[i] for i in self.free)
         self.units = tuple(system.units[i] for i in self.index)
-        self._system = system
+        self._system = weakref.ref(system)  # (no reference cycle: a System is freed without the collector)
 
     def __len__(self):
         return len(self.elements)
@@ -73,20 +74,23 @@ class Drives:
 
     def accelerations(self, system, ws, q, v, t):
         """dv/dt (nv): a_d from the laws at t, a_f from the free rows of the equations of motion at (q, v)
-        as given (their driven entries are not replaced: :meth:`impose` does that); the drives' forces τ_d
-        there are left in ``ws.drive_forces``. Unchecked (the hot path)."""
+        as given (their driven entries are not replaced: :meth:`impose` does that). Unchecked (the hot path)."""
+        return self.accelerations_and_forces(system, ws, q, v, t)[0]
+
+    def accelerations_and_forces(self, system, ws, q, v, t):
+        """(dv/dt, τ_d): :meth:`accelerations` and the drives' forces there (N or N·m, in the order of
+        ``index``). Unchecked (the hot path)."""
         d, f = self.index, self.free
         a = np.zeros(system.nv)
         a[d] = self.values(t)[2]
         a, h, M = dynamics.held_accelerations(system, ws, q, v, t, a, f)
-        ws.drive_forces = h[d] if M is None else h[d] + M[np.ix_(d, f)] @ a[f]
-        return a
+        return a, (h[d] if M is None else h[d] + M[np.ix_(d, f)] @ a[f])
 
     def forces(self, q, v, t: float = 0.0, a=None) -> dict[str, float]:
         """{drive name: τ_d}: the generalized force (N for a slider, N·m for a pivot or helical joint) each
         drive exerts along its coordinate at (q, v) moving with accelerations a (None: the motion's,
         :meth:`accelerations`), τ_d = (M a + b + g − Q)_d. The driven entries of q and v are taken as given."""
-        system = self._system
+        system = self._system()
         q, v, t = system.check_configuration(q), system.check_velocity(v), system.check_time(t)
         ws = system.workspace()
         if a is None:

@@ -11,5 +11,7 @@ def compile_groups(system, scene):
     for kind in KINDS.values():
         members = scene.elements_of(kind)
         if members and kind.group is not None:
-            groups.append(kind.group(system, members))
+            group = kind.group(system, members)
+            group.members = tuple(e.name for e in members)
+            groups.append(group)
     return groups

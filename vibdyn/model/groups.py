@@ -18,6 +18,7 @@ class ForceGroup:
     time_dependent = False
     rows = False  # a point group whose apply takes many states at once (Kinematics.rows; Q, F with a row axis)
     joints: tuple = ()  # Pinocchio joints it applies forces to
+    members: tuple = ()  # the names of its elements (set by vibdyn.model.forces.compile_groups)
 
     def apply(self, t, q, v, kin, Q, F):
         raise NotImplementedError

@@ -21,12 +21,10 @@ class Workspace:
     made for it (``stencils``). Results of
     :mod:`vibdyn.model.dynamics` may share memory with it: copy what you keep."""
 
-    __slots__ = ("data", "fext", "rotations", "translations", "linear", "angular", "forces", "stencils",
-                 "drive_forces", "differenced")
+    __slots__ = ("data", "fext", "rotations", "translations", "linear", "angular", "forces", "stencils")
 
     def __init__(self, model: pin.Model):
         self.data = data = create_data(model)
-        self.differenced = False  # the last analytic derivatives differenced a user callable
         self.fext = pin.StdVec_Force()
         for _ in range(model.njoints):
             self.fext.append(pin.Force.Zero())
@@ -37,7 +35,6 @@ class Workspace:
         self.angular = [data.v[j].angular for j in joints]
         self.forces = [self.fext[j].vector for j in joints]
         self.stencils: dict = {}  # finite-difference stencils by steps (vibdyn.model.fd.stencil)
-        self.drive_forces = None  # the drives' forces τ_d of the last accelerations (vibdyn.model.drives)
         check_views(model, self)
 
 

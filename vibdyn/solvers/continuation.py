@@ -62,37 +62,52 @@ class Branch:
                        folds=list(self.folds) + list(more.folds), residual=max(self.residual, more.residual))
 
 
-CLOSE = 0.01  # (``curved``) a correction within this × the step from the predictor doubles the next step
+CLOSE = 0.01  # (``curvature``) a correction within this × the step from the predictor doubles the next step
 HARD = 5  # and one of this many iterations or more halves it (else ×1.5 after an easy correction)
 FLOOR_FACTOR = 10.0  # a corrector failing with ‖F‖ within this factor of tol has met F's own error floor
 
 
-def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, step: float = 0.05,
-                 jacobian: Callable | None = None, tol: float = 1e-10, max_steps: int = 2000,
-                 min_step: float = 1e-9, max_step: float | None = None, scale: np.ndarray | None = None,
-                 stop: Callable | None = None, chord: float | None = None, parameter: str = "λ",
-                 curved: bool = False) -> Branch:
+@dataclass(frozen=True)
+class Arclength:
+    """How a branch is stepped (the one place these settings live). ``step``: the first arclength step, in the
+    variables scaled by ``scale`` (n + 1 positive numbers, default 1: what "one unit" of each means), grown ×1.5
+    after an easy correction, halved after a failed one, at most ``max_step`` (default 20 × ``step``), at least
+    ``min_step`` (below it the branch ends "failed"); ``tol``: the corrector's tolerance on ‖F‖_∞;
+    ``max_steps``: the branch ends "stopped" after that many; ``chord``: the corrector starts from the last
+    point's Jacobian and keeps it while each step cuts the residual ``chord`` times (:func:`.newton`): one
+    Jacobian per point where the branch is smooth (for Jacobians dearer than residuals); ``curvature``: the
+    predictor follows the branch's curvature too (from the change of the tangent over the last step:
+    y + h t + h²κ/2; along the tangent alone after a failed correction), the step doubles after a correction of
+    at most 2 iterations that moved less than ``CLOSE`` × h from the predictor and halves after one of ``HARD``
+    iterations or more: fewer, longer steps where the branch is smooth."""
+
+    step: float = 0.05
+    tol: float = 1e-10
+    max_steps: int = 2000
+    min_step: float = 1e-9
+    max_step: float | None = None
+    scale: np.ndarray | None = None
+    chord: float | None = None
+    curvature: bool = False
+
+
+def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, jacobian: Callable | None = None,
+                 stop: Callable | None = None, path: Arclength = Arclength(), parameter: str = "λ") -> Branch:
     """Follow the branch of F(x, λ) = 0 from (x0, lam0) (x0 corrected first at λ = lam0) towards λ = lam_end.
 
     ``fun(x, lam)`` → ℝᵐ, m ≥ n (m > n: a consistent system with redundant rows, solved in least squares, as
     shooting with energy conservation); ``jacobian(x, lam)`` → m × (n + 1) = [F_x, F_λ] (central differences
-    if None);
-    ``step``: the first arclength step, in the variables scaled by ``scale`` (n + 1 positive numbers, default
-    1: what "one unit" of each means), grown ×1.5 after an easy correction, halved after a failed one, at
-    most ``max_step``; a branch whose corrector stops three times in four just above ``tol`` (within
-    ``FLOOR_FACTOR``, no step decreasing ‖F‖) has met F's own error and ends "failed" at once, since smaller
-    steps cannot lower that floor; ``stop(x, lam)`` → True ends the branch there (a request reached). The
-    point where λ crosses lam_end is solved exactly (its last point has λ = lam_end); where lam_end lies within
-    the next step on a branch steep in λ (|t_λ| > 0.5), it is solved there directly from the predictor, kept
-    only if λ did not turn back on the way (no fold stepped over). ``chord``: the corrector starts from the last point's
-    Jacobian and keeps it while each step cuts the residual ``chord`` times (:func:`.newton`): one Jacobian per
-    point where the branch is smooth (for Jacobians dearer than residuals). A predictor where F is not finite
-    (outside its domain) is a failed correction: the step is halved. ``parameter``: λ's name in the messages,
-    with its unit (e.g. "Ω (rad/s)"). ``curved``: the predictor follows the branch's curvature too (from the change
-    of the tangent over the last step: y + h t + h²κ/2; along the tangent alone after a failed correction), the
-    step doubles after a correction of at most 2 iterations that moved less than ``CLOSE`` × h from the predictor
-    and halves after one of ``HARD`` iterations or more: fewer, longer steps where the branch is smooth."""
+    if None); ``path``: how it is stepped (:class:`Arclength`). A branch whose corrector stops three times in
+    four just above the tolerance (within ``FLOOR_FACTOR``, no step decreasing ‖F‖) has met F's own error and
+    ends "failed" at once, since smaller steps cannot lower that floor; ``stop(x, lam)`` → True ends the branch
+    there (a request reached). The point where λ crosses lam_end is solved exactly (its last point has
+    λ = lam_end); where lam_end lies within the next step on a branch steep in λ (|t_λ| > 0.5), it is solved
+    there directly from the predictor, kept only if λ did not turn back on the way (no fold stepped over). A
+    predictor where F is not finite (outside its domain) is a failed correction: the step is halved.
+    ``parameter``: λ's name in the messages, with its unit (e.g. "Ω (rad/s)")."""
     start = time.perf_counter()
+    step, tol, max_steps, min_step = path.step, path.tol, path.max_steps, path.min_step
+    scale, chord, bends = path.scale, path.chord, path.curvature
     x0 = np.asarray(x0, dtype=float)
     n = x0.size
     w = np.ones(n + 1) if scale is None else np.asarray(scale, dtype=float)
@@ -101,7 +116,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     lam0, lam_end = float(lam0), float(lam_end)
     if lam_end == lam0:
         raise ModelError("continuation: lam_end must differ from lam0")
-    max_step = max_step or 20 * step
+    max_step = path.max_step or 20 * step
 
     def F(y):  # in scaled variables
         return np.asarray(fun(y[:n] * w[:n], y[n] * w[n]), float)
@@ -125,7 +140,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
     reason = "finished"
     residual = first.residual
     recent: list[bool] = []  # the last corrections: True for a failure at the residual's floor
-    bend = np.zeros(n + 1)  # the branch's curvature d²y/ds² from the last step (``curved``)
+    bend = np.zeros(n + 1)  # the branch's curvature d²y/ds² from the last step (``curvature``)
     while True:
         if steps >= max_steps:
             status, message, reason = "stopped", f"{max_steps} steps taken before {parameter} = {lam_end:g}", \
@@ -186,7 +201,7 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         ys.append(y_new.copy())
         ss.append(ss[-1] + float(np.linalg.norm(y_new - y)))
         residual = max(residual, corr.residual)
-        if curved:
+        if bends:
             bend = (t_new - t) / max(ss[-1] - ss[-2], 1e-300)
         y, t, Jy = y_new, t_new, Jy_new
         if crossed:
@@ -194,12 +209,12 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         if stop is not None and stop(y[:n] * w[:n], y[n] * w[n]):
             status, message, reason = "stopped", f"stopped on request at {parameter} = {y[n] * w[n]:.10g}", "stop"
             break
-        if curved and chord is None and corr.iterations <= 2 and float(np.linalg.norm(y_new - yp)) <= CLOSE * h:
+        if bends and chord is None and corr.iterations <= 2 and float(np.linalg.norm(y_new - yp)) <= CLOSE * h:
             # (a predictor that lands this close: its error falls as h³, not h²)
             h = min(2.0 * h, max_step)
         elif corr.iterations <= 3 if chord is None else corr.jacobians <= 1 and corr.iterations <= 6:
             h = min(1.5 * h, max_step)
-        elif curved and chord is None and corr.iterations >= HARD:  # (its long steps: shortened where it turns)
+        elif bends and chord is None and corr.iterations >= HARD:  # (its long steps: shortened where it turns)
             h *= 0.5
     Y = np.array(ys)
     return Branch(Y[:, :n] * w[:n], Y[:, n] * w[n], np.array(ss), folds, status, message, steps, rejected,

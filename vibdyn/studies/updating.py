@@ -97,7 +97,7 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
     """
     t0 = time.perf_counter()
     from ..analysis.sensitivity import sensitivity
-    from ..solvers.tracking import mac as mac_of
+    from ..solvers.tracking import assign, mac as mac_of
 
     if not callable(build):
         raise ModelError(f"update: build must be a function build(**params) returning a Scene, got {build!r}")
@@ -154,10 +154,7 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
                              f"{phi.shape[:-1] + (m,)}, got {meas_shapes.shape}")
         a, b = meas_shapes.reshape(-1, m), phi.reshape(-1, phi.shape[-1])
         table = np.atleast_2d(mac_of(a, b))  # measured × model modes (one pair: a number)
-        from scipy.optimize import linear_sum_assignment
-
-        cost = -table[:, flexible]
-        rows, cols = linear_sum_assignment(cost)
+        rows, cols = assign(-table[:, flexible])
         return flexible[cols[np.argsort(rows)]], table
 
     def residual(x):

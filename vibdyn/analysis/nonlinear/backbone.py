@@ -44,8 +44,9 @@ from ..._format import duration, number, summary, table
 from ...errors import ConvergenceError, ModelError
 from ...model.dynamics import energy_gradient
 from ...model.groups import ForceGroup
-from ...simulation.simulate import SimulationError, simulate
-from ...solvers.continuation import continuation
+from ...simulation.flow import Flow
+from ...simulation.trajectory import SimulationError
+from ...solvers.continuation import Arclength, continuation
 from ...solvers.newton import Steps, newton
 from ...solvers.tracking import assign
 from ..equilibrium import static_configuration
@@ -512,10 +513,9 @@ class _Follower:
         xi = self.scales(a)
         self.failure = ""
         try:
-            return continuation(fun, z, lam, float(target), step=h, jacobian=jac, curved=True,
-                                tol=max(self.tol, CONTINUATION_TOL), max_steps=max_steps, max_step=MAX_STEP,
-                                min_step=MIN_STEP, scale=np.concatenate([xi, xi * 2 * math.pi / T, [T],
-                                                                         [max(target, lam)]]),
+            scale = np.concatenate([xi, xi * 2 * math.pi / T, [T], [max(target, lam)]])
+            path = Arclength(h, max(self.tol, CONTINUATION_TOL), max_steps, MIN_STEP, MAX_STEP, scale, curvature=True)
+            return continuation(fun, z, lam, float(target), jacobian=jac, path=path,
                                 stop=lambda x, lm: self.monitor(x, lm, shoot),
                                 parameter=f"the {self.requested} ({self.request_unit()})"), shoot
         except (SimulationError, np.linalg.LinAlgError) as e:
@@ -683,14 +683,14 @@ class _Follower:
         scale = self.scales(best)  # (the flow's absolute tolerance from the motion, not from the scene's size)
         atol = self.rtol * np.concatenate([scale, scale * orbit.omega])
         t0, extra = float(traj.t[0]), 0.0
+        flow = Flow(self.system, traj.q[0], traj.v[0], rtol=self.rtol, atol=atol, error_method="rerun")
         vc = np.asarray(traj.v)[:, c]
         end = float(traj.t[-1])
         for k in np.flatnonzero(vc[:-1] * vc[1:] <= 0.0):
             # (on to half the next interval: a turning point at a sample, as T/2 of a reversible orbit is, may fall
             # just past the interval in the run from k)
             a, b = float(traj.t[k]), float(traj.t[k + 1])
-            run = simulate(self.system, min(b + 0.5 * (b - a), end), traj.q[k], traj.v[k], t0=a, rtol=self.rtol,
-                           error_method="rerun", events=turning, atol=atol)
+            run = flow(traj.q[k], traj.v[k], a, min(b + 0.5 * (b - a), end), events=turning)
             carried = float(traj.q_error[k]) + float(traj.v_error[k]) * (b - a)
             for t, q in zip(run.t_events[0], run.q_events[0]):
                 if 1e-6 * T < t - t0 < (1 - 1e-6) * T:

@@ -40,7 +40,7 @@ from ..._check import integer, scalar
 from ..._format import number
 from ...defaults import EPS
 from ...errors import ConvergenceError, ModelError
-from ...solvers.continuation import continuation
+from ...solvers.continuation import Arclength, continuation
 from ...solvers.newton import newton
 from ..equilibrium import static_configuration
 from .balance import Balance, Excitation, PointForce, SupportMotion, embed, fourier_basis
@@ -313,9 +313,9 @@ def _follow(bal, lo, hi, X0, step, max_steps):
     def stop(x, w):  # the branch has gone back below lo, or far beyond the linear peak
         return w < lo - 0.5 * (hi - lo) or np.max(np.abs(x)) > 1e3 * big
 
-    branch = continuation(bal.residual, X0, lo, hi, step=step, jacobian=bal.jacobian, tol=CONTINUATION_TOL,
-                          max_steps=max_steps, max_step=5 * step, scale=scale, stop=stop, chord=CHORD,
-                          parameter="Ω (rad/s)")
+    branch = continuation(bal.residual, X0, lo, hi, jacobian=bal.jacobian, stop=stop, parameter="Ω (rad/s)",
+                          path=Arclength(step=step, tol=CONTINUATION_TOL, max_steps=max_steps, max_step=5 * step,
+                                         scale=scale, chord=CHORD))
     if len(branch.lam) == 0:
         raise ConvergenceError(f"forced_response_curve: no periodic response found at Ω = {lo:g} rad/s "
                                f"({branch.message}); try a lower start, a smaller excitation or an explicit "

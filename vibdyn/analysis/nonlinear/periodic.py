@@ -25,7 +25,8 @@ from ..._format import duration, html_table, number, summary, table
 from ...errors import ConvergenceError, ModelError
 from ...model.derivatives import linear_terms
 from ...model.forcing import forcing
-from ...simulation.simulate import SimulationError, simulate
+from ...simulation.flow import Flow
+from ...simulation.trajectory import SimulationError
 from ...solvers.tracking import assign
 from .shooting import (MAX_SEGMENTS, RCOND, Shooting, conservative, damping_only, energy_roundoff, first_return,
                        free_indices, growth_segments, motion_scales)
@@ -282,8 +283,8 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
     m = segments if segments is not None else k if k > 1 else growth_segments(first.state_transition)
     shoot = Shooting(system, t0, period, autonomous, m, omega, rtol, phase_spec, energy, scales, max_step)
     if m > 1 and k == 1:  # nodes along a first run from the start
-        run = simulate(system, t0 + period, q_start, v_start, t0=t0, rtol=rtol, error_method="local",
-                       t_eval=[shoot.time(i, period) for i in range(m)])
+        run = Flow(system, q_start, v_start, rtol=rtol)(q_start, v_start, t0, t0 + period,
+                                                       t_eval=[shoot.time(i, period) for i in range(m)])
         nodes = Shooting.impose(system, list(zip(run.q, run.v)), t0, period)
     x0 = shoot.pack(nodes, period)
     if m == 1 and k == 1:

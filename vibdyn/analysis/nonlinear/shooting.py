@@ -31,7 +31,7 @@ from ...errors import ConvergenceError, ModelError
 from ...model.dynamics import energy_gradient
 from ...model.groups import ForceGroup
 from ...simulation.flow import Flow
-from ...simulation.simulate import SimulationError, simulate
+from ...simulation.trajectory import SimulationError
 from ...solvers.newton import Steps, newton
 
 ARG0, ARG1 = pin.ArgumentPosition.ARG0, pin.ArgumentPosition.ARG1
@@ -429,8 +429,9 @@ def first_return(system, q0, v0, t0, omega, rtol) -> float:
 
     setattr(section, "direction", 1)  # upward crossings only (the event protocol's attribute)
     span = 3 * 2 * math.pi / omega
+    flow = Flow(system, q0, v0, rtol=max(rtol, 1e-9))
     for _ in range(5):
-        traj = simulate(system, t0 + span, q0, v0, t0=t0, rtol=max(rtol, 1e-9), error_method="local", events=section)
+        traj = flow(q0, v0, t0, t0 + span, events=section)
         dist = np.array([np.linalg.norm(scaled(q, v)) for q, v in zip(traj.q, traj.v)])
         for tc, qc, vc in zip(traj.t_events[0], traj.q_events[0], traj.v_events[0]):
             dc = float(np.linalg.norm(scaled(qc, vc)))

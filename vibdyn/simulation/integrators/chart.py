@@ -175,14 +175,16 @@ class VectorODE:
         if key == self._terms[0]:
             M, K, C = self._terms[1]
         else:
-            M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0])
-            self.differenced = self.differenced or self.ws.differenced
+            flags: dict = {}
+            M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0], flags)
+            self.differenced = self.differenced or flags["differenced"]
             self._terms = (key, (M, K, C))
         return solve_mass(M, -(K @ Zq + C @ Yv))
 
     def _minv_kc(self, q, v, t, a=None):
-        M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0])
-        self.differenced = self.differenced or self.ws.differenced
+        flags: dict = {}
+        M, K, C = linear_terms(self.system, q, v, t, a, None if a is None else self._applied[0], flags)
+        self.differenced = self.differenced or flags["differenced"]
         X = solve_mass(M, np.hstack([K, C]))
         return X[:, :self.nv], X[:, self.nv:]
 

@@ -21,6 +21,14 @@ def driven_ode(base):
         def __init__(self, system, work=False):
             super().__init__(system, work)
             self.n += 1  # W_d, last but the work w
+            drives, ws, kept = system.drives, self.ws, [None]
+            self._drive_forces = kept  # the drives' forces of the last evaluation (their power), this ODE's own
+
+            def accelerations(q, v, t):
+                a, kept[0] = drives.accelerations_and_forces(system, ws, q, v, t)
+                return a
+
+            self.accelerations = accelerations
 
         def _impose(self, t, y):
             d, nv = self.system.drives, self.nv
@@ -34,7 +42,7 @@ def driven_ode(base):
             y = self._impose(t, y)
             super().into(t, y, out)
             d = self.system.drives
-            out[self.n - 2 if self.work else self.n - 1] = y[self.nv + d.index] @ self.ws.drive_forces
+            out[self.n - 2 if self.work else self.n - 1] = y[self.nv + d.index] @ self._drive_forces[0]
             out[d.index] = 0.0
             out[self.nv + d.index] = 0.0
 
