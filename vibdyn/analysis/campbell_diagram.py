@@ -276,6 +276,8 @@ class Campbell:
         return campbell_plot.campbell(self, path=path, units=units, frequency=frequency, dpi=dpi)
 
     def to_dict(self) -> dict:
+        """Plain JSON: SI values under keys naming their units, modes numbered from 1 (each critical speed's
+        ``mode_number``; row k of the arrays is mode k + 1), an infinite log decrement as "inf" or "-inf"."""
         return {"spin": self.spin, "spin_held": self.held, "speeds_rad_s": self.speeds.tolist(),
                 "omega_rad_s": self.omega.tolist(), "zeta": self.zeta.tolist(),
                 "whirl": self.whirl.tolist(), "error_rad_s": self.error.tolist(), "method": self.method,
