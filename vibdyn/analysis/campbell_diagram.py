@@ -135,8 +135,8 @@ class Campbell:
     elapsed: float
     _shapes: list = field(repr=False)
     _q: list = field(repr=False)
+    sigma: np.ndarray = field(repr=False)
     held: bool = True
-    sigma: np.ndarray | None = None
     frame: str = "fixed"
     undamped: bool = False
     frequencies = Renamed("omega")
@@ -172,8 +172,9 @@ class Campbell:
                     k = pick(refs, sm, osc)
                     return (sm.sigma[k], sm.error[k]), (str(sm.whirl[k]), float(sm.frequencies[k]))
 
-                ends = [(self.sigma[k, j], self.error[k, j]) for k in (i, n)]
-                s, err, extra = bracketed_root(f, float(self.speeds[i]), float(self.speeds[n]), *ends,
+                s, err, extra = bracketed_root(f, float(self.speeds[i]), float(self.speeds[n]),
+                                               (self.sigma[i, j], self.error[i, j]),
+                                               (self.sigma[n, j], self.error[n, j]),
                                                f"campbell: the onset of mode {j + 1}")
                 whirl, omega = extra or (str(self.whirl[i, j]), float(self.omega[i, j]))
                 found.append(Onset(s, err, j, whirl, omega, "instability" if sign[n] > 0 else "stability"))
@@ -339,7 +340,7 @@ def campbell(system: Any, spin: str, speeds: ArrayLike, orders: ArrayLike = (1,)
     sigma = np.array([r.sigma[c] for r, c in zip(rows, cols)])
     shapes = [r.shapes[:, c] for r, c in zip(rows, cols)]
     return Campbell(system, spin, speeds, freq, zeta, whirl, err, orders, method, time.perf_counter() - start,
-                    shapes, [r.q for r in rows], held, sigma, coordinate_frame(system, spin, held), undamped)
+                    shapes, [r.q for r in rows], sigma, held, coordinate_frame(system, spin, held), undamped)
 
 
 def eigen_log_dec(sigma: ArrayLike, omega: ArrayLike, error: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
