@@ -69,8 +69,13 @@ def test_rotating_damping_shows_in_the_real_parts_and_the_onset_is_jeffcotts():
         lam = np.roots([M, cn + cr, K - 1j * cr * s])
         assert np.sort(sig) == pytest.approx(np.sort(lam.real), abs=10 * err.max())
         assert np.sort(om) == pytest.approx(np.sort(np.abs(lam.imag - s)), abs=10 * err.max())
+    # whirl in the fixed frame although the coordinates turn: the forward mode is |ω_f − Ω| here, at ω_f − Ω
+    # against the spin in the hub's frame above ω_f, still forward for a fixed observer
+    fwd = [j for j in range(2) if set(c.whirl[1:, j]) == {"forward"}]
+    assert len(fwd) == 1 and set(c.whirl[1:, 1 - fwd[0]]) == {"backward"}
     (onset,) = c.onset()
     assert onset.kind == "instability" and onset.number == onset.mode + 1
+    assert onset.mode == fwd[0] and onset.whirl == "forward"  # rotating damping destabilises forward whirl
     assert abs(onset.speed - threshold) <= 10 * onset.speed_error
     assert onset.speed_error < 1e-8 * threshold
     assert np.all(c.log_dec[-1].min() < 0) and np.all(c.log_dec[0] > 0)
@@ -101,6 +106,17 @@ def test_cross_coupled_stiffness_at_zero_log_decrement():
     m0 = K * c**2 / q**2
     assert by_mass.unit == "kg" and abs(by_mass.limit - m0) <= 10 * by_mass.limit_error
     json.dumps(by_mass.to_dict())
+
+
+def test_non_rotating_damping_that_stabilises_the_spun_hub():
+    # Jeffcott's threshold solved for c_n at a held speed: c_n = c_r (Ω/ω_n − 1); the coordinates turn with the
+    # hub (δ in the hub's frame), the first forward mode found by its fixed-frame whirl
+    cr, speed = 1.5, 50.0
+    lim = vd.stability_limit(lambda cn: spun_hub(cr, cn), np.linspace(0.5, 5.0, 6), "hub", speed, unit="N·s/m")
+    assert lim.frame == "rotating" and set(lim.whirl) == {"forward"}
+    assert lim.log_dec[0] < 0 < lim.log_dec[-1]
+    exact = cr * (speed / WN - 1)
+    assert abs(lim.limit - exact) <= 10 * lim.limit_error and lim.limit_error < 1e-8 * exact
 
 
 MD, MJ, KS = 10.0, 0.1, 1e6

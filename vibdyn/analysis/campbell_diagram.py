@@ -167,9 +167,9 @@ class Campbell:
                 refs = (self._shapes[i][:, j], self._shapes[n][:, j])
                 osc = bool(self.omega[i, j] > 0 and self.omega[n, j] > 0)
 
-                def f(speed, refs=refs, osc=osc, q0=self._q[i]):
+                def f(speed, refs=refs, osc=osc, q0=self._q[i], near=0.5 * (self.omega[i, j] + self.omega[n, j])):
                     sm = self.at(speed, q0)
-                    k = pick(refs, sm, osc)
+                    k = pick(refs, sm, osc, near)
                     return (sm.sigma[k], sm.error[k]), (str(sm.whirl[k]), float(sm.frequencies[k]))
 
                 s, err, extra = bracketed_root(f, float(self.speeds[i]), float(self.speeds[n]),
@@ -219,15 +219,15 @@ class Campbell:
                                        max(self.error[i, j], self.error[i + 1, j]))
                     if not a <= s <= b:  # the continuation left the bracket (|Ω| is even in Ω): Brent inside it
 
-                        def h(x, refs=refs, q0=q0):
+                        def h(x, refs=refs, q0=q0, near=0.5 * (f[i] + f[i + 1])):
                             sm = self.at(x, q0)
-                            k = pick(refs, sm)
+                            k = pick(refs, sm, near=near)
                             return (sm.frequencies[k] - order * abs(x), sm.error[k]), None
 
                         s = bracketed_root(h, a, b, (g[i], self.error[i, j]), (g[i + 1], self.error[i + 1, j]),
                                            f"campbell: the crossing of mode {j + 1} with order {order:g}")[0]
                 sm = self.at(s, q0)
-                k = pick(refs, sm)
+                k = pick(refs, sm, near=0.5 * (f[i] + f[i + 1]))
                 slope = abs(order - (f[i + 1] - f[i]) / (b - a) * np.sign(s)) or 1.0
                 found.append(CriticalSpeed(float(s), j, str(sm.whirl[k]), order, float(order * abs(s)),
                                            float(sm.error[k] / slope + 1e-12 * abs(s))))
@@ -245,7 +245,7 @@ class Campbell:
             if speed in cache:  # the continuation's end solve starts where its corrector stopped
                 return cache[speed]
             sm = self.at(speed, q0)
-            w = cache[speed] = sm.frequencies[pick(refs, sm)]
+            w = cache[speed] = sm.frequencies[pick(refs, sm, near=0.5 * (fa + fb))]
             if all(abs(speed - x) > 1e-9 * abs(b - a) for x, _ in seen[-2:]):
                 seen.append((speed, w))
             return w
@@ -409,11 +409,15 @@ def _match(a: SpeedModes, b: SpeedModes, cols_a: np.ndarray) -> np.ndarray:
     return match(a.shapes[:, cols_a], b.shapes, a.frequencies[cols_a], b.frequencies)
 
 
-def pick(refs, sm: SpeedModes, oscillating: bool = True) -> int:
-    """The oscillating mode (any mode, unless ``oscillating``) of ``sm`` most like the shapes ``refs`` (both ends of a bracket: at a degenerate
-    end, such as two whirls at rest, one end's shape alone is ambiguous)."""
+def pick(refs, sm: SpeedModes, oscillating: bool = True, near: float | None = None) -> int:
+    """The oscillating mode (any mode, unless ``oscillating``) of ``sm`` most like the shapes ``refs`` (both ends
+    of a bracket: at a degenerate end, such as two whirls at rest, one end's shape alone is ambiguous), the
+    frequency nearest ``near`` (rad/s) breaking ties between equal shapes (in a rotating frame a forward and a
+    backward whirl can have one shape), as :func:`vibdyn.solvers.tracking.match` does."""
     score = sum(np.atleast_1d(mac(r.reshape(-1, 1), sm.shapes)).ravel() for r in refs)
-    return int(np.argmax(np.where(sm.frequencies > 0, score, -1.0) if oscillating else score))
+    if near is not None:
+        score = score - 1e-3 * np.abs(sm.frequencies - near) / max(float(np.abs(sm.frequencies).max()), 1e-300)
+    return int(np.argmax(np.where(sm.frequencies > 0, score, -np.inf) if oscillating else score))
 
 
 def speed_modes(system, spin: str, speed: float, q0, method: str, held: bool = True,
@@ -474,33 +478,60 @@ def _real_pair_zeta(lam) -> float:
 
 
 def _whirl(system, spin: str, q, shapes, freq, speed) -> np.ndarray:
-    """Whirl of each mode: the sense in which the spinning body's axis (and its origin, on the axis) orbits,
-    relative to the spin. Displacements d(t) = Re(d e^{iωt}) turn about the spin axis e counterclockwise
-    when e · Im(d̄ × d) < 0."""
-    body = next(b.name for b in system.scene.bodies.values() if spin in b.coordinates)
+    """Whirl of each mode in the fixed frame, relative to the spin: the sense in which the spinning body's axis
+    (and its origin, on the axis) orbits, and the origins of the massive bodies it carries (a disk on sliders of
+    a spun hub). Displacements d(t) = Re(d e^{iωt}) turn about the spin axis e counterclockwise when
+    e · Im(d̄ × d) < 0. A carried body's coordinates turn with the spin: a whirl at ω against the spin in that
+    frame is, in the fixed frame, at Ω − ω: forward while ω < |Ω|."""
+    bodies = system.scene.bodies
+    body = next(b.name for b in bodies.values() if spin in b.coordinates)
     i = system.coordinate_index(spin)
-    R0, _ = system.body_pose(body, q)
+    q = system.check_configuration(q)
+    carried = [b.name for b in bodies.values() if b.name != body and b.mass > 0 and _below(bodies, b.name, body)]
+    poses = [system.body_pose(b, q)[0] for b in [body] + carried]
 
-    def pose(qq):  # the body's rotation (relative to R0) and position
-        R, p = system.body_pose(body, qq)
-        return np.concatenate([pin.log3(R @ R0.T), p])
+    def pose(qq):  # each body's rotation (relative to its pose at q) and position
+        out = []
+        for name, R0 in zip([body] + carried, poses):
+            R, p = system.body_pose(name, qq)
+            out.append(np.concatenate([pin.log3(R @ R0.T), p]))
+        return np.concatenate(out)
 
-    Jw, Jp = np.split(tangent_derivative(system, pose, system.check_configuration(q), np.full(system.nv, 1e-6)), 2)
-    axis = Jw[:, i]
+    J = tangent_derivative(system, pose, q, np.full(system.nv, 1e-6)).reshape(-1, 6, system.nv)
+    axis = J[0, :3, i]
     if np.linalg.norm(axis) == 0:
         return np.full(len(freq), "", dtype=object)
     axis = axis / np.linalg.norm(axis)
     L = system.length_scale
     out = np.full(len(freq), "", dtype=object)
     sense_of_spin = np.sign(speed)
+
+    def sense(d):  # (+ counterclockwise about the axis, the size of d)
+        return -float(axis @ np.imag(np.cross(d.conj(), d))), float(np.vdot(d, d).real)
+
+    # the coordinates that turn with the spin: those of the bodies below the spinning one
+    turning = np.zeros(system.nv, bool)
+    for b in carried + [c.name for c in bodies.values() if c.mass == 0 and _below(bodies, c.name, body)]:
+        turning[[system.coordinate_index(c) for c in bodies[b].coordinates]] = True
     for k in range(len(freq)):
         if freq[k] <= 0 or sense_of_spin == 0:
             continue
-        d_tip = L * np.cross(Jw @ shapes[:, k], axis)  # the axis' tip, one length scale out
-        d_org = Jp @ shapes[:, k]
-        total = sum(float(axis @ np.imag(np.cross(d.conj(), d))) for d in (d_tip, d_org))
-        size = sum(float(np.vdot(d, d).real) for d in (d_tip, d_org))
+        parts = [sense(L * np.cross(J[0, :3] @ shapes[:, k], axis)), sense(J[0, 3:] @ shapes[:, k])]
+        total, size = sum(p[0] for p in parts), sum(p[1] for p in parts)
+        for b in range(1, len(poses)):  # carried: its sense in the fixed frame from the coordinates that do not
+            fixed = sense(J[b, 3:] @ np.where(turning, 0, shapes[:, k]))  # turn, and from those that do, turned
+            t, z = sense(J[b, 3:] @ np.where(turning, shapes[:, k], 0))  # into the fixed frame's
+            size += z + fixed[1]
+            total += fixed[0] + (abs(t) * sense_of_spin if t * sense_of_spin < 0 and freq[k] < abs(speed) else t)
         if abs(total) <= 1e-6 * size:
             continue
-        out[k] = "forward" if -total * sense_of_spin > 0 else "backward"
+        out[k] = "forward" if total * sense_of_spin > 0 else "backward"
     return out
+
+
+def _below(bodies, name: str, ancestor: str) -> bool:
+    """Whether body ``name`` lies below body ``ancestor`` in the tree."""
+    p = bodies[name].parent
+    while p in bodies and p != ancestor:
+        p = bodies[p].parent
+    return p == ancestor

@@ -170,9 +170,9 @@ def stability_limit(model: Any, values: ArrayLike, spin: str, speed: float, para
     for i, n in sign_changes(sign)[:1]:  # the first crossing: δ = 0 nearest the first value
         refs = (rows[i].shapes[:, picks[i]], rows[n].shapes[:, picks[n]])
 
-        def f(x, refs=refs, q=rows[i].q):
+        def f(x, refs=refs, q=rows[i].q, near=0.5 * (omega[i] + omega[n])):
             sm, _ = at(x, q)
-            j = pick(refs, sm)
+            j = pick(refs, sm, near=near)
             d, e = sm.log_dec()
             return (d[j], e[j]), None
 
