@@ -195,7 +195,10 @@ class Campbell:
         linearisation itself: the crossing of the engine-order line μ|Ω| with the mode's line is continued in μ
         (the solver kit's pseudo-arclength, :func:`vibdyn.solvers.continuation.continuation`) from the
         bracket's end, where μ = ω/|Ω|, to μ = ``order``, solved there to 1e-12 relative (a fold on the way, a
-        mode line tangent to an order line, is located, not stepped over); zero-frequency modes never count."""
+        mode line tangent to an order line, is located, not stepped over); zero-frequency modes never count.
+        The frequencies are those of the diagram's :attr:`frame`: in a rotating frame an unbalance is a static
+        load, and its resonance is where a mode's frequency there is 0, not a crossing of the 1× line. Where the
+        followed mode changes identity inside a bracket, a ConvergenceError asks for more speeds there."""
         order = finite_array(order, None, "critical_speeds order").item()
         if order <= 0:
             raise ModelError(f"critical_speeds: order must be positive, got {order}")

@@ -123,8 +123,8 @@ def stability_limit(model: Any, values: ArrayLike, spin: str, speed: float, para
     parameters; ``values`` increasing values sampled for δ (the crossing between two samples refined by
     Brent's method); ``mode``: "forward" (default: the first forward mode, lowest ω at the first value),
     "backward", or a mode number (from 1, ascending ω at the first value); the mode is tracked by MAC from
-    value to value. ``held``, ``method``, ``q0`` as in :func:`vibdyn.campbell`; ``unit`` names the parameter's
-    unit for a builder (a named parameter has its own)."""
+    value to value. ``held``, ``method``, ``q0`` as in :func:`vibdyn.campbell`; with a builder, ``parameter`` and
+    ``unit`` only name the parameter for tables and pictures (a scene's named parameter has its own unit)."""
     start = time.perf_counter()
     what = "stability_limit"
     build, name, unit = _builder(model, parameter, what, unit)
@@ -242,8 +242,8 @@ def critical_speed_map(model: Any, values: ArrayLike, spin: str, speeds: ArrayLi
     (increasing, positive: the map is log-log) the Campbell diagram of the conservative model over ``speeds``
     (:func:`vibdyn.campbell` with ``undamped=True``: damping and circulatory terms left out, gyroscopic ones
     kept) and its critical speeds of engine ``order``, refined on the linearisation. ``model``: a builder
-    ``build(value) -> Scene | System`` or a Scene with ``parameter`` the name of one of its parameters; ``unit``
-    names the parameter's unit for a builder (a named parameter has its own)."""
+    ``build(value) -> Scene | System`` or a Scene with ``parameter`` the name of one of its parameters; with a
+    builder, ``parameter`` and ``unit`` only name it for tables and pictures."""
     start = time.perf_counter()
     what = "critical_speed_map"
     build, name, unit = _builder(model, parameter, what, unit)
