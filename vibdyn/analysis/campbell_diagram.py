@@ -270,7 +270,7 @@ class Campbell:
                                    residual=branch.residual, best=None)
         return float(branch.x[-1, 0])
 
-    def plot(self, path: str | None = None, units: str = "rad/s", dpi: int = 100, *, frequency: str = "Hz") -> Any:
+    def plot(self, path: str | None = None, dpi: int = 100, *, units: str = "rad/s", frequency: str = "Hz") -> Any:
         """The Campbell diagram (matplotlib): each mode's frequency against the speed, forward whirl solid,
         backward dashed, engine orders thin grey lines labelled inside the axes, critical speeds circled and
         labelled clear of the curves, modes numbered from 1. ``units``: the speed axis, "rad/s" or "rpm";

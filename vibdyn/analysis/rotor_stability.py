@@ -217,7 +217,7 @@ class CriticalSpeedMap:
     def speeds_rpm(self) -> np.ma.MaskedArray:
         return self.speeds * 30.0 / np.pi
 
-    def plot(self, path: str | None = None, units: str = "rad/s", dpi: int = 100) -> Any:
+    def plot(self, path: str | None = None, dpi: int = 100, *, units: str = "rad/s") -> Any:
         """The map, log-log: each critical speed (rad/s or rpm: ``units``) against the parameter."""
         from ..faces import campbell_plot
 
