@@ -39,7 +39,8 @@ def closed_form(Omega):
 # %%
 # Each tracked curve against the closed form
 # ------------------------------------------
-# The columns follow the modes by MAC; ``whirl`` says which is which. Each frequency carries its own absolute
+# The columns follow the modes by MAC (mode 1 is column 0: modes are numbered from 1, as in the tables and the
+# picture); ``whirl`` says which is which. Each frequency carries its own absolute
 # error estimate ``diagram.error`` (rad/s).
 backward, forward = closed_form(speeds)
 worst = 0.0
@@ -51,7 +52,7 @@ for j in range(diagram.omega.shape[1]):
     exact = backward if kind == "backward" else forward
     gap = np.abs(diagram.omega[:, j] - exact)
     worst = max(worst, (gap / np.maximum(diagram.error[:, j], 1e-300)).max())
-    print(f"column {j}: {kind} whirl, largest |ω_vibdyn − ω_exact| = {gap.max():.1e} rad/s "
+    print(f"mode {j + 1}: {kind} whirl, largest |ω_vibdyn − ω_exact| = {gap.max():.1e} rad/s "
           f"(error estimates up to {diagram.error[:, j].max():.1e})")
     assert np.all(gap <= 10 * diagram.error[:, j] + 1e-12 * exact)
 print(f"largest |Δω| / estimate: {worst:.2f}")
@@ -69,7 +70,7 @@ for cs in critical:
 assert len(critical) == 1 and critical[0].whirl == "backward"
 assert abs(critical[0].speed - exact_c) <= 10 * critical[0].error + 1e-12 * exact_c
 
-fig_campbell = diagram.plot()
+fig_campbell = diagram.plot(units="rpm")  # speeds in rpm, frequencies in Hz (frequency="rad/s" for ω)
 
 # %%
 # The modes at 100 rad/s, in the viewer

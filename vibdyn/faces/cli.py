@@ -523,6 +523,7 @@ def _add_campbell(sub):
     cam.add_argument("--free-spin", action="store_true",
                      help="leave the spin free at each steady motion (default: held by its drive, unless a motor "
                           "law on it depends on its speed)")
+    cam.add_argument("--rpm", action="store_true", help="speeds in rpm: --speeds read, the table and the picture")
     cam.add_argument("--png", help="save the diagram to this PNG file")
     cam.add_argument("--json", action="store_true", help="print a JSON object instead of text")
 

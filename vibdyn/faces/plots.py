@@ -164,42 +164,6 @@ def time_history(response: "TimeResult", outputs=None, *, direction=None, quanti
     return save(fig, path, dpi)
 
 
-def campbell(diagram, *, path=None, dpi=100):
-    """Campbell diagram: each tracked mode's frequency (Hz) against the spin speed (rad/s), forward whirl
-    solid, backward dashed, no whirl dotted grey; engine orders as thin lines; critical speeds circled."""
-    fig, ax = figure(size=(7.0, 5.0))
-    ax = ax[0, 0]
-    w = diagram.speeds
-    f = diagram.frequency_hz
-    styles = {"forward": "-", "backward": "--", "": ":"}
-    labelled = set()
-    for j in range(f.shape[1]):
-        if not np.any(f[:, j] > 0):
-            continue
-        kinds = [k for k in ("forward", "backward", "") if np.any(diagram.whirl[:, j] == k)]
-        kind = max(kinds, key=lambda k: np.sum(diagram.whirl[:, j] == k))
-        label = f"mode {j} ({kind or 'no'} whirl)"
-        ax.plot(w, f[:, j], styles[kind], lw=1.6, label=label)
-        labelled.add(kind)
-    top = max(f.max(initial=0.0) * 1.1, 1e-12)
-    for order in diagram.orders:
-        ax.plot(w, order * np.abs(w) / (2 * np.pi), color="0.5", lw=0.8)
-        x = min(w[-1], top * 2 * np.pi / order)
-        ax.annotate(f"{order:g}×", (x, order * abs(x) / (2 * np.pi)), fontsize=8, color="0.4")
-        for c in diagram.critical_speeds(order):
-            ax.plot(c.speed, c.omega / (2 * np.pi), "o", mfc="none", mec="k", ms=8)
-            ax.annotate(f"{c.speed:.4g} rad/s ({c.whirl or 'no'} whirl)", (c.speed, c.omega / (2 * np.pi)),
-                        xytext=(6, -12), textcoords="offset points", fontsize=8)
-    ax.set_ylim(0, top)
-    ax.set_xlim(w[0], w[-1])
-    ax.set_xlabel(f"speed of {diagram.spin} (rad/s)")
-    ax.set_ylabel("damped frequency f_d = ω_d/2π (Hz)")
-    ax.set_title(f"Campbell diagram: {diagram.system.name} ({diagram.spin} {'held' if diagram.held else 'free'})")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    return save(fig, path, dpi)
-
-
 def _runs(flags):
     """(start, stop) index ranges of equal consecutive flags (or labels), each run sharing its end point with the
     next."""
