@@ -93,7 +93,8 @@ def simulate(system, t_end: float, q0=None, v0=None, method: Any = "dop853", rto
     output times in [t0, t_end] (default: every step, and t0). ``error_method``: how the error is
     estimated (default "rerun" for dop853, radau and bdf, "richardson" for fixed-step methods; "local" for
     dop853 is cheaper but not a global bound; ``error``: its former name).
-    ``max_step``: largest step of adaptive methods. ``progress``: a tqdm bar for runs longer than a few
+    ``max_step``: largest step of adaptive methods. A support moving by a sampled law (a ground record,
+    :class:`vibdyn.laws.Record`) bounds ``max_step`` and ``dt`` by its sampling step. ``progress``: a tqdm bar for runs longer than a few
     seconds (None: only on a terminal).
 
     ``events``: a callable ``f(t, q, v) → float`` or a list of them (attributes ``direction`` ∈ {−1, 0, 1}
@@ -338,6 +339,12 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
                              f"{t_eval[-1]:g}]")
     error = _error_method(stepper, error, what)
     max_step = np.inf if max_step is None else scalar(max_step, f"{what}: max_step (s)", positive=True)
+    # a sampled support motion (a ground record, vibdyn.laws.Record) bounds the steps by its own: none crosses
+    # two of its kinks, none aliases it
+    law_step = min((getattr(s.motion, "max_step", np.inf) for s in system.supports), default=np.inf)
+    max_step = min(max_step, law_step)
+    if dt is not None and not stepper.adaptive:
+        dt = min(dt, law_step)
     if progress not in (None, True, False):
         raise ModelError(f"{what}: progress must be None, True or False, got {progress!r}")
     work = bool(system.supports) or system.reduction.time_laws or any(type(g).potential is ForceGroup.potential or g.time_dependent

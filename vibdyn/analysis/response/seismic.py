@@ -49,7 +49,10 @@ def spectrum_function(spectrum, what="response spectrum"):
     """(S_a(T) vectorised m/s², its description, the value at T = 0 or None, slope dS_a/dT) of a spectrum: a
     callable of the period (s), a table (periods s, S_a m/s²) (two rows, or n × 2), or a record's spectrum
     (an object with ``periods`` and ``pseudo_acceleration``), interpolated linearly in T."""
+    error = None
     if hasattr(spectrum, "periods") and hasattr(spectrum, "pseudo_acceleration"):
+        if hasattr(spectrum, "error"):  # a record's spectrum: its own error estimate, interpolated alike
+            error = (np.asarray(spectrum.periods, float), np.asarray(spectrum.error, float))
         spectrum = (spectrum.periods, spectrum.pseudo_acceleration)
     if callable(spectrum):
         def S(T):
@@ -95,7 +98,10 @@ def spectrum_function(spectrum, what="response spectrum"):
 
     def slope_table(x):
         k = np.clip(np.searchsorted(T, x) - 1, 0, T.size - 2)
-        return (Sa[k + 1] - Sa[k]) / (T[k + 1] - T[k])
+        slope = np.abs((Sa[k + 1] - Sa[k]) / (T[k + 1] - T[k]))
+        if error is not None:  # (returned as a slope: the caller multiplies by δT; add the table's own error)
+            return slope, np.interp(x, *error)
+        return slope
 
     return S_table, f"a table of {T.size} periods {T[0]:g} … {T[-1]:g} s", float(Sa[0]), slope_table
 
@@ -362,7 +368,11 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
     gaps = np.array([np.min(np.abs(w2[r] - np.delete(w2, r)), initial=np.inf) for r in range(n_all)])[:n]
     shape_err = np.minimum(2 * wrel * w2[:n] / np.where(gaps > 0, gaps, 1e-300), 1.0) + modes.orthogonality
     dT = 2 * np.pi * wrel / w
-    Sa_rel = np.abs(slope(T)) * dT / np.where(Sa > 0, Sa, 1.0) if n else np.zeros(0)
+    slopes = slope(T) if n else np.zeros(0)
+    own = np.zeros(n)
+    if isinstance(slopes, tuple):  # a record's spectrum: its own error too
+        slopes, own = slopes
+    Sa_rel = (np.abs(slopes) * dT + own) / np.where(Sa > 0, Sa, 1.0) if n else np.zeros(0)
     rel = 2 * wrel + Sa_rel + 2 * shape_err  # of each modal value (the shape enters Γ too)
     # the rigid part: the missing mass and the rigid modes, algebraically
     rigid_u = np.zeros(lin.nv)
