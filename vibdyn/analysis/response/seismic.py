@@ -63,7 +63,7 @@ def spectrum_function(spectrum, what="response spectrum"):
                 raise ModelError(f"{what}: the spectrum callable failed at T = {T.tolist()} s ({e})") from None
             bad = ~np.isfinite(out) | (out < 0)
             if bad.any():
-                raise ModelError(f"{what}: the spectrum callable gave {out[bad][0]!r} at T = {T[bad][0]:g} s "
+                raise ModelError(f"{what}: the spectrum callable gave {float(out[bad][0])!r} at T = {T[bad][0]:g} s "
                                  "(pseudo-accelerations must be finite and ≥ 0, m/s²)")
             return out
 
@@ -345,9 +345,9 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
     mm = modes.modal_mass
     gamma_all = (Phi_all.T @ L) / mm
     eff_all = (Phi_all.T @ L) ** 2 / mm
-    Ks = 0.5 * (lin.K + lin.K.T)
-    u_static = np.linalg.solve(Ks, L)  # K⁻¹ L: the relative displacement under a unit static ground acceleration
-    mass = float(L @ lin.solve_mass(L))
+    # the modes are a complete basis of the motions the model has (a mechanism's: those its loops allow), so
+    # Σ_all Γ_n φ_n/ω_n² = K⁻¹ L (the static response to a unit ground acceleration) and Σ_all Γ_n² = Lᵀ M⁻¹ L
+    mass = float(eff_all.sum())
     if mass <= 0:
         raise ModelError(f"{what}: a ground motion along {d.tolist()} moves no mass of this model (no coordinate "
                          "responds to it)")
@@ -365,7 +365,8 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
     # errors: ω (relative, per mode), shapes (δω²/gap + orthogonality), the spectrum's slope
     wrel = modes.omega_relative_error[:n]
     w2 = modes.omega2
-    gaps = np.array([np.min(np.abs(w2[r] - np.delete(w2, r)), initial=np.inf) for r in range(n_all)])[:n]
+    gaps_all = np.array([np.min(np.abs(w2[r] - np.delete(w2, r)), initial=np.inf) for r in range(n_all)])
+    gaps = gaps_all[:n]
     shape_err = np.minimum(2 * wrel * w2[:n] / np.where(gaps > 0, gaps, 1e-300), 1.0) + modes.orthogonality
     dT = 2 * np.pi * wrel / w
     slopes = slope(T) if n else np.zeros(0)
@@ -378,11 +379,13 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
     rigid_u = np.zeros(lin.nv)
     rigid_err = np.zeros(lin.nv)
     if missing_mass and n < n_all:
-        residual = u_static - Phi @ (gamma / w ** 2) if n else u_static.copy()
-        rigid_u += residual * zpa
-        Kinv = np.abs(np.linalg.inv(Ks))
-        rigid_err += (Kinv @ ((lin.K_error + lin.nv * EPS * np.abs(Ks)) @ np.abs(u_static))) * zpa
-        rigid_err += (np.abs(Phi) @ (np.abs(gamma / w ** 2) * (2 * wrel + 2 * shape_err))) * zpa
+        out = slice(n, n_all)  # the modes left out, as one rigid response at S_a(0)
+        rel_out = 2 * modes.omega_relative_error[out] + 2 * (np.minimum(
+            2 * modes.omega_relative_error[out] * w2[out] / np.where(gaps_all[out] > 0, gaps_all[out], 1e-300), 1.0)
+            + modes.orthogonality)
+        static = gamma_all[out] / w_all[out] ** 2
+        rigid_u += Phi_all[:, out] @ static * zpa
+        rigid_err += np.abs(Phi_all[:, out]) @ (np.abs(static) * rel_out) * zpa
     if rigid_modes.any():
         rigid_u += U[rigid_modes].sum(axis=0)
         rigid_err += (np.abs(U[rigid_modes]) * rel[rigid_modes, None]).sum(axis=0)
@@ -394,25 +397,27 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
     # base shear and overturning moment: forces K u applied to the ground, as rows on u
     g = np.asarray(lin.system.scene.gravity, float)
     up = -g if np.any(g) else np.array([0.0, 0.0, 1.0])
+    note = ""
     if axis is None:
         ax = np.cross(up, d)
-        if np.linalg.norm(ax) < 1e-12:
-            raise ModelError(f"{what}: the ground motion is vertical: give axis= for the overturning moment")
+        if np.linalg.norm(ax) < 1e-12:  # a vertical ground motion overturns about no horizontal axis of its own
+            ax = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+            note = "vertical ground motion: the overturning moment is about an arbitrary horizontal axis (give axis=)"
         ax = ax / np.linalg.norm(ax)
     else:
         ax = unit_axis(axis, f"{what} axis")
     base = finite_array(base, (3,), f"{what} base point (m)")
     _, A_ang = lin.system.momentum_matrix(lin.q, base)
-    MinvK = lin.solve_mass(Ks)
+    # M⁻¹K in the model's own motions, Φ Ω² Φᵀ M (u ↦ the accelerations whose inertia the stiffness balances)
+    MinvK = (Phi_all * (w_all ** 2 / mm)) @ (Phi_all.T @ lin.M)
     shear_row, moment_row = L @ MinvK, (A_ang.T @ ax) @ MinvK
     (shear, moment), (shear_err, moment_err) = comb(np.vstack([shear_row, moment_row]))
     names, srows = spring_rows(lin)
     sforces, serrs = comb(srows) if names else (np.zeros(0), np.zeros(0))
     comb.linear = lin
-    note = ""
     if lin.has_damping:
-        note = ("the model's own damping is not used: undamped modes with the damping ratios given (the spectrum's "
-                "and CQC's)")
+        note = "; ".join(x for x in (note, "the model's own damping is not used: undamped modes with the damping "
+                                     "ratios given (the spectrum's and CQC's)") if x)
     return SeismicResponse(tuple(float(x) for x in d), combination, zeta[:n], T, w, gamma, eff_all[:n], Sa, D, U,
                            rigid_u, None if zpa is None else float(zpa), mass,
                            float(mass - eff_all[:n].sum()), modes_90, disp, disp_err, float(shear), float(shear_err),
