@@ -46,6 +46,8 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "solvers.tracking": ("mac",),
     "analysis.response": ("FRF", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation", "Hysteretic",
                           "transmissibility"),
+    "analysis.response.seismic": ("SeismicResponse",),
+    "analysis.response.record_spectrum": ("RecordSpectrum",),
     "analysis.identify": ("fit_rayleigh", "log_decrement", "HalfPower", "LogDecrement", "RayleighFit"),
     "analysis.statespace": ("StateSpace",),
     "results": ("TimeResult",),
@@ -191,4 +193,5 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
-           "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing"]
+           "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing",
+           "SeismicResponse", "RecordSpectrum"]
