@@ -491,3 +491,19 @@ def test_plots(tmp_path, building):
     plot_response_spectrum(tmp_path / "both.png", s, r, (np.array([0.0, 2.0]), np.array([1.0, 1.0])), g_units=True)
     with pytest.raises(vd.ModelError, match="nothing to draw"):
         plot_response_spectrum(tmp_path / "none.png")
+
+
+def test_record_support_in_a_scene_file_runs_from_the_command_line(tmp_path):
+    path = tmp_path / "rec.toml"
+    path.write_text('[scene]\nname = "rec"\n[[body]]\nname = "mass"\nmass = 1.0\n'
+                    'joint = { type = "slider", axis = [1.0, 0.0, 0.0] }\n[[support]]\nname = "ground"\n'
+                    'motion = { law = "record", acceleration = [0.0, 1.0, -0.5, 0.0], dt = 0.1 }\n[[spring]]\n'
+                    'name = "k"\na = ["ground", [-1.0, 0.0, 0.0]]\nb = "mass"\nstiffness = 100.0\nfree_length = 1.0\n')
+    code, out, err = _run(["info", str(path)])
+    assert code == 0 and "ground-acceleration record, 4 samples every 0.1 s" in out, err
+    code, out, err = _run(["simulate", str(path), "--t-end", "1", "--no-progress"])
+    assert code == 0, err
+    bad = tmp_path / "bad.toml"
+    bad.write_text(path.read_text().replace("dt = 0.1", "dt = -0.1"))
+    with pytest.raises(vd.ModelError, match="support 'ground' motion.*record dt"):
+        vd.load_scene(bad)

@@ -119,6 +119,12 @@ class Record:
         return {"law": "record", "acceleration": self.acceleration.tolist(), "dt": self.dt,
                 "direction": list(self.direction), "start": self.start}
 
+    def describe(self) -> str:
+        """One line: samples, step, duration, direction and peak."""
+        return (f"ground-acceleration record, {self.acceleration.size} samples every {self.dt:g} s "
+                f"({self.duration:g} s from {self.start:g} s) along {list(self.direction)}, peak "
+                f"{self.peak_acceleration:.4g} m/s²")
+
     def __repr__(self):
         return (f"Record({self.acceleration.size} samples every {self.dt:g} s from {self.start:g} s, "
                 f"direction {list(self.direction)}, peak {self.peak_acceleration:.4g} m/s²)")

@@ -423,5 +423,5 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
                            float(mass - eff_all[:n].sum()), modes_90, disp, disp_err, float(shear), float(shear_err),
                            U @ shear_row, float(moment), float(moment_err), U @ moment_row,
                            dict(zip(names, sforces.tolist())), dict(zip(names, serrs.tolist())),
-                           tuple(float(x) for x in ax), tuple(float(x) for x in base), tuple(lin.coordinates),
+                           tuple(float(x) + 0.0 for x in ax), tuple(float(x) + 0.0 for x in base), tuple(lin.coordinates),
                            tuple(lin.units), rigid_modes, time.perf_counter() - start, note, spectrum=S, _rows=comb)
