@@ -78,6 +78,8 @@ def test_combinations_by_hand_on_the_shear_frame(building, rule):
     F2 = {"srss": np.sqrt((drift ** 2).sum()), "cqc": np.sqrt(drift @ rho_book(w, 0.05) @ drift),
           "abs": np.abs(drift).sum()}[rule]
     assert abs(r.spring_forces["storey2"] - F2) <= r.spring_force_errors["storey2"] + 1e-12 * F2
+    assert np.allclose(np.abs(r.modal_spring_forces["storey2"]), np.abs(drift), rtol=1e-9)
+    assert np.all(r.modal_relative_error < 1e-8)
 
 
 def test_each_modes_contribution_participation_and_90_percent(building):

@@ -73,10 +73,21 @@ def _peaks(acc, h, w, z):
     x, v = np.zeros(w.size), np.zeros(w.size)
     a11, a12, a21, a22 = A[:, 0, 0], A[:, 0, 1], A[:, 1, 0], A[:, 1, 1]
     b11, b12, b21, b22 = B[:, 0, 0], B[:, 0, 1], B[:, 1, 0], B[:, 1, 1]
-    for k in range(n - 1):
-        x, v = (a11 * x + a12 * v + b11 * acc[k] + b12 * acc[k + 1],
-                a21 * x + a22 * v + b21 * acc[k] + b22 * acc[k + 1])
-        X[k + 1], V[k + 1] = x, v
+    # the input's part of every step at once (n − 1 × periods), then the 2 × 2 recursion, vectorised over periods
+    X[1:] = np.outer(acc[:-1], b11) + np.outer(acc[1:], b12)
+    V[1:] = np.outer(acc[:-1], b21) + np.outer(acc[1:], b22)
+    t1, t2 = np.empty(w.size), np.empty(w.size)
+    for k in range(1, n):
+        np.multiply(a11, x, out=t1)
+        t1 += X[k]
+        np.multiply(a12, v, out=t2)
+        t1 += t2
+        np.multiply(a21, x, out=t2)
+        t2 += V[k]
+        v *= a22
+        v += t2
+        x[:] = t1
+        X[k], V[k] = x, v
     absX = np.abs(X)
     kmax = absX.argmax(axis=0)
     peak = absX[kmax, np.arange(w.size)]

@@ -119,7 +119,8 @@ class SeismicResponse:
     Combined peaks with their estimated absolute errors (modal errors propagated; the rule's own error is not
     estimated): ``displacement`` (per coordinate, m or rad, relative to the ground), ``base_shear`` (N, along
     the ground motion), ``overturning_moment`` (N·m, about ``axis`` through ``base``), ``spring_forces``
-    (N, {name: peak tension change}); :meth:`point_displacement` for body points. ``mass`` (kg): what the ground
+    (N, {name: peak tension change}; ``modal_spring_forces`` mode by mode); :meth:`point_displacement` for body
+    points; ``modal_relative_error``: each mode's values' estimated relative error. ``mass`` (kg): what the ground
     moves (Lᵀ M⁻¹ L), ``missing_mass`` (kg) that of the modes left out, ``modes_for_90`` how many modes reach
     90 % of ``mass``."""
 
@@ -148,6 +149,8 @@ class SeismicResponse:
     modal_overturning_moment: np.ndarray
     spring_forces: dict
     spring_force_errors: dict
+    modal_spring_forces: dict  # {name: per kept mode (N)}
+    modal_relative_error: np.ndarray  # estimated relative error of each kept mode's values (ω, shape, spectrum)
     axis: tuple
     base: tuple
     coordinates: tuple
@@ -206,7 +209,9 @@ class SeismicResponse:
                 "overturning_moment_error_N_m": self.overturning_moment_error,
                 "modal_overturning_moment_N_m": self.modal_overturning_moment.tolist(), "axis": list(self.axis),
                 "base_m": list(self.base), "spring_forces_N": dict(self.spring_forces),
-                "spring_force_errors_N": dict(self.spring_force_errors), "note": self.note, "elapsed_s": self.elapsed}
+                "spring_force_errors_N": dict(self.spring_force_errors),
+                "modal_spring_forces_N": {k: v.tolist() for k, v in self.modal_spring_forces.items()},
+                "modal_relative_error": self.modal_relative_error.tolist(), "note": self.note, "elapsed_s": self.elapsed}
 
     def __repr__(self):
         from ..._format import duration, number, summary
@@ -423,5 +428,6 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
                            float(mass - eff_all[:n].sum()), modes_90, disp, disp_err, float(shear), float(shear_err),
                            U @ shear_row, float(moment), float(moment_err), U @ moment_row,
                            dict(zip(names, sforces.tolist())), dict(zip(names, serrs.tolist())),
+                           {name: U @ row for name, row in zip(names, srows)}, rel,
                            tuple(float(x) + 0.0 for x in ax), tuple(float(x) + 0.0 for x in base), tuple(lin.coordinates),
                            tuple(lin.units), rigid_modes, time.perf_counter() - start, note, spectrum=S, _rows=comb)
