@@ -96,6 +96,25 @@ def test_each_modes_contribution_participation_and_90_percent(building):
     assert np.allclose(r.periods, 2 * np.pi / w, rtol=1e-10)
 
 
+@pytest.mark.parametrize("m2, k2", [(1e-6, 1e9), (1e3, 1e-3), (1e-8, 1e12)])
+def test_stiff_and_extreme_two_mass_chains(m2, k2):
+    """Mass ratios to 1e8 and stiffness ratios to 1e9: SRSS and CQC as by hand (eigh of the exact M and K)."""
+    s = vd.Scene("stiff")
+    s.add_body("a", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_body("b", parent="a", joint=vd.Slider((1, 0, 0)), mass=m2)
+    s.add_joint_spring("a", 1e3)
+    s.add_joint_spring("b", k2)
+    modes = s.build().linearize(np.zeros(2), method="analytic").modes()
+    M, K = np.array([[1 + m2, m2], [m2, m2]]), np.diag([1e3, k2])
+    w2, Phi = sla.eigh(K, M)
+    w = np.sqrt(w2)
+    U = (Phi.T @ (M @ [1.0, 0.0])) * np.array([spectrum(2 * np.pi / x) for x in w]) / w2 * Phi
+    for rule, ref in (("srss", np.sqrt((U ** 2).sum(axis=1))),
+                      ("cqc", np.sqrt(np.einsum("ki,ij,kj->k", U, rho_book(w, 0.05), U)))):
+        r = modes.response_spectrum(spectrum, (1, 0, 0), rule)
+        assert np.all(np.abs(r.displacement - ref) <= r.displacement_error + 1e-13 * ref)
+
+
 def test_cqc_unequal_damping_and_limits():
     w = np.array([10.0, 10.5, 30.0])
     z = np.array([0.02, 0.05, 0.05])
@@ -405,6 +424,8 @@ def test_record_spectrum_refusals():
         rec.pseudo_acceleration_spectrum([np.nan])
     with pytest.raises(vd.ModelError, match="damping ratio"):
         rec.pseudo_acceleration_spectrum([1.0], damping=-0.1)
+    with pytest.raises(vd.ModelError, match="need steps ≤ T/8.*too many"):
+        vd.laws.Record(np.zeros(20001), dt=0.01).pseudo_acceleration_spectrum([1e-5])
 
 
 def test_response_spectrum_refusals(building):

@@ -226,14 +226,18 @@ def record_spectrum(record, periods: ArrayLike, damping: float = 0.05) -> Record
     live = T > 0
     parts = np.where(live, np.ceil(8 * h / np.where(live, T, 1.0) - 1e-12), 0).astype(int)
     parts = np.where(live, np.maximum(parts, 1), 0)
-    if np.sum(np.unique(parts[live]) * acc.size) > 50_000_000:
+    if np.sum(np.unique(parts[live]) * acc.size) > 5_000_000:
         raise ModelError(f"record spectrum: periods down to {T[live].min():g} s need steps ≤ T/8 over "
                          f"{acc.size} samples: too many; give longer periods (or 0 for the peak ground acceleration)")
     for m in np.unique(parts[live]):
-        sel = parts == m
         fine = acc if m == 1 else np.interp(np.arange((acc.size - 1) * m + 1) / m, np.arange(acc.size), acc)
-        p, tt, e = _peaks(fine, h / m, 2 * np.pi / T[sel], z)
-        disp[sel], when[sel], err[sel] = p, tt + record.start, e
+        # the oscillators' histories (2 × steps × periods floats) in pieces of at most ~40 MB each
+        group = np.flatnonzero(parts == m)
+        size = max(1, 2_500_000 // fine.size)
+        for start_at in range(0, group.size, size):
+            sel = group[start_at:start_at + size]
+            p, tt, e = _peaks(fine, h / m, 2 * np.pi / T[sel], z)
+            disp[sel], when[sel], err[sel] = p, tt + record.start, e
     pga = record.peak_acceleration
     when[~live] = record.start + h * float(np.argmax(np.abs(acc)))
     return RecordSpectrum(T, z, disp, err, when, pga, time.perf_counter() - start)
