@@ -64,7 +64,8 @@ for r in (srss, cqc):
     assert np.all(np.abs(r.displacement - ref) <= r.displacement_error + 1e-12 * ref)
 print(f"ρ_12 = {rho[0, 1]:.4f}, ρ_23 = {rho[1, 2]:.4f}: well-separated modes, so SRSS ≈ CQC "
       f"(roof {srss.displacement[2] * 1e3:.3f} against {cqc.displacement[2] * 1e3:.3f} mm)")
-print(f"base shear {cqc.base_shear / 1e3:.3f} kN = storey 1's spring force {cqc.spring_forces['storey1'] / 1e3:.3f} kN; "
+print(f"base shear {cqc.base_shear / 1e3:.3f} kN = storey 1's spring force "
+      f"{cqc.spring_forces['storey1'] / 1e3:.3f} kN; "
       f"{cqc.modes_for_90} modes reach 90 % of the {cqc.mass:.0f} kg")
 
 # %%
@@ -128,7 +129,8 @@ for r in range(3):
           f"         {abs(peak_th - peak_rs) / peak_rs:.1e}      {bound:.1e}")
     assert abs(peak_th - peak_rs) <= bound * peak_rs
 roof_th = np.abs(th.x[:, 2]).max()
-print(f"roof: time history {roof_th * 1e3:.3f} mm; CQC of the record's spectrum {by_record.displacement[2] * 1e3:.3f} mm "
+print(f"roof: time history {roof_th * 1e3:.3f} mm; CQC of the record's spectrum "
+      f"{by_record.displacement[2] * 1e3:.3f} mm "
       f"({100 * (by_record.displacement[2] / roof_th - 1):+.1f} %: the rule's own departure, not an error of vibdyn's)")
 
 # %%

@@ -314,7 +314,8 @@ def test_record_drives_forced_response_and_simulate():
     r2 = lin.forced_response(rec.times, support="ground", motion=rec)
     assert np.allclose(r2.x[:, 0], np.interp(rec.times, t, r.x[:, 0]), atol=5e-3 * np.abs(r.x).max())
     spec = rec.pseudo_acceleration_spectrum([2 * np.pi / w], z)
-    # the sampled time history can only miss the peak between its samples: by about (ωΔt)²/8 of it (a forced, damped motion: /2 here)
+    # the sampled time history can only miss the peak between its samples: by about (ωΔt)²/8 of it (a forced,
+    # damped motion: /2 here)
     dt = t[1] - t[0]
     assert spec.displacement[0] * (1 - (w * dt) ** 2 / 2) - 1e-9 <= np.abs(rel).max() <= spec.displacement[0] + 1e-9
     # and the response-spectrum analysis of this one mode, with the record's spectrum: its S_d

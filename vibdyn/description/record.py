@@ -46,7 +46,8 @@ class Record:
         a = a.copy()
         a.flags.writeable = False
         h = dt
-        # exact integrals at the samples: v_{k+1} = v_k + h(a_k + a_{k+1})/2, u_{k+1} = u_k + h v_k + h²(2a_k + a_{k+1})/6
+        # exact integrals at the samples: v_{k+1} = v_k + h(a_k + a_{k+1})/2,
+        # u_{k+1} = u_k + h v_k + h²(2a_k + a_{k+1})/6
         v = np.concatenate([[0.0], np.cumsum(h * (a[:-1] + a[1:]) / 2)])
         du = h * v[:-1] + h * h * (2 * a[:-1] + a[1:]) / 6
         u = np.concatenate([[0.0], np.cumsum(du)])

@@ -11,7 +11,6 @@ vibration after the record's end is included (its first extremum, the largest).
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 from typing import Any

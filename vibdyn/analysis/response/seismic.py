@@ -211,7 +211,8 @@ class SeismicResponse:
                 "base_m": list(self.base), "spring_forces_N": dict(self.spring_forces),
                 "spring_force_errors_N": dict(self.spring_force_errors),
                 "modal_spring_forces_N": {k: v.tolist() for k, v in self.modal_spring_forces.items()},
-                "modal_relative_error": self.modal_relative_error.tolist(), "note": self.note, "elapsed_s": self.elapsed}
+                "modal_relative_error": self.modal_relative_error.tolist(), "note": self.note,
+                "elapsed_s": self.elapsed}
 
     def __repr__(self):
         from ..._format import duration, number, summary
@@ -429,5 +430,6 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
                            U @ shear_row, float(moment), float(moment_err), U @ moment_row,
                            dict(zip(names, sforces.tolist())), dict(zip(names, serrs.tolist())),
                            {name: U @ row for name, row in zip(names, srows)}, rel,
-                           tuple(float(x) + 0.0 for x in ax), tuple(float(x) + 0.0 for x in base), tuple(lin.coordinates),
+                           tuple(float(x) + 0.0 for x in ax), tuple(float(x) + 0.0 for x in base),
+                           tuple(lin.coordinates),
                            tuple(lin.units), rigid_modes, time.perf_counter() - start, note, spectrum=S, _rows=comb)
