@@ -42,6 +42,9 @@ def ec8(T):
     return 2.5 * a_g * S * eta * T_C * T_D / T ** 2
 
 
+spectrum = vd.eurocode8(a_g, ground="C", spectrum_type=1, damping=0.05)  # the same, from vibdyn
+print(spectrum.describe())
+assert all(abs(spectrum(T) - ec8(T)) <= 1e-14 * ec8(T) for T in np.linspace(0.0, 4.0, 81))
 modes = vd.load_scene("three_storey_building").build().operating_point().linearize(method="analytic").modes()
 srss = modes.response_spectrum(ec8, (1, 0, 0), "srss", damping=0.05)
 cqc = modes.response_spectrum(ec8, (1, 0, 0), "cqc", damping=0.05)

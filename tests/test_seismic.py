@@ -531,3 +531,30 @@ def test_record_support_in_a_scene_file_runs_from_the_command_line(tmp_path):
     bad.write_text(path.read_text().replace("dt = 0.1", "dt = -0.1"))
     with pytest.raises(vd.ModelError, match="support 'ground' motion.*record dt"):
         vd.load_scene(bad)
+
+
+def test_design_spectra_of_the_codes():
+    g = 9.80665
+    ec8 = vd.eurocode8(0.25 * g, "C")
+    a, S, TB, TC, TD = 0.25 * g, 1.15, 0.2, 0.6, 2.0  # EN 1998-1 Table 3.2, type 1, ground C
+    for T, ref in ((0.0, a * S), (0.1, a * S * (1 + 0.5 * 1.5)), (0.2, 2.5 * a * S), (0.6, 2.5 * a * S),
+                   (1.2, 2.5 * a * S * TC / 1.2), (3.0, 2.5 * a * S * TC * TD / 9.0)):
+        assert ec8(T) == pytest.approx(ref, rel=1e-14)
+    assert vd.eurocode8(a, "C", damping=0.02)(0.4) == pytest.approx(2.5 * a * S * np.sqrt(10 / 7), rel=1e-14)
+    assert vd.eurocode8(a, "A", spectrum_type=2)(0.1) == pytest.approx(2.5 * a, rel=1e-14)
+    asce = vd.asce7(1.0, 0.6, 8.0)  # T_0 = 0.12 s, T_S = 0.6 s
+    for T, ref in ((0.0, 0.4), (0.06, 0.7), (0.3, 1.0), (1.2, 0.5), (10.0, 0.6 * 8 / 100)):
+        assert asce(T) == pytest.approx(ref * g, rel=1e-14)
+    for bad, words in ((lambda: vd.eurocode8(2.0, "F"), "ground type"), (lambda: vd.eurocode8(2.0, "C", 3), "1 or 2"),
+                       (lambda: vd.eurocode8(-1.0), "a_g"), (lambda: vd.asce7(0.5, 5.0, 4.0), "T_L"),
+                       (lambda: ec8(-1.0), "period")):
+        with pytest.raises(vd.ModelError, match=words):
+            bad()
+    code, out, err = _run(["spectrum", "three_storey_building", "--design", "ec8:0.25:C", "--direction", "1", "0",
+                           "0", "--json"])
+    assert code == 0, err
+    modes = vd.load_scene("three_storey_building").build().operating_point().linearize(method="analytic").modes()
+    assert np.allclose(json.loads(out)["displacement"], modes.response_spectrum(ec8, (1, 0, 0)).displacement,
+                       rtol=1e-12)
+    code, out, err = _run(["spectrum", "three_storey_building", "--design", "ec8:0.25", "--direction", "1", "0", "0"])
+    assert code == 2 and "--design: expected" in err

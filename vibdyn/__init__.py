@@ -47,6 +47,7 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.response": ("FRF", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation", "Hysteretic",
                           "transmissibility"),
     "analysis.response.seismic": ("SeismicResponse",),
+    "description.design_spectra": ("DesignSpectrum", "eurocode8", "asce7"),
     "analysis.response.record_spectrum": ("RecordSpectrum",),
     "analysis.identify": ("fit_rayleigh", "log_decrement", "HalfPower", "LogDecrement", "RayleighFit"),
     "analysis.statespace": ("StateSpace",),
@@ -194,4 +195,4 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
            "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing",
-           "SeismicResponse", "RecordSpectrum"]
+           "SeismicResponse", "RecordSpectrum", "DesignSpectrum", "eurocode8", "asce7"]

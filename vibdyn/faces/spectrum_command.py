@@ -15,6 +15,8 @@ def add(sub, scene_help):
     s.add_argument("scene", help=scene_help)
     s.add_argument("--spectrum", metavar="FILE", help="design spectrum: two columns, period (s) and "
                    "pseudo-acceleration (in --unit), increasing periods")
+    s.add_argument("--design", metavar="CODE", help="a code's spectrum: ec8:AG:GROUND[:TYPE] (EN 1998-1, a_g in g, "
+                   "ground A-E, type 1 or 2) or asce7:SDS:SD1[:TL] (ASCE 7, in g; T_L s)")
     s.add_argument("--record", metavar="FILE", help="ground-acceleration record: one column (give --dt) or two "
                    "(time s, acceleration in --unit); its pseudo-acceleration spectrum is used")
     s.add_argument("--dt", type=float, help="the record's time step (s), for a one-column file")
@@ -35,8 +37,11 @@ def spectrum_of(args, modes):
     (and T = 0, the peak ground acceleration)."""
     from ..description.record import UNITS, Record
 
-    if (args.spectrum is None) == (args.record is None):
-        raise ModelError("spectrum: give one of --spectrum FILE (a design spectrum) or --record FILE (a record)")
+    if sum(x is not None for x in (args.spectrum, args.record, args.design)) != 1:
+        raise ModelError("spectrum: give one of --spectrum FILE (a table), --design CODE (a code's spectrum) or "
+                         "--record FILE (a record)")
+    if args.design is not None:
+        return design(args.design, args.damping)
     if args.record is not None:
         record = Record.from_file(args.record, dt=args.dt, unit=args.unit)
         modal = 2 * np.pi / modes.omega[modes.omega > 0]
@@ -53,6 +58,24 @@ def spectrum_of(args, modes):
     if not np.all(np.isfinite(data)):
         raise ModelError(f"spectrum file '{args.spectrum}': NaN or inf in the table")
     return (data[:, 0], data[:, 1] * UNITS[args.unit]), f"spectrum {args.spectrum}"
+
+
+def design(text, damping):
+    """A code's spectrum from ``ec8:AG:GROUND[:TYPE]`` or ``asce7:SDS:SD1[:TL]`` (accelerations in g)."""
+    from ..description.design_spectra import G, asce7, eurocode8
+
+    parts = text.split(":")
+    try:
+        if parts[0].lower() == "ec8" and len(parts) in (3, 4):
+            s = eurocode8(float(parts[1]) * G, parts[2], int(parts[3]) if len(parts) == 4 else 1, damping)
+        elif parts[0].lower() == "asce7" and len(parts) in (3, 4):
+            s = asce7(*(float(x) for x in parts[1:]))
+        else:
+            raise ValueError
+    except ValueError:
+        raise ModelError(f"--design: expected ec8:AG:GROUND[:TYPE] (e.g. ec8:0.25:C) or asce7:SDS:SD1[:TL] "
+                         f"(e.g. asce7:1.0:0.6:8), got '{text}'") from None
+    return s, s.describe()
 
 
 def command(scene, args, out=None):

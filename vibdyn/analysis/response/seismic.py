@@ -420,7 +420,6 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
     (shear, moment), (shear_err, moment_err) = comb(np.vstack([shear_row, moment_row]))
     names, srows = spring_rows(lin)
     sforces, serrs = comb(srows) if names else (np.zeros(0), np.zeros(0))
-    comb.linear = lin
     if lin.has_damping:
         note = "; ".join(x for x in (note, "the model's own damping is not used: undamped modes with the damping "
                                      "ratios given (the spectrum's and CQC's)") if x)
