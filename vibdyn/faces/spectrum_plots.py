@@ -18,7 +18,9 @@ def plot_response_spectrum(path: Any = None, *results: Any, periods: Any = None,
     if not results:
         raise ModelError("response-spectrum plot: nothing to draw (give a record spectrum, a response-spectrum "
                          "analysis or a table of periods and pseudo-accelerations)")
-    scale, unit = (1 / 9.80665, "g") if g_units else (1.0, "m/s²")
+    from ..description.record import G
+
+    scale, unit = (1 / G, "g") if g_units else (1.0, "m/s²")
     fig, axes = figure(size=(7.0, 4.5))
     ax = axes[0, 0]
     labels = list(labels) if labels is not None else [None] * len(results)
