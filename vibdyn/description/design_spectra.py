@@ -10,7 +10,7 @@ import numpy as np
 
 from .._check import scalar
 from ..errors import ModelError
-from .record import G  # noqa: F401  (standard gravity, m/s²: the codes' g)
+from .record import G  # standard gravity (m/s²): the codes' g
 
 #: EN 1998-1 Tables 3.2 (type 1) and 3.3 (type 2): ground type -> (S, T_B s, T_C s, T_D s)
 EC8_GROUNDS = {
