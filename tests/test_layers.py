@@ -58,6 +58,10 @@ ENTRY_POINTS = {
     ("vibdyn.analysis.equilibrium", "steady_motion"): {"vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.simulate"): {"vibdyn.simulation.simulate"},
     ("vibdyn.analysis.modal", "Modes.plot"): {"vibdyn.faces.viewer.pictures"},
+    ("vibdyn.analysis.modal", "Modes.response_spectrum"): {"vibdyn.analysis.response.seismic"},
+    ("vibdyn.description.record", "Record.pseudo_acceleration_spectrum"): {"vibdyn.analysis.response.record_spectrum"},
+    ("vibdyn.analysis.response.record_spectrum", "RecordSpectrum.plot"): {"vibdyn.faces.spectrum_plots"},
+    ("vibdyn.analysis.response.seismic", "SeismicResponse.plot"): {"vibdyn.faces.spectrum_plots"},
     # the linear model's methods are entry points to the analyses built on it (same layer, above it)
     **{("vibdyn.analysis.linearize", f"LinearModel.{m}"): {"vibdyn.analysis.response"}
        for m in ("free_response", "receptance", "harmonic_response", "base_response", "forced_response")},

@@ -46,6 +46,9 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "solvers.tracking": ("mac",),
     "analysis.response": ("FRF", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation", "Hysteretic",
                           "transmissibility"),
+    "analysis.response.seismic": ("SeismicResponse",),
+    "description.design_spectra": ("DesignSpectrum", "eurocode8", "asce7"),
+    "analysis.response.record_spectrum": ("RecordSpectrum",),
     "analysis.identify": ("fit_rayleigh", "log_decrement", "HalfPower", "LogDecrement", "RayleighFit"),
     "analysis.statespace": ("StateSpace",),
     "results": ("TimeResult",),
@@ -193,4 +196,5 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "CriticalSpeedMap", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
-           "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing"]
+           "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing",
+           "SeismicResponse", "RecordSpectrum", "DesignSpectrum", "eurocode8", "asce7"]

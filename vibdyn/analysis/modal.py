@@ -166,6 +166,19 @@ class Modes:
         A_lin, A_ang = lin.system.momentum_matrix(lin.q, point)
         return (A_ang if rotation else A_lin).T @ (d / n)
 
+    def response_spectrum(self, spectrum: Any, direction: ArrayLike, combination: str = "srss",
+                          damping: Any = 0.05, **kwargs: Any) -> Any:
+        """Peak responses to a ground motion along ``direction`` (the world and every support together) from a
+        response ``spectrum`` of pseudo-acceleration S_a (m/s²) against period T (s) — a callable S_a(T), a table
+        (periods, S_a), or a record's spectrum — combined by ``combination`` "srss", "cqc" (Der Kiureghian's
+        ρ_ij with the ``damping`` ratios, one or one per mode) or "abs", with the missing-mass correction
+        (:class:`vibdyn.analysis.response.seismic.SeismicResponse`; keywords ``n_modes``, ``missing_mass``,
+        ``rigid_frequency`` Hz, ``zpa`` m/s², ``base`` m, ``axis``: see
+        :func:`vibdyn.analysis.response.seismic.response_spectrum`)."""
+        from .response.seismic import response_spectrum
+
+        return response_spectrum(self, spectrum, direction, combination, damping, **kwargs)
+
     def point_shapes(self, points: list, direction: ArrayLike | None = None, complex: bool = False) -> np.ndarray:
         """Mode shapes as displacements (m per unit modal coordinate, world axes) of body points.
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._check import finite_array, kind_of, scalar, user_callable
 from ..errors import ModelError
+from .record import Record  # noqa: F401  (vibdyn.laws.Record: a ground-acceleration record as a support's motion)
 
 
 @dataclass(frozen=True)
@@ -163,7 +164,7 @@ class Motion:
                          "(use vibdyn.laws.HarmonicMotion for a support, vibdyn.laws.Harmonic for a drive)")
 
 
-LAWS = {"polynomial": Polynomial, "harmonic": Harmonic, "harmonic_motion": HarmonicMotion}
+LAWS = {"polynomial": Polynomial, "harmonic": Harmonic, "harmonic_motion": HarmonicMotion, "record": Record}
 #: the laws a joint force can follow (scene files: ``law = "polynomial"`` with the law's keys beside it)
 FORCE_LAWS = ("polynomial", "harmonic")
 

@@ -546,6 +546,18 @@ def _run_sensitivity(args):
     command(load(args.scene), args)
 
 
+def _add_spectrum(sub):
+    from .spectrum_command import add
+
+    add(sub, SCENE_HELP)
+
+
+def _run_spectrum(args):
+    from .spectrum_command import command
+
+    command(load(args.scene), args)
+
+
 def _run_nonlinear(args):
     from .nonlinear_command import RUNNERS
 
@@ -557,6 +569,7 @@ COMMANDS = {"info": (_add_info, _run_info), "modes": (_add_modes, _run_modes), "
             "frf": (_add_frf, _run_frf), "bench": (_add_bench, None), "simulate": (_add_simulate, _run_simulate),
             "view": (_add_view, _run_view), "campbell": (_add_campbell, _run_campbell),
             "sensitivity": (_add_sensitivity, _run_sensitivity),
+            "spectrum": (_add_spectrum, _run_spectrum),
             **{name: (add, _run_nonlinear) for name, add in NONLINEAR.items()}}
 
 

@@ -237,6 +237,12 @@ def settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_s
                              f"{t_eval[-1]:g}]")
     error = checked_error_method(stepper, error, what)
     max_step = np.inf if max_step is None else scalar(max_step, f"{what}: max_step (s)", positive=True)
+    # a sampled support motion (a ground record, vibdyn.laws.Record) bounds the steps by its own: none crosses
+    # two of its kinks, none aliases it
+    law_step = min((getattr(s.motion, "max_step", np.inf) for s in system.supports), default=np.inf)
+    max_step = min(max_step, law_step)
+    if dt is not None and not stepper.adaptive:
+        dt = min(dt, law_step)
     if progress not in (None, True, False):
         raise ModelError(f"{what}: progress must be None, True or False, got {progress!r}")
     work = bool(system.supports) or system.reduction.time_laws or any(type(g).potential is ForceGroup.potential or g.time_dependent

@@ -76,8 +76,9 @@ def simulate(system, t_end: float, q0=None, v0=None, method: Any = "dop853", rto
     output times in [t0, t_end] (default: every step, and t0). ``error_method``: how the error is
     estimated (default "rerun" for dop853, radau and bdf, "richardson" for fixed-step methods; "local" for
     dop853 is cheaper but not a global bound; ``error``: its former name).
-    ``max_step``: largest step of adaptive methods. ``progress``: a tqdm bar for runs longer than a few
-    seconds (None: only on a terminal).
+    ``max_step``: largest step of adaptive methods. A support moving by a sampled law (a ground record,
+    :class:`vibdyn.laws.Record`) bounds ``max_step`` and ``dt`` by its sampling step. ``progress``: a tqdm bar for
+    runs longer than a few seconds (None: only on a terminal).
 
     ``events``: a callable ``f(t, q, v) → float`` or a list of them (attributes ``direction`` ∈ {−1, 0, 1}
     and ``terminal`` allowed, as in scipy): each zero crossing is located on the step's interpolant, to the

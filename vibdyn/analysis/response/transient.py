@@ -343,7 +343,8 @@ def forced_response(lin, t, force=None, inputs=None, *, direction=None, x0=None,
     ``force``: a callable f(t) giving one value per input (N at points along their direction, or
     generalized forces on coordinates), or samples at ``t`` (n_t × n_inputs), taken as piecewise linear.
     ``support``: a support's name — its springs and dampers push with B_y (y − y(t0)) + B_v (ẏ − ẏ(t0)),
-    y(t) from the scene's motion or ``motion`` (position(t), velocity(t): 3-vectors, m), along
+    y(t) from the scene's motion or ``motion`` (position(t), velocity(t): 3-vectors, m; a ground record
+    :class:`vibdyn.laws.Record` is integrated through each of its samples), along
     ``support_direction`` if given — or a coordinate name, a prescribed joint moving as ``motion``
     (position(t), velocity(t) and, if it has one, acceleration(t), scalars; else ÿ by central differences).
 
@@ -359,14 +360,23 @@ def forced_response(lin, t, force=None, inputs=None, *, direction=None, x0=None,
     x0, v0 = _state0(lin, x0, v0, what)
     g, G = _force_function(lin, t, force, inputs, direction, what)
     prescribed = None
+    breaks = np.zeros(0)
     if support is not None:
         how = support_input_of(lin, support, None)
         if how[0] == "support":
             g, G = _support_force(lin, support, motion, support_direction, t, g, G)
+            law = motion if motion is not None else lin.system.supports[lin.system.support_index[support]].motion
+            breaks = np.asarray(getattr(law, "breakpoints", breaks), dtype=float)  # a record's kinks
         else:
             prescribed = how[1], how[2], _prescribed_motion(motion, support, t[0])
     method = _method(model, method, what)
     if prescribed is None:
+        inside = breaks[(breaks > t[0]) & (breaks < t[-1])]
+        if inside.size:  # integrate through every kink of a sampled law (no quadrature across one), report at t
+            grid = np.union1d(t, inside)
+            q, v, a, method, error = _integrate(model, grid, g, G, x0, v0, method)
+            keep = np.searchsorted(grid, t)
+            return _finish(lin, t, q[keep], v[keep], a[keep], method, error, 0.0, start)
         q, v, a, method, error = _integrate(model, t, g, G, x0, v0, method)
         return _finish(lin, t, q, v, a, method, error, 0.0, start)
     p, free, (y, yd, ydd) = prescribed
@@ -433,7 +443,7 @@ def _prescribed_motion(motion, name, t0):
         return fn
 
     y, yd = scalar_of(motion.position, "position"), scalar_of(motion.velocity, "velocity")
-    if getattr(motion, "acceleration", None) is not None:  # (a Motion of two callables has none)
+    if callable(getattr(motion, "acceleration", None)):  # (a Motion of two callables has none)
         ydd = scalar_of(motion.acceleration, "acceleration")
     else:
         def ydd(s, h=1e-4):  # fourth-order central differences of the velocity

@@ -43,6 +43,8 @@ class Support(ElementKind):
         return {"name": self.name, "motion": self.motion.to_dict()}
 
     def describe(self, scene=None):
+        if callable(getattr(self.motion, "describe", None)):  # a law that says itself (a record: not its samples)
+            return f"moving support: {self.motion.describe()}"
         try:
             return f"moving support: {self.motion.to_dict()}"
         except (ModelError, AttributeError):  # callables: no plain-data form
