@@ -83,11 +83,11 @@ class _FormerModule:
     """A public function that was its module's name: calls go to the function; any other attribute is read
     from the former module with a DeprecationWarning (once per name)."""
 
-    def __init__(self, fn, module):
+    def __init__(self, fn, module, short):
         import functools
 
         functools.update_wrapper(self, fn)
-        self._module = module
+        self._module, self._short = module, short  # (short: the public name the user wrote, vd.equilibrium)
 
     def __call__(self, *args, **kwargs):
         return self.__wrapped__(*args, **kwargs)
@@ -97,9 +97,10 @@ class _FormerModule:
             raise AttributeError(name)
         mod = import_module(f".{self._module}", __name__)
         value = getattr(mod, name)  # (an AttributeError as the module would give it)
-        short = self.__wrapped__.__name__
-        _warn_once(f"vibdyn.{short}.{name}", f"vibdyn.{short} is the function {short}() now; read {name} from vibdyn "
-                  f"(vibdyn.{name}) or from vibdyn.{self._module}")
+        short = self._short
+        public = f"from vibdyn (vibdyn.{name}) or " if name in _LAZY or name in globals() else ""
+        _warn_once(f"vibdyn.{short}.{name}", f"vibdyn.{short}.{name}: vibdyn.{short} is the function {short}() now; "
+                   f"read {name} {public}from vibdyn.{self._module}")
         return value
 
 
@@ -110,7 +111,7 @@ def __getattr__(name):
     mod = import_module(f".{module}", __name__)
     value = mod if name in _MODULES else getattr(mod, "static_equilibrium" if name == "equilibrium" else name)
     if name in _FORMER_MODULES:
-        value = _FormerModule(value, _FORMER_MODULES[name])
+        value = _FormerModule(value, _FORMER_MODULES[name], name)
     globals()[name] = value
     return value
 
