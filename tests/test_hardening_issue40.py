@@ -60,3 +60,65 @@ def test_former_names_warn_at_the_callers_line_under_default_filters(tmp_path):
     for lineno, what in expected:
         assert any(n == lineno and what in msg for n, msg in shown), (lineno, what, run.stderr)
     assert "vibdyn/" not in "".join(re.findall(r"(\S+):\d+: DeprecationWarning", run.stderr))
+
+
+# ------------------------------------------------------------------ item 7: arguments of vd.sensitivity / vd.update
+def _chain(k1=1000.0, k2=500.0):
+    """Two 1 kg sliders in a chain: ground -k1- m1 -k2- m2."""
+    s = vd.Scene("chain")
+    s.add_body("m1", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
+    s.add_body("m2", parent="m1", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
+    s.add_joint_spring("m1", stiffness=k1, name="k1")
+    s.add_joint_spring("m2", stiffness=k2, name="k2")
+    return s
+
+
+def _chain_modes(k1, k2):
+    """Oracle: ω (rad/s) and ∂ω/∂k1 = φ₁²/(2ω) of the chain (unit masses: φ orthonormal)."""
+    w2, phi = np.linalg.eigh(np.array([[k1 + k2, -k2], [-k2, k2]]))
+    return np.sqrt(w2), phi[0] ** 2 / (2 * np.sqrt(w2))
+
+
+def test_a_builder_returning_a_system_is_accepted_as_sweep_accepts_it():
+    omega, d_omega = _chain_modes(1000.0, 500.0)
+    sens = vd.sensitivity(lambda k1: _chain(k1).build(), {"k1": 1000.0})
+    np.testing.assert_allclose(sens.omega0, omega, rtol=1e-10)
+    assert np.all(np.abs(sens.d_omega[:, 0] - d_omega) <= 10 * sens.d_omega_error[:, 0] + 1e-9 * np.abs(d_omega))
+    fit = vd.update(lambda k1: _chain(k1).build(), {"k1": 800.0}, omega[:1], sigma=1e-6 * omega[:1])
+    assert abs(fit.values["k1"] - 1000.0) <= 5 * fit.std["k1"] + 1e-9 * 1000.0
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda: vd.sensitivity(_chain, {"k1": "abc"}), "parameter 'k1': expected a number, got 'abc'"),
+    (lambda: vd.sensitivity(lambda k1: None, {"k1": 1.0}), "it returned NoneType"),
+    (lambda: vd.sensitivity(lambda k1: 3.0, {"k1": 1.0}), "must return a Scene or a System, it returned float"),
+    (lambda: vd.update(lambda k1: None, {"k1": 1.0}, [17.0]), "it returned NoneType"),
+    (lambda: vd.update(_chain, {"k1": "abc"}, [17.0]), "start: parameter 'k1': expected a number"),
+    (lambda: vd.update(_chain, {"k1": 900.0}, "abc"), "measured \\(rad/s\\) must be a list of numbers, got 'abc'"),
+    (lambda: vd.update(_chain, {"k1": 900.0}, [17.0], max_iter=0), "max_iter .*must be ≥ 1, got 0"),
+    (lambda: vd.update(_chain, {"k1": 900.0}, [17.0], bounds={"k1": (np.nan, 1e3)}),
+     "bounds\\['k1'\\] must be a pair \\(lower, upper\\) of numbers"),
+    (lambda: vd.update(_chain, {"k1": 900.0}, [17.0], bounds={"k1": 500.0}),
+     "bounds\\['k1'\\] must be a pair \\(lower, upper\\).*got 500.0"),
+    (lambda: vd.update(_chain, {"k1": 900.0}, [17.0], bounds={"k1": (1e3, 2e3)}), "k1 starts at 900"),
+])
+def test_bad_arguments_of_sensitivity_and_update_are_named(call, words):
+    with pytest.raises(vd.ModelError, match=words):
+        call()
+
+
+# ------------------------------------------------------------------ item 9: updating's messages name the cause
+def test_updating_names_descending_frequencies_and_zero_shapes():
+    omega, _ = _chain_modes(1000.0, 500.0)
+    with pytest.raises(vd.ModelError, match="not in ascending order.*give shapes= to pair them by MAC"):
+        vd.update(_chain, {"k1": 900.0, "k2": 400.0}, omega[::-1])
+    with pytest.raises(vd.ModelError, match="measured modes 1, 2 \\(from 1\\) are all zero"):
+        vd.update(_chain, {"k1": 900.0, "k2": 400.0}, omega, shapes=np.zeros((2, 2)))
+    with pytest.raises(vd.ModelError, match="measured mode 2 \\(from 1\\) is all zero"):
+        vd.update(_chain, {"k1": 900.0, "k2": 400.0}, omega, shapes=[[0.5, 0.0], [0.8, 0.0]])
+    # given with their shapes, descending frequencies pair by MAC and fit (oracle: the true stiffnesses)
+    phi = np.linalg.eigh(np.array([[1500.0, -500.0], [-500.0, 500.0]]))[1]
+    fit = vd.update(_chain, {"k1": 900.0, "k2": 400.0}, omega[::-1], sigma=1e-6 * omega[::-1], shapes=phi[:, ::-1])
+    assert list(fit.pairs) == [1, 0]
+    for k, truth in (("k1", 1000.0), ("k2", 500.0)):
+        assert abs(fit.values[k] - truth) <= 5 * fit.std[k] + 1e-9 * truth

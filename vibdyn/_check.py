@@ -231,6 +231,32 @@ def call_user(fn, args, what, t):
         raise ModelError(f"{what} failed at t = {t:.6g} s: {type(e).__name__}: {e}") from e
 
 
+# ---------------------------------------------------------------------------------------------- builders
+def builder_values(params, what):
+    """{keyword: float}: the values given to a builder ``build(**params)``, each a finite number, else a
+    ModelError naming the keyword."""
+    return {k: scalar(v, f"{what}: parameter {k!r}") for k, v in params.items()}
+
+
+def scene_builder(build, what):
+    """``build`` (a function ``build(**params)`` returning a Scene or a System, as :func:`vibdyn.sweep` takes it)
+    as a function returning the Scene; anything else it returns is a ModelError saying what came back."""
+    if not callable(build):
+        raise ModelError(f"{what}: build must be a function build(**params) returning a Scene, got {build!r}")
+
+    def scene(**values):
+        obj = build(**values)
+        if hasattr(obj, "build") and not hasattr(obj, "linearize"):
+            return obj
+        if hasattr(obj, "linearize") and hasattr(obj, "scene"):  # a System: the scene it was built from
+            return obj.scene
+        missing = " (does the builder end without `return scene`?)" if obj is None else ""
+        raise ModelError(f"{what}: build(**params) must return a Scene or a System, it returned "
+                         f"{type(obj).__name__}{missing}")
+
+    return scene
+
+
 # ---------------------------------------------------------------------------------------------- file values
 # Checks of plain-data values (TOML): strict types (no strings for numbers, no booleans), finite numbers.
 # Each returns the value in the form the Scene API takes, or raises BadValue (the scene-file reader names the

@@ -27,6 +27,7 @@ from typing import Any, Callable
 import numpy as np
 import scipy.linalg as sla
 
+from .._check import builder_values, scene_builder
 from .._deprecation import Renamed, former_names
 from ..defaults import EPS
 from ..description import parameters as _parameters
@@ -526,6 +527,7 @@ def _richardson(values, h):
 def _of_builder(build, params, start, unused):
     if not isinstance(params, dict) or not params:
         raise ModelError("sensitivity: with a builder, params must be a dict {keyword: value} of build(**params)")
+    params, build = builder_values(params, "sensitivity"), scene_builder(build, "sensitivity")
     names = list(params)
     values = np.array([float(params[k]) for k in names])
     if not np.all(np.isfinite(values)):
