@@ -155,7 +155,65 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
         cyclic[i] = None if speed is None else scalar(speed, f"steady_motion: speed of '{name}'")
     if system.reduction.time_laws:
         return _solve(system, *driven_start(system, "steady_motion", q0, t, cyclic), tol, max_iter, guess)
-    return _solve(system, q0, t, cyclic, tol, max_iter, guess)
+    try:
+        return _solve(system, q0, t, cyclic, tol, max_iter, guess)
+    except ConvergenceError as failed:
+        if any(s is None for s in cyclic.values()) or max_iter == 0:
+            raise
+        # (from rest, a spun body's steady pose may lie far from the start: follow it as the speeds grow)
+        return _solve(system, _along_speed(system, q0, t, cyclic, failed), t, cyclic, tol, max_iter, guess)
+
+
+def _along_speed(system, q0, t, cyclic, failed):
+    """q of the steady motion at the given speeds ``cyclic`` {index: speed}, followed from the resting state
+    near ``q0`` (the static equilibrium of the other coordinates, the speeds 0) as the speeds grow together
+    (pseudo-arclength continuation in their common factor s, 0 → 1). A branch that does not reach them is a
+    ConvergenceError saying how far it went (the search's own start hint was not checked: left out)."""
+    from ..solvers.continuation import continuation
+
+    nv, model = system.nv, system.model
+    base = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
+    rest = [i for i in range(nv) if i not in cyclic]
+    speeds = np.zeros(nv)
+    speeds[list(cyclic)] = list(cyclic.values())
+    unit, a0 = system.coordinate_scales, np.zeros(nv)
+
+    def at(x):
+        dq = np.zeros(nv)
+        dq[rest] = x
+        return pin.integrate(model, base, dq)
+
+    r = dynamics.inverse_dynamics(system, system.workspace(), base, speeds, a0, t)
+    Jq = jacobian_q(system, base, speeds, a0, t, steps(system, 1e-6))
+    force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(Jq))[rest] * unit[rest]).max(initial=0.0), 1e-300)
+    furthest = [0.0]
+
+    def fun(x, s):
+        return dynamics.inverse_dynamics(system, system.workspace(), at(x), s * speeds, a0, t)[rest] / force_scale
+
+    def turned_back(x, s):  # (past a fold, the branch goes back to lower speeds: it will not reach them)
+        furthest[0] = max(furthest[0], s)
+        return s < furthest[0] - 0.05
+
+    branch = continuation(fun, np.zeros(len(rest)), 0.0, 1.0, scale=np.append(unit[rest], 1.0), tol=1e-10,
+                          max_steps=400, stop=turned_back, parameter="the speeds' factor s")
+    if branch.status == "finished":
+        return at(branch.x[-1])
+    names = system.coordinates
+    head = str(failed).split(". Start nearer")[0]
+    if not branch.lam.size:
+        raise ConvergenceError(f"{head}; no resting state (static equilibrium with the speeds 0) was found near the "
+                               "start either: give q0= near the steady pose", residual=failed.residual,
+                               best=failed.best) from None
+    k = int(np.argmax(branch.lam))
+    s, q = float(branch.lam[k]), at(branch.x[k])
+    reached = ", ".join(f"'{names[i]}' = {number(s * speeds[i], system.units[i] + '/s')}" for i in cyclic)
+    pose = ", ".join(f"{names[i]} = {number(x, system.units[i])}" for i, x in
+                     zip(rest, system.difference(system.neutral(), q)[rest]))
+    why = "the branch turns back there (a fold)" if branch.reason == "stop" else branch.message
+    raise ConvergenceError(f"{head}. Followed from rest as the speeds grow, the steady motion goes no further than "
+                           f"{reached} ({pose}): {why}; beyond, no steady motion joins the resting state",
+                           residual=failed.residual, best=q) from None
 
 
 def equilibria(system, starts, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
