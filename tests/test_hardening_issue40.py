@@ -151,3 +151,14 @@ def test_a_steady_motion_sought_from_rest_follows_the_branch_in_speed():
         op = system.steady_motion({"hub": spin})
         arm = op.coordinate("arm")
         assert abs(arm - theta) <= 10 * op.q_error[1] + 1e-12, (spin, arm, theta, op.q_error)
+
+
+def test_the_speed_of_a_coordinate_at_rest_is_refused_saying_why():
+    """A declared speed 0: 'rotor.speed' was an unknown parameter ("did you mean 'rotor.mass'")."""
+    scene = vd.load_scene("gimbal_rotor")
+    scene.set_operating_point(cyclic={"rotor": 0.0})
+    with pytest.raises(vd.ModelError, match="'rotor' is at rest at this operating point.*"
+                                            "set_operating_point\\(cyclic=\\{'rotor'"):
+        vd.sensitivity(scene, ["rotor.speed"])
+    with pytest.raises(vd.ModelError, match="unknown parameter 'rotr.speed'"):
+        vd.sensitivity(scene, ["rotr.speed"])
