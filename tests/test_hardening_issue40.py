@@ -162,3 +162,50 @@ def test_the_speed_of_a_coordinate_at_rest_is_refused_saying_why():
         vd.sensitivity(scene, ["rotor.speed"])
     with pytest.raises(vd.ModelError, match="unknown parameter 'rotr.speed'"):
         vd.sensitivity(scene, ["rotr.speed"])
+
+
+# ------------------------------------------------------------------ item 12: a first session
+def test_an_empty_scene_says_it_has_nothing_to_analyse():
+    system = vd.Scene("empty").build()
+    for call in (system.operating_point, system.equilibrium, system.held, lambda: system.linearize(system.neutral()),
+                 lambda: system.steady_motion({"x": 1.0})):
+        with pytest.raises(vd.ModelError, match="scene 'empty' has no coordinates|unknown"):
+            call()
+    with pytest.raises(vd.ModelError, match="scene 'empty' has no coordinates.*nothing to balance"):
+        system.operating_point()
+
+
+@pytest.fixture(scope="module")
+def rod_backbone():
+    """A pendulum's backbone over 1.5 decades of energy (0.22 … 6.9 J)."""
+    return vd.backbone(vd.load_scene("rod_pivot").build(), 0, amplitudes=[0.3, 1.0, 2.0])
+
+
+def test_backbone_plot_takes_a_path_first_and_still_an_axes(tmp_path, rod_backbone):
+    import matplotlib.pyplot as plt
+
+    fig = rod_backbone.plot(tmp_path / "bb.png")
+    assert (tmp_path / "bb.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert fig.axes[0].get_xscale() == "log"
+    mine, ax = plt.subplots()
+    assert rod_backbone.plot(ax) is mine and ax.get_xscale() == "log"  # the former order: an Axes first
+    assert rod_backbone.plot(ax=ax, path=tmp_path / "b2.png") is mine and (tmp_path / "b2.png").exists()
+    plt.close("all")
+
+
+def test_backbone_log_axis_labels_do_not_overlap(rod_backbone):
+    """Every tick label drawn on the log energy axis (major and minor) apart from its neighbours."""
+    import matplotlib.pyplot as plt
+
+    fig = rod_backbone.plot()
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    renderer = fig.canvas.get_renderer()
+    lo, hi = ax.get_xlim()
+    labels = [t for t in ax.xaxis.get_ticklabels(which="both") if t.get_visible() and t.get_text()
+              and lo <= t.get_position()[0] <= hi]
+    boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.x0)
+    assert len(boxes) >= 3
+    for a, b in zip(boxes, boxes[1:]):
+        assert a.x1 < b.x0, [t.get_text() for t in labels]
+    plt.close(fig)

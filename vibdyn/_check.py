@@ -114,6 +114,13 @@ def unit_axis(value, what):
     return a / np.linalg.norm(a)
 
 
+def has_coordinates(system, what, nothing="moves"):
+    """A ModelError naming ``what`` when ``system`` has no coordinates (a scene without moving bodies)."""
+    if system.nv == 0:
+        raise ModelError(f"{what}: scene '{system.name}' has no coordinates (no body on a moving joint): nothing "
+                         f"{nothing}; add one (scene.add_body(name, joint=vd.Pivot(...), mass=...))")
+
+
 def turns_hint(system, q):
     """"" or what a start ``q`` of ``system`` (a System) has in it more than a full turn (2π) from neutral in a
     rotation coordinate (rad), as a hint that degrees were given for radians: "rod = 90 rad, more than a full turn

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .._check import integer, scalar
+from .._check import has_coordinates, integer, scalar
 from .._deprecation import Renamed
 from .._format import number, table
 from ..defaults import EQUILIBRIUM_TOL, MAX_ITER
@@ -242,6 +242,7 @@ def held(system, q=None, v=None, t=0.0):
         raise ModelError(f"held: not available for a mechanism with closed loops ({system.reduction.describe()}); "
                          "use equilibrium()")
     start = time.perf_counter()
+    has_coordinates(system, "held", "to hold")
     q = system.neutral() if q is None else system.check_configuration(np.array(q, dtype=float), "held q").copy()
     v = np.zeros(system.nv) if v is None else system.check_velocity(np.array(v, dtype=float), "held v").copy()
     system.check_limits(q, "held configuration")
@@ -299,6 +300,7 @@ def driven_start(system, what, q0, t, cyclic):
 
 def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
     start = time.perf_counter()
+    has_coordinates(system, "steady motion" if cyclic else "equilibrium", "to balance")
     t, tol = system.check_time(t), scalar(tol, "equilibrium tol", positive=True)
     max_iter, guess = integer(max_iter, "equilibrium max_iter", minimum=0), scalar(guess, "steady_motion guess")
     nv, model = system.nv, system.model

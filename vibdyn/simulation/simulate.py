@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from .._check import finite_array, scalar, turns_hint
+from .._check import finite_array, has_coordinates, scalar, turns_hint
 from .._deprecation import RenamedKeyword
 from ..defaults import EPS
 from ..errors import ModelError, VibdynError
@@ -255,8 +255,7 @@ class _Settings:
 def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress, t0=0.0,
               events=None, variational=False):
     what = "simulate"
-    if system.nv == 0:
-        raise ModelError(f"{what}: the scene has no coordinates: nothing moves")
+    has_coordinates(system, what)
     t0 = scalar(t0, f"{what}: t0 (s)")
     t_end = scalar(t_end, f"{what}: t_end (s)")
     if not t_end > t0:

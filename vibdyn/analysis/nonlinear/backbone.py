@@ -38,7 +38,7 @@ import pinocchio as pin
 import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
-from ..._check import integer, scalar
+from ..._check import has_coordinates, integer, scalar
 from ..._deprecation import Renamed
 from ..._format import duration, number, summary, table
 from ...errors import ConvergenceError, ModelError
@@ -163,11 +163,16 @@ class Backbone:
                 "points": self.points, "note": self.note, "elapsed_s": self.elapsed,
                 "orbits": [o.to_dict() for o in self.orbits]}
 
-    def plot(self, ax: Any = None, path: str | None = None, dpi: int = 100) -> Any:
+    def plot(self, path: Any = None, dpi: Any = 100, *, ax: Any = None) -> Any:
         """The frequency–energy plot of this backbone (matplotlib; see :func:`vibdyn.faces.plots.frequency_energy`,
-        which draws several on one plot). Saves to ``path`` if given."""
+        which draws several on one plot): saved to ``path`` if given (first, as every result's ``plot``), drawn on
+        ``ax`` (a matplotlib Axes) if given; an Axes given first (the former order, ``plot(ax, path)``) is taken
+        as ``ax``. Returns the Figure."""
         from ...faces import plots
 
+        if hasattr(path, "figure") and hasattr(path, "plot") and ax is None:  # an Axes: the former order
+            ax, path, dpi = path, (None if isinstance(dpi, (int, float)) else dpi), \
+                (dpi if isinstance(dpi, (int, float)) else 100)
         return plots.frequency_energy(self, ax=ax, path=path, dpi=dpi)
 
     def __str__(self):
@@ -293,8 +298,7 @@ def _conservative_part(system, what):
     rebuilt — and the note)."""
     if system.reduction.curved:
         raise ModelError(f"{what}: not available for a mechanism with closed loops")
-    if system.nv == 0:
-        raise ModelError(f"{what}: the scene has no coordinates: nothing oscillates")
+    has_coordinates(system, what, "oscillates")
     if system.reduction.time_laws or system.supports:
         raise ModelError(f"{what}: the scene has drives or moving supports: a backbone needs an autonomous scene")
     timed = [type(g).__name__ for g in system.force_groups if g.time_dependent]
