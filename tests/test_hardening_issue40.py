@@ -209,3 +209,51 @@ def test_backbone_log_axis_labels_do_not_overlap(rod_backbone):
     for a, b in zip(boxes, boxes[1:]):
         assert a.x1 < b.x0, [t.get_text() for t in labels]
     plt.close(fig)
+
+
+def _pendulum(rest=None):
+    s = vd.Scene("pendulum", gravity=(0, 0, -9.81))
+    s.add_body("rod", joint=vd.Pivot(axis=(1, 0, 0)), mass=1.0, com=(0, 0, -1))
+    if rest is not None:
+        s.add_joint_spring("rod", stiffness=20.0, rest=rest)
+    return s
+
+
+def _hinted(call, words):
+    """``call()`` warns once (UserWarning) with the degrees hint and ``words``."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        call()
+    hints = [str(w.message) for w in caught if "degrees by mistake?" in str(w.message)]
+    assert len(hints) == 1 and words in hints[0], [str(w.message) for w in caught]
+    assert caught[0].filename == __file__  # at the user's line
+
+
+def test_an_angle_that_looks_like_degrees_gets_a_hint_wherever_it_is_given():
+    """A rest angle of 90 put a pendulum's equilibrium at 89.76 rad without a word; every angle a user gives
+    (rest angles, operating-point and loop starts, held configurations, assembly and simulation starts) is hinted
+    when beyond a full turn from neutral, the conversion stated (90° = π/2 rad)."""
+    _hinted(lambda: _pendulum(rest=90.0), f"joint spring 'rod.spring': rest: rod = 90 rad, more than a full turn (2π) "
+                                          f"from neutral: degrees by mistake? 90° is {np.pi / 2:.6g} rad")
+    scene = _pendulum(rest=1.0)  # within a turn: no hint
+    system = scene.build()
+    q45 = system.configuration([45.0])
+    _hinted(lambda: system.equilibrium(q0=q45), "equilibrium: q0: rod = 45 rad")
+    _hinted(lambda: system.held(q45), "held: q: rod = 45 rad")
+    _hinted(lambda: system.assemble(q45), "assemble: q0: rod = 45 rad")
+    _hinted(lambda: system.simulate(0.01, q45), "simulate: q0: rod = 45 rad")
+    hub = _hinged().build()
+    _hinted(lambda: hub.steady_motion({"hub": 3.0}, q0=hub.configuration([0.0, -60.0])), "steady_motion: q0: arm = -60")
+    scene.set_operating_point(start={"rod": 30.0})
+    declared = scene.build()
+    _hinted(declared.operating_point, "operating point start: rod = 30 rad")  # once, not again as a start
+    four_bar = vd.load_scene("four_bar").build()
+    q = four_bar.configuration({four_bar.coordinates[0]: 20.0})
+
+    def loop_start():  # (no closure from there: refused, the hint said first)
+        with pytest.raises(vd.ConvergenceError, match="the start has"):
+            four_bar.equilibrium(q0=q)
+
+    _hinted(loop_start, f"equilibrium: q0: {four_bar.coordinates[0]} = 20 rad")

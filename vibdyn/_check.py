@@ -121,18 +121,41 @@ def has_coordinates(system, what, nothing="moves"):
                          f"{nothing}; add one (scene.add_body(name, joint=vd.Pivot(...), mass=...))")
 
 
-def turns_hint(system, q):
+def turns_hint(system, q, within_limits=False):
     """"" or what a start ``q`` of ``system`` (a System) has in it more than a full turn (2π) from neutral in a
     rotation coordinate (rad), as a hint that degrees were given for radians: "rod = 90 rad, more than a full turn
-    (2π) from neutral: degrees by mistake? 90° is 1.5708 rad"."""
+    (2π) from neutral: degrees by mistake? 90° is 1.5708 rad"; ``within_limits``: of the coordinates within their
+    position limits only."""
     offsets = system.difference(system.neutral(), q)
-    big = [(c, float(x)) for c, u, x in zip(system.coordinates, system.units, offsets)
-           if u == "rad" and abs(x) > 2 * np.pi]
+    lower, upper = system.limit_bounds() if within_limits else (offsets, offsets)
+    return degrees_hint([(c, x) for c, u, x, lo, hi in zip(system.coordinates, system.units, offsets, lower, upper)
+                         if u == "rad" and lo <= x <= hi], "from neutral")
+
+
+def degrees_hint(angles, where=""):
+    """"" or what ``angles`` [(name, angle in rad)] have beyond a full turn (2π) ``where`` ("from neutral"), as a
+    hint that degrees were given for radians."""
+    big = [(c, float(x)) for c, x in angles if abs(x) > 2 * np.pi]
     if not big:
         return ""
     names = ", ".join(f"{c} = {x:g} rad" for c, x in big)
     degrees = ", ".join(f"{x:g}° is {np.radians(x):.6g} rad" for _, x in big)
-    return f"{names}, more than a full turn (2π) from neutral: degrees by mistake? {degrees}"
+    return f"{names}, more than a full turn (2π){' ' + where if where else ''}: degrees by mistake? {degrees}"
+
+
+def hint(message, what):
+    """A UserWarning ``what: message`` at the user's line, when ``message`` says something (a hint such as
+    :func:`degrees_hint`'s: the input may be meant, so it is not refused)."""
+    if message:
+        from ._deprecation import warn_caller
+
+        warn_caller(f"{what}: {message}")
+
+
+def start_hint(system, q, what):
+    """Warn (:func:`hint`) when a start ``q`` the user gave has a rotation beyond a full turn from neutral (within
+    its limits: one beyond them is refused, naming them)."""
+    hint(turns_hint(system, q, within_limits=True), what)
 
 
 def rotation_matrix(value, what):

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .._check import has_coordinates, integer, scalar
+from .._check import has_coordinates, integer, scalar, start_hint
 from .._deprecation import Renamed
 from .._format import number, table
 from ..defaults import EQUILIBRIUM_TOL, MAX_ITER
@@ -117,6 +117,11 @@ def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX
     loops: :func:`vibdyn.analysis.constrained.equilibrium` (q0 need not close them). A scene with drives:
     the free coordinates' equilibrium with the driven ones held at their laws' position and speed at t
     (:func:`driven_start`; a moving drive makes it a steady motion)."""
+    _given_start(system, q0, "equilibrium: q0")
+    return _static(system, q0, t, tol, max_iter)
+
+
+def _static(system, q0, t, tol, max_iter):
     if system.reduction.time_laws:
         return _solve(system, *driven_start(system, "equilibrium", q0, t, {}), tol, max_iter)
     if system.reduction.curved:
@@ -143,6 +148,11 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
     Example (a rotor driven by τ = 10 − ω² carrying a sprung slider): ``steady_motion({"rotor": None})``.
     With drives, the driven coordinates move at their laws' speeds at t (:func:`driven_start`).
     """
+    _given_start(system, q0, "steady_motion: q0")
+    return _steady(system, v_cyclic, q0, t, tol, max_iter, guess)
+
+
+def _steady(system, v_cyclic, q0, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, guess=1.0):
     if system.reduction.curved:  # a mechanism with loops: speeds given (constrained.steady_motion)
         from .constrained import steady_motion as constrained_steady_motion
 
@@ -237,6 +247,11 @@ def held(system, q=None, v=None, t=0.0):
     the elastic and the other forces, M·0 + b(q, v) − Q(q, v, t) (not for a mechanism with loops, whose
     drives could not all act). Linearised with a = 0, its K is
     ∂(g − Q)/∂q at q: the drives are taken as constant forces (no stiffness of their own)."""
+    _given_start(system, q, "held: q")
+    return _held(system, q, v, t)
+
+
+def _held(system, q, v, t):
     _refuse_drives(system, "held")
     if system.reduction.curved:
         raise ModelError(f"held: not available for a mechanism with closed loops ({system.reduction.describe()}); "
@@ -263,11 +278,18 @@ def operating_point(system: System, tol: float = EQUILIBRIUM_TOL, max_iter: int 
     op = system.scene.operating_point or {}
     # (a mechanism with loops starts from the declared start itself, and names it if it cannot close)
     q0 = system.start_configuration()[0] if op.get("start") is not None and not system.reduction.curved else None
+    # (the declared start is hinted where it is read: not again as a start given here)
     if op.get("held"):
-        return held(system, q0)
+        return _held(system, q0, None, 0.0)
     if op.get("cyclic"):
-        return steady_motion(system, op["cyclic"], q0, tol=tol, max_iter=max_iter)
-    return static_equilibrium(system, q0, tol=tol, max_iter=max_iter)
+        return _steady(system, op["cyclic"], q0, tol=tol, max_iter=max_iter)
+    return _static(system, q0, 0.0, tol, max_iter)
+
+
+def _given_start(system, q0, what):
+    """The degrees hint (:func:`vibdyn._check.start_hint`) for a start ``q0`` the user gave (None: none given)."""
+    if q0 is not None and system.nv:
+        start_hint(system, system.check_configuration(np.array(q0, dtype=float), what), what)
 
 
 def _refuse_drives(system, what):

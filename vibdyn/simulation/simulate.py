@@ -43,13 +43,12 @@ integrates nothing extra (W_nc = 0).
 import math
 import sys
 import time
-import warnings
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from .._check import finite_array, has_coordinates, scalar, turns_hint
+from .._check import finite_array, has_coordinates, scalar, start_hint
 from .._deprecation import RenamedKeyword
 from ..defaults import EPS
 from ..errors import ModelError, VibdynError
@@ -288,9 +287,8 @@ def _settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_
     given = q0 is not None
     q0, start = system.start_configuration() if q0 is None and system.reduction.curved else (
         system.neutral() if q0 is None else system.check_configuration(q0, f"{what}: q0"), "q0")
-    turns = turns_hint(system, q0) if given else ""
-    if turns:  # a start may wind a pendulum many turns, but it is more often degrees given for radians
-        warnings.warn(f"{what}: q0: {turns}", stacklevel=4)
+    if given:  # a start may wind a pendulum many turns, but it is more often degrees given for radians
+        start_hint(system, q0, f"{what}: q0")
     v0 = np.zeros(system.nv) if v0 is None else system.check_velocity(v0, f"{what}: v0")
     if system.reduction.time_laws:  # the driven entries of q0 and v0 are the laws' at t0
         if not stepper.supports_drives:
