@@ -257,3 +257,52 @@ def test_an_angle_that_looks_like_degrees_gets_a_hint_wherever_it_is_given():
             four_bar.equilibrium(q0=q)
 
     _hinted(loop_start, f"equilibrium: q0: {four_bar.coordinates[0]} = 20 rad")
+
+
+def test_export_html_options_are_in_its_signature_and_documented():
+    """They were **kwargs passed on to a page the API reference lacks."""
+    import inspect
+
+    from conftest import ROOT
+
+    for fn, options in ((vd.export_html, ("amplitude", "trajectory", "speed")),
+                        (vd.view, ("amplitude", "trajectory", "speed", "mode", "open_browser"))):
+        signature = inspect.signature(fn)
+        for option in options:
+            assert signature.parameters[option].kind is inspect.Parameter.KEYWORD_ONLY
+            assert f"``{option}``" in fn.__doc__, (fn.__name__, option)
+    assert "vibdyn.export_html" in (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
+    with pytest.raises(TypeError):
+        vd.export_html(vd.load_scene("rod_pivot"), "x.html", amplitde=0.1)  # (a misspelt option: refused at once)
+
+
+def test_parameters_and_with_values_are_public_and_the_updating_guide_needs_nothing_private():
+    from conftest import ROOT
+
+    scene = _chain()
+    for name in ("parameters", "with_values", "Parameter"):
+        assert name in vd.__all__ and f"vibdyn.{name}" in (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
+    (k1,) = vd.parameters(scene, ["k1.stiffness"])
+    assert isinstance(k1, vd.Parameter) and k1.value == 1000.0 and k1.unit == "N/m"
+    stiffer = vd.with_values(scene, {"k1.stiffness": 2000.0, "k2.stiffness": 800.0})
+    omega, _ = _chain_modes(2000.0, 800.0)
+    modes = stiffer.build().linearize().modes()
+    assert np.all(np.abs(modes.omega - omega) <= 10 * modes.omega_error + 1e-12 * omega)
+    same = vd.with_values(scene, vd.parameters(scene, ["k1.stiffness", "k2.stiffness"]), [2000.0, 800.0])
+    np.testing.assert_array_equal(same.build().linearize().K, stiffer.build().linearize().K)
+    with pytest.raises(vd.ModelError, match="2 parameters but 1 values"):
+        vd.with_values(scene, ["k1.stiffness", "k2.stiffness"], [1.0])
+    with pytest.raises(vd.ModelError, match="value of 'k1.stiffness': expected a number"):
+        vd.with_values(scene, {"k1.stiffness": "abc"})
+    guide = (ROOT / "docs" / "guide" / "sensitivity.md").read_text(encoding="utf-8")
+    assert "vibdyn.description" not in guide
+
+
+def test_the_updating_guide_states_the_default_sigma():
+    import inspect
+
+    from conftest import ROOT
+
+    default = inspect.signature(vd.update).parameters["relative_sigma"].default
+    guide = (ROOT / "docs" / "guide" / "sensitivity.md").read_text(encoding="utf-8")
+    assert f"{100 * default:g} % of each measured frequency" in guide and f"relative_sigma={default:g}" in guide

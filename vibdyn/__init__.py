@@ -56,6 +56,7 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.sensitivity": ("sensitivity", "Sensitivity"),
     "analysis.linearize": ("LinearModel", "linearize"),
     "studies.updating": ("update", "Update"),
+    "description.parameters": ("parameters", "with_values", "Parameter"),
     "studies.sweeps": ("sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked"),
     "analysis.nonlinear.harmonic_balance": ("forced_response_curve", "ForcedResponseCurve", "PointForce",
                                             "SupportMotion"),
@@ -166,20 +167,34 @@ def add_servo(scene: Scene, stiffness: float, damping: float = 0.0) -> None:
     _add(scene, stiffness, damping)
 
 
-def view(obj: Any, **kwargs: Any) -> Any:
-    """Show a Modes, Trajectory, System or Scene in the browser (live meshcat server on 127.0.0.1); returns
-    a handle with ``.url`` and ``.close()`` (see :func:`vibdyn.faces.viewer.view`)."""
+def view(obj: Any, *, amplitude: float | None = None, trajectory: Any = None, speed: float = 1.0, mode: int = 1,
+         open_browser: bool = False) -> Any:
+    """Show ``obj`` in the browser through a live meshcat server on 127.0.0.1; returns a handle with ``.url`` and
+    ``.close()`` (displayed inline in Jupyter). ``obj``, ``amplitude``, ``trajectory`` and ``speed`` as
+    :func:`export_html` takes them; ``mode``: the motion shown first (from 1); ``open_browser``: open the page
+    in the default browser."""
     from .faces.viewer import view as _view
 
-    return _view(obj, **kwargs)
+    return _view(obj, amplitude=amplitude, trajectory=trajectory, speed=speed, mode=mode, open_browser=open_browser)
 
 
-def export_html(obj: Any, path: str | os.PathLike, **kwargs: Any) -> Any:
-    """Write a self-contained HTML page of every mode (or a trajectory) of ``obj`` (see
-    :func:`vibdyn.faces.viewer.export_html`); returns its path."""
+def export_html(obj: Any, path: str | os.PathLike, *, amplitude: float | None = None, trajectory: Any = None,
+                speed: float = 1.0) -> Any:
+    """Write one self-contained HTML page showing ``obj`` and return its path (a ``pathlib.Path``). The page
+    works offline (meshcat's viewer is inlined: no request to any host); its address takes ``#mode=2&t=0.25``
+    (the motion shown, from 1, and the time in s).
+
+    ``obj``: a Modes (every mode animated about the operating point, one entry each in the page's panel), a
+    Trajectory (replayed), a System or Scene (at rest, or replaying ``trajectory``), a PeriodicOrbit, a Backbone
+    (its largest request's orbit) or ``ForcedResponseCurve.orbit(i)`` (one period of the real motion, looped).
+    ``amplitude``: the largest point displacement of a mode's animation (m; default 10 % of the scene's size).
+    ``trajectory``: a motion to replay with a System, Scene or Modes: a Trajectory, or the ``.npz`` file that
+    ``vibdyn simulate --out`` writes. ``speed``: the replay's speed, × real time (default 1: a trajectory or
+    an orbit plays at its own pace).
+    """
     from .faces.viewer import export_html as _export
 
-    return _export(obj, path, **kwargs)
+    return _export(obj, path, amplitude=amplitude, trajectory=trajectory, speed=speed)
 
 
 __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot", "Slider", "Helical", "Ball",
@@ -192,4 +207,4 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
-           "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing"]
+           "update", "Update", "parameters", "with_values", "Parameter", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing"]
