@@ -5,7 +5,6 @@ import os
 import re
 import subprocess
 import sys
-import textwrap
 
 import numpy as np
 import pytest
@@ -143,7 +142,7 @@ def test_a_steady_motion_sought_from_rest_follows_the_branch_in_speed():
     r0, m, lc, (Ixx, _, Izz), g = 0.2, 1.0, 0.3, (0.03, 0.03, 0.001), 9.81
     system = _hinged().build()
     for spin in (3.0, 6.0):
-        def dV(th):
+        def dV(th, spin=spin):
             s, c = np.sin(th), np.cos(th)
             return m * g * lc * s - spin ** 2 * ((Ixx - Izz) * s * c - m * lc * c * (r0 - lc * s))
 

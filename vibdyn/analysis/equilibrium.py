@@ -287,7 +287,7 @@ def operating_point(system: System, tol: float = EQUILIBRIUM_TOL, max_iter: int 
 
 
 def _given_start(system, q0, what):
-    """The degrees hint (:func:`vibdyn._check.start_hint`) for a start ``q0`` the user gave (None: none given)."""
+    """The degrees hint for a start ``q0`` the user gave (None: none given), as simulate's."""
     if q0 is not None and system.nv:
         start_hint(system, system.check_configuration(np.array(q0, dtype=float), what), what)
 

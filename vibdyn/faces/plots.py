@@ -352,6 +352,15 @@ def frequency_energy(backbones, *, path=None, ax=None, dpi=100):
     return save(fig, path, dpi)
 
 
+def axes_first(path, dpi, ax):
+    """{path, dpi, ax} of a ``plot(path, dpi, *, ax)`` called with an Axes first (the former order of
+    ``Backbone.plot``: ``plot(ax)`` or ``plot(ax, path)``), else as given."""
+    if hasattr(path, "figure") and ax is None:
+        return {"ax": path, "path": None, "dpi": dpi} if isinstance(dpi, (int, float)) else \
+            {"ax": path, "path": dpi, "dpi": 100}
+    return {"ax": ax, "path": path, "dpi": dpi}
+
+
 def log_ticks(axis, lo, hi):
     """Plain labels ("0.2", "1", "50") on a log axis spanning [lo, hi]: every decade, and between decades 2 and 5
     (spans up to 3 decades) or 2…8 (under one), so that labels never crowd (matplotlib's "2×10⁻¹" labels of

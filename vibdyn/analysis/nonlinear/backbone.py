@@ -164,16 +164,11 @@ class Backbone:
                 "orbits": [o.to_dict() for o in self.orbits]}
 
     def plot(self, path: Any = None, dpi: Any = 100, *, ax: Any = None) -> Any:
-        """The frequency–energy plot of this backbone (matplotlib; see :func:`vibdyn.faces.plots.frequency_energy`,
-        which draws several on one plot): saved to ``path`` if given (first, as every result's ``plot``), drawn on
-        ``ax`` (a matplotlib Axes) if given; an Axes given first (the former order, ``plot(ax, path)``) is taken
-        as ``ax``. Returns the Figure."""
+        """The frequency–energy plot (:func:`vibdyn.faces.plots.frequency_energy`), saved to ``path`` (first, as every
+        result's ``plot``), on ``ax`` (an Axes; given first, the former order, taken as ``ax``). Returns the Figure."""
         from ...faces import plots
 
-        if hasattr(path, "figure") and hasattr(path, "plot") and ax is None:  # an Axes: the former order
-            ax, path, dpi = path, (None if isinstance(dpi, (int, float)) else dpi), \
-                (dpi if isinstance(dpi, (int, float)) else 100)
-        return plots.frequency_energy(self, ax=ax, path=path, dpi=dpi)
+        return plots.frequency_energy(self, **plots.axes_first(path, dpi, ax))
 
     def __str__(self):
         u = self.unit
