@@ -134,14 +134,14 @@ def _hinged(r0=0.2, m=1.0, lc=0.3, inertia=(0.03, 0.03, 0.001)):
 
 def test_a_steady_motion_sought_from_rest_follows_the_branch_in_speed():
     """At 6 rad/s the steady pose is 1.12 rad from rest (Newton from rest did not converge, and its message
-    suggested an unchecked start). Oracle: the balance of moments about the hinge, from the potential in the
+    suggested an unchecked start); at 12 rad/s Newton from rest converged to another, unstable branch. Oracle: the balance of moments about the hinge, from the potential in the
     rotating frame V(θ) = −m g l cos θ − ½Ω² J_z(θ), J_z = Ixx sin²θ + Izz cos²θ + m (r0 − l sin θ)²
     (the arm's moment of inertia about the spin axis, rotated by θ about y)."""
     from scipy.optimize import brentq
 
     r0, m, lc, (Ixx, _, Izz), g = 0.2, 1.0, 0.3, (0.03, 0.03, 0.001), 9.81
     system = _hinged().build()
-    for spin in (3.0, 6.0):
+    for spin in (3.0, 6.0, 12.0):
         def dV(th, spin=spin):
             s, c = np.sin(th), np.cos(th)
             return m * g * lc * s - spin ** 2 * ((Ixx - Izz) * s * c - m * lc * c * (r0 - lc * s))
@@ -150,6 +150,7 @@ def test_a_steady_motion_sought_from_rest_follows_the_branch_in_speed():
         op = system.steady_motion({"hub": spin})
         arm = op.coordinate("arm")
         assert abs(arm - theta) <= 10 * op.q_error[1] + 1e-12, (spin, arm, theta, op.q_error)
+        assert op.stability != "unstable"  # (at 12 rad/s Newton from rest found the arm flung inwards: unstable)
 
 
 def test_the_speed_of_a_coordinate_at_rest_is_refused_saying_why():

@@ -145,6 +145,10 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
     """Steady motion: the coordinates named in ``v_cyclic`` turn at constant speed — a number (given) or
     None (found from the forces, starting from ``guess`` rad/s or m/s) — while the others rest.
 
+    Given speeds: a search from ``q0`` that fails is followed from the resting state near it as the speeds grow
+    (continuation); without ``q0``, an unstable steady motion found from neutral gives way to the one spun up from
+    rest where that one is not unstable.
+
     Example (a rotor driven by τ = 10 − ω² carrying a sprung slider): ``steady_motion({"rotor": None})``.
     With drives, the driven coordinates move at their laws' speeds at t (:func:`driven_start`).
     """
@@ -165,20 +169,31 @@ def _steady(system, v_cyclic, q0, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER,
         cyclic[i] = None if speed is None else scalar(speed, f"steady_motion: speed of '{name}'")
     if system.reduction.time_laws:
         return _solve(system, *driven_start(system, "steady_motion", q0, t, cyclic), tol, max_iter, guess)
+    given = all(s is not None for s in cyclic.values()) and max_iter > 0
     try:
-        return _solve(system, q0, t, cyclic, tol, max_iter, guess)
+        found = _solve(system, q0, t, cyclic, tol, max_iter, guess)
     except ConvergenceError as failed:
-        if any(s is None for s in cyclic.values()) or max_iter == 0:
+        if not given:
             raise
         # (from rest, a spun body's steady pose may lie far from the start: follow it as the speeds grow)
         return _solve(system, _along_speed(system, q0, t, cyclic, failed), t, cyclic, tol, max_iter, guess)
+    if given and q0 is None and found.stability == "unstable":
+        # sought from rest, found on another branch (a pendulum flung inwards): the one spun up from rest instead,
+        # where that one is not unstable
+        try:
+            spun = _solve(system, _along_speed(system, None, t, cyclic, None), t, cyclic, tol, max_iter, guess)
+        except ConvergenceError:
+            return found
+        return spun if spun.stability != "unstable" else found
+    return found
 
 
 def _along_speed(system, q0, t, cyclic, failed):
     """q of the steady motion at the given speeds ``cyclic`` {index: speed}, followed from the resting state
     near ``q0`` (the static equilibrium of the other coordinates, the speeds 0) as the speeds grow together
     (pseudo-arclength continuation in their common factor s, 0 → 1). A branch that does not reach them is a
-    ConvergenceError saying how far it went (the search's own start hint was not checked: left out)."""
+    ConvergenceError saying how far it went (the search's own start hint was not checked: left out); ``failed``:
+    the search's own ConvergenceError (None: a plain ConvergenceError)."""
     from ..solvers.continuation import continuation
 
     nv, model = system.nv, system.model
@@ -209,6 +224,8 @@ def _along_speed(system, q0, t, cyclic, failed):
                           max_steps=400, stop=turned_back, parameter="the speeds' factor s")
     if branch.status == "finished":
         return at(branch.x[-1])
+    if failed is None:  # (asked only for a better branch: no message)
+        raise ConvergenceError(branch.message)
     names = system.coordinates
     head = str(failed).split(". Start nearer")[0]
     if not branch.lam.size:
