@@ -100,6 +100,11 @@ def test_a_builder_returning_a_system_is_accepted_as_sweep_accepts_it():
     (lambda: vd.update(_chain, {"k1": 900.0}, [17.0], bounds={"k1": 500.0}),
      "bounds\\['k1'\\] must be a pair \\(lower, upper\\).*got 500.0"),
     (lambda: vd.update(_chain, {"k1": 900.0}, [17.0], bounds={"k1": (1e3, 2e3)}), "k1 starts at 900"),
+    (lambda: vd.sensitivity(_chain, {"kk": 1.0}), "the builder _chain\\(k1=1000.0, k2=500.0\\) cannot take .* kk"),
+    (lambda: vd.update(_chain, {"kk": 1.0}, [17.0]), "the builder _chain.* cannot take the parameters kk"),
+    (lambda: vd.update(_chain, {"k1": 900.0}, []), "no measured frequency given"),
+    (lambda: vd.update(_chain, {"k1": 900.0, "k2": 400.0}, [17.0, 41.0], shapes=np.ones((2, 2)), points=["m1", "m2"],
+                       direction="x"), "update: direction: expected numbers"),
 ])
 def test_bad_arguments_of_sensitivity_and_update_are_named(call, words):
     with pytest.raises(vd.ModelError, match=words):

@@ -273,8 +273,18 @@ def scene_builder(build, what):
     as a function returning the Scene; anything else it returns is a ModelError saying what came back."""
     if not callable(build):
         raise ModelError(f"{what}: build must be a function build(**params) returning a Scene, got {build!r}")
+    try:
+        signature = inspect.signature(build)
+    except (TypeError, ValueError):
+        signature = None  # (a builtin: checked when called)
 
     def scene(**values):
+        try:
+            if signature is not None:
+                signature.bind(**values)
+        except TypeError as e:
+            raise ModelError(f"{what}: the builder {getattr(build, '__name__', 'build')}{signature} cannot take the "
+                             f"parameters {', '.join(values)}: {e}") from None
         obj = build(**values)
         if hasattr(obj, "build") and not hasattr(obj, "linearize"):
             return obj

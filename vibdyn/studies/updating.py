@@ -17,7 +17,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .._check import builder_values, integer, scalar, scene_builder, unknown_name
+from .._check import builder_values, integer, scalar, scene_builder, unknown_name, vector3
 from ..errors import ConvergenceError, ModelError
 
 
@@ -166,6 +166,10 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
     max_iter = integer(max_iter, "update: max_iter (evaluations of the model)", minimum=1)
     relative_sigma = scalar(relative_sigma, "update: relative_sigma", positive=True)
     w_meas = _vector(measured, None, "measured (rad/s)")
+    if not w_meas.size:
+        raise ModelError("update: no measured frequency given (measured: rad/s, one per measured mode)")
+    if direction is not None:
+        direction = vector3(direction, "update: direction")
     if np.any(w_meas <= 0):
         raise ModelError(f"update: measured natural frequencies must be positive (rad/s), got {w_meas.tolist()}")
     m = len(w_meas)
