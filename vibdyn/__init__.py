@@ -207,4 +207,5 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
-           "update", "Update", "parameters", "with_values", "Parameter", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing"]
+           "update", "Update", "parameters", "with_values", "Parameter", "simulate", "linearize", "equilibrium",
+           "Reduction", "Assembly", "forcing"]
