@@ -155,6 +155,8 @@ def hint(message, what):
 def start_hint(system, q, what):
     """Warn (:func:`hint`) when a start ``q`` the user gave has a rotation beyond a full turn from neutral (within
     its limits: one beyond them is refused, naming them)."""
+    if np.abs(q).max(initial=0.0) <= 2 * np.pi:  # (every neutral is 0 in a vector coordinate, and a unit
+        return  # quaternion or complex number is within half a turn: no offset can pass a turn)
     hint(turns_hint(system, q, within_limits=True), what)
 
 

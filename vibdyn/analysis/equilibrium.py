@@ -304,9 +304,15 @@ def operating_point(system: System, tol: float = EQUILIBRIUM_TOL, max_iter: int 
 
 
 def _given_start(system, q0, what):
-    """The degrees hint for a start ``q0`` the user gave (None: none given), as simulate's."""
-    if q0 is not None and system.nv:
-        start_hint(system, system.check_configuration(np.array(q0, dtype=float), what), what)
+    """The degrees hint for a start ``q0`` the user gave (None: none given), as simulate's (a ``q0`` that is not a
+    configuration is refused by the search itself, in its words)."""
+    if q0 is None or not system.nv:
+        return
+    try:
+        q = system.check_configuration(q0, what)
+    except ModelError:
+        return
+    start_hint(system, q, what)
 
 
 def _refuse_drives(system, what):
