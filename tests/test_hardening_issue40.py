@@ -311,3 +311,18 @@ def test_the_updating_guide_states_the_default_sigma():
     default = inspect.signature(vd.update).parameters["relative_sigma"].default
     guide = (ROOT / "docs" / "guide" / "sensitivity.md").read_text(encoding="utf-8")
     assert f"{100 * default:g} % of each measured frequency" in guide and f"relative_sigma={default:g}" in guide
+
+
+def test_the_command_line_prints_a_hint_as_one_line(capsys):
+    """`vibdyn modes rod_pivot --start rod=90`: the hint as "vibdyn: warning: ...", not Python's source line."""
+    import warnings
+
+    from vibdyn.faces.cli import main
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        assert main(["modes", "rod_pivot", "--start", "rod=90"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("vibdyn: warning: operating point start: rod = 90 rad, more than a full turn (2π) from "
+                          "neutral: degrees by mistake? 90° is 1.5708 rad"), err
+    assert "UserWarning" not in err
