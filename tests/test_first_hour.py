@@ -188,8 +188,8 @@ def test_a_forced_response_curves_harmonics_by_number():
 
 def test_a_start_in_degrees_is_named():
     """A start more than a full turn from neutral in a rotation coordinate is more often degrees than turns:
-    simulate warns (and runs), a mechanism's equilibrium search that fails says so; a start within a turn is
-    silent (warnings are errors in this suite)."""
+    simulate warns (and runs), so does an equilibrium search, and one that fails says so again; a start within a
+    turn is silent (warnings are errors in this suite)."""
     rod = vd.load_scene("rod_pivot").build()
     rod.simulate(0.05, [1.0])
     with pytest.warns(UserWarning, match=r"^simulate: q0: rod = 90 rad, more than a full turn \(2π\) from neutral: "
@@ -197,7 +197,7 @@ def test_a_start_in_degrees_is_named():
         traj = rod.simulate(0.05, [90.0])
     assert traj.q[0, 0] == 90.0  # (the motion itself is still computed: a pendulum may be wound 14 turns)
     four_bar = vd.load_scene("four_bar").build()
-    with pytest.raises(vd.ConvergenceError) as e:
-        four_bar.equilibrium(q0=[57.0, 30.0, 80.0], max_iter=20)
+    with pytest.raises(vd.ConvergenceError) as e, pytest.warns(UserWarning, match=r"^equilibrium: q0: crank = 57 rad"):
+        four_bar.equilibrium(q0=[57.0, 30.0, 80.0], max_iter=20)  # (hinted at once, and again in the failure)
     assert "start nearer an equilibrium (q0=); the start has crank = 57 rad, coupler = 30 rad, rocker = 80 rad, " \
            "more than a full turn (2π) from neutral: degrees by mistake? 57° is 0.994838 rad" in str(e.value)

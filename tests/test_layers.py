@@ -54,8 +54,8 @@ ENTRY_POINTS = {
     # independent coordinates
     ("vibdyn.analysis.linearize", "linearize"): {"vibdyn.analysis.reduced"},
     # and a mechanism with loops searched, on call, on its loops (its equilibria build on these)
-    ("vibdyn.analysis.equilibrium", "static_equilibrium"): {"vibdyn.analysis.constrained"},
-    ("vibdyn.analysis.equilibrium", "steady_motion"): {"vibdyn.analysis.constrained"},
+    ("vibdyn.analysis.equilibrium", "_static"): {"vibdyn.analysis.constrained"},
+    ("vibdyn.analysis.equilibrium", "_steady"): {"vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.simulate"): {"vibdyn.simulation.simulate"},
     ("vibdyn.analysis.modal", "Modes.plot"): {"vibdyn.faces.viewer.pictures"},
     ("vibdyn.analysis.modal", "Modes.response_spectrum"): {"vibdyn.analysis.response.seismic"},

@@ -1,8 +1,9 @@
-"""Every ```python block of README.md runs as written, top to bottom, as one session (later blocks may use
-names from earlier ones), in a temporary directory with no models/ folder (the bundled models load by name, as
-where vibdyn is installed); the README stays a first visit's page (at most 12 000 characters) whose links and
-picture exist. The material that moved out of it is in docs/, whose code tests/test_docs.py runs. The blocks run
-again in a fresh venv holding the base install alone (.ci/wheel-check, through :func:`blocks` run as a script)."""
+"""Every ```python block of README.md runs as written and alone, each in a fresh interpreter (a reader copies one
+block, not the page: none may lean on names from another), in a temporary directory with no models/ folder (the
+bundled models load by name, as where vibdyn is installed); the README stays a first visit's page (at most
+12 000 characters) whose links and picture exist. The material that moved out of it is in docs/, whose code
+tests/test_docs.py runs. The blocks run again in a fresh venv holding the base install alone (.ci/wheel-check,
+through :func:`blocks` run as a script)."""
 
 import fnmatch
 import re
@@ -20,24 +21,31 @@ def blocks():
     return [(text[:m.start(1)].count("\n") + 1, m.group(1)) for m in BLOCK.finditer(text)]
 
 
+#: run in each fresh interpreter: the block (read from stdin) off screen (matplotlib's Agg), compiled with its README
+#: line numbers so that a traceback points into README.md
+_ALONE = """
+import sys
+import matplotlib
+matplotlib.use("Agg")
+line, path = int(sys.argv[1]), sys.argv[2]
+exec(compile("\\n" * (line - 1) + sys.stdin.read(), path, "exec"), {"__name__": "__main__"})
+"""
+
+
 def run_blocks():
-    """Run every block of :func:`blocks` in the current directory, top to bottom as one session, off screen
-    (matplotlib's Agg); an exception names the block's README line. Returns the number of blocks."""
-    import matplotlib  # a base dependency: the tour draws plots
+    """Run every block of :func:`blocks` alone, each in a fresh interpreter (this one's Python) in the current
+    directory; a failure names the block's README line and ends with its traceback. Returns the number of
+    blocks."""
+    import os
+    import subprocess
 
-    import matplotlib.pyplot as plt
-
-    matplotlib.use("Agg")
-    namespace = {"__name__": "__readme__"}
-    try:
-        for line, source in blocks():
-            code = compile("\n" * (line - 1) + source, str(README), "exec")  # tracebacks give README lines
-            try:
-                exec(code, namespace)
-            except Exception as exc:  # noqa: BLE001 - say which block failed, keep the cause
-                raise AssertionError(f"README.md block at line {line} raised {type(exc).__name__}: {exc}") from exc
-    finally:
-        plt.close("all")
+    env = {**os.environ, "MPLBACKEND": "Agg", "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
+    for line, source in blocks():
+        run = subprocess.run([sys.executable, "-c", _ALONE, str(line), str(README)], input=source, text=True,
+                             capture_output=True, env=env, timeout=600)
+        if run.returncode:
+            raise AssertionError(f"README.md block at line {line}, run alone in a fresh interpreter, failed:\n"
+                                 f"{run.stderr[-3000:]}")
     return len(blocks())
 
 
@@ -56,7 +64,7 @@ def test_readme_is_short_and_its_links_exist():
     assert not missing, f"README.md links to missing files: {missing}"
 
 
-def test_readme_blocks_run_top_to_bottom(tmp_path, monkeypatch):
+def test_readme_blocks_run_each_alone(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # no models/ folder here: the README loads the bundled models by name, as installed
     assert run_blocks() == len(blocks())
     # what the tour wrote is covered by .gitignore (simple glob lines there), so it never lands in a commit

@@ -60,6 +60,7 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.sensitivity": ("sensitivity", "Sensitivity"),
     "analysis.linearize": ("LinearModel", "linearize"),
     "studies.updating": ("update", "Update"),
+    "description.parameters": ("parameters", "with_values", "Parameter"),
     "studies.sweeps": ("sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked"),
     "analysis.nonlinear.harmonic_balance": ("forced_response_curve", "ForcedResponseCurve", "PointForce",
                                             "SupportMotion"),
@@ -87,11 +88,11 @@ class _FormerModule:
     """A public function that was its module's name: calls go to the function; any other attribute is read
     from the former module with a DeprecationWarning (once per name)."""
 
-    def __init__(self, fn, module):
+    def __init__(self, fn, module, short):
         import functools
 
         functools.update_wrapper(self, fn)
-        self._module = module
+        self._module, self._short = module, short  # (short: the public name the user wrote, vd.equilibrium)
 
     def __call__(self, *args, **kwargs):
         return self.__wrapped__(*args, **kwargs)
@@ -101,9 +102,10 @@ class _FormerModule:
             raise AttributeError(name)
         mod = import_module(f".{self._module}", __name__)
         value = getattr(mod, name)  # (an AttributeError as the module would give it)
-        short = self.__wrapped__.__name__
-        _warn_once(f"vibdyn.{short}.{name}", f"vibdyn.{short} is the function {short}() now; read {name} from vibdyn "
-                  f"(vibdyn.{name}) or from vibdyn.{self._module}")
+        short = self._short
+        public = f"from vibdyn (vibdyn.{name}) or " if name in _LAZY or name in globals() else ""
+        _warn_once(f"vibdyn.{short}.{name}", f"vibdyn.{short}.{name}: vibdyn.{short} is the function {short}() now; "
+                   f"read {name} {public}from vibdyn.{self._module}")
         return value
 
 
@@ -114,7 +116,7 @@ def __getattr__(name):
     mod = import_module(f".{module}", __name__)
     value = mod if name in _MODULES else getattr(mod, "static_equilibrium" if name == "equilibrium" else name)
     if name in _FORMER_MODULES:
-        value = _FormerModule(value, _FORMER_MODULES[name])
+        value = _FormerModule(value, _FORMER_MODULES[name], name)
     globals()[name] = value
     return value
 
@@ -169,20 +171,34 @@ def add_servo(scene: Scene, stiffness: float, damping: float = 0.0) -> None:
     _add(scene, stiffness, damping)
 
 
-def view(obj: Any, **kwargs: Any) -> Any:
-    """Show a Modes, Trajectory, System or Scene in the browser (live meshcat server on 127.0.0.1); returns
-    a handle with ``.url`` and ``.close()`` (see :func:`vibdyn.faces.viewer.view`)."""
+def view(obj: Any, *, amplitude: float | None = None, trajectory: Any = None, speed: float = 1.0, mode: int = 1,
+         open_browser: bool = False) -> Any:
+    """Show ``obj`` in the browser through a live meshcat server on 127.0.0.1; returns a handle with ``.url`` and
+    ``.close()`` (displayed inline in Jupyter). ``obj``, ``amplitude``, ``trajectory`` and ``speed`` as
+    :func:`export_html` takes them; ``mode``: the motion shown first (from 1); ``open_browser``: open the page
+    in the default browser."""
     from .faces.viewer import view as _view
 
-    return _view(obj, **kwargs)
+    return _view(obj, amplitude=amplitude, trajectory=trajectory, speed=speed, mode=mode, open_browser=open_browser)
 
 
-def export_html(obj: Any, path: str | os.PathLike, **kwargs: Any) -> Any:
-    """Write a self-contained HTML page of every mode (or a trajectory) of ``obj`` (see
-    :func:`vibdyn.faces.viewer.export_html`); returns its path."""
+def export_html(obj: Any, path: str | os.PathLike, *, amplitude: float | None = None, trajectory: Any = None,
+                speed: float = 1.0) -> Any:
+    """Write one self-contained HTML page showing ``obj`` and return its path (a ``pathlib.Path``). The page
+    works offline (meshcat's viewer is inlined: no request to any host); its address takes ``#mode=2&t=0.25``
+    (the motion shown, from 1, and the time in s).
+
+    ``obj``: a Modes (every mode animated about the operating point, one entry each in the page's panel), a
+    Trajectory (replayed), a System or Scene (at rest, or replaying ``trajectory``), a PeriodicOrbit, a Backbone
+    (its largest request's orbit) or ``ForcedResponseCurve.orbit(i)`` (one period of the real motion, looped).
+    ``amplitude``: the largest point displacement of a mode's animation (m; default 10 % of the scene's size).
+    ``trajectory``: a motion to replay with a System, Scene or Modes: a Trajectory, or the ``.npz`` file that
+    ``vibdyn simulate --out`` writes. ``speed``: the replay's speed, × real time (default 1: a trajectory or
+    an orbit plays at its own pace).
+    """
     from .faces.viewer import export_html as _export
 
-    return _export(obj, path, **kwargs)
+    return _export(obj, path, amplitude=amplitude, trajectory=trajectory, speed=speed)
 
 
 __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot", "Slider", "Helical", "Ball",
@@ -196,5 +212,6 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "CriticalSpeedMap", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
-           "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing",
-           "SeismicResponse", "RecordSpectrum", "DesignSpectrum", "eurocode8", "asce7"]
+           "update", "Update", "parameters", "with_values", "Parameter", "simulate", "linearize", "equilibrium",
+           "Reduction", "Assembly", "forcing", "SeismicResponse", "RecordSpectrum", "DesignSpectrum", "eurocode8",
+           "asce7"]

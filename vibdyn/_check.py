@@ -114,18 +114,50 @@ def unit_axis(value, what):
     return a / np.linalg.norm(a)
 
 
-def turns_hint(system, q):
+def has_coordinates(system, what, nothing="moves"):
+    """A ModelError naming ``what`` when ``system`` has no coordinates (a scene without moving bodies)."""
+    if system.nv == 0:
+        raise ModelError(f"{what}: scene '{system.name}' has no coordinates (no body on a moving joint): nothing "
+                         f"{nothing}; add one (scene.add_body(name, joint=vd.Pivot(...), mass=...))")
+
+
+def turns_hint(system, q, within_limits=False):
     """"" or what a start ``q`` of ``system`` (a System) has in it more than a full turn (2π) from neutral in a
     rotation coordinate (rad), as a hint that degrees were given for radians: "rod = 90 rad, more than a full turn
-    (2π) from neutral: degrees by mistake? 90° is 1.5708 rad"."""
+    (2π) from neutral: degrees by mistake? 90° is 1.5708 rad"; ``within_limits``: of the coordinates within their
+    position limits only."""
     offsets = system.difference(system.neutral(), q)
-    big = [(c, float(x)) for c, u, x in zip(system.coordinates, system.units, offsets)
-           if u == "rad" and abs(x) > 2 * np.pi]
+    lower, upper = system.limit_bounds() if within_limits else (offsets, offsets)
+    return degrees_hint([(c, x) for c, u, x, lo, hi in zip(system.coordinates, system.units, offsets, lower, upper)
+                         if u == "rad" and lo <= x <= hi], "from neutral")
+
+
+def degrees_hint(angles, where=""):
+    """"" or what ``angles`` [(name, angle in rad)] have beyond a full turn (2π) ``where`` ("from neutral"), as a
+    hint that degrees were given for radians."""
+    big = [(c, float(x)) for c, x in angles if abs(x) > 2 * np.pi]
     if not big:
         return ""
     names = ", ".join(f"{c} = {x:g} rad" for c, x in big)
     degrees = ", ".join(f"{x:g}° is {np.radians(x):.6g} rad" for _, x in big)
-    return f"{names}, more than a full turn (2π) from neutral: degrees by mistake? {degrees}"
+    return f"{names}, more than a full turn (2π){' ' + where if where else ''}: degrees by mistake? {degrees}"
+
+
+def hint(message, what):
+    """A UserWarning ``what: message`` at the user's line, when ``message`` says something (a hint such as
+    :func:`degrees_hint`'s: the input may be meant, so it is not refused)."""
+    if message:
+        from ._deprecation import warn_caller
+
+        warn_caller(f"{what}: {message}")
+
+
+def start_hint(system, q, what):
+    """Warn (:func:`hint`) when a start ``q`` the user gave has a rotation beyond a full turn from neutral (within
+    its limits: one beyond them is refused, naming them)."""
+    if np.abs(q).max(initial=0.0) <= 2 * np.pi:  # (every neutral is 0 in a vector coordinate, and a unit
+        return  # quaternion or complex number is within half a turn: no offset can pass a turn)
+    hint(turns_hint(system, q, within_limits=True), what)
 
 
 def rotation_matrix(value, what):
@@ -229,6 +261,42 @@ def call_user(fn, args, what, t):
         raise
     except Exception as e:
         raise ModelError(f"{what} failed at t = {t:.6g} s: {type(e).__name__}: {e}") from e
+
+
+# ---------------------------------------------------------------------------------------------- builders
+def builder_values(params, what):
+    """{keyword: float}: the values given to a builder ``build(**params)``, each a finite number, else a
+    ModelError naming the keyword."""
+    return {k: scalar(v, f"{what}: parameter {k!r}") for k, v in params.items()}
+
+
+def scene_builder(build, what):
+    """``build`` (a function ``build(**params)`` returning a Scene or a System, as :func:`vibdyn.sweep` takes it)
+    as a function returning the Scene; anything else it returns is a ModelError saying what came back."""
+    if not callable(build):
+        raise ModelError(f"{what}: build must be a function build(**params) returning a Scene, got {build!r}")
+    try:
+        signature = inspect.signature(build)
+    except (TypeError, ValueError):
+        signature = None  # (a builtin: checked when called)
+
+    def scene(**values):
+        try:
+            if signature is not None:
+                signature.bind(**values)
+        except TypeError as e:
+            raise ModelError(f"{what}: the builder {getattr(build, '__name__', 'build')}{signature} cannot take the "
+                             f"parameters {', '.join(values)}: {e}") from None
+        obj = build(**values)
+        if hasattr(obj, "build") and not hasattr(obj, "linearize"):
+            return obj
+        if hasattr(obj, "linearize") and hasattr(obj, "scene"):  # a System: the scene it was built from
+            return obj.scene
+        missing = " (does the builder end without `return scene`?)" if obj is None else ""
+        raise ModelError(f"{what}: build(**params) must return a Scene or a System, it returned "
+                         f"{type(obj).__name__}{missing}")
+
+    return scene
 
 
 # ---------------------------------------------------------------------------------------------- file values

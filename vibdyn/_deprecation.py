@@ -4,8 +4,12 @@
 a former keyword of a function. Both record themselves in :data:`RENAMED`, which docs/guide/names.md lists.
 """
 
+import os
+import sys
 import warnings
 from typing import Any
+
+_PACKAGE = os.path.dirname(os.path.abspath(__file__)) + os.sep
 
 #: former name -> its replacement ("Campbell.frequencies" -> "Campbell.omega", "modes(tolerance=)" ->
 #: "modes(tol=)"), filled as the modules declaring them are imported
@@ -17,11 +21,25 @@ CHANGED_MEANING = {"Modes.omega_error": "Modes.omega_relative_error",
                    "TimeResponse.error": "TimeResponse.relative_error"}
 
 
-def warn_once(former: str, message: str, stacklevel: int = 3) -> None:
-    """A DeprecationWarning for ``former``, the first time only."""
+def warn_caller(message: str, category: type[Warning] = UserWarning) -> None:
+    """Warn ``message`` at the user's line: the first frame of the call stack outside the vibdyn package (and
+    Python's import machinery), whatever the number of vibdyn frames between (so Python's default filters, which
+    show a DeprecationWarning only when attributed to ``__main__``, show it in a user's script)."""
+    frame = sys._getframe(1)
+    while frame.f_back is not None and (frame.f_code.co_filename.startswith(_PACKAGE)
+                                        or frame.f_code.co_filename.startswith("<frozen importlib")):
+        frame = frame.f_back
+    globals_ = frame.f_globals
+    warnings.warn_explicit(message, category, frame.f_code.co_filename, frame.f_lineno,
+                           module=globals_.get("__name__", "<string>"),
+                           registry=globals_.setdefault("__warningregistry__", {}), module_globals=globals_)
+
+
+def warn_once(former: str, message: str) -> None:
+    """A DeprecationWarning for ``former``, the first time only, at the user's line (:func:`warn_caller`)."""
     if former not in _warned:
         _warned.add(former)
-        warnings.warn(message, DeprecationWarning, stacklevel=stacklevel)
+        warn_caller(message, DeprecationWarning)
 
 
 class Renamed:
@@ -71,5 +89,5 @@ class RenamedKeyword:
 
             raise ModelError(f"{self.where}: give {self.new}= only ({self.former}= is its former name)")
         warn_once(f"{self.where}({self.former}=)", f"{self.where}({self.former}=...) is {self.where}({self.new}=...) "
-                  "now (the former keyword works until the next release)", stacklevel=4)
+                  "now (the former keyword works until the next release)")
         return former_value

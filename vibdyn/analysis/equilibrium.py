@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .._check import integer, scalar
+from .._check import has_coordinates, integer, scalar, start_hint
 from .._deprecation import Renamed
 from .._format import number, table
 from ..defaults import EQUILIBRIUM_TOL, MAX_ITER
@@ -117,6 +117,11 @@ def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX
     loops: :func:`vibdyn.analysis.constrained.equilibrium` (q0 need not close them). A scene with drives:
     the free coordinates' equilibrium with the driven ones held at their laws' position and speed at t
     (:func:`driven_start`; a moving drive makes it a steady motion)."""
+    _given_start(system, q0, "equilibrium: q0")
+    return _static(system, q0, t, tol, max_iter)
+
+
+def _static(system, q0, t, tol, max_iter):
     if system.reduction.time_laws:
         return _solve(system, *driven_start(system, "equilibrium", q0, t, {}), tol, max_iter)
     if system.reduction.curved:
@@ -140,9 +145,18 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
     """Steady motion: the coordinates named in ``v_cyclic`` turn at constant speed — a number (given) or
     None (found from the forces, starting from ``guess`` rad/s or m/s) — while the others rest.
 
+    Given speeds: a search from ``q0`` that fails is followed from the resting state near it as the speeds grow
+    (continuation); without ``q0``, an unstable steady motion found from neutral gives way to the one spun up from
+    rest where that one is not unstable.
+
     Example (a rotor driven by τ = 10 − ω² carrying a sprung slider): ``steady_motion({"rotor": None})``.
     With drives, the driven coordinates move at their laws' speeds at t (:func:`driven_start`).
     """
+    _given_start(system, q0, "steady_motion: q0")
+    return _steady(system, v_cyclic, q0, t, tol, max_iter, guess)
+
+
+def _steady(system, v_cyclic, q0, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, guess=1.0):
     if system.reduction.curved:  # a mechanism with loops: speeds given (constrained.steady_motion)
         from .constrained import steady_motion as constrained_steady_motion
 
@@ -155,7 +169,78 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
         cyclic[i] = None if speed is None else scalar(speed, f"steady_motion: speed of '{name}'")
     if system.reduction.time_laws:
         return _solve(system, *driven_start(system, "steady_motion", q0, t, cyclic), tol, max_iter, guess)
-    return _solve(system, q0, t, cyclic, tol, max_iter, guess)
+    given = all(s is not None for s in cyclic.values()) and max_iter > 0
+    try:
+        found = _solve(system, q0, t, cyclic, tol, max_iter, guess)
+    except ConvergenceError as failed:
+        if not given:
+            raise
+        # (from rest, a spun body's steady pose may lie far from the start: follow it as the speeds grow)
+        return _solve(system, _along_speed(system, q0, t, cyclic, failed), t, cyclic, tol, max_iter, guess)
+    if given and q0 is None and found.stability == "unstable":
+        # sought from rest, found on another branch (a pendulum flung inwards): the one spun up from rest instead,
+        # where that one is not unstable
+        try:
+            spun = _solve(system, _along_speed(system, None, t, cyclic, None), t, cyclic, tol, max_iter, guess)
+        except ConvergenceError:
+            return found
+        return spun if spun.stability != "unstable" else found
+    return found
+
+
+def _along_speed(system, q0, t, cyclic, failed):
+    """q of the steady motion at the given speeds ``cyclic`` {index: speed}, followed from the resting state
+    near ``q0`` (the static equilibrium of the other coordinates, the speeds 0) as the speeds grow together
+    (pseudo-arclength continuation in their common factor s, 0 → 1). A branch that does not reach them is a
+    ConvergenceError saying how far it went (the search's own start hint was not checked: left out); ``failed``:
+    the search's own ConvergenceError (None: a plain ConvergenceError)."""
+    from ..solvers.continuation import continuation
+
+    nv, model = system.nv, system.model
+    base = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
+    rest = [i for i in range(nv) if i not in cyclic]
+    speeds = np.zeros(nv)
+    speeds[list(cyclic)] = list(cyclic.values())
+    unit, a0 = system.coordinate_scales, np.zeros(nv)
+
+    def at(x):
+        dq = np.zeros(nv)
+        dq[rest] = x
+        return pin.integrate(model, base, dq)
+
+    r = dynamics.inverse_dynamics(system, system.workspace(), base, speeds, a0, t)
+    Jq = jacobian_q(system, base, speeds, a0, t, steps(system, 1e-6))
+    force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(Jq))[rest] * unit[rest]).max(initial=0.0), 1e-300)
+    furthest = [0.0]
+
+    def fun(x, s):
+        return dynamics.inverse_dynamics(system, system.workspace(), at(x), s * speeds, a0, t)[rest] / force_scale
+
+    def turned_back(x, s):  # (past a fold, the branch goes back to lower speeds: it will not reach them)
+        furthest[0] = max(furthest[0], s)
+        return s < furthest[0] - 0.05
+
+    branch = continuation(fun, np.zeros(len(rest)), 0.0, 1.0, scale=np.append(unit[rest], 1.0), tol=1e-10,
+                          max_steps=400, stop=turned_back, parameter="the speeds' factor s")
+    if branch.status == "finished":
+        return at(branch.x[-1])
+    if failed is None:  # (asked only for a better branch: no message)
+        raise ConvergenceError(branch.message)
+    names = system.coordinates
+    head = str(failed).split(". Start nearer")[0]
+    if not branch.lam.size:
+        raise ConvergenceError(f"{head}; no resting state (static equilibrium with the speeds 0) was found near the "
+                               "start either: give q0= near the steady pose", residual=failed.residual,
+                               best=failed.best) from None
+    k = int(np.argmax(branch.lam))
+    s, q = float(branch.lam[k]), at(branch.x[k])
+    reached = ", ".join(f"'{names[i]}' = {number(s * speeds[i], system.units[i] + '/s')}" for i in cyclic)
+    pose = ", ".join(f"{names[i]} = {number(x, system.units[i])}" for i, x in
+                     zip(rest, system.difference(system.neutral(), q)[rest]))
+    why = "the branch turns back there (a fold)" if branch.reason == "stop" else branch.message
+    raise ConvergenceError(f"{head}. Followed from rest as the speeds grow, the steady motion goes no further than "
+                           f"{reached} ({pose}): {why}; beyond, no steady motion joins the resting state",
+                           residual=failed.residual, best=q) from None
 
 
 def equilibria(system, starts, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
@@ -179,11 +264,17 @@ def held(system, q=None, v=None, t=0.0):
     the elastic and the other forces, M·0 + b(q, v) − Q(q, v, t) (not for a mechanism with loops, whose
     drives could not all act). Linearised with a = 0, its K is
     ∂(g − Q)/∂q at q: the drives are taken as constant forces (no stiffness of their own)."""
+    _given_start(system, q, "held: q")
+    return _held(system, q, v, t)
+
+
+def _held(system, q, v, t):
     _refuse_drives(system, "held")
     if system.reduction.curved:
         raise ModelError(f"held: not available for a mechanism with closed loops ({system.reduction.describe()}); "
                          "use equilibrium()")
     start = time.perf_counter()
+    has_coordinates(system, "held", "to hold")
     q = system.neutral() if q is None else system.check_configuration(np.array(q, dtype=float), "held q").copy()
     v = np.zeros(system.nv) if v is None else system.check_velocity(np.array(v, dtype=float), "held v").copy()
     system.check_limits(q, "held configuration")
@@ -204,11 +295,24 @@ def operating_point(system: System, tol: float = EQUILIBRIUM_TOL, max_iter: int 
     op = system.scene.operating_point or {}
     # (a mechanism with loops starts from the declared start itself, and names it if it cannot close)
     q0 = system.start_configuration()[0] if op.get("start") is not None and not system.reduction.curved else None
+    # (the declared start is hinted where it is read: not again as a start given here)
     if op.get("held"):
-        return held(system, q0)
+        return _held(system, q0, None, 0.0)
     if op.get("cyclic"):
-        return steady_motion(system, op["cyclic"], q0, tol=tol, max_iter=max_iter)
-    return static_equilibrium(system, q0, tol=tol, max_iter=max_iter)
+        return _steady(system, op["cyclic"], q0, tol=tol, max_iter=max_iter)
+    return _static(system, q0, 0.0, tol, max_iter)
+
+
+def _given_start(system, q0, what):
+    """The degrees hint for a start ``q0`` the user gave (None: none given), as simulate's (a ``q0`` that is not a
+    configuration is refused by the search itself, in its words)."""
+    if q0 is None or not system.nv:
+        return
+    try:
+        q = system.check_configuration(q0, what)
+    except ModelError:
+        return
+    start_hint(system, q, what)
 
 
 def _refuse_drives(system, what):
@@ -241,6 +345,7 @@ def driven_start(system, what, q0, t, cyclic):
 
 def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
     start = time.perf_counter()
+    has_coordinates(system, "steady motion" if cyclic else "equilibrium", "to balance")
     t, tol = system.check_time(t), scalar(tol, "equilibrium tol", positive=True)
     max_iter, guess = integer(max_iter, "equilibrium max_iter", minimum=0), scalar(guess, "steady_motion guess")
     nv, model = system.nv, system.model

@@ -17,7 +17,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
-from .._check import all_finite, scalar, unknown_name
+from .._check import all_finite, has_coordinates, scalar, unknown_name
 from .._deprecation import Renamed
 from ..defaults import EPS, FD_STEP
 from ..errors import ModelError
@@ -318,6 +318,7 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
     """:func:`linearize` of the tree itself (a mechanism's loops left open: its constrained linearisation
     builds on this one)."""
     start = time.perf_counter()
+    has_coordinates(system, "linearize", "to linearise")
     if step is not FD_STEP:
         step = scalar(step, "linearize step", positive=True)
         if step < EPS:  # (a displacement below q's own round-off: the differences would be round-off over ~0)

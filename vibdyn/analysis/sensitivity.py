@@ -27,6 +27,7 @@ from typing import Any, Callable
 import numpy as np
 import scipy.linalg as sla
 
+from .._check import builder_values, scene_builder
 from .._deprecation import Renamed, former_names
 from ..defaults import EPS
 from ..description import parameters as _parameters
@@ -384,6 +385,24 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
 
 
 # ------------------------------------------------------------------------------------------ entry point
+def _scene_parameters(scene, name, system):
+    """The scene's parameters ``name`` names; "<coordinate>.speed" of a coordinate that does not turn at the point
+    analysed is refused saying why (a held speed is a parameter of a steady motion only)."""
+    try:
+        return _parameters.parameters(scene, [name])
+    except ModelError:
+        coordinate = name[:-len(".speed")] if isinstance(name, str) and name.endswith(".speed") else None
+        if coordinate not in system.coordinates:
+            raise
+        unit = "m/s" if system.units[system.coordinate_index(coordinate)] == "m" else "rad/s"
+        raise ModelError(
+            f"sensitivity: '{name}': '{coordinate}' is at rest at this operating point (its speed is 0), and a speed "
+            f"is a parameter only of a steady motion in which the coordinate turns; declare its speed "
+            f"(scene.set_operating_point(cyclic={{'{coordinate}': <speed in {unit}>}}), or `cyclic = {{ {coordinate} = "
+            f"<speed> }}` under [operating_point]), or differentiate at one: system.steady_motion({{'{coordinate}': "
+            f"<speed>}}).linearize().modes().sensitivity(['{name}'])") from None
+
+
 def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivity:
     """Derivatives of the modes with respect to ``params``.
 
@@ -425,7 +444,7 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
         if coordinate in speeds:
             entries.append((None, coordinate))
         else:
-            entries += [(p, None) for p in _parameters.parameters(scene, [name])]
+            entries += [(p, None) for p in _scene_parameters(scene, name, system)]
     plist = [p for p, _ in entries if p is not None]
     names = [p.name if p is not None else f"{c}.speed" for p, c in entries]
     if len(set(names)) != len(names):
@@ -526,6 +545,7 @@ def _richardson(values, h):
 def _of_builder(build, params, start, unused):
     if not isinstance(params, dict) or not params:
         raise ModelError("sensitivity: with a builder, params must be a dict {keyword: value} of build(**params)")
+    params, build = builder_values(params, "sensitivity"), scene_builder(build, "sensitivity")
     names = list(params)
     values = np.array([float(params[k]) for k in names])
     if not np.all(np.isfinite(values)):

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._check import unknown_name
+from .._check import scalar, unknown_name
 from ..errors import ModelError
 
 _AXES = {"x": 0, "y": 1, "z": 2}
@@ -77,11 +77,32 @@ def parameters(scene, names) -> list[Parameter]:
     return out
 
 
-def with_values(scene, params, values):
-    """A copy of ``scene`` with each parameter of ``params`` set to the matching entry of ``values`` (SI)."""
-    new = scene.copy()
+def with_values(scene, params, values=None):
+    """A copy of ``scene`` with new values (SI, each in its parameter's unit): ``params`` a dict {name: value}
+    (``with_values(scene, {"k.stiffness": 120.0, "cart.mass": 2.0})``), or a list of names or of
+    :class:`Parameter` (as :func:`parameters` gives them) with ``values`` one number each."""
+    if isinstance(params, dict):
+        if values is not None:
+            raise ModelError("with_values: give a dict {name: value}, or names and values, not both")
+        params, values = list(params), list(params.values())
+    elif isinstance(params, (str, Parameter)):
+        params = [params]
+    if values is None:
+        raise ModelError("with_values: no values: give a dict {name: value}, or names and one value each")
+    values = [values] if np.ndim(values) == 0 else list(values)
+    params = list(params)
+    if len(params) != len(values):
+        raise ModelError(f"with_values: {len(params)} parameters but {len(values)} values")
+    resolved = []
     for p, x in zip(params, values):
-        _set(new, p, float(x))
+        found = parameters(scene, [p]) if isinstance(p, str) else [p]
+        if len(found) != 1:
+            raise ModelError(f"with_values: '{p}' stands for {len(found)} parameters "
+                             f"({', '.join(q.name for q in found)}): name each")
+        resolved.append((found[0], scalar(x, f"with_values: value of '{found[0].name}'")))
+    new = scene.copy()
+    for p, x in resolved:
+        _set(new, p, x)
     return new
 
 
@@ -157,7 +178,7 @@ def _resolve(scene, name):
                     if ".".join(parts[:i]) in scene.elements), None)
     body = scene.find_body(parts[0]) if element is None else None
     if (body is None and element is None) or len(parts) < 2:
-        raise unknown_name(name, _names(scene), "parameter", "parameters", "sensitivity")
+        raise unknown_name(name, _names(scene), "parameter", f"parameters of scene '{scene.name}'")
     if element is not None:
         parts = [element.name, *parts[len(element.name.split(".")):]]
     owner = body.name if body is not None else element.name
@@ -179,11 +200,11 @@ def _resolve(scene, name):
             if rest[0] not in _INERTIA:
                 raise ModelError(f"parameter '{name}': an inertia's components are {', '.join(_INERTIA)}")
             return [Parameter(name, owner, "inertia", _INERTIA[rest[0]], "kg·m²", float(I[_INERTIA[rest[0]]]))]
-        raise unknown_name(name, _names(scene), "parameter", "parameters", "sensitivity")
+        raise unknown_name(name, _names(scene), "parameter", f"parameters of scene '{scene.name}'")
     attr = parts[1]
     value = _number(element, attr)
     if value is None or len(parts) > 3:
-        raise unknown_name(name, _names(scene), "parameter", "parameters", "sensitivity")
+        raise unknown_name(name, _names(scene), "parameter", f"parameters of scene '{scene.name}'")
     unit = _unit(scene, element, attr)
     whole = value
     index, value = _component(name, whole, parts[2] if len(parts) == 3 else None, f"{element.name}.{attr}")

@@ -360,9 +360,14 @@ def demo(out=None):
 
 def main(argv=None):
     """The ``vibdyn`` command (exit status 0, or 2 with a one-line error); output cut short by its reader
-    (``vibdyn info four_bar | head``) ends quietly."""
+    (``vibdyn info four_bar | head``) ends quietly; a warning (a hint such as "degrees by mistake?") prints as
+    one line "vibdyn: warning: ...", not as Python's source line of the console script."""
+    import warnings
+
     try:
-        return _main(argv)
+        with warnings.catch_warnings():
+            warnings.showwarning = lambda message, category, *_: print(f"vibdyn: warning: {message}", file=sys.stderr)
+            return _main(argv)
     except BrokenPipeError:  # the reader closed the pipe: no traceback (Python's documented recipe)
         import os
 

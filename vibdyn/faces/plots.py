@@ -302,6 +302,7 @@ def frequency_energy(backbones, *, path=None, ax=None, dpi=100):
     for kind in sorted(styles_used):
         a.plot([], [], _VERDICT_STYLE.get(kind, ":"), color="0.3", label=_VERDICT_LABEL.get(kind, kind))
     a.set_xscale("log")
+    log_ticks(a.xaxis, min(float(np.min(bb.energy)) for bb in items), max(float(np.max(bb.energy)) for bb in items))
     a.set_xlabel("energy above the equilibrium (J)")
     a.set_ylabel("fundamental frequency ω (rad/s)")
     right = a.secondary_yaxis("right", functions=(lambda w: w / (2 * np.pi), lambda f: 2 * np.pi * f))
@@ -313,6 +314,34 @@ def frequency_energy(backbones, *, path=None, ax=None, dpi=100):
     a.set_title(f"frequency–energy plot of {', '.join(names)}: backbones (nonlinear normal modes, undamped)\n"
                 f"ω by shooting, error ≤ {err:.1e} rad/s", fontsize="small")
     return save(fig, path, dpi)
+
+
+def axes_first(path, dpi, ax):
+    """{path, dpi, ax} of a ``plot(path, dpi, *, ax)`` called with an Axes first (the former order of
+    ``Backbone.plot``: ``plot(ax)`` or ``plot(ax, path)``), else as given."""
+    if hasattr(path, "figure") and ax is None:
+        return {"ax": path, "path": None, "dpi": dpi} if isinstance(dpi, (int, float)) else \
+            {"ax": path, "path": dpi, "dpi": 100}
+    return {"ax": ax, "path": path, "dpi": dpi}
+
+
+def log_ticks(axis, lo, hi):
+    """Plain labels ("0.2", "1", "50") on a log axis spanning [lo, hi]: every decade, and between decades 2 and 5
+    (spans up to 3 decades) or 2…8 (under one), so that labels never crowd (matplotlib's "2×10⁻¹" labels of
+    every minor tick overlapped)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
+    decades = np.log10(hi / lo) if lo > 0 and hi > lo else 0.0
+    labelled = {2, 3, 4, 5, 6, 8} if decades < 1 else {2, 5} if decades <= 3 else set()
+
+    def minor(x, _):
+        mantissa = round(x / 10 ** np.floor(np.log10(x) + 1e-9), 6) if x > 0 else 0
+        return f"{x:g}" if mantissa in labelled else ""
+
+    axis.set_major_locator(LogLocator(base=10))
+    axis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+    axis.set_minor_locator(LogLocator(base=10, subs=np.arange(2, 10)))
+    axis.set_minor_formatter(FuncFormatter(minor))
 
 
 def _through(e, w):

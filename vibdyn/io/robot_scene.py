@@ -2,14 +2,12 @@
 links as bodies (inertias cleaned, massless links welded or kept), its joints as vibdyn joints, its frames as
 markers (see :mod:`vibdyn.io.robots` for the conversion's rules)."""
 
-import sys
-import warnings
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
+from .._deprecation import warn_caller
 from ..description import joints as _joints
 from ..description.elements import WORLD
 from ..description.scene import Scene
@@ -378,10 +376,6 @@ def _where(scene_name):
 
 def warn(message):
     """A UserWarning pointing at the first caller outside vibdyn."""
-    package = str(Path(__file__).resolve().parents[1])
-    frame, level = sys._getframe(1), 2
-    while frame is not None and frame.f_code.co_filename.startswith(package):
-        frame, level = frame.f_back, level + 1
-    warnings.warn(message, stacklevel=level)
+    warn_caller(message)
 
 

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._check import all_finite, count, finite_array
+from .._check import all_finite, count, finite_array, start_hint
 from ..errors import ModelError
 
 if TYPE_CHECKING:
@@ -28,6 +28,7 @@ def start_configuration(system: System) -> tuple[np.ndarray, str]:
         q = configuration(system, start)
     except ModelError as e:
         raise ModelError(f"operating point start: {e}") from None
+    start_hint(system, q, "operating point start")
     if isinstance(start, Mapping):
         text = ", ".join(f"{k} = {float(x):.6g}" for k, x in start.items())
     else:

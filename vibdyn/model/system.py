@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .._check import all_finite, count, finite_result, scalar, unknown_name, vector3
+from .._check import all_finite, count, finite_result, scalar, start_hint, unknown_name, vector3
 from .._deprecation import Renamed
 from ..defaults import EQUILIBRIUM_TOL, FD_STEP, MAX_ITER, RTOL
 from ..errors import ModelError
@@ -170,6 +170,8 @@ class System(Compiled):
         """The configuration with loops closed nearest q0 (None: :meth:`start_configuration`), by Gauss–Newton
         in the tangent space; ConvergenceError naming the loop and the start if they cannot be closed."""
         q0, start = self.start_configuration() if q0 is None else (self.check_configuration(q0, "q0"), "q0")
+        if start == "q0":
+            start_hint(self, q0, "assemble: q0")
         return q0.copy() if self.constraints is None else self.constraints.assemble(q0, start=start)
 
     # ------------------------------------------------------------- dynamics

@@ -8,12 +8,11 @@ Flow. Settings are checked by :func:`settings` (bad input: ModelError naming it)
 import math
 import sys
 import time
-import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .._check import finite_array, scalar, turns_hint
+from .._check import finite_array, has_coordinates, scalar, start_hint
 from ..defaults import EPS
 from ..errors import ModelError, VibdynError
 from ..model.groups import ForceGroup
@@ -160,8 +159,7 @@ def settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_s
     """The checked :class:`Settings` of a run (simulate's arguments; ``checked_span``: whether ``t_end`` is the
     run's, which ``dt`` must fit in: a Flow's is given per call)."""
     what = "simulate"
-    if system.nv == 0:
-        raise ModelError(f"{what}: the scene has no coordinates: nothing moves")
+    has_coordinates(system, what)
     t0 = scalar(t0, f"{what}: t0 (s)")
     t_end = scalar(t_end, f"{what}: t_end (s)")
     if not t_end > t0:
@@ -188,9 +186,8 @@ def settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_s
     given = q0 is not None
     q0, start = system.start_configuration() if q0 is None and system.reduction.curved else (
         system.neutral() if q0 is None else system.check_configuration(q0, f"{what}: q0"), "q0")
-    turns = turns_hint(system, q0) if given else ""
-    if turns:  # a start may wind a pendulum many turns, but it is more often degrees given for radians
-        warnings.warn(f"{what}: q0: {turns}", stacklevel=4)
+    if given:  # a start may wind a pendulum many turns, but it is more often degrees given for radians
+        start_hint(system, q0, f"{what}: q0")
     v0 = np.zeros(system.nv) if v0 is None else system.check_velocity(v0, f"{what}: v0")
     if system.reduction.time_laws:  # the driven entries of q0 and v0 are the laws' at t0
         if not stepper.supports_drives:

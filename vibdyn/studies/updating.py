@@ -17,6 +17,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .._check import builder_values, integer, scalar, scene_builder, unknown_name, vector3
 from ..errors import ConvergenceError, ModelError
 
 
@@ -73,20 +74,78 @@ class Update:
 
 
 def _vector(x, n, what):
-    a = np.atleast_1d(np.asarray(x, dtype=float)) if x is not None else None
+    try:
+        a = np.atleast_1d(np.asarray(x, dtype=float)) if x is not None and not isinstance(x, str) else None
+    except (TypeError, ValueError):
+        a = None  # (not numbers: said below)
     if a is None or a.ndim != 1 or (n is not None and a.size not in (1, n)):
         raise ModelError(f"update: {what} must be {'one number or ' if n else ''}a list of "
-                         f"{n if n else ''} numbers, got {x!r}")
+                         f"{f'{n} ' if n else ''}numbers, got {x!r}")
     if not np.all(np.isfinite(a)):
         raise ModelError(f"update: {what} has a value that is not a finite number: {x!r}")
     return np.broadcast_to(a, (n,)).copy() if n else a
 
 
+def _bounds(bounds, names, p0):
+    """(lower, upper) arrays from ``bounds`` {name: (lower, upper)} (default: positive for a positive start)."""
+    if bounds is None:
+        bounds = {}
+    if not isinstance(bounds, dict):
+        raise ModelError(f"update: bounds must be a dict {{parameter: (lower, upper)}}, got {bounds!r}")
+    unknown = [k for k in bounds if k not in names]
+    if unknown:
+        raise unknown_name(unknown[0], names, "parameter", "parameters (start's keys)", "update bounds")
+    lo, hi = np.where(p0 > 0, 0.0, -np.inf), np.full(len(names), np.inf)
+    for k, b in bounds.items():
+        i = names.index(k)
+        pair = np.asarray(b, dtype=float) if isinstance(b, (tuple, list, np.ndarray)) and len(b) == 2 \
+            and all(isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool) for x in b) \
+            else None
+        if pair is None or np.any(np.isnan(pair)):
+            raise ModelError(f"update: bounds[{k!r}] must be a pair (lower, upper) of numbers (±inf for none), got "
+                             f"{b!r}")
+        lo[i], hi[i] = pair
+    bad = [k for i, k in enumerate(names) if not (lo[i] < hi[i] and lo[i] <= p0[i] <= hi[i])]
+    if bad:
+        k = bad[0]
+        raise ModelError(f"update: each start must lie within its bounds (lower < upper): {k} starts at "
+                         f"{p0[names.index(k)]:g}, bounds {bounds.get(k, (lo[names.index(k)], hi[names.index(k)]))}")
+    return lo, hi
+
+
+def _measured_shapes(shapes, points, w_meas):
+    """The measured shapes as floats (None without), each a nonzero column; measured frequencies without shapes
+    must ascend (they are paired with the model's flexible modes in ascending order)."""
+    if shapes is None:
+        if points is not None:
+            raise ModelError("update: points name where measured shapes are: give shapes= too")
+        if np.any(np.diff(w_meas) < 0):
+            raise ModelError(f"update: measured frequencies {w_meas.tolist()} rad/s are not in ascending order: "
+                             "without shapes they are paired with the model's flexible modes in ascending order; "
+                             "sort them, or give shapes= to pair them by MAC")
+        return None
+    try:
+        meas = np.asarray(shapes, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError("update: shapes must be an array of numbers (displacements)") from None
+    if not np.all(np.isfinite(meas)):
+        raise ModelError("update: the measured shapes have a value that is not a finite number")
+    if meas.ndim >= 1 and meas.shape[-1] == len(w_meas):
+        zero = [i + 1 for i in range(len(w_meas)) if not np.any(meas[..., i])]
+        if zero:
+            raise ModelError(f"update: the measured shape{'s' if len(zero) > 1 else ''} of measured mode"
+                             f"{'s' if len(zero) > 1 else ''} {', '.join(map(str, zero))} (from 1) "
+                             f"{'are' if len(zero) > 1 else 'is'} all zero: a "
+                             "zero shape pairs with no mode (its MAC is undefined); give the measured "
+                             "displacements, or leave shapes out")
+    return meas
+
+
 def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bounds: dict | None = None, *,
            shapes: Any = None, points: Any = None, direction: Any = None, relative_sigma: float = 0.005,
            max_iter: int = 30) -> Update:
-    """Fit the parameters of ``build(**params)`` (a function returning a Scene, as :func:`vibdyn.sweep` takes
-    it) from ``start`` so that its natural frequencies match ``measured`` (rad/s, ascending, the lowest flexible
+    """Fit the parameters of ``build(**params)`` (a function returning a Scene or a System, as :func:`vibdyn.sweep`
+    takes it) from ``start`` so that its natural frequencies match ``measured`` (rad/s, ascending, the lowest flexible
     modes unless ``shapes`` pairs them).
 
     ``sigma``: the measurements' standard deviations (rad/s, one or one per mode; default
@@ -98,36 +157,28 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
     t0 = time.perf_counter()
     from ..analysis.sensitivity import sensitivity
     from ..solvers.tracking import assign, mac as mac_of
-
-    if not callable(build):
-        raise ModelError(f"update: build must be a function build(**params) returning a Scene, got {build!r}")
+    build = scene_builder(build, "update")
     if not isinstance(start, dict) or not start:
         raise ModelError("update: start must be a dict {parameter: value} of build's keyword arguments")
+    start = builder_values(start, "update: start")
     names = list(start)
-    p0 = _vector([start[k] for k in names], len(names), "start")
+    p0 = np.array(list(start.values()))
+    max_iter = integer(max_iter, "update: max_iter (evaluations of the model)", minimum=1)
+    relative_sigma = scalar(relative_sigma, "update: relative_sigma", positive=True)
     w_meas = _vector(measured, None, "measured (rad/s)")
+    if not w_meas.size:
+        raise ModelError("update: no measured frequency given (measured: rad/s, one per measured mode)")
+    if direction is not None:
+        direction = vector3(direction, "update: direction")
     if np.any(w_meas <= 0):
         raise ModelError(f"update: measured natural frequencies must be positive (rad/s), got {w_meas.tolist()}")
     m = len(w_meas)
     sig = (_vector(sigma, m, "sigma (rad/s)") if sigma is not None else relative_sigma * w_meas)
     if np.any(sig <= 0):
         raise ModelError(f"update: sigma must be positive (rad/s), got {sig.tolist()}")
-    bounds = bounds or {}
-    unknown = [k for k in bounds if k not in start]
-    if unknown:
-        from .._check import unknown_name
-
-        raise unknown_name(unknown[0], names, "parameter", "parameters (start's keys)", "update bounds")
-    lo = np.array([bounds.get(k, (0.0 if p0[i] > 0 else -np.inf, np.inf))[0] for i, k in enumerate(names)], float)
-    hi = np.array([bounds.get(k, (0.0 if p0[i] > 0 else -np.inf, np.inf))[1] for i, k in enumerate(names)], float)
-    if np.any(lo >= hi) or np.any(p0 < lo) or np.any(p0 > hi):
-        raise ModelError(f"update: each start must lie within its bounds (lower < upper): start {start}, "
-                         f"bounds {bounds}")
-    meas_shapes = None if shapes is None else np.asarray(shapes, dtype=float)
-    if meas_shapes is not None and not np.all(np.isfinite(meas_shapes)):
-        raise ModelError("update: the measured shapes have a value that is not a finite number")
-    if points is not None and meas_shapes is None:
-        raise ModelError("update: points name where measured shapes are: give shapes= too")
+    lo, hi = _bounds(bounds, names, p0)
+    meas_shapes = _measured_shapes(shapes, points, w_meas)
+    build(**start)  # (a builder returning no scene is refused here, not along the fit)
     scale = np.where(p0 != 0, np.abs(p0), 1.0)
     cache: dict = {}
 

@@ -38,7 +38,7 @@ import pinocchio as pin
 import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
-from ..._check import integer, scalar
+from ..._check import has_coordinates, integer, scalar
 from ..._deprecation import Renamed
 from ..._format import duration, number, summary, table
 from ...errors import ConvergenceError, ModelError
@@ -164,12 +164,12 @@ class Backbone:
                 "points": self.points, "note": self.note, "elapsed_s": self.elapsed,
                 "orbits": [o.to_dict() for o in self.orbits]}
 
-    def plot(self, ax: Any = None, path: str | None = None, dpi: int = 100) -> Any:
-        """The frequency–energy plot of this backbone (matplotlib; see :func:`vibdyn.faces.plots.frequency_energy`,
-        which draws several on one plot). Saves to ``path`` if given."""
+    def plot(self, path: Any = None, dpi: Any = 100, *, ax: Any = None) -> Any:
+        """The frequency–energy plot (:func:`vibdyn.faces.plots.frequency_energy`), saved to ``path`` (first, as every
+        result's ``plot``), on ``ax`` (an Axes; given first, the former order, taken as ``ax``). Returns the Figure."""
         from ...faces import plots
 
-        return plots.frequency_energy(self, ax=ax, path=path, dpi=dpi)
+        return plots.frequency_energy(self, **plots.axes_first(path, dpi, ax))
 
     def __str__(self):
         u = self.unit
@@ -294,8 +294,7 @@ def _conservative_part(system, what):
     rebuilt — and the note)."""
     if system.reduction.curved:
         raise ModelError(f"{what}: not available for a mechanism with closed loops")
-    if system.nv == 0:
-        raise ModelError(f"{what}: the scene has no coordinates: nothing oscillates")
+    has_coordinates(system, what, "oscillates")
     if system.reduction.time_laws or system.supports:
         raise ModelError(f"{what}: the scene has drives or moving supports: a backbone needs an autonomous scene")
     timed = [type(g).__name__ for g in system.force_groups if g.time_dependent]

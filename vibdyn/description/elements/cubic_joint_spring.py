@@ -15,7 +15,7 @@ from ..._format import with_units
 from ...errors import ModelError
 from ...model.groups import ForceGroup, as_slice
 from .base import ElementKind, scalar_or_list
-from .joint_spring import per_coordinate
+from .joint_spring import rest_offsets
 
 
 class CubicJointSprings(ForceGroup):
@@ -84,7 +84,7 @@ class CubicJointSpring(ElementKind):
                              f"{b.joint.type} joint")
         scene.check_new_name(name, "element")
         k = stiffness_like(k3, 1, f"{what} k3")
-        return scene.add_element(cls(name, b.name, (float(k[0]),), per_coordinate(rest, 1, what, "rest")))
+        return scene.add_element(cls(name, b.name, (float(k[0]),), rest_offsets(rest, b, what)))
 
     def to_dict(self):
         d = {"name": self.name, "body": self.body, "k3": scalar_or_list(self.k3)}

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..._check import (finite_array, one_or_each, stiffness_like, value_nonnegative_number_or_list,
-                       value_number_or_list, value_string)
+from ..._check import (degrees_hint, finite_array, hint, one_or_each, stiffness_like,
+                       value_nonnegative_number_or_list, value_number_or_list, value_string)
 from ..._format import with_units
 from ...errors import ModelError
 from ...model.groups import ForceGroup, as_slice, tangent
@@ -198,6 +198,16 @@ def per_coordinate(value, nv, what, key):
     return tuple(map(float, r))
 
 
+def rest_offsets(rest, body, what):
+    """:func:`per_coordinate` rest of ``body``'s joint (m or rad), with a hint when an angle of it looks like
+    degrees (beyond a full turn: a spring wound that far is rarer than degrees given for radians)."""
+    r = per_coordinate(rest, body.joint.nv, what, "rest")
+    names = [body.name] if len(r) == 1 else [f"{body.name}[{i}]" for i in range(len(r))]
+    hint(degrees_hint([(n, x) for n, u, x in zip(names, body.joint.units, r) if u == "rad"], "from neutral"),
+         f"{what}: rest")
+    return r
+
+
 @dataclass(frozen=True)
 class JointSpring(ElementKind):
     """Spring on a joint's tangent coordinates: Q = −k·(q ⊖ q_rest) (N/m or N·m/rad).
@@ -225,7 +235,7 @@ class JointSpring(ElementKind):
         what = f"joint spring '{name}'"
         scene.check_new_name(name, "element")
         k = stiffness_like(stiffness, b.joint.nv, f"{what} stiffness")
-        r = per_coordinate(rest, b.joint.nv, what, "rest")
+        r = rest_offsets(rest, b, what)
         return scene.add_element(cls(name, b.name, tuple(map(float, k)), r))
 
     def to_dict(self):

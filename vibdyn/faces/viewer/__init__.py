@@ -163,8 +163,10 @@ def export_html(obj, path, *, amplitude=None, trajectory=None, speed=1.0):
     """Write a self-contained HTML page showing ``obj`` (every mode, the trajectory, or one period of a periodic
     orbit or of a forced-response point, looped) and return its path.
 
-    ``amplitude``: the largest point displacement shown (m; default 10 % of the scene's size).
-    The file makes no request to any host: meshcat's viewer is inlined.
+    ``amplitude``: the largest point displacement shown (m; default 10 % of the scene's size); ``trajectory``: a
+    motion to replay (a Trajectory or a ``.npz`` of ``vibdyn simulate --out``); ``speed``: the replay's speed
+    (× real time). The file makes no request to any host: meshcat's viewer is inlined (:func:`vibdyn.export_html`
+    says more).
     """
     c = content(obj, trajectory, speed)
     anims = [c.animation(k, amplitude) for k in range(c.n)]
