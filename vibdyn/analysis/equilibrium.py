@@ -194,7 +194,7 @@ def _along_speed(system, q0, t, cyclic, failed):
     (pseudo-arclength continuation in their common factor s, 0 → 1). A branch that does not reach them is a
     ConvergenceError saying how far it went (the search's own start hint was not checked: left out); ``failed``:
     the search's own ConvergenceError (None: a plain ConvergenceError)."""
-    from ..solvers.continuation import continuation
+    from ..solvers.continuation import Arclength, continuation
 
     nv, model = system.nv, system.model
     base = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
@@ -220,8 +220,8 @@ def _along_speed(system, q0, t, cyclic, failed):
         furthest[0] = max(furthest[0], s)
         return s < furthest[0] - 0.05
 
-    branch = continuation(fun, np.zeros(len(rest)), 0.0, 1.0, scale=np.append(unit[rest], 1.0), tol=1e-10,
-                          max_steps=400, stop=turned_back, parameter="the speeds' factor s")
+    branch = continuation(fun, np.zeros(len(rest)), 0.0, 1.0, stop=turned_back, parameter="the speeds' factor s",
+                          path=Arclength(scale=np.append(unit[rest], 1.0), tol=1e-10, max_steps=400))
     if branch.status == "finished":
         return at(branch.x[-1])
     if failed is None:  # (asked only for a better branch: no message)
