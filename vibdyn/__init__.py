@@ -50,6 +50,7 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.statespace": ("StateSpace",),
     "results": ("TimeResult",),
     "analysis.campbell_diagram": ("campbell", "Campbell", "CriticalSpeed"),
+    "analysis.unbalance": ("unbalance_response", "UnbalanceResponse", "Peak", "Orbit"),
     "analysis.nonlinear.periodic": ("periodic_orbit", "floquet", "PeriodicOrbit"),
     "analysis.nonlinear.backbone": ("backbone", "Backbone"),
     "simulation.simulate": ("Trajectory", "SimulationError", "simulate"),
@@ -188,7 +189,7 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "transmissibility", "fit_rayleigh", "log_decrement", "Trajectory", "SimulationError",
            "LinearModel", "Modes", "OperatingPoint", "Equilibrium", "TimeResult", "Peaks", "HarmonicResponse", "TimeResponse", "Appropriation",
            "HalfPower", "LogDecrement", "RayleighFit", "StateSpace", "view", "export_html",
-           "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
+           "campbell", "Campbell", "CriticalSpeed", "unbalance_response", "UnbalanceResponse", "Peak", "Orbit", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
            "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing"]
