@@ -1,0 +1,237 @@
+"""Rotors (issue 43, items 1 and 2): bearings with cross-coupled and speed-dependent coefficients against their
+force law and closed forms, and the unbalance response of a Jeffcott rotor against m e Ω² / |k − MΩ² + icΩ|,
+its peak speed and half-power amplification factor."""
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import vibdyn as vd
+from vibdyn import ModelError
+
+M, K, C, U = 2.0, 8.0e4, 40.0, 2.0e-4
+
+
+def jeffcott(kxx=K, kyy=K, kxy=0.0, kyx=0.0, c=C, com=0.0, unbalance=U, angle=0.0, **bearing):
+    """A disk of mass M on two sliders (x, y) and a pivot about z (the spin), held by one bearing to the world."""
+    s = vd.Scene("jeffcott")
+    s.add_body("cx", joint=vd.Slider((1, 0, 0)), mass=0.0)
+    s.add_body("cy", parent="cx", joint=vd.Slider((0, 1, 0)), mass=0.0)
+    s.add_body("disk", parent="cy", joint=vd.Pivot((0, 0, 1)), mass=M, inertia=np.diag([0.01, 0.01, 0.02]),
+               com=(com, 0.0, 0.0))
+    stiffness = bearing.pop("stiffness", [[kxx, kxy], [kyx, kyy]])
+    damping = bearing.pop("damping", [[c, 0.0], [0.0, c]])
+    s.add_bearing("bearing", "world", "disk", stiffness=stiffness, damping=damping, **bearing)
+    if unbalance:
+        s.add_unbalance("u", "disk", unbalance, angle=angle)
+    return s
+
+
+def amplitude(W, k=K, c=C, u=U):
+    return u * W ** 2 / np.abs(k - M * W ** 2 + 1j * c * W)
+
+
+# ------------------------------------------------------------------------------------------------ bearings
+def test_cross_coupled_bearing_stiffness_and_damping_are_the_force_law():
+    Kb, Cb = [[1.0e4, 3.0e3], [-2.5e3, 1.2e4]], [[3.0, 1.0], [-0.5, 4.0]]
+    system = jeffcott(stiffness=Kb, damping=Cb).build()
+    for method in ("fd", "analytic"):
+        lin = system.linearize(v=[0.0, 0.0, 50.0], method=method)
+        assert lin.method == method
+        np.testing.assert_allclose(lin.K[:2, :2], Kb, rtol=0, atol=10 * lin.K_error.max() + 1e-9)
+        np.testing.assert_allclose(lin.C[:2, :2], Cb, rtol=0, atol=10 * lin.C_error.max() + 1e-12)
+    # the force itself at a displaced, moving state: Q = −K d − C v (hand-written force law)
+    q, v = np.array([1e-3, -2e-3, 0.4]), np.array([0.1, 0.3, 50.0])
+    from vibdyn.model import dynamics
+
+    tau = dynamics.inverse_dynamics(system, system.workspace(), q, v, np.zeros(3), 0.0)  # M·0 + b − Q: −Q here
+    expected = -(np.array(Kb) @ q[:2] + np.array(Cb) @ v[:2])
+    np.testing.assert_allclose(-tau[:2], expected, rtol=1e-12, atol=1e-12)
+
+
+def test_tabulated_bearing_interpolates_in_the_journal_speed_with_its_derivative():
+    speeds = [0.0, 100.0, 200.0]
+    Kt = [[[1e4, 0.0], [0.0, 1e4]], [[2e4, 5e3], [-5e3, 2e4]], [[3e4, 1e4], [-1e4, 4e4]]]
+    Ct = [[[10.0, 0.0], [0.0, 10.0]], [[20.0, 2.0], [-2.0, 20.0]], [[30.0, 4.0], [-4.0, 30.0]]]
+    system = jeffcott(stiffness=Kt, damping=Ct, speeds=speeds).build()
+    W = 130.0
+    t = (W - 100.0) / 100.0
+    Kw = (1 - t) * np.array(Kt[1]) + t * np.array(Kt[2])
+    Cw = (1 - t) * np.array(Ct[1]) + t * np.array(Ct[2])
+    q = np.array([2e-3, -1e-3, 0.0])  # off centre: the coefficients' change with speed acts through d
+    for method in ("fd", "analytic"):
+        lin = system.linearize(q, v=[0.0, 0.0, W], method=method)
+        assert lin.method == method
+        np.testing.assert_allclose(lin.K[:2, :2], Kw, atol=10 * lin.K_error.max() + 1e-9)
+        np.testing.assert_allclose(lin.C[:2, :2], Cw, atol=10 * lin.C_error.max() + 1e-9)
+        # ∂Q/∂Ω = −(dK/dΩ) d: the spin column of C
+        dK = (np.array(Kt[2]) - np.array(Kt[1])) / 100.0
+        np.testing.assert_allclose(lin.C[:2, 2], dK @ q[:2], rtol=1e-6, atol=10 * lin.C_error.max() + 1e-12)
+
+
+def test_bearing_refusals_name_the_bearing():
+    cases = [
+        (dict(stiffness=[[1.0, 2.0], [3.0]]), "stiffness"),
+        (dict(stiffness=[[1.0, 2.0, 0.0], [3.0, 4.0, 0.0]]), "2 × 2"),
+        (dict(stiffness=[[1.0, np.nan], [0.0, 1.0]]), "finite"),
+        (dict(stiffness=[[1.0, 0.0], [0.0, 1.0]], damping=[[np.inf, 0.0], [0.0, 1.0]]), "damping"),
+        (dict(stiffness=np.ones((2, 2, 2)), speeds=[10.0, 5.0]), "increasing"),
+        (dict(stiffness=np.ones((2, 2, 2)), speeds=[10.0, 10.0]), "increasing"),
+        (dict(stiffness=np.ones((3, 2, 2)), speeds=[1.0, 2.0]), "table of 2"),
+        (dict(stiffness=np.ones((2, 2)), speeds=[1.0, 2.0]), "table of 2"),
+        (dict(stiffness=np.ones((2, 2)), axis=(1.0, 1.0, 0.0)), "axis"),
+        (dict(stiffness=np.ones((2, 2, 2)), speeds=[1.0, 2.0], interpolation="spline"), "interpolation"),
+    ]
+    for kwargs, words in cases:
+        s = vd.Scene("refusals")
+        s.add_body("disk", joint=vd.Pivot((0, 0, 1)), mass=1.0)
+        with pytest.raises(ModelError, match=f"bearing 'b1'.*{words}|{words}.*bearing 'b1'"):
+            s.add_bearing("b1", "world", "disk", **kwargs)
+    s = vd.Scene("refusals")
+    s.add_body("disk", joint=vd.Pivot((0, 0, 1)), mass=1.0)
+    with pytest.raises(ModelError, match="bearing 'b1'.*journal"):
+        s.add_bearing("b1", "disk", "world", stiffness=np.eye(2))
+
+
+def test_a_speed_outside_the_table_is_refused_naming_the_bearing():
+    system = jeffcott(stiffness=np.ones((2, 2, 2)) * 1e4, damping=np.zeros((2, 2, 2)), speeds=[100.0, 200.0]).build()
+    with pytest.raises(ModelError, match="bearing 'bearing'.*250 rad/s.*outside its table"):
+        system.linearize(v=[0.0, 0.0, 250.0])
+    with pytest.raises(ModelError, match="bearing 'bearing'.*outside its table"):
+        vd.campbell(system, "disk", [150.0, 250.0])
+
+
+def test_bearing_scene_file_round_trip(tmp_path):
+    scene = jeffcott(stiffness=np.ones((2, 2, 2)) * 1e4, damping=np.ones((2, 2, 2)), speeds=[0.0, 300.0],
+                     interpolation="pchip", angle=0.25)
+    path = tmp_path / "rotor.toml"
+    scene.save(path)
+    again = vd.load_scene(path)
+    assert again.elements["bearing"] == scene.elements["bearing"]
+    assert again.elements["u"] == scene.elements["u"]
+    a = vd.unbalance_response(scene.build(), "disk", [100.0, 120.0])
+    b = vd.unbalance_response(again.build(), "disk", [100.0, 120.0])
+    np.testing.assert_array_equal(a.x, b.x)
+
+
+def test_cross_coupled_jeffcott_modes_and_instability_onset():
+    """Isotropic Jeffcott with cross-coupling q: in z = x + iy, M s² + c s + k − iq = 0; the forward mode's
+    real part crosses zero at q = c √(k/M)."""
+    q_th = C * np.sqrt(K / M)
+    for q in (0.5 * q_th, 1.5 * q_th):
+        system = jeffcott(kxy=q, kyx=-q).build()
+        lin = system.steady_motion({"disk": 100.0}).linearize(method="analytic", hold="disk")
+        m = lin.modes()
+        lam = np.sort_complex(m.eigenvalues)
+        roots = []
+        for sign in (1, -1):  # z and its conjugate
+            roots += list(np.roots([M, C, K - sign * 1j * q]))
+        exact = np.sort_complex(np.array(roots))
+        np.testing.assert_allclose(lam, exact, rtol=0, atol=10 * m.relative_error * np.abs(exact).max() + 1e-9)
+        assert (lam.real.max() > 0) == (q > q_th)
+
+
+def test_simulate_with_a_bearing_matches_its_linear_free_response():
+    system = jeffcott(kxy=3e3, kyx=-3e3, unbalance=0.0).build()
+    q0 = np.array([1e-3, 0.0, 0.0])
+    v0 = np.array([0.0, 0.0, 100.0])
+    t = np.linspace(0.0, 0.2, 41)
+    traj = system.simulate(0.2, q0, v0, t_eval=t, rtol=1e-10)
+    lin = system.linearize(system.neutral(), v=v0, method="analytic")
+    free = lin.free_response(t, q0 - system.neutral(), np.zeros(3))
+    np.testing.assert_allclose(traj.q[:, :2], free.x[:, :2], atol=10 * (traj.error + free.error) + 1e-12)
+
+
+# ------------------------------------------------------------------------------------------- unbalance
+@pytest.mark.parametrize("source", ["element", "centre of mass"])
+def test_jeffcott_unbalance_amplitude_per_direction(source):
+    scene = jeffcott(unbalance=U, angle=0.3) if source == "element" else jeffcott(unbalance=0.0, com=U / M)
+    W = np.linspace(50.0, 400.0, 15)
+    r = vd.unbalance_response(scene.build(), "disk", W, outputs=["cx", "cy", ("disk", (0.0, 0.0, 0.0))])
+    assert [u.source for u in r.loads] == [source]
+    exact = amplitude(W)
+    for j in range(4):
+        assert np.all(np.abs(r.amplitude[:, j] - exact) <= r.amplitude_error[:, j] + 1e-14 * exact)
+        assert np.all(r.amplitude_error[:, j] < 1e-6 * exact)
+    np.testing.assert_allclose(r.peak_to_peak, 2 * r.amplitude)
+    # x = U Ω² e^{iφ} / (k − MΩ² + icΩ): phase; y lags x by a quarter turn (forward circular whirl)
+    phi = 0.3 if source == "element" else 0.0
+    ref = np.angle(np.exp(1j * phi) / (K - M * W ** 2 + 1j * C * W))
+    np.testing.assert_allclose(np.angle(np.exp(1j * (r.phase[:, 0] - ref))), 0.0, atol=1e-9)
+    np.testing.assert_allclose(np.angle(np.exp(1j * (r.phase[:, 1] - r.phase[:, 0] + np.pi / 2))), 0.0, atol=1e-9)
+    o = r.orbit(("disk", (0.0, 0.0, 0.0)))
+    np.testing.assert_allclose(o.major, exact, rtol=1e-9)
+    np.testing.assert_allclose(o.minor, exact, rtol=1e-9)  # a circle
+    assert set(o.whirl) == {"forward"}
+    assert set(r.stability) == {"stable"}
+
+
+def test_anisotropic_bearing_elliptic_orbit_backward_between_criticals():
+    kx, ky = 6.0e4, 1.0e5
+    W = np.array([150.0, 200.0, 205.0, 260.0])
+    r = vd.unbalance_response(jeffcott(kxx=kx, kyy=ky).build(), "disk", W, outputs=[("disk", (0.0, 0.0, 0.0))])
+    ax, ay = amplitude(W, k=kx), amplitude(W, k=ky)
+    assert np.all(np.abs(r.amplitude[:, 0] - ax) <= r.amplitude_error[:, 0] + 1e-14 * ax)
+    assert np.all(np.abs(r.amplitude[:, 1] - ay) <= r.amplitude_error[:, 1] + 1e-14 * ay)
+    o = r.orbit("disk(0,0,0)")
+    wx, wy = np.sqrt(kx / M), np.sqrt(ky / M)
+    between = (W > wx) & (W < wy)
+    assert list(o.whirl[between]) == ["backward"] * between.sum()
+    assert list(o.whirl[~between]) == ["forward"] * (~between).sum()
+    # the ellipse traced by the closed-form x(t), y(t) (forces U Ω² (cos Ωt, sin Ωt)), sampled finely
+    theta = np.linspace(0.0, 2 * np.pi, 200001)
+    for k, w in enumerate(W):
+        X = U * w ** 2 / (kx - M * w ** 2 + 1j * C * w)
+        Y = -1j * U * w ** 2 / (ky - M * w ** 2 + 1j * C * w)
+        radius = np.hypot(np.real(X * np.exp(1j * theta)), np.real(Y * np.exp(1j * theta)))
+        assert abs(o.major[k] - radius.max()) <= 1e-9 * radius.max() + o.error[k]
+        assert abs(o.minor[k] - radius.min()) <= 1e-9 * radius.max() + o.error[k]
+
+
+def test_jeffcott_peak_speed_and_half_power_amplification():
+    W = np.linspace(100.0, 300.0, 21)
+    r = vd.unbalance_response(jeffcott().build(), "disk", W, outputs=["cx"])
+    (p,) = r.peaks("cx", operating=(250.0, 300.0))
+    wn, zeta = np.sqrt(K / M), C / (2 * np.sqrt(K * M))
+    peak = wn / np.sqrt(1 - 2 * zeta ** 2)  # maximum of Ω²/|k − MΩ² + icΩ|
+    assert abs(p.speed - peak) <= 10 * p.speed_error and p.speed_error < 1e-6 * peak
+    A = amplitude(peak)
+    assert abs(p.amplitude - A) <= 10 * p.amplitude_error + 1e-14 * A
+    n1 = brentq(lambda w: amplitude(w) - A / np.sqrt(2), 100.0, peak)
+    n2 = brentq(lambda w: amplitude(w) - A / np.sqrt(2), peak, 300.0)
+    af = peak / (n2 - n1)
+    np.testing.assert_allclose(p.half_power, (n1, n2), rtol=1e-8)
+    assert abs(p.amplification - af) <= 10 * p.amplification_error + 1e-10 * af
+    assert abs(p.amplification - 1 / (2 * zeta)) < 0.05 / (2 * zeta)  # (the light-damping estimate Q = 1/2ζ)
+    assert p.separation_margin == pytest.approx((250.0 - peak) / 250.0)
+    assert r.peaks("cx")[0].separation_margin is None
+
+
+def test_unbalance_response_refusals():
+    system = jeffcott().build()
+    with pytest.raises(ModelError, match="increasing"):
+        vd.unbalance_response(system, "disk", [100.0, 50.0])
+    with pytest.raises(ModelError, match="not a rotation"):
+        vd.unbalance_response(system, "cx", [100.0])
+    with pytest.raises(ModelError, match="no unbalance"):
+        vd.unbalance_response(jeffcott(unbalance=0.0).build(), "disk", [100.0])
+    with pytest.raises(ModelError, match="samples"):
+        vd.unbalance_response(system, "disk", [100.0], samples=7)
+    s = jeffcott()
+    s.add_unbalance("wrong", "cx", 1e-3)
+    with pytest.raises(ModelError, match="unbalance 'wrong'.*does not turn with 'disk'"):
+        vd.unbalance_response(s.build(), "disk", [100.0])
+    r = vd.unbalance_response(system, "disk", [100.0, 200.0])
+    with pytest.raises(ModelError, match="no output"):
+        r.peaks("nothing")
+    with pytest.raises(ModelError, match="no orbit"):
+        r.orbit(("disk", (1.0, 0.0, 0.0)))
+
+
+def test_bode_and_polar_plots(tmp_path):
+    r = vd.unbalance_response(jeffcott().build(), "disk", np.linspace(150, 250, 11), outputs=["cx", "cy"])
+    r.plot(tmp_path / "bode.png", units="rpm", peak_to_peak=True)
+    r.polar(tmp_path / "polar.png", "cy")
+    assert (tmp_path / "bode.png").stat().st_size > 0 and (tmp_path / "polar.png").stat().st_size > 0
+    with pytest.raises(ModelError, match="rpm"):
+        r.plot(None, units="Hz")
