@@ -48,6 +48,11 @@ class Bearings(TwoPoint):
         q0 = system.neutral()
         self.d0 = np.array([_point(system, e.journal, q0) - _point(system, e.housing, q0) for e in elements])
         self.tables = [e.interpolator() for e in elements]
+        self.constant = all(t is None for t in self.tables)
+        # Eᵀ K E and Eᵀ C E (n × 3 × 3, world axes): the constant coefficients' force law in one product
+        if self.constant:
+            self.EKE = np.einsum("naj,nab,nbk->njk", self.E, np.array([e.stiffness for e in elements]), self.E)
+            self.ECE = np.einsum("naj,nab,nbk->njk", self.E, np.array([e.damping for e in elements]), self.E)
 
     def coefficients(self, speeds):
         """(K, C, dK/dΩ, dC/dΩ) of every bearing at the journals' spin speeds Ω (rad/s), n × 2 × 2 each."""
@@ -70,11 +75,16 @@ class Bearings(TwoPoint):
         return np.einsum("ni,ni->n", w, self.axis)
 
     def apply(self, t, q, v, kin, Q, F):
-        K, C, _, _ = self.coefficients(self.spin_speeds(kin))
+        if self.constant:
+            EKE, ECE = self.EKE, self.ECE
+        else:
+            K, C, _, _ = self.coefficients(self.spin_speeds(kin))
+            EKE = np.einsum("naj,nab,nbk->njk", self.E, K, self.E)
+            ECE = np.einsum("naj,nab,nbk->njk", self.E, C, self.E)
         d = self.separation(kin) - self.d0
         va, vb = self.end_velocities(kin)
-        f2 = np.einsum("nab,nbj,nj->na", K, self.E, d) + np.einsum("nab,nbj,nj->na", C, self.E, vb - va)
-        self.ends.add_forces(F, kin, -np.einsum("naj,na->nj", self.E, f2))
+        f = EKE @ d[:, :, None] + ECE @ (vb - va)[:, :, None]
+        self.ends.add_forces(F, kin, -f[:, :, 0])
 
     def derivatives(self, d):
         kin = d.fkin
