@@ -98,8 +98,8 @@ class UnbalanceResponse:
     """The synchronous response to the unbalances (see :func:`unbalance_response`).
 
     ``speeds`` (n,) rad/s; ``x`` (n × m) complex synchronous amplitudes, y(t) = Re(x e^{i|Ω|t}); ``amplitude``
-    |x| 0-peak (m or rad, ``units``) and ``peak_to_peak`` 2|x|; ``amplitude_error`` its estimated absolute
-    error; ``phase`` arg x (rad; −phase is the lag behind the angle reference); ``static`` (n × m) the constant
+    |x| 0-peak (m or rad, ``units``) and ``peak_to_peak`` 2|x|; ``amplitude_error`` the estimated bound of the
+    error of each output's response (of its amplitude and of its static part); ``phase`` arg x (rad; −phase is the lag behind the angle reference); ``static`` (n × m) the constant
     part (coordinates turning with the spin see the unbalance as a steady load); ``stability`` per speed
     "stable", "unstable" or "within the error" (the largest real part of the linear model's eigenvalues
     against its error: a steady response is reached only where stable); ``loads`` the unbalances used.
@@ -532,5 +532,9 @@ def _plane(a):
 
 
 def _is_point(x):
-    return (isinstance(x, (tuple, list)) and len(x) in (2, 3) and isinstance(x[0], str)
-            and not isinstance(x[1], str) and np.shape(x[1]) == (3,))
+    if not (isinstance(x, (tuple, list)) and len(x) in (2, 3) and isinstance(x[0], str)) or isinstance(x[1], str):
+        return False
+    try:
+        return np.shape(x[1]) == (3,)
+    except ValueError:  # (a list of outputs whose second is a point)
+        return False
