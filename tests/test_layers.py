@@ -66,6 +66,8 @@ ENTRY_POINTS = {
     ("vibdyn.analysis.linearize", "LinearModel.modes"): {"vibdyn.analysis.modal"},
     ("vibdyn.analysis.linearize", "LinearModel.with_rayleigh"): {"vibdyn.analysis.modal"},
     ("vibdyn.analysis.campbell_diagram", "Campbell.plot"): {"vibdyn.faces.plots"},
+    ("vibdyn.analysis.unbalance", "UnbalanceResponse.plot"): {"vibdyn.faces.rotor_plots"},
+    ("vibdyn.analysis.unbalance", "UnbalanceResponse.polar"): {"vibdyn.faces.rotor_plots"},
     ("vibdyn.results", "TimeResult.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.analysis.nonlinear.harmonic_balance", "ForcedResponseCurve.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.analysis.nonlinear.backbone", "Backbone.plot"): {"vibdyn.faces.plots"},

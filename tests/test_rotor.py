@@ -235,3 +235,40 @@ def test_bode_and_polar_plots(tmp_path):
     assert (tmp_path / "bode.png").stat().st_size > 0 and (tmp_path / "polar.png").stat().st_size > 0
     with pytest.raises(ModelError, match="rpm"):
         r.plot(None, units="Hz")
+
+
+def hub_rotor(k=100.0, m=1.0, c_n=0.5, c_r=1.0):
+    """A disk on two sliders fixed in a hub spun about z (its spring k and damper c_r turn with the hub: rotating
+    damping), the disk damped c_n to the world by a bearing (non-rotating damping)."""
+    s = vd.Scene("hub")
+    s.add_body("hub", joint=vd.Pivot((0, 0, 1)), mass=0.0)
+    s.add_body("xr", parent="hub", joint=vd.Slider((1, 0, 0)), mass=0.0)
+    s.add_body("disk", parent="xr", joint=vd.Slider((0, 1, 0)), mass=m, inertia=np.diag([0.01, 0.01, 0.02]))
+    for body in ("xr", "disk"):
+        s.add_joint_spring(body, k)
+        s.add_joint_damper(body, c_r)
+    s.add_bearing("outer_damper", "world", "disk", stiffness=np.zeros((2, 2)), damping=c_n * np.eye(2))
+    s.add_unbalance("u", "disk", U)
+    return s.build()
+
+
+def test_rotating_damping_shows_in_stability_and_drops_out_of_the_synchronous_response():
+    """Jeffcott with rotating damping c_r and non-rotating c_n: unstable above Ω_th = ω_n (1 + c_n/c_r); in the
+    fixed frame m z̈ + (c_n + c_r) ż + (k − iΩ c_r) z = U Ω² e^{iΩt}, whose synchronous response U Ω² / (k − mΩ² +
+    i c_n Ω) has no c_r (the disk whirls with the hub: its rotating damper does not move)."""
+    k, m, c_n, c_r = 100.0, 1.0, 0.5, 1.0
+    th = np.sqrt(k / m) * (1 + c_n / c_r)
+    W = np.array([5.0, 9.0, 12.0, th - 0.3, th + 0.3, 20.0])
+    r = vd.unbalance_response(hub_rotor(k, m, c_n, c_r), "hub", W, outputs=["xr", ("disk", (0.0, 0.0, 0.0))])
+    growth = [max(np.roots([m, c_n + c_r, k - 1j * w * c_r]).real.max(),
+                  np.roots([m, c_n + c_r, k + 1j * w * c_r]).real.max()) for w in W]
+    np.testing.assert_allclose(r.growth_rate, growth, atol=1e-8)
+    assert list(r.stability) == ["stable"] * 4 + ["unstable"] * 2
+    exact = U * W ** 2 / np.abs(k - m * W ** 2 + 1j * c_n * W)
+    o = r.orbit(("disk", (0.0, 0.0, 0.0)))
+    assert np.all(np.abs(o.major - exact) <= o.error + 1e-12 * exact)
+    np.testing.assert_allclose(o.minor, o.major, rtol=1e-9)
+    # in the hub's frame the response is steady: the slider's coordinate has no synchronous part
+    assert np.all(r.amplitude[:, 0] <= 1e-9 * exact)
+    assert np.all(np.abs(np.abs(r.static[:, 0]) - exact * np.abs(np.cos(np.angle(
+        W ** 2 / (k - m * W ** 2 + 1j * c_n * W))))) <= r.amplitude_error[:, 0] + 1e-12 * exact)
