@@ -67,6 +67,10 @@ def test_tabulated_bearing_interpolates_in_the_journal_speed_with_its_derivative
         # ∂Q/∂Ω = −(dK/dΩ) d: the spin column of C
         dK = (np.array(Kt[2]) - np.array(Kt[1])) / 100.0
         np.testing.assert_allclose(lin.C[:2, 2], dK @ q[:2], rtol=1e-6, atol=10 * lin.C_error.max() + 1e-12)
+    # at rest, on the table's first speed: the difference steps about Ω = 0 stay inside the table's end band
+    for method in ("fd", "analytic"):
+        at_rest = system.linearize(method=method)
+        np.testing.assert_allclose(at_rest.K[:2, :2], Kt[0], atol=10 * at_rest.K_error.max() + 1e-9)
 
 
 def test_bearing_refusals_name_the_bearing():

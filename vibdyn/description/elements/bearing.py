@@ -11,7 +11,8 @@ there), v the ends' world velocities (m/s). K (N/m) and C (N·s/m) are 2 × 2, c
 ([[k_xx, k_xy], [k_yx, k_yy]]: k_xy is the force along x per displacement along y, with the minus sign above).
 Ω (rad/s) is the journal body's angular velocity about ``axis`` in the state (world axes): with ``speeds`` the
 coefficients are tables interpolated linearly in Ω (``interpolation="pchip"``: monotone cubic), and a speed
-outside the table is refused, naming the bearing.
+outside the table by more than max(1e-6 × its span, 1e-3 rad/s) is refused, naming the bearing (within that band,
+met by the difference steps of a linearisation at a table's end, the end segment is extended).
 """
 
 from __future__ import annotations
@@ -63,7 +64,8 @@ class Bearings(TwoPoint):
                 continue
             s = float(speeds[i])
             lo, hi = e.speeds[0], e.speeds[-1]
-            if not lo <= s <= hi:
+            band = max(1e-6 * (hi - lo), 1e-3)  # (a difference step about a table's end: its end segment goes on)
+            if not lo - band <= s <= hi + band:
                 raise ModelError(f"bearing '{e.name}': the journal's spin speed {s:.6g} rad/s is outside its table "
                                  f"[{lo:g}, {hi:g}] rad/s: extend the table's speeds to cover the speeds asked")
             out[:, i] = table(s)
