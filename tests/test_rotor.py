@@ -276,3 +276,18 @@ def test_rotating_damping_shows_in_stability_and_drops_out_of_the_synchronous_re
     assert np.all(r.amplitude[:, 0] <= 1e-9 * exact)
     assert np.all(np.abs(np.abs(r.static[:, 0]) - exact * np.abs(np.cos(np.angle(
         W ** 2 / (k - m * W ** 2 + 1j * c_n * W))))) <= r.amplitude_error[:, 0] + 1e-12 * exact)
+
+
+def test_campbell_diagram_with_a_cross_coupled_bearing():
+    """The Campbell diagram of the cross-coupled Jeffcott rotor: its damped frequencies and ζ are the roots of
+    M s² + c s + k − iq = 0 in z = x + iy (a bearing's coefficients in every analysis): the forward whirl the
+    root with Im s > 0, less damped (q > 0 feeds it), the backward one the other, at every held speed."""
+    q = 0.5 * C * np.sqrt(K / M)
+    diagram = vd.campbell(jeffcott(kxy=q, kyx=-q).build(), "disk", np.linspace(0.0, 300.0, 4))
+    roots = np.roots([M, C, K - 1j * q])
+    forward, backward = roots[roots.imag > 0][0], roots[roots.imag < 0][0]
+    for row, err, zeta, whirl in zip(diagram.omega[1:], diagram.error[1:], diagram.zeta[1:], diagram.whirl[1:]):
+        for r, kind in ((forward, "forward"), (backward, "backward")):
+            (j,) = np.flatnonzero(whirl == kind)
+            assert abs(row[j] - abs(r.imag)) <= 10 * err[j] + 1e-12 * abs(r)
+            assert abs(zeta[j] + r.real / abs(r)) <= 1e-9
