@@ -99,10 +99,11 @@ class UnbalanceResponse:
 
     ``speeds`` (n,) rad/s; ``x`` (n × m) complex synchronous amplitudes, y(t) = Re(x e^{i|Ω|t}); ``amplitude``
     |x| 0-peak (m or rad, ``units``) and ``peak_to_peak`` 2|x|; ``amplitude_error`` the estimated bound of the
-    error of each output's response (of its amplitude and of its static part); ``phase`` arg x (rad; −phase is the lag behind the angle reference); ``static`` (n × m) the constant
-    part (coordinates turning with the spin see the unbalance as a steady load); ``stability`` per speed
-    "stable", "unstable" or "within the error" (the largest real part of the linear model's eigenvalues
-    against its error: a steady response is reached only where stable); ``loads`` the unbalances used.
+    error of each output's response (of its amplitude and of its static part); ``phase`` arg x (rad; −phase is
+    the lag behind the angle reference); ``static`` (n × m) the constant part (coordinates turning with the spin
+    see the unbalance as a steady load); ``stability`` per speed "stable", "unstable" or "within the error" (the
+    largest real part ``growth_rate`` (1/s) of the linear model's eigenvalues against its error: a steady
+    response is reached only where stable); ``loads`` the unbalances used; ``elapsed`` s.
     """
 
     system: object = field(repr=False)
@@ -197,29 +198,30 @@ class UnbalanceResponse:
             curv = abs(amp(Nc + h)[0] - 2 * A + amp(Nc - h)[0]) / h ** 2  # |A''| at the peak
             Nc_err = float(np.sqrt(2 * dA / curv) if curv > 0 else s[i + 1] - s[i - 1]) + 2 * xtol * abs(Nc)
             target = A / np.sqrt(2)
-            half, half_err = [], []
+            found: list[float] = []
+            found_err: list[float] = []
             for side in (-1, 1):
                 k = i
                 while 0 <= k + side < len(s) and a[k + side] > target:
                     k += side
                 if not 0 <= k + side < len(s):
-                    half = None
                     break
                 lo, hi = sorted((s[k + side], Nc if k == i else s[k]))
                 r = brentq(lambda w: amp(w)[0] - target, lo, hi, xtol=xtol * max(abs(lo), 1.0))
                 slope = abs(amp(r + h)[0] - amp(r - h)[0]) / (2 * h)
-                half.append(r)
-                half_err.append((amp(r)[1] + dA / np.sqrt(2)) / max(slope, 1e-300))
+                found.append(r)
+                found_err.append((amp(r)[1] + dA / np.sqrt(2)) / max(slope, 1e-300))
+            half = tuple(found) if len(found) == 2 else None
             af = af_err = None
             if half is not None:
                 width = half[1] - half[0]
                 af = Nc / width
-                af_err = af * (Nc_err / abs(Nc) + (half_err[0] + half_err[1]) / width)
+                af_err = af * (Nc_err / abs(Nc) + (found_err[0] + found_err[1]) / width)
             sm = None
             if rng is not None:
                 sm = (rng[0] - abs(Nc)) / rng[0] if abs(Nc) < rng[0] else (abs(Nc) - rng[1]) / rng[1] \
                     if abs(Nc) > rng[1] else 0.0
-            out.append(Peak(label, Nc, Nc_err, A, dA, None if half is None else tuple(half), af, af_err, sm))
+            out.append(Peak(label, Nc, Nc_err, A, dA, half, af, af_err, sm))
         return out
 
     def _start(self, speed):
