@@ -103,6 +103,9 @@ def test_a_speed_outside_the_table_is_refused_naming_the_bearing():
         system.linearize(v=[0.0, 0.0, 250.0])
     with pytest.raises(ModelError, match="bearing 'bearing'.*outside its table"):
         vd.campbell(system, "disk", [150.0, 250.0])
+    with pytest.raises(ModelError, match=r"bearing 'bearing': its table covers 100…200 rad/s, not the speeds asked "
+                                         r"\(150…250 rad/s\)"):
+        vd.unbalance_response(system, "disk", [150.0, 250.0])
 
 
 def test_bearing_scene_file_round_trip(tmp_path):

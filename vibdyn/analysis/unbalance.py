@@ -278,6 +278,7 @@ def unbalance_response(system: Any, spin: str, speeds: ArrayLike, outputs: Any =
     i_spin = system.coordinate_index(spin)
     if system.units[i_spin] != "rad":
         raise ModelError(f"unbalance_response: '{spin}' is not a rotation (its unit is {system.units[i_spin]})")
+    _check_tables(system, spin, speeds)
     solver = _Solver(system, spin, outputs, method, int(samples))
     if not solver.loads:
         raise ModelError(f"unbalance_response: no unbalance turns with '{spin}': add one (Scene.add_unbalance) or "
@@ -363,6 +364,21 @@ class _Solver:
             else:
                 rows.append(b @ point_jacobian(self.system, q, [a]) @ Nsp)
         return np.array(rows)
+
+
+def _check_tables(system, spin, speeds):
+    """Refuse, before any work, a bearing whose journal turns with the spin and whose table does not cover the
+    speeds asked."""
+    from ..description.elements import Bearing
+
+    scene = system.scene
+    body = next(b for b in scene.bodies.values() if spin in b.coordinates)
+    turning = _turning(scene, body)
+    lo, hi = float(np.min(speeds)), float(np.max(speeds))
+    for e in scene.elements_of(Bearing):
+        if e.journal[0] in turning and not e.covers(lo, hi):
+            raise ModelError(f"bearing '{e.name}': its table covers {e.speeds[0]:g}…{e.speeds[-1]:g} rad/s, not the "
+                             f"speeds asked ({lo:g}…{hi:g} rad/s): extend the table or ask fewer speeds")
 
 
 def _unit(n, i):

@@ -64,8 +64,7 @@ class Bearings(TwoPoint):
                 continue
             s = float(speeds[i])
             lo, hi = e.speeds[0], e.speeds[-1]
-            band = max(1e-6 * (hi - lo), 1e-3)  # (a difference step about a table's end: its end segment goes on)
-            if not lo - band <= s <= hi + band:
+            if not e.covers(s, s):
                 raise ModelError(f"bearing '{e.name}': the journal's spin speed {s:.6g} rad/s is outside its table "
                                  f"[{lo:g}, {hi:g}] rad/s: extend the table's speeds to cover the speeds asked")
             out[:, i] = table(s)
@@ -219,6 +218,15 @@ class Bearing(ElementKind):
         C = np.zeros_like(K) if damping is None else _matrices(damping, n, what + " damping")
         K.flags.writeable = C.flags.writeable = False
         return scene.add_element(cls(name, housing, journal, K, C, speeds, key, interpolation))
+
+    def covers(self, lowest: float, highest: float) -> bool:
+        """Whether the table (if any) covers the spin speeds from ``lowest`` to ``highest`` (rad/s), give or take
+        max(1e-6 × its span, 1e-3 rad/s): the difference steps of a linearisation at a table's end, where the end
+        segment is extended."""
+        if self.speeds is None:
+            return True
+        band = max(1e-6 * (self.speeds[-1] - self.speeds[0]), 1e-3)
+        return self.speeds[0] - band <= lowest and highest <= self.speeds[-1] + band
 
     def interpolator(self):
         """None (constant coefficients), or Ω ↦ (K, C, dK/dΩ, dC/dΩ) (each 2 × 2) from the tables."""
