@@ -228,6 +228,15 @@ def test_unbalance_response_refusals():
     s.add_unbalance("wrong", "cx", 1e-3)
     with pytest.raises(ModelError, match="unbalance 'wrong'.*does not turn with 'disk'"):
         vd.unbalance_response(s.build(), "disk", [100.0])
+    gimbal = vd.Scene("asymmetric")  # transverse inertias 0.05 and 0.08: M turns with the spin
+    gimbal.add_body("outer", joint=vd.Pivot((1, 0, 0)), mass=0.0)
+    gimbal.add_body("inner", parent="outer", joint=vd.Pivot((0, 1, 0)), mass=0.0)
+    gimbal.add_body("rotor", parent="inner", joint=vd.Pivot((0, 0, 1)), mass=1.0, inertia=np.diag([0.05, 0.08, 0.12]))
+    gimbal.add_joint_spring("outer", 300.0)
+    gimbal.add_joint_spring("inner", 300.0)
+    gimbal.add_unbalance("u", "rotor", 1e-4, at=(0.0, 0.0, 0.1))
+    with pytest.raises(ModelError, match="changes as the spin turns"):
+        vd.unbalance_response(gimbal.build(), "rotor", [10.0, 20.0])
     r = vd.unbalance_response(system, "disk", [100.0, 200.0])
     with pytest.raises(ModelError, match="no output"):
         r.peaks("nothing")

@@ -10,7 +10,9 @@ fixed in space sees Q at 1 × |Ω|; a coordinate turning with the spin, such as 
 constant), each solved as (K − (k|Ω|)² M + i k|Ω| C) X_k = Q_k, and the outputs are sampled again and
 decomposed: the **synchronous** component (1 × |Ω|) of each output, in its own frame (a coordinate's own, a
 body point's along a world direction), is the response: y(t) = Re(x e^{i|Ω|t}), t = 0 at the steady
-configuration found (the spin coordinate's angle there: the unbalances' angles are measured from it).
+configuration found (the spin coordinate's angle there: the unbalances' angles are measured from it). The linear
+model must not change as the spin turns (checked once, at the first speed): a rotor that is not axisymmetric,
+seen in coordinates that do not turn with it, is refused.
 
 Unbalances are the scene's :class:`~vibdyn.description.elements.Unbalance` elements and the centres of mass of
 the spin's body and of the bodies welded to it that lie off its axis: such a body is linearised with its centre
@@ -304,6 +306,7 @@ class _Solver:
         self.spin, self.method, self.N = spin, method, samples
         self.i_spin = system.coordinate_index(spin)
         self.last_q = None
+        self.steady_checked = False
         self.loads, self.balanced = _loads(system, spin)
         self.system = self.balanced
         self.labels, self.units, self.specs, self.planes = _outputs(system, spin, outputs)
@@ -317,6 +320,8 @@ class _Solver:
                                    residual=getattr(e, "residual", None), best=getattr(e, "best", None)) from None
         self.last_q = st.q.copy()
         lin = st.linearize(method=self.method, hold=self.spin)
+        if not self.steady_checked and speed != 0:
+            self._check_steady(lin, st, speed)
         Nsp = getattr(lin, "null_space", None)
         Nsp = np.eye(sys.nv) if Nsp is None else Nsp
         stability = _stability(lin)
@@ -342,6 +347,24 @@ class _Solver:
         Y = np.fft.rfft(y, axis=0) / self.N
         err = np.abs(rows).max(axis=0) @ dq_err + 1e-13 * np.abs(y).max(initial=0.0)
         return 2 * Y[1], err, Y[0].real, stability
+
+    def _check_steady(self, lin, st, speed):
+        """Refuse a linear model that changes as the spin turns (a rotor not axisymmetric, seen in coordinates
+        that do not turn with it): its response to a rotating force is not harmonic (Hill's method would be
+        needed). Checked once, at the first speed, against the model a radian further on."""
+        sys = self.system
+        q1 = pin.integrate(sys.model, st.q, _unit(sys.nv, self.i_spin))
+        other = sys.linearize(q1, v=st.v, method=self.method, hold=self.spin)
+        for name in ("M", "C", "K"):
+            A, B = getattr(lin, name), getattr(other, name)
+            err = 0 if name == "M" else getattr(lin, name + "_error") + getattr(other, name + "_error")
+            gap = np.abs(A - B) - 10 * err - 1e-9 * max(np.abs(A).max(initial=0.0), np.abs(B).max(initial=0.0))
+            if np.any(gap > 0):
+                raise ModelError(f"unbalance_response: the linear model at {self.spin} = {speed:g} rad/s changes as "
+                                 f"the spin turns (its {name} by up to {np.abs(A - B).max():.3g}, beyond its error): "
+                                 "a rotor that is not axisymmetric, seen in coordinates that do not turn with it, "
+                                 "has no harmonic steady response (this analysis assumes one)")
+        self.steady_checked = True
 
     def _force(self, q, speed):
         """Generalized force (nv) of every unbalance at the configuration q: U Ω² along its turned radius."""
