@@ -71,6 +71,8 @@ print(f"orbit of the slider at {run[-1]:g} rad/s: radius {orbit.major[-1]:.6e} m
       f"{orbit.whirl[-1]} whirl; no resonance peak below 10 rad/s: {response.peaks(1)}")
 assert response.peaks(1) == [] and set(response.stability) == {"stable"}
 fig_bode = response.plot(outputs=[1, 2], units="rpm")
+for ax in fig_bode.axes:  # the Campbell diagram's critical speed, which the unbalance does not excite
+    ax.axvline(critical.speed_rpm, color="0.5", ls=":", lw=1)
 fig_polar = response.polar(output=1)
 
 # %%

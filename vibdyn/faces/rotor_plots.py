@@ -38,7 +38,8 @@ def bode(response, path=None, outputs=None, *, units="rad/s", peak_to_peak=False
             if a[k] > a[k - 1] and a[k] >= a[k + 1]:
                 top.plot(w[k], a[k], "v", color=line.get_color(), ms=6)
     kind = "peak-to-peak" if peak_to_peak else "0-peak"
-    top.set_ylabel(f"synchronous amplitude, {kind} (m or rad)")
+    units = sorted({response.units[j] for j in cols})
+    top.set_ylabel(f"amplitude, {kind} ({' or '.join(units)})")
     top.legend(fontsize=8)
     top.grid(True, which="both", alpha=0.3)
     top.set_title(f"Unbalance response: {response.system.name} ({response.spin} held at each speed)")
