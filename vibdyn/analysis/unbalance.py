@@ -378,14 +378,15 @@ class _Solver:
 
     def _rows(self, q, Nsp):
         """Each output's displacement per free coordinate at q (n_out × n)."""
+        points = [a for kind, a, _ in self.specs if kind == "point"]
+        J = point_jacobian(self.system, q, list(dict.fromkeys(points))) if points else None  # each point once
+        where = {p: 3 * k for k, p in enumerate(dict.fromkeys(points))}
         rows = []
         for kind, a, b in self.specs:
             if kind == "coordinate":
-                r = np.zeros(self.system.nv)
-                r[a] = 1.0
-                rows.append(r @ Nsp)
+                rows.append(Nsp[a])
             else:
-                rows.append(b @ point_jacobian(self.system, q, [a]) @ Nsp)
+                rows.append(b @ J[where[a]:where[a] + 3] @ Nsp)
         return np.array(rows)
 
 
