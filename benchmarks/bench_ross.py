@@ -26,7 +26,7 @@ import numpy as np
 import vibdyn as vd
 
 RHO, E, G_S = 7810.0, 211e9, 81.2e9
-STIFFER = float(os.environ.get("VIBDYN_ROSS_STIFFER", 1e5))  # (another factor: the agreement's scaling)
+STIFFER = float(os.environ.get("VIBDYN_ROSS_STIFFER", "1e5"))  # (another factor: the agreement's scaling)
 L, D, N_EL = 0.5, 0.05, 4  # shaft length and diameter (m), elements
 DISK = dict(m=20.0, Id=0.2, Ip=0.35)  # kg, kg·m² (at the middle node)
 BEARINGS = [  # at the two ends: N/m and N·s/m, cross-coupled
@@ -120,7 +120,7 @@ def ross_peaks(rotor, speeds, xtol=1e-10):
     for dof in (0, 1):
         for i in range(1, len(speeds) - 1):
             if a[dof, i] > a[dof, i - 1] and a[dof, i] >= a[dof, i + 1]:
-                res = minimize_scalar(lambda w: -amplitudes(w)[dof, 0], bracket=tuple(speeds[i - 1:i + 2]),
+                res = minimize_scalar(lambda w, dof=dof: -amplitudes(w)[dof, 0], bracket=tuple(speeds[i - 1:i + 2]),
                                       method="brent", tol=xtol)
                 out.append((float(res.x), float(-res.fun)))
     return out, a
@@ -149,8 +149,8 @@ def run(repeat=3):
     ross_modes(rotor, 100.0)  # (numba's compilation, left out of the times)
     report = {"modes": [], "peaks": {}}
     for speed in SPEEDS:
-        (w_v, d_v, err), tv = best(lambda: vibdyn_modes(system, speed), repeat)
-        (w_r, d_r), tr = best(lambda: ross_modes(rotor, speed), repeat, rotor)
+        (w_v, d_v, err), tv = best(lambda speed=speed: vibdyn_modes(system, speed), repeat)
+        (w_r, d_r), tr = best(lambda speed=speed: ross_modes(rotor, speed), repeat, rotor)
         report["modes"].append({
             "speed_rad_s": speed, "omega_d_vibdyn_rad_s": w_v.tolist(), "omega_d_ross_rad_s": w_r.tolist(),
             "omega_d_relative_difference": (np.abs(w_v - w_r) / w_r).tolist(),

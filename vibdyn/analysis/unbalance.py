@@ -172,7 +172,8 @@ class UnbalanceResponse:
         """The resonances of one output: each local maximum of the amplitude on the speeds' grid refined by
         Brent's method (each evaluation a steady motion, a linearisation and a solve), its half-power speeds
         by Brent's root finder, the amplification factor N_c/(N₂ − N₁) and, with ``operating`` = (lowest,
-        highest) speed (rad/s), the separation margin."""
+        highest) speed (rad/s), the separation margin. A maximum at the first or last speed, or one within ten
+        times its error of zero, is no peak: the speeds must bracket a resonance."""
         from scipy.optimize import brentq, minimize_scalar
 
         j = self.column(output)
@@ -187,7 +188,7 @@ class UnbalanceResponse:
                 continue
             cache = {}
 
-            def amp(w, i=i):
+            def amp(w, cache=cache):
                 if w not in cache:
                     cache[w] = self._solver(w, self._start(w))
                 return abs(cache[w][0][j]), cache[w][1][j]
@@ -209,7 +210,7 @@ class UnbalanceResponse:
                 if not 0 <= k + side < len(s):
                     break
                 lo, hi = sorted((s[k + side], Nc if k == i else s[k]))
-                r = brentq(lambda w: amp(w)[0] - target, lo, hi, xtol=xtol * max(abs(lo), 1.0))
+                r = brentq(lambda w, target=target: amp(w)[0] - target, lo, hi, xtol=xtol * max(abs(lo), 1.0))
                 slope = abs(amp(r + h)[0] - amp(r - h)[0]) / (2 * h)
                 found.append(r)
                 found_err.append((amp(r)[1] + dA / np.sqrt(2)) / max(slope, 1e-300))
