@@ -186,7 +186,7 @@ class UnbalanceResponse:
         for i in range(1, len(s) - 1):
             if not (a[i] > a[i - 1] and a[i] >= a[i + 1]) or a[i] <= 10 * e[i]:
                 continue
-            cache = {}
+            cache: dict = {}
 
             def amp(w, cache=cache):
                 if w not in cache:
