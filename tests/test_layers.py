@@ -72,6 +72,8 @@ ENTRY_POINTS = {
     ("vibdyn.analysis.campbell_diagram", "Campbell.plot"): {"vibdyn.faces.campbell_plot"},
     ("vibdyn.analysis.rotor_stability", "StabilityLimit.plot"): {"vibdyn.faces.campbell_plot"},
     ("vibdyn.analysis.rotor_stability", "CriticalSpeedMap.plot"): {"vibdyn.faces.campbell_plot"},
+    ("vibdyn.analysis.unbalance", "UnbalanceResponse.plot"): {"vibdyn.faces.rotor_plots"},
+    ("vibdyn.analysis.unbalance", "UnbalanceResponse.polar"): {"vibdyn.faces.rotor_plots"},
     ("vibdyn.results", "TimeResult.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.analysis.nonlinear.harmonic_balance", "ForcedResponseCurve.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.analysis.nonlinear.backbone", "Backbone.plot"): {"vibdyn.faces.plots"},

@@ -196,6 +196,19 @@ class Scene:
         :mod:`vibdyn.description.elements.drive`)."""
         return KINDS["drive"].add(self, body, motion, name)
 
+    def add_bearing(self, name: str, housing: Any, journal: Any, stiffness: Any, damping: Any = None,
+                    speeds: Any = None, *, axis: Any = (0.0, 0.0, 1.0), interpolation: str = "linear") -> Any:
+        """Bearing between ``housing`` and ``journal`` (ends as springs take them): ``stiffness`` (N/m) and
+        ``damping`` (N·s/m) [[xx, xy], [yx, yy]] in the world axes normal to ``axis``, or tables (n × 2 × 2) at
+        the journal's spin speeds ``speeds`` (rad/s, increasing) (see :mod:`vibdyn.description.elements.bearing`)."""
+        return KINDS["bearing"].add(self, name, housing, journal, stiffness, damping, speeds, axis=axis,
+                                    interpolation=interpolation)
+
+    def add_unbalance(self, name: str, body: str, amount: float, at: Any = (0.0, 0.0, 0.0), angle: float = 0.0) -> Any:
+        """Unbalance ``amount`` m·e (kg·m) at the point ``at`` of ``body`` (m, body frame), at ``angle`` (rad)
+        about its spin axis: the load of :func:`vibdyn.unbalance_response`."""
+        return KINDS["unbalance"].add(self, name, body, amount, at, angle)
+
     def __getattr__(self, name):
         # every other element kind: Scene.add_<table>(...) is its ``add`` (one declaration per kind)
         if name.startswith("add_") and name[4:] in KINDS:

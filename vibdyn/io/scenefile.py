@@ -58,6 +58,10 @@ Format
     [[drive]]         # the coordinate of a pivot, slider or helical joint prescribed in time: body, name (optional),
                       # motion = { law = "harmonic", amplitude = 0.01, omega = 20.0, phase = 0.0, offset = 0.0 }
                       # (the coordinate itself: offset + amplitude·sin(omega·t + phase), m or rad, omega in rad/s)
+    [[bearing]]       # name, housing, journal (ends as a spring's), stiffness = [[kxx, kxy], [kyx, kyy]] (N/m),
+                      # damping = [[...]] (N·s/m, optional), speeds = [...] (rad/s, optional: then stiffness and
+                      # damping are n × 2 × 2 tables), axis = [0, 0, 1] (default), interpolation = "linear" | "pchip"
+    [[unbalance]]     # name, body, amount (m·e, kg·m), at = [x, y, z] (m, body frame), angle (rad, default 0)
                       # (every element kind of vibdyn.description.elements has its table, named after it)
     [[loop]]          # a joint closing a cycle: name, a = [body, [x, y, z]], b = [body or "world", [...]],
                       # joint = { type = "ball" } (default) | pivot | slider | cylindrical {axis}

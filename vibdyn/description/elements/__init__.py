@@ -17,7 +17,9 @@ from .joint_damper import JointDamper
 from .joint_force import JointForce, joint_force_value
 from .cubic_joint_spring import CubicJointSpring
 from .drive import Drive
+from .bearing import Bearing
+from .unbalance import Unbalance
 
 __all__ = ["KINDS", "WORLD", "ElementKind", "ForceGroup", "Group", "Kinematics", "attachment", "cross", "point_set",
            "Support", "Spring", "Damper", "BodyForce", "JointSpring", "JointDamper", "JointForce",
-           "CubicJointSpring", "Drive", "vector_or_callable", "joint_force_value"]
+           "CubicJointSpring", "Drive", "Bearing", "Unbalance", "vector_or_callable", "joint_force_value"]
