@@ -34,6 +34,10 @@ class _End:
 
 DRIFT_RANK = 1e3  # singular values below this × the drift off the loops do not count (decompose)
 MAX_STEP = 0.5  # largest tangent step of one assembly iteration (rad, or × the length scale m)
+LOCK_SIGMA = 10.0  # singular values below this × √(residual) (relative) are lost at a closure (isolated)
+LOCK_STEP = 1e-3  # step (dimensionless) of the second differences of the lost equations (isolated)
+LOCK_CURVATURE = 1e-5  # least |eigenvalue| (dimensionless) of a definite second-order form (isolated)
+LOCK_MAX_MOTIONS = 6  # more first-order motions than this at a closure: the isolation test is not tried
 
 
 class Constraints:
@@ -500,9 +504,13 @@ class Constraints:
         return out
 
     def check_mobility(self, q):
-        """ModelError naming the loop that locks the mechanism (no motion left) at the consistent q."""
+        """ModelError naming the loop that locks the mechanism (no motion left) at the consistent q: its
+        equations leave no motion (rank nv), or q is an isolated closure (:meth:`isolated`)."""
         J = self.jacobian(q)
         if self.decompose(J)[0] < self.system.nv:
+            why = self.isolated(q, J)
+            if why:
+                raise ModelError(why)
             return
         k = 0
         for lp, n in zip(self.loops, self.sizes):
@@ -511,6 +519,51 @@ class Constraints:
                 before = "" if k == n else " (with the loops before it)"
                 raise ModelError(f"loop '{lp.name}' locks the mechanism{before}: with it the loops leave no motion "
                                  f"at all (mobility 0: rank {self.system.nv} of the constraint Jacobian = nv)")
+
+    def isolated(self, q, J=None):
+        """Why the closure q is isolated ('' if it is not shown to be): a rank test at q whose tolerance comes
+        from q's own residual (singular values of the dimensionless Φ_q below LOCK_SIGMA·√|Φ| relative are
+        lost: a closure that close to an exactly singular one cannot tell them apart), then, for each lost
+        equation u (a left singular vector), the second differences of uᵀΦ along the motions N that Φ_q
+        leaves (steps LOCK_STEP, dimensionless): where the form Nᵀ(uᵀΦ_qq)N is definite, every motion the
+        first order allows opens the loop at the second (the Lyapunov–Schmidt reduction), so no closure lies
+        beside q: mobility 0 (a four-bar whose lengths add up, closed only stretched flat). An indefinite
+        form is a change point (branches cross), a zero one a redundant equation: both keep their motion."""
+        model, nv, cs = self.system.model, self.system.nv, self.col_scale
+        J = self.jacobian(q) if J is None else J
+        res = float(np.abs(self.scaled_phi(self.phi(q))).max(initial=0.0))
+        Js = self.row_scale[:, None] * J * cs[None, :]
+        if Js.size == 0:
+            return ""
+        U, s, Vt = np.linalg.svd(Js)
+        tol = max(RANK_RTOL, LOCK_SIGMA * np.sqrt(res)) * s[0]
+        rank = int(np.sum(s > tol))
+        N, lost = Vt[rank:], U[:, rank:]
+        if lost.shape[1] == 0 or not 0 < len(N) <= LOCK_MAX_MOTIONS:
+            return ""
+        h, k = LOCK_STEP, len(N)
+
+        def g(x):
+            return lost.T @ self.scaled_phi(self.phi(pin.integrate(model, q, cs * (N.T @ (h * x)))))
+
+        E = np.eye(k)
+        f0 = g(np.zeros(k))
+        H = np.empty((lost.shape[1], k, k))
+        for i in range(k):
+            H[:, i, i] = g(E[i]) + g(-E[i]) - 2 * f0
+            for j in range(i):
+                H[:, i, j] = H[:, j, i] = (g(E[i] + E[j]) - g(E[i] - E[j]) - g(E[j] - E[i]) + g(-E[i] - E[j])) / 4
+        for u, Hu in zip(lost.T, H / h**2):
+            w = np.linalg.eigvalsh(Hu)
+            if w[0] > LOCK_CURVATURE or w[-1] < -LOCK_CURVATURE:
+                loop = self.loop_of_row(int(np.argmax(np.abs(u))))
+                return (f"loop '{loop}' locks the mechanism: it closes here only at an isolated configuration, "
+                        "typically with its links in line, stretched out or folded flat (their lengths add up "
+                        f"exactly): the constraint Jacobian has rank {rank} there (singular values below "
+                        f"{tol / s[0]:.1e} relative, from the closure's residual {res:.1e}, are lost) and each of "
+                        f"the {k} motion(s) it leaves to first order opens the loop at second order, so no motion is "
+                        "left (mobility 0); change a length so that the loop can move, or remove the loop")
+        return ""
 
 
 def compile_loops(system):
