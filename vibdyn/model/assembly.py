@@ -19,6 +19,7 @@ of the loops nearest the neutral configuration (every joint at its zero, as the 
    the first coordinate that moves increasing.
 """
 
+import itertools
 import time
 from dataclasses import dataclass, field
 
@@ -36,7 +37,14 @@ SAME = 1e-6  # closures nearer each other than this (dimensionless) are one
 TIE_RTOL = 1e-7  # distances within this (relative) are a tie
 BESIDE = 1e-3  # step to the closures beside one, for the rank there (dimensionless)
 LEAVE = (1e-3, 1e-2, 1e-1)  # steps along the motion off a closure where the forces are undefined
+TRACE_STEP, TRACE_MIN_STEP = 0.2, 1e-3  # arclength steps (dimensionless) of the trace along a branch
+TRACE_MAX = 2000  # samples of one branch before its trace is given up (the nearest is then not proven)
+PARTNER_POINTS = 3  # points along each traced branch where the other assembly modes are sought
+PARTNER_MAX = 64  # restarts of the dependent coordinates per point (a seeded sample if there are more)
+PARTNER_ITER = 8  # Newton iterations of one restart (a start that converges needs fewer)
+MAX_BRANCHES = 16  # branches traced before the search gives up proving the nearest
 WHERE = "the closure nearest the neutral configuration"
+WHERE_FOUND = "a closure found near the neutral configuration"  # (the nearest of those found, not proven)
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,6 +70,7 @@ class Assembly:
     starts: int
     note: str
     elapsed: float
+    nearest: bool = True
 
     def __repr__(self):
         state = "SINGULAR" if self.singular else f"dof {self.dof}"
@@ -108,6 +117,118 @@ def _offsets(c, qd, q):
     return pin.difference(c.system.model, qd, q) / c.col_scale
 
 
+def _gap(c, a, b):
+    """Dimensionless tangent distance from a to b, b's periodic angles taken within π of a's."""
+    return float(np.linalg.norm(_offsets(c, a, c.within_pi(b.copy(), a))))
+
+
+def _gaps(c, q, samples):
+    """:func:`_gap` from q to each of ``samples`` (an array of configurations, one a row)."""
+    model, iq = c.system.model, c.system.periodic_coordinates
+    if model.nq != model.nv:  # (a Lie group other than ℝⁿ: one by one)
+        return np.array([_gap(c, q, s) for s in samples])
+    d = samples - q
+    d[:, iq] -= 2 * np.pi * np.round(d[:, iq] / (2 * np.pi))
+    return np.linalg.norm(d / c.col_scale, axis=1)
+
+
+def _tangent(c, q, previous):
+    """The unit (dimensionless) direction of the one motion the loops allow at q, turned to go on along
+    ``previous``; None where the mobility there is not 1."""
+    rank, _, _, Vt = c.decompose(c.jacobian(q))
+    if c.system.nv - rank != 1:
+        return None
+    t = Vt[-1]
+    return -t if previous is not None and t @ previous < 0 else t
+
+
+def _trace(c, q0, qd):
+    """(samples, whole) of the branch through the closure q0 of a one-mobility mechanism: arclength steps of
+    TRACE_STEP (dimensionless) along the motion, each closed again by Gauss–Newton (halved down to
+    TRACE_MIN_STEP where the corrector fails, jumps or turns back); ``whole`` when the trace comes back to q0
+    (the branch is a closed curve, traced whole), False where it stops (a singular position, a step that
+    cannot be closed, TRACE_MAX samples)."""
+    model, cs = c.system.model, c.col_scale
+    t = _tangent(c, q0, None)
+    samples, q, h, away = [q0], q0, TRACE_STEP, False
+    while t is not None and len(samples) < TRACE_MAX:
+        q1 = _close(c, pin.integrate(model, q, cs * (h * t)), qd)
+        t1 = None if q1 is None else _tangent(c, q1, t)
+        if t1 is None or _gap(c, q, q1) > 2 * h or t1 @ t < 0.5:
+            if h / 2 < TRACE_MIN_STEP:
+                return samples, False
+            h /= 2
+            continue
+        back = _gap(c, q1, q0)
+        away = away or back > 2 * TRACE_STEP
+        if away and back <= TRACE_STEP:
+            return samples, True
+        samples.append(q1)
+        q, t, h = q1, t1, min(TRACE_STEP, 2 * h)
+    return samples, False
+
+
+def _partners(c, q, qd):
+    """The other closures with q's independent coordinates (the other assembly modes there: the mirror image
+    of a four-bar's coupler and rocker about the line they span): Gauss–Newton on the dependent coordinates
+    (:meth:`Constraints.close`) from q's moved by 0, ±2π/3 (angles) or 0, ±1 × the length scale (others)
+    each, every combination but q's own (a seeded sample of PARTNER_MAX where there are more)."""
+    model, cs, nv = c.system.model, c.col_scale, c.system.nv
+    ind, _ = c.partition(c.jacobian(q))
+    dep = np.setdiff1d(np.arange(nv), ind)
+    choices = [(0.0, 2 * np.pi / 3, -2 * np.pi / 3) if c.system.units[i] == "rad" else (0.0, 1.0, -1.0)
+               for i in dep]
+    combos = list(itertools.islice(itertools.product(*choices), 1, None))
+    if len(combos) > PARTNER_MAX:
+        pick = np.random.default_rng(0).choice(len(combos), PARTNER_MAX, replace=False)
+        combos = [combos[i] for i in np.sort(pick)]
+    out = []
+    for combo in combos:
+        x = np.zeros(nv)
+        x[dep] = combo
+        try:
+            with np.errstate(over="ignore", invalid="ignore"):
+                q1 = c.within_pi(c.close(pin.integrate(model, q, cs * x), dep, max_iter=PARTNER_ITER), qd)
+        except ConvergenceError:
+            continue
+        if _gap(c, q, q1) > SAME and all(_gap(c, o, q1) > SAME for o in out):
+            out.append(q1)
+    return out
+
+
+def _local_minima(d, whole):
+    """Indices of the local minima of the distances d along a branch (cyclic where ``whole``; else its ends
+    count)."""
+    n = len(d)
+    if whole:
+        return [i for i in range(n) if d[i] <= d[i - 1] and d[i] <= d[(i + 1) % n]]
+    return [i for i in range(n) if (i == 0 or d[i] <= d[i - 1]) and (i == n - 1 or d[i] <= d[i + 1])]
+
+
+def _branches(c, qd, seeds):
+    """(candidates, branches, whole) of a one-mobility mechanism: each branch of the loops' closures reached
+    from the ``seeds`` is traced (:func:`_trace`); the local minima of its distance to qd are the candidates
+    (to be slid to the nearest); at PARTNER_POINTS points along it and at its minima the other assembly modes
+    are sought (:func:`_partners`), and each not on a traced branch is traced in turn. ``whole``: every
+    branch met was traced whole (closed curves) within MAX_BRANCHES."""
+    queue, branches, candidates, whole = list(seeds), [], [], True
+    while queue:
+        q = queue.pop(0)
+        if any(_gaps(c, q, b).min() <= TRACE_STEP for b in branches):
+            continue
+        if len(branches) == MAX_BRANCHES:
+            return candidates, len(branches), False
+        samples, closed = _trace(c, q, qd)
+        whole = whole and closed
+        S = np.array(samples)
+        branches.append(S)
+        mins = _local_minima(_gaps(c, qd, S), closed)
+        candidates += [samples[i] for i in mins]
+        for i in sorted(set(mins) | set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS)):
+            queue += _partners(c, samples[i], qd)
+    return candidates, len(branches), whole
+
+
 def _nearest(c, qd, q):
     """The closure nearest qd reached from the closure q along the loops: the step towards qd projected on
     the null space of Φ_q (dimensionless metric), closed again, until it vanishes or stops shortening."""
@@ -138,11 +259,19 @@ def _beyond(system, q):
     return ""
 
 
-def _within_limits(c, qd, q):
-    """The closure nearest qd reached from q (:func:`_nearest`), or q itself where that one is beyond the
-    limits."""
-    q1 = _nearest(c, qd, q)
-    return q if _beyond(c.system, q1) else q1
+def _compared(c, qd, closures):
+    """([(distance, offsets, q)] of the distinct closures reached from ``closures`` by :func:`_nearest`, each
+    kept where it ends within the position limits (else the closure it started from), held): ``held`` when
+    some slide ended beyond the limits. Distances dimensionless, periodic angles within π of qd's."""
+    out, held = [], False
+    for q in closures:
+        q1 = _nearest(c, qd, q)
+        if _beyond(c.system, q1):
+            q1, held = q, True
+        x = _offsets(c, qd, q1)
+        if all(np.abs(x - y).max() > SAME for _, y, _ in out):
+            out.append((float(np.linalg.norm(x)), x, q1))
+    return out, held
 
 
 def _closures(c, qd):
@@ -250,19 +379,33 @@ def assemble_described(c):
             ": its bodies cannot reach each other as described (check the loop's points and the links' lengths), "
             "or declare a start near a closed configuration (Scene.set_operating_point(start=...))",
             residual=res, best=q_open)
-    unique = []
-    for q in (_within_limits(c, qd, q) for q in found):
-        x = _offsets(c, qd, q)
-        if all(np.abs(x - y).max() > SAME for _, y, _ in unique):
-            unique.append((float(np.linalg.norm(x)), x, q))
-    d_min = min(d for d, _, _ in unique)
+    unique, held = _compared(c, qd, found)
+    d_min, notes, why = min(d for d, _, _ in unique), [], ""
+    if d_min > SAME:  # (the described pose closes: nothing is nearer)
+        dof = system.nv - c.rank(min(unique, key=lambda u: u[0])[2])
+        seeds = [q for _, _, q in unique]
+        if dof == 1:
+            more, branches, whole = _branches(c, qd, seeds)
+            why = "" if whole else (f"a branch of its closures could not be traced whole ({branches} traced: a "
+                                    "singular position, a step that could not be closed on it, or too many)")
+        else:
+            more = [p for q in seeds for p in _partners(c, q, qd)]
+            why = (f"the mechanism has mobility {dof} there: its closures form surfaces, which are not traced (the "
+                   f"closures of {tried} starts and their other assembly modes were compared)")
+        unique, held = _compared(c, qd, seeds + more)
+        d_min = min(d for d, _, _ in unique)
+        if held and not why:
+            why = ("the nearest closure on some branch is beyond the position limits: the one taken is the nearest "
+                   "of the search within them")
+    where = WHERE_FOUND if why else WHERE
     tied = [u for u in unique if u[0] <= d_min * (1 + TIE_RTOL) + SAME]
     chosen, k = tied[0], 0
     for other in tied[1:]:
         k = int(np.flatnonzero(np.abs(other[1] - chosen[1]) > SAME)[0])
         if other[1][k] > chosen[1][k]:
             chosen = other
-    notes = []
+    if why:
+        notes.append(f"not proven the nearest: {why}; the nearest of {len(unique)} distinct closures compared")
     if len(tied) > 1:
         i = int(np.flatnonzero(np.abs(tied[0][1] - tied[1][1]) > SAME)[0])
         notes.append(f"{len(tied)} closures at the same distance {d_min:.6g} (mirror images of a symmetric "
@@ -280,7 +423,7 @@ def assemble_described(c):
     singular = rank < generic
     if singular:
         lost = int(np.flatnonzero(here < beside)[0])
-        notes.append(f"loop '{c.loops[lost].name}': {WHERE} ({_coordinate_text(system, q)}) is a singular position "
+        notes.append(f"loop '{c.loops[lost].name}': {where} ({_coordinate_text(system, q)}) is a singular position "
                      f"of the mechanism: the loops' Jacobian has rank {rank} there and {generic} at the closures beside "
                      f"it (mobility {system.nv - rank} there, {system.nv - generic} elsewhere: branches of the motion "
                      "cross there); declare a start off it (Scene.set_operating_point(start=...), or q0=)")
@@ -288,8 +431,8 @@ def assemble_described(c):
         q, why = _leave(c, q, qd)
         if why:
             notes.append(why)
-        q = c.assemble(q, start=WHERE)  # (recorded: the mobility is taken here; a locking loop is named)
+        q = c.assemble(q, start=where)  # (recorded: the mobility is taken here; a locking loop is named)
     phi = float(np.abs(c.scaled_phi(c.phi(q))).max(initial=0.0))
     x = _offsets(c, qd, q)
-    return Assembly(q, WHERE, phi, x * c.col_scale, float(np.linalg.norm(x)), system.nv - rank, rank, generic,
-                    singular, tried, "; ".join(notes), time.perf_counter() - start)
+    return Assembly(q, where, phi, x * c.col_scale, float(np.linalg.norm(x)), system.nv - rank, rank, generic,
+                    singular, tried, "; ".join(notes), time.perf_counter() - start, not why)
