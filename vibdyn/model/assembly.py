@@ -150,7 +150,7 @@ def _trace(c, q0, qd):
     cannot be closed, TRACE_MAX samples)."""
     model, cs = c.system.model, c.col_scale
     t = _tangent(c, q0, None)
-    samples, q, h, away = [q0], q0, TRACE_STEP, False
+    samples, q, h = [q0], q0, TRACE_STEP
     while t is not None and len(samples) < TRACE_MAX:
         q1 = _close(c, pin.integrate(model, q, cs * (h * t)), qd)
         t1 = None if q1 is None else _tangent(c, q1, t)
@@ -159,9 +159,8 @@ def _trace(c, q0, qd):
                 return samples, False
             h /= 2
             continue
-        back = _gap(c, q1, q0)
-        away = away or back > 2 * TRACE_STEP
-        if away and back <= TRACE_STEP:
+        ahead = _offsets(c, q1, c.within_pi(q0.copy(), q1))  # (q0 ahead along the motion: the loop is closing)
+        if len(samples) > 1 and np.linalg.norm(ahead) <= h and ahead @ t1 > 0:
             return samples, True
         samples.append(q1)
         q, t, h = q1, t1, min(TRACE_STEP, 2 * h)
@@ -214,14 +213,15 @@ def _branches(c, qd, seeds):
     queue, branches, candidates, whole = list(seeds), [], [], True
     while queue:
         q = queue.pop(0)
-        if any(_gaps(c, q, b).min() <= TRACE_STEP for b in branches):
+        if any(_gaps(c, q, S).min() <= 0.6 * step for S, step in branches):  # (on a traced branch)
             continue
         if len(branches) == MAX_BRANCHES:
             return candidates, len(branches), False
         samples, closed = _trace(c, q, qd)
         whole = whole and closed
         S = np.array(samples)
-        branches.append(S)
+        ends = samples[1:] + (samples[:1] if closed else [])
+        branches.append((S, max((_gap(c, p, r) for p, r in zip(samples, ends)), default=0.0)))
         mins = _local_minima(_gaps(c, qd, S), closed)
         candidates += [samples[i] for i in mins]
         for i in sorted(set(mins) | set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS)):
@@ -412,6 +412,7 @@ def assemble_described(c):
                      f"description): took the one with the larger '{system.coordinates[i]}' (the first coordinate "
                      "where they differ); declare a start to take another")
     q = chosen[2]
+    c.check_mobility(q)  # (an isolated closure locks the mechanism: refused before anything is taken there)
     J = c.jacobian(q)
     ends = np.cumsum(c.sizes)
     here = np.array([c.decompose(J[:k])[0] for k in ends])
@@ -428,9 +429,9 @@ def assemble_described(c):
                      f"it (mobility {system.nv - rank} there, {system.nv - generic} elsewhere: branches of the motion "
                      "cross there); declare a start off it (Scene.set_operating_point(start=...), or q0=)")
     else:
-        q, why = _leave(c, q, qd)
-        if why:
-            notes.append(why)
+        q, moved = _leave(c, q, qd)
+        if moved:
+            notes.append(moved)
         q = c.assemble(q, start=where)  # (recorded: the mobility is taken here; a locking loop is named)
     phi = float(np.abs(c.scaled_phi(c.phi(q))).max(initial=0.0))
     x = _offsets(c, qd, q)
