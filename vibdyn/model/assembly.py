@@ -1,9 +1,13 @@
 """Assembly of a looped scene from its described pose: with no declared start, analyses begin at the closure
 of the loops nearest the neutral configuration (every joint at its zero, as the scene was drawn).
 
+Distance: the dimensionless tangent-space norm |x| of x = difference(q_d, q) / s (s: 1 for angles, the length
+scale for translations), each periodic angle (pivots, the angles of cylindrical and universal joints) taken
+within π of the described one (q and q ± 2π are one pose: the shorter way round counts).
+
 1. Trust-region least squares (scipy's ``least_squares``) on the dimensionless loop residual Φ in the chart
-   q(x) = integrate(q_d, s·x) at the described pose q_d (s: 1 for angles, the length scale for
-   translations), polished to round-off by the loops' Gauss–Newton (:meth:`Constraints.assemble`).
+   q(x) = integrate(q_d, s·x) at the described pose q_d, polished to round-off by the loops' Gauss–Newton
+   (:meth:`Constraints.assemble`).
 2. Where that fails (a linkage laid flat is a stationary point of |Φ|²), restarts from perturbed poses:
    ±r along each coordinate for each r of :data:`RESTART_RADII`, then seeded random poses; the first round
    that closes the loops ends the search.
@@ -11,12 +15,23 @@ of the loops nearest the neutral configuration (every joint at its zero, as the 
    to the next round, and if every closure found is beyond them the assembly is refused naming the first
    coordinate and its limit.
 3. Each closure found is slid along the loops to the closure nearest q_d (steps towards q_d projected on
-   the null space of Φ_q, each closed again); the nearest of them is taken. Ties (the mirror images of a
+   the null space of Φ_q, each closed again). Unless the described pose closes the loops itself (distance 0),
+   the branches are then enumerated before one is called nearest: with mobility 1, each branch is traced
+   by arclength continuation until it comes back to its start (a closed curve, traced whole), the local
+   minima of its distance are slid to the nearest, and at points along it the other assembly modes (the
+   other closures with the same independent coordinates: a four-bar's mirror-image coupler and rocker) are
+   sought by Gauss–Newton restarts of the dependent coordinates and traced in turn. The nearest of all is
+   taken, and called "the closure nearest the neutral configuration" (``Assembly.nearest``) only when every
+   branch met was traced whole (and no slide ended beyond a limit); otherwise (mobility 2 or more: surfaces,
+   not traced; a branch cut by a singular position) it is "a closure found near the neutral configuration",
+   the nearest of those compared, and ``.note`` says why it is not proven. Ties (the mirror images of a
    symmetric description) go to the closure whose first differing coordinate is larger, and are noted.
-4. The mobility is taken there. A singular position (rank of Φ_q below its rank at the closures beside it:
-   a change point) is kept in the :class:`Assembly` and refused as a start, naming the loop; a closure
-   where the scene's forces are undefined (a spring whose ends meet) is left along the mechanism's motion,
-   the first coordinate that moves increasing.
+4. A closure that is isolated (the loops close only there: links whose lengths add up, stretched flat) locks
+   the mechanism: refused (:meth:`Constraints.check_mobility`). The mobility is taken there. A singular
+   position (rank of Φ_q below its rank at the closures beside it: a change point) is kept in the
+   :class:`Assembly` and refused as a start, naming the loop; a closure where the scene's forces are
+   undefined (a spring whose ends meet) is left along the mechanism's motion, the first coordinate that
+   moves increasing.
 """
 
 import itertools
@@ -55,8 +70,10 @@ class Assembly:
     coordinate) and ``distance`` (dimensionless) from the neutral configuration; ``dof`` = nv − ``rank`` the
     mobility found there, ``generic_rank`` the rank of Φ_q at the closures beside it; ``singular`` when
     rank < generic_rank (a change point: refused as a start); ``starts`` the least-squares runs; ``note``
-    what was chosen and why (ties, a start moved off a singular force, the singular position); ``elapsed``
-    (s)."""
+    what was chosen and why (ties, a start moved off a singular force, the singular position, why it is not
+    proven the nearest); ``elapsed`` (s); ``nearest`` True when it is proven the nearest closure (distance 0,
+    or every branch of a mobility-1 mechanism traced whole; ``where`` then says "nearest"), False when it is
+    only the nearest of the closures the search compared."""
 
     q: np.ndarray = field(repr=False)
     where: str
@@ -412,7 +429,6 @@ def assemble_described(c):
                      f"description): took the one with the larger '{system.coordinates[i]}' (the first coordinate "
                      "where they differ); declare a start to take another")
     q = chosen[2]
-    c.check_mobility(q)  # (an isolated closure locks the mechanism: refused before anything is taken there)
     J = c.jacobian(q)
     ends = np.cumsum(c.sizes)
     here = np.array([c.decompose(J[:k])[0] for k in ends])
@@ -423,6 +439,7 @@ def assemble_described(c):
     rank, generic = int(here[-1]), int(max(beside[-1], here[-1]))
     singular = rank < generic
     if singular:
+        c.check_mobility(q)  # (an isolated closure, exactly flat, looks singular: it locks the mechanism)
         lost = int(np.flatnonzero(here < beside)[0])
         notes.append(f"loop '{c.loops[lost].name}': {where} ({_coordinate_text(system, q)}) is a singular position "
                      f"of the mechanism: the loops' Jacobian has rank {rank} there and {generic} at the closures beside "

@@ -531,7 +531,8 @@ class Constraints:
         form is a change point (branches cross), a zero one a redundant equation: both keep their motion."""
         model, nv, cs = self.system.model, self.system.nv, self.col_scale
         J = self.jacobian(q) if J is None else J
-        res = float(np.abs(self.scaled_phi(self.phi(q))).max(initial=0.0))
+        phi0 = self.scaled_phi(self.phi(q))
+        res = float(np.abs(phi0).max(initial=0.0))
         Js = self.row_scale[:, None] * J * cs[None, :]
         if Js.size == 0:
             return ""
@@ -547,7 +548,7 @@ class Constraints:
             return lost.T @ self.scaled_phi(self.phi(pin.integrate(model, q, cs * (N.T @ (h * x)))))
 
         E = np.eye(k)
-        f0 = g(np.zeros(k))
+        f0 = lost.T @ phi0
         H = np.empty((lost.shape[1], k, k))
         for i in range(k):
             H[:, i, i] = g(E[i]) + g(-E[i]) - 2 * f0
