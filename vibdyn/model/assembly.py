@@ -434,6 +434,8 @@ def assemble_described(c):
     here = np.array([c.decompose(J[:k])[0] for k in ends])
     beside = _beside_ranks(c, q, qd)
     for _, _, other in unique:
+        if other is q:  # (its rank is `here`)
+            continue
         Jo = c.jacobian(other)
         beside = np.maximum(beside, [c.decompose(Jo[:k])[0] for k in ends])
     rank, generic = int(here[-1]), int(max(beside[-1], here[-1]))
@@ -442,8 +444,8 @@ def assemble_described(c):
         c.check_mobility(q)  # (an isolated closure, exactly flat, looks singular: it locks the mechanism)
         lost = int(np.flatnonzero(here < beside)[0])
         notes.append(f"loop '{c.loops[lost].name}': {where} ({_coordinate_text(system, q)}) is a singular position "
-                     f"of the mechanism: the loops' Jacobian has rank {rank} there and {generic} at the closures beside "
-                     f"it (mobility {system.nv - rank} there, {system.nv - generic} elsewhere: branches of the motion "
+                     f"of the mechanism: the loops' Jacobian has rank {rank} there and {generic} at the closures "
+                     f"beside it (mobility {system.nv - rank} there, {system.nv - generic} elsewhere: branches of the motion "
                      "cross there); declare a start off it (Scene.set_operating_point(start=...), or q0=)")
     else:
         q, moved = _leave(c, q, qd)
