@@ -248,3 +248,69 @@ def test_a_slider_crank_whose_slider_line_touches_its_reach_is_locked(gap, locke
                                                                            math.sin(crank + rod)])
     assert pin == pytest.approx([r + L - gap, y], abs=1e-12)
     assert abs(y) <= math.sqrt((r + L) ** 2 - (r + L - gap) ** 2) + 1e-12
+
+
+E3, F4, E5, F6 = (0.15, 0.05), (0.125, -0.05), 0.2, 0.2  # Watt six-bar: dyad pivots on coupler and rocker (m)
+
+
+def watt(rotation):
+    """A Watt I six-bar: the bundled four-bar (crank drawn turned by ``rotation``) with a dyad (links 5 and
+    6, 0.2 m each) joining a point E of the coupler to a point F of the rocker, two loops, drawn open."""
+    s = vd.Scene("watt", gravity=(0, -9.81, 0))
+    inertia = np.diag([1e-5, 1e-3, 1e-3])
+    s.add_body("crank", joint=vd.Pivot((0, 0, 1), rotation=np.array(rz(rotation))), mass=1.0, com=(0.05, 0, 0),
+               inertia=inertia)
+    s.add_body("coupler", parent="crank", joint=vd.Pivot((0, 0, 1), at=(A, 0, 0)), mass=0.5, com=(0.15, 0, 0),
+               inertia=inertia)
+    s.add_body("link5", parent="coupler", joint=vd.Pivot((0, 0, 1), at=(*E3, 0)), mass=0.3, com=(0.1, 0, 0),
+               inertia=inertia)
+    s.add_body("rocker", joint=vd.Pivot((0, 0, 1), at=(D, 0, 0)), mass=0.8, com=(0.125, 0, 0), inertia=inertia)
+    s.add_body("link6", parent="rocker", joint=vd.Pivot((0, 0, 1), at=(*F4, 0)), mass=0.3, com=(0.1, 0, 0),
+               inertia=inertia)
+    s.add_loop("C", ("coupler", (B, 0, 0)), ("rocker", (C, 0, 0)), joint=vd.Pivot((0, 0, 1)))
+    s.add_loop("G", ("link5", (E5, 0, 0)), ("link6", (F6, 0, 0)), joint=vd.Pivot((0, 0, 1)))
+    return s
+
+
+def watt_branches(theta, rotation):
+    """Hand closure: {(i, j): joint coordinates (crank, coupler, link5, rocker, link6)} of the Watt six-bar's
+    four assembly modes (the four-bar's mode i, the dyad's j) with the crank at ``theta``; the modes that
+    cannot close there are left out."""
+    out = {}
+    for i, x in enumerate(four_bar_branches(theta, rotation) or []):
+        phi = rotation + theta
+        psi3, psi4 = phi + x[1], x[2]
+        Bp, Dp = A * np.array([math.cos(phi), math.sin(phi)]), np.array([D, 0.0])
+        E = Bp + np.array(rz(psi3))[:2, :2] @ E3
+        F = Dp + np.array(rz(psi4))[:2, :2] @ F4
+        for j, G in enumerate(circle_intersections(E, E5, F, F6) or []):
+            psi5, psi6 = math.atan2(*(G - E)[::-1]), math.atan2(*(G - F)[::-1])
+            out[i, j] = np.array([theta, x[1], psi5 - psi3, psi4, psi6 - psi4])
+    return out
+
+
+@pytest.mark.parametrize("rotation", [0.5, 3.0])
+def test_a_watt_six_bar_drawn_open_assembles_at_the_nearest_of_its_four_assembly_modes(rotation):
+    """Two loops: the nearest closure over the four assembly modes of a Watt six-bar (hand closure: the
+    four-bar's circle intersection, then the dyad's, at each crank angle of a fine grid, refined by a bounded
+    search on each mode). Drawn with the crank turned 0.5 (3.0) rad the assembly took a closure at 3.21
+    (4.13) where a mode closes at 1.55 (2.47)."""
+    system = watt(rotation).build()
+    a = system.constraints.assembly()
+    assert a.where == NEAREST and a.nearest and a.dof == 1
+    x = system.difference(system.neutral(), a.q)
+    grid = np.linspace(-np.pi, np.pi, 4001)
+    best = (np.inf, None)
+    for k in ((0, 0), (0, 1), (1, 0), (1, 1)):
+        def distance(t):
+            mode = watt_branches(t, rotation).get(k)
+            return np.inf if mode is None else float(np.linalg.norm(wrap(mode)))
+
+        d = np.array([distance(t) for t in grid])
+        i = int(np.argmin(d))
+        r = minimize_scalar(distance, bounds=(grid[max(i - 1, 0)], grid[min(i + 1, 4000)]), method="bounded",
+                            options={"xatol": 1e-12})
+        best = min(best, (float(r.fun), k), key=lambda b: b[0])
+    assert a.distance == pytest.approx(best[0], abs=1e-8)
+    gaps = [np.abs(wrap(x - h)).max() for h in watt_branches(x[0], rotation).values()]
+    assert min(gaps) <= 1e-9  # on a hand assembly mode

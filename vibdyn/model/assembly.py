@@ -54,9 +54,10 @@ BESIDE = 1e-3  # step to the closures beside one, for the rank there (dimensionl
 LEAVE = (1e-3, 1e-2, 1e-1)  # steps along the motion off a closure where the forces are undefined
 TRACE_STEP, TRACE_MIN_STEP = 0.2, 1e-3  # arclength steps (dimensionless) of the trace along a branch
 TRACE_MAX = 2000  # samples of one branch before its trace is given up (the nearest is then not proven)
-PARTNER_POINTS = 3  # points along each traced branch where the other assembly modes are sought
-PARTNER_MAX = 64  # restarts of the dependent coordinates per point (a seeded sample if there are more)
-PARTNER_ITER = 8  # Newton iterations of one restart (a start that converges needs fewer)
+PARTNER_POINTS = 2  # points along each traced branch where the other assembly modes are sought
+PARTNER_MAX = 12  # restarts of the dependent coordinates per point (see _partners)
+PARTNER_ITER, PARTNER_OPEN = (4, 6), 1e-2  # Newton iterations of a restart, in two runs, the second only for
+# a restart whose dimensionless residual is below PARTNER_OPEN after the first
 MAX_BRANCHES = 16  # branches traced before the search gives up proving the nearest
 WHERE = "the closure nearest the neutral configuration"
 WHERE_FOUND = "a closure found near the neutral configuration"  # (the nearest of those found, not proven)
@@ -188,7 +189,9 @@ def _partners(c, q, qd):
     """The other closures with q's independent coordinates (the other assembly modes there: the mirror image
     of a four-bar's coupler and rocker about the line they span): Gauss–Newton on the dependent coordinates
     (:meth:`Constraints.close`) from q's moved by 0, ±2π/3 (angles) or 0, ±1 × the length scale (others)
-    each, every combination but q's own (a seeded sample of PARTNER_MAX where there are more)."""
+    each: every combination but q's own where there are at most PARTNER_MAX, else each coordinate moved alone
+    and a seeded sample of the other combinations up to PARTNER_MAX. A restart still open by PARTNER_OPEN
+    after PARTNER_ITER iterations is dropped (it is not converging)."""
     model, cs, nv = c.system.model, c.col_scale, c.system.nv
     ind, _ = c.partition(c.jacobian(q))
     dep = np.setdiff1d(np.arange(nv), ind)
@@ -196,17 +199,30 @@ def _partners(c, q, qd):
                for i in dep]
     combos = list(itertools.islice(itertools.product(*choices), 1, None))
     if len(combos) > PARTNER_MAX:
-        pick = np.random.default_rng(0).choice(len(combos), PARTNER_MAX, replace=False)
-        combos = [combos[i] for i in np.sort(pick)]
+        singles = [x for x in combos if np.count_nonzero(x) == 1]
+        others = [x for x in combos if np.count_nonzero(x) > 1]
+        n = max(PARTNER_MAX - len(singles), 0)
+        pick = np.random.default_rng(0).choice(len(others), n, replace=False)
+        combos = singles + [others[i] for i in np.sort(pick)]
     out = []
     for combo in combos:
         x = np.zeros(nv)
         x[dep] = combo
-        try:
-            with np.errstate(over="ignore", invalid="ignore"):
-                q1 = c.within_pi(c.close(pin.integrate(model, q, cs * x), dep, max_iter=PARTNER_ITER), qd)
-        except ConvergenceError:
+        q1 = pin.integrate(model, q, cs * x)
+        for iterations in PARTNER_ITER:  # (a few iterations first: most restarts that fail are far off by then)
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    q1 = c.close(q1, dep, max_iter=iterations)
+                break
+            except ConvergenceError as e:
+                q1 = e.best if e.residual <= PARTNER_OPEN else None
+                if q1 is None:
+                    break
+        else:
+            q1 = None
+        if q1 is None:
             continue
+        q1 = c.within_pi(q1, qd)
         if _gap(c, q, q1) > SAME and all(_gap(c, o, q1) > SAME for o in out):
             out.append(q1)
     return out
