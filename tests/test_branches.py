@@ -289,18 +289,22 @@ def watt_branches(theta, rotation):
     return out
 
 
-@pytest.mark.parametrize("rotation", [0.5, 3.0])
-def test_a_watt_six_bar_drawn_open_assembles_at_the_nearest_of_its_four_assembly_modes(rotation):
-    """Two loops: the nearest closure over the four assembly modes of a Watt six-bar (hand closure: the
-    four-bar's circle intersection, then the dyad's, at each crank angle of a fine grid, refined by a bounded
-    search on each mode). Drawn with the crank turned 0.5 (3.0) rad the assembly took a closure at 3.21
-    (4.13) where a mode closes at 1.55 (2.47)."""
+@pytest.mark.parametrize("rotation", [0.0, 0.5, 3.0])
+def test_a_watt_six_bar_drawn_open_is_not_called_nearest_unless_it_is(rotation):
+    """Two loops, four dependent coordinates: the Watt six-bar's assembly modes (four: the four-bar's two, each
+    with the dyad's two) are sampled by restarts, not enumerated, so its closure is not called the nearest,
+    and the note says why. Drawn with the crank turned 0, 0.5, 3.0 rad the assembly took closures at 2.04,
+    3.21, 4.13 and called them nearest where a hand mode closes at 1.65, 1.55, 2.47 (hand closure: the
+    four-bar's circle intersection, then the dyad's, on a fine grid of the crank's turn refined by a bounded
+    search on each mode). Now the closure is on a hand mode, never nearer than the hand nearest, and for these
+    drawings it is that one."""
     system = watt(rotation).build()
     a = system.constraints.assembly()
-    assert a.where == NEAREST and a.nearest and a.dof == 1
+    assert not a.nearest and a.where == "a closure found near the neutral configuration" and a.dof == 1
+    assert "not proven the nearest" in a.note and "sampled" in a.note
     x = system.difference(system.neutral(), a.q)
     grid = np.linspace(-np.pi, np.pi, 4001)
-    best = (np.inf, None)
+    best = np.inf
     for k in ((0, 0), (0, 1), (1, 0), (1, 1)):
         def distance(t):
             mode = watt_branches(t, rotation).get(k)
@@ -310,7 +314,8 @@ def test_a_watt_six_bar_drawn_open_assembles_at_the_nearest_of_its_four_assembly
         i = int(np.argmin(d))
         r = minimize_scalar(distance, bounds=(grid[max(i - 1, 0)], grid[min(i + 1, 4000)]), method="bounded",
                             options={"xatol": 1e-12})
-        best = min(best, (float(r.fun), k), key=lambda b: b[0])
-    assert a.distance == pytest.approx(best[0], abs=1e-8)
+        best = min(best, float(r.fun))
     gaps = [np.abs(wrap(x - h)).max() for h in watt_branches(x[0], rotation).values()]
     assert min(gaps) <= 1e-9  # on a hand assembly mode
+    assert a.distance >= best - 1e-8
+    assert a.distance == pytest.approx(best, abs=1e-8)

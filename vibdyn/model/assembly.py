@@ -55,7 +55,7 @@ LEAVE = (1e-3, 1e-2, 1e-1)  # steps along the motion off a closure where the for
 TRACE_STEP, TRACE_MIN_STEP = 0.2, 1e-3  # arclength steps (dimensionless) of the trace along a branch
 TRACE_MAX = 2000  # samples of one branch before its trace is given up (the nearest is then not proven)
 PARTNER_POINTS = 2  # points along each traced branch where the other assembly modes are sought
-PARTNER_MAX = 12  # restarts of the dependent coordinates per point (see _partners)
+PARTNER_MAX = 26  # restarts of the dependent coordinates per point: the whole grid of up to 3 (see _partners)
 PARTNER_ITER, PARTNER_OPEN = (4, 6), 1e-2  # Newton iterations of a restart, in two runs, the second only for
 # a restart whose dimensionless residual is below PARTNER_OPEN after the first
 MAX_BRANCHES = 16  # branches traced before the search gives up proving the nearest
@@ -181,24 +181,26 @@ def _trace(c, q0, qd):
         if len(samples) > 1 and np.linalg.norm(ahead) <= h and ahead @ t1 > 0:
             return samples, True
         samples.append(q1)
-        q, t, h = q1, t1, min(TRACE_STEP, 2 * h)
+        q, t, h = q1, t1, min(TRACE_STEP, 1.5 * h)
     return samples, False
 
 
 def _partners(c, q, qd):
-    """The other closures with q's independent coordinates (the other assembly modes there: the mirror image
-    of a four-bar's coupler and rocker about the line they span): Gauss–Newton on the dependent coordinates
-    (:meth:`Constraints.close`) from q's moved by 0, ±2π/3 (angles) or 0, ±1 × the length scale (others)
-    each: every combination but q's own where there are at most PARTNER_MAX, else each coordinate moved alone
-    and a seeded sample of the other combinations up to PARTNER_MAX. A restart still open by PARTNER_OPEN
-    after PARTNER_ITER iterations is dropped (it is not converging)."""
+    """(closures, complete): the other closures with q's independent coordinates (the other assembly modes
+    there: the mirror image of a four-bar's coupler and rocker about the line they span): Gauss–Newton on the
+    dependent coordinates (:meth:`Constraints.close`) from q's moved by 0, ±2π/3 (angles) or 0, ±1 × the
+    length scale (others) each: every combination but q's own where there are at most PARTNER_MAX, else each
+    coordinate moved alone and a seeded sample of the other combinations up to PARTNER_MAX (``complete``
+    False: sampled, not the whole grid). A restart still open by PARTNER_OPEN after PARTNER_ITER iterations
+    is dropped (it is not converging)."""
     model, cs, nv = c.system.model, c.col_scale, c.system.nv
     ind, _ = c.partition(c.jacobian(q))
     dep = np.setdiff1d(np.arange(nv), ind)
     choices = [(0.0, 2 * np.pi / 3, -2 * np.pi / 3) if c.system.units[i] == "rad" else (0.0, 1.0, -1.0)
                for i in dep]
     combos = list(itertools.islice(itertools.product(*choices), 1, None))
-    if len(combos) > PARTNER_MAX:
+    complete = len(combos) <= PARTNER_MAX
+    if not complete:
         singles = [x for x in combos if np.count_nonzero(x) == 1]
         others = [x for x in combos if np.count_nonzero(x) > 1]
         n = max(PARTNER_MAX - len(singles), 0)
@@ -225,7 +227,7 @@ def _partners(c, q, qd):
         q1 = c.within_pi(q1, qd)
         if _gap(c, q, q1) > SAME and all(_gap(c, o, q1) > SAME for o in out):
             out.append(q1)
-    return out
+    return out, complete
 
 
 def _local_minima(d, whole):
@@ -238,18 +240,20 @@ def _local_minima(d, whole):
 
 
 def _branches(c, qd, seeds):
-    """(candidates, branches, whole) of a one-mobility mechanism: each branch of the loops' closures reached
+    """(candidates, branches, whole, complete) of a one-mobility mechanism: each branch of the loops' closures reached
     from the ``seeds`` is traced (:func:`_trace`); the local minima of its distance to qd are the candidates
     (to be slid to the nearest); at PARTNER_POINTS points along it and at its minima the other assembly modes
     are sought (:func:`_partners`), and each not on a traced branch is traced in turn. ``whole``: every
-    branch met was traced whole (closed curves) within MAX_BRANCHES."""
-    queue, branches, candidates, whole = list(seeds), [], [], True
+    branch met was traced whole (closed curves) within MAX_BRANCHES; ``complete``: every search for the other
+    modes tried its whole grid of restarts (:func:`_partners`). (A branch reached as a partner is not
+    searched again at its first point, where the search that found it was.)"""
+    queue, branches, candidates, whole, complete = [(q, False) for q in seeds], [], [], True, True
     while queue:
-        q = queue.pop(0)
+        q, partner = queue.pop(0)
         if any(_gaps(c, q, S).min() <= 0.6 * step for S, step in branches):  # (on a traced branch)
             continue
         if len(branches) == MAX_BRANCHES:
-            return candidates, len(branches), False
+            return candidates, len(branches), False, complete
         samples, closed = _trace(c, q, qd)
         whole = whole and closed
         S = np.array(samples)
@@ -257,9 +261,12 @@ def _branches(c, qd, seeds):
         branches.append((S, max((_gap(c, p, r) for p, r in zip(samples, ends)), default=0.0)))
         mins = _local_minima(_gaps(c, qd, S), closed)
         candidates += [samples[i] for i in mins]
-        for i in sorted(set(mins) | set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS)):
-            queue += _partners(c, samples[i], qd)
-    return candidates, len(branches), whole
+        points = set(mins) | set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS)
+        for i in sorted(points - ({0} if partner else set())):
+            found, grid = _partners(c, samples[i], qd)
+            complete = complete and grid
+            queue += [(p, True) for p in found]
+    return candidates, len(branches), whole, complete
 
 
 def _nearest(c, qd, q):
@@ -418,11 +425,14 @@ def assemble_described(c):
         dof = system.nv - c.rank(min(unique, key=lambda u: u[0])[2])
         seeds = [q for _, _, q in unique]
         if dof == 1:
-            more, branches, whole = _branches(c, qd, seeds)
+            more, branches, whole, complete = _branches(c, qd, seeds)
             why = "" if whole else (f"a branch of its closures could not be traced whole ({branches} traced: a "
                                     "singular position, a step that could not be closed on it, or too many)")
+            if whole and not complete:
+                why = (f"its {branches} branches were traced whole, but its assembly modes were sampled ({PARTNER_MAX} "
+                       "restarts of its dependent coordinates at each point), not enumerated")
         else:
-            more = [p for q in seeds for p in _partners(c, q, qd)]
+            more = [p for q in seeds for p in _partners(c, q, qd)[0]]
             why = (f"the mechanism has mobility {dof} there: its closures form surfaces, which are not traced (the "
                    f"closures of {tried} starts and their other assembly modes were compared)")
         unique, held = _compared(c, qd, seeds + more)
@@ -461,8 +471,8 @@ def assemble_described(c):
         lost = int(np.flatnonzero(here < beside)[0])
         notes.append(f"loop '{c.loops[lost].name}': {where} ({_coordinate_text(system, q)}) is a singular position "
                      f"of the mechanism: the loops' Jacobian has rank {rank} there and {generic} at the closures "
-                     f"beside it (mobility {system.nv - rank} there, {system.nv - generic} elsewhere: branches of the motion "
-                     "cross there); declare a start off it (Scene.set_operating_point(start=...), or q0=)")
+                     f"beside it (mobility {system.nv - rank} there, {system.nv - generic} elsewhere: branches of the "
+                     "motion cross there); declare a start off it (Scene.set_operating_point(start=...), or q0=)")
     else:
         q, moved = _leave(c, q, qd)
         if moved:
