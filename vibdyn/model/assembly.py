@@ -22,8 +22,10 @@ within π of the described one (q and q ± 2π are one pose: the shorter way rou
    other closures with the same independent coordinates: a four-bar's mirror-image coupler and rocker) are
    sought by Gauss–Newton restarts of the dependent coordinates and traced in turn. The nearest of all is
    taken, and called "the closure nearest the neutral configuration" (``Assembly.nearest``) only when every
-   branch met was traced whole (and no slide ended beyond a limit); otherwise (mobility 2 or more: surfaces,
-   not traced; a branch cut by a singular position) it is "a closure found near the neutral configuration",
+   branch met was traced whole, each search for the other modes tried its whole grid of restarts (up to
+   three dependent coordinates: :func:`_partners`) and no slide ended beyond a limit; otherwise (mobility 2
+   or more: surfaces, not traced; a branch cut by a singular position; modes sampled, not enumerated, with
+   more dependent coordinates) it is "a closure found near the neutral configuration",
    the nearest of those compared, and ``.note`` says why it is not proven. Ties (the mirror images of a
    symmetric description) go to the closure whose first differing coordinate is larger, and are noted.
 4. A closure that is isolated (the loops close only there: links whose lengths add up, stretched flat) locks
