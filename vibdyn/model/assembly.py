@@ -1,9 +1,13 @@
 """Assembly of a looped scene from its described pose: with no declared start, analyses begin at the closure
 of the loops nearest the neutral configuration (every joint at its zero, as the scene was drawn).
 
+Distance: the dimensionless tangent-space norm |x| of x = difference(q_d, q) / s (s: 1 for angles, the length
+scale for translations), each periodic angle (pivots, the angles of cylindrical and universal joints) taken
+within π of the described one (q and q ± 2π are one pose: the shorter way round counts).
+
 1. Trust-region least squares (scipy's ``least_squares``) on the dimensionless loop residual Φ in the chart
-   q(x) = integrate(q_d, s·x) at the described pose q_d (s: 1 for angles, the length scale for
-   translations), polished to round-off by the loops' Gauss–Newton (:meth:`Constraints.assemble`).
+   q(x) = integrate(q_d, s·x) at the described pose q_d, polished to round-off by the loops' Gauss–Newton
+   (:meth:`Constraints.assemble`).
 2. Where that fails (a linkage laid flat is a stationary point of |Φ|²), restarts from perturbed poses:
    ±r along each coordinate for each r of :data:`RESTART_RADII`, then seeded random poses; the first round
    that closes the loops ends the search.
@@ -11,14 +15,28 @@ of the loops nearest the neutral configuration (every joint at its zero, as the 
    to the next round, and if every closure found is beyond them the assembly is refused naming the first
    coordinate and its limit.
 3. Each closure found is slid along the loops to the closure nearest q_d (steps towards q_d projected on
-   the null space of Φ_q, each closed again); the nearest of them is taken. Ties (the mirror images of a
+   the null space of Φ_q, each closed again). Unless the described pose closes the loops itself (distance 0),
+   the branches are then enumerated before one is called nearest: with mobility 1, each branch is traced
+   by arclength continuation until it comes back to its start (a closed curve, traced whole), the local
+   minima of its distance are slid to the nearest, and at points along it the other assembly modes (the
+   other closures with the same independent coordinates: a four-bar's mirror-image coupler and rocker) are
+   sought by Gauss–Newton restarts of the dependent coordinates and traced in turn. The nearest of all is
+   taken, and called "the closure nearest the neutral configuration" (``Assembly.nearest``) only when every
+   branch met was traced whole, each search for the other modes tried its whole grid of restarts (up to
+   three dependent coordinates: :func:`_partners`) and no slide ended beyond a limit; otherwise (mobility 2
+   or more: surfaces, not traced; a branch cut by a singular position; modes sampled, not enumerated, with
+   more dependent coordinates) it is "a closure found near the neutral configuration",
+   the nearest of those compared, and ``.note`` says why it is not proven. Ties (the mirror images of a
    symmetric description) go to the closure whose first differing coordinate is larger, and are noted.
-4. The mobility is taken there. A singular position (rank of Φ_q below its rank at the closures beside it:
-   a change point) is kept in the :class:`Assembly` and refused as a start, naming the loop; a closure
-   where the scene's forces are undefined (a spring whose ends meet) is left along the mechanism's motion,
-   the first coordinate that moves increasing.
+4. A closure that is isolated (the loops close only there: links whose lengths add up, stretched flat) locks
+   the mechanism: refused (:meth:`Constraints.check_mobility`). The mobility is taken there. A singular
+   position (rank of Φ_q below its rank at the closures beside it: a change point) is kept in the
+   :class:`Assembly` and refused as a start, naming the loop; a closure where the scene's forces are
+   undefined (a spring whose ends meet) is left along the mechanism's motion, the first coordinate that
+   moves increasing.
 """
 
+import itertools
 import time
 from dataclasses import dataclass, field
 
@@ -36,7 +54,15 @@ SAME = 1e-6  # closures nearer each other than this (dimensionless) are one
 TIE_RTOL = 1e-7  # distances within this (relative) are a tie
 BESIDE = 1e-3  # step to the closures beside one, for the rank there (dimensionless)
 LEAVE = (1e-3, 1e-2, 1e-1)  # steps along the motion off a closure where the forces are undefined
+TRACE_STEP, TRACE_MIN_STEP = 0.2, 1e-3  # arclength steps (dimensionless) of the trace along a branch
+TRACE_MAX = 2000  # samples of one branch before its trace is given up (the nearest is then not proven)
+PARTNER_POINTS = 2  # points along each traced branch where the other assembly modes are sought
+PARTNER_MAX = 26  # restarts of the dependent coordinates per point: the whole grid of up to 3 (see _partners)
+PARTNER_ITER, PARTNER_OPEN = (4, 6), 1e-2  # Newton iterations of a restart, in two runs, the second only for
+# a restart whose dimensionless residual is below PARTNER_OPEN after the first
+MAX_BRANCHES = 16  # branches traced before the search gives up proving the nearest
 WHERE = "the closure nearest the neutral configuration"
+WHERE_FOUND = "a closure found near the neutral configuration"  # (the nearest of those found, not proven)
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,8 +73,10 @@ class Assembly:
     coordinate) and ``distance`` (dimensionless) from the neutral configuration; ``dof`` = nv − ``rank`` the
     mobility found there, ``generic_rank`` the rank of Φ_q at the closures beside it; ``singular`` when
     rank < generic_rank (a change point: refused as a start); ``starts`` the least-squares runs; ``note``
-    what was chosen and why (ties, a start moved off a singular force, the singular position); ``elapsed``
-    (s)."""
+    what was chosen and why (ties, a start moved off a singular force, the singular position, why it is not
+    proven the nearest); ``elapsed`` (s); ``nearest`` True when it is proven the nearest closure (distance 0,
+    or every branch of a mobility-1 mechanism traced whole; ``where`` then says "nearest"), False when it is
+    only the nearest of the closures the search compared."""
 
     q: np.ndarray = field(repr=False)
     where: str
@@ -62,6 +90,7 @@ class Assembly:
     starts: int
     note: str
     elapsed: float
+    nearest: bool = True
 
     def __repr__(self):
         state = "SINGULAR" if self.singular else f"dof {self.dof}"
@@ -108,6 +137,140 @@ def _offsets(c, qd, q):
     return pin.difference(c.system.model, qd, q) / c.col_scale
 
 
+def _gap(c, a, b):
+    """Dimensionless tangent distance from a to b, b's periodic angles taken within π of a's."""
+    return float(np.linalg.norm(_offsets(c, a, c.within_pi(b.copy(), a))))
+
+
+def _gaps(c, q, samples):
+    """:func:`_gap` from q to each of ``samples`` (an array of configurations, one a row)."""
+    model, iq = c.system.model, c.system.periodic_coordinates
+    if model.nq != model.nv:  # (a Lie group other than ℝⁿ: one by one)
+        return np.array([_gap(c, q, s) for s in samples])
+    d = samples - q
+    d[:, iq] -= 2 * np.pi * np.round(d[:, iq] / (2 * np.pi))
+    return np.linalg.norm(d / c.col_scale, axis=1)
+
+
+def _tangent(c, q, previous):
+    """The unit (dimensionless) direction of the one motion the loops allow at q, turned to go on along
+    ``previous``; None where the mobility there is not 1."""
+    rank, _, _, Vt = c.decompose(c.jacobian(q))
+    if c.system.nv - rank != 1:
+        return None
+    t = Vt[-1]
+    return -t if previous is not None and t @ previous < 0 else t
+
+
+def _trace(c, q0, qd):
+    """(samples, whole) of the branch through the closure q0 of a one-mobility mechanism: arclength steps of
+    TRACE_STEP (dimensionless) along the motion, each closed again by Gauss–Newton (halved down to
+    TRACE_MIN_STEP where the corrector fails, jumps or turns back); ``whole`` when the trace comes back to q0
+    (the branch is a closed curve, traced whole), False where it stops (a singular position, a step that
+    cannot be closed, TRACE_MAX samples)."""
+    model, cs = c.system.model, c.col_scale
+    t = _tangent(c, q0, None)
+    samples, q, h = [q0], q0, TRACE_STEP
+    while t is not None and len(samples) < TRACE_MAX:
+        q1 = _close(c, pin.integrate(model, q, cs * (h * t)), qd)
+        t1 = None if q1 is None else _tangent(c, q1, t)
+        if t1 is None or _gap(c, q, q1) > 2 * h or t1 @ t < 0.5:
+            if h / 2 < TRACE_MIN_STEP:
+                return samples, False
+            h /= 2
+            continue
+        ahead = _offsets(c, q1, c.within_pi(q0.copy(), q1))  # (q0 ahead along the motion: the loop is closing)
+        if len(samples) > 1 and np.linalg.norm(ahead) <= h and ahead @ t1 > 0:
+            return samples, True
+        samples.append(q1)
+        q, t, h = q1, t1, min(TRACE_STEP, 1.5 * h)
+    return samples, False
+
+
+def _partners(c, q, qd):
+    """(closures, complete): the other closures with q's independent coordinates (the other assembly modes
+    there: the mirror image of a four-bar's coupler and rocker about the line they span): Gauss–Newton on the
+    dependent coordinates (:meth:`Constraints.close`) from q's moved by 0, ±2π/3 (angles) or 0, ±1 × the
+    length scale (others) each: every combination but q's own where there are at most PARTNER_MAX, else each
+    coordinate moved alone and a seeded sample of the other combinations up to PARTNER_MAX (``complete``
+    False: sampled, not the whole grid). A restart still open by PARTNER_OPEN after PARTNER_ITER iterations
+    is dropped (it is not converging)."""
+    model, cs, nv = c.system.model, c.col_scale, c.system.nv
+    ind, _ = c.partition(c.jacobian(q))
+    dep = np.setdiff1d(np.arange(nv), ind)
+    choices = [(0.0, 2 * np.pi / 3, -2 * np.pi / 3) if c.system.units[i] == "rad" else (0.0, 1.0, -1.0)
+               for i in dep]
+    combos = list(itertools.islice(itertools.product(*choices), 1, None))
+    complete = len(combos) <= PARTNER_MAX
+    if not complete:
+        singles = [x for x in combos if np.count_nonzero(x) == 1]
+        others = [x for x in combos if np.count_nonzero(x) > 1]
+        n = max(PARTNER_MAX - len(singles), 0)
+        pick = np.random.default_rng(0).choice(len(others), n, replace=False)
+        combos = singles + [others[i] for i in np.sort(pick)]
+    out = []
+    for combo in combos:
+        x = np.zeros(nv)
+        x[dep] = combo
+        q1 = pin.integrate(model, q, cs * x)
+        for iterations in PARTNER_ITER:  # (a few iterations first: most restarts that fail are far off by then)
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    q1 = c.close(q1, dep, max_iter=iterations)
+                break
+            except ConvergenceError as e:
+                q1 = e.best if e.residual <= PARTNER_OPEN else None
+                if q1 is None:
+                    break
+        else:
+            q1 = None
+        if q1 is None:
+            continue
+        q1 = c.within_pi(q1, qd)
+        if _gap(c, q, q1) > SAME and all(_gap(c, o, q1) > SAME for o in out):
+            out.append(q1)
+    return out, complete
+
+
+def _local_minima(d, whole):
+    """Indices of the local minima of the distances d along a branch (cyclic where ``whole``; else its ends
+    count)."""
+    n = len(d)
+    if whole:
+        return [i for i in range(n) if d[i] <= d[i - 1] and d[i] <= d[(i + 1) % n]]
+    return [i for i in range(n) if (i == 0 or d[i] <= d[i - 1]) and (i == n - 1 or d[i] <= d[i + 1])]
+
+
+def _branches(c, qd, seeds):
+    """(candidates, branches, whole, complete) of a one-mobility mechanism: each branch of the loops' closures reached
+    from the ``seeds`` is traced (:func:`_trace`); the local minima of its distance to qd are the candidates
+    (to be slid to the nearest); at PARTNER_POINTS points along it and at its minima the other assembly modes
+    are sought (:func:`_partners`), and each not on a traced branch is traced in turn. ``whole``: every
+    branch met was traced whole (closed curves) within MAX_BRANCHES; ``complete``: every search for the other
+    modes tried its whole grid of restarts (:func:`_partners`). (A branch reached as a partner is not
+    searched again at its first point, where the search that found it was.)"""
+    queue, branches, candidates, whole, complete = [(q, False) for q in seeds], [], [], True, True
+    while queue:
+        q, partner = queue.pop(0)
+        if any(_gaps(c, q, S).min() <= 0.6 * step for S, step in branches):  # (on a traced branch)
+            continue
+        if len(branches) == MAX_BRANCHES:
+            return candidates, len(branches), False, complete
+        samples, closed = _trace(c, q, qd)
+        whole = whole and closed
+        S = np.array(samples)
+        ends = samples[1:] + (samples[:1] if closed else [])
+        branches.append((S, max((_gap(c, p, r) for p, r in zip(samples, ends)), default=0.0)))
+        mins = _local_minima(_gaps(c, qd, S), closed)
+        candidates += [samples[i] for i in mins]
+        points = set(mins) | set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS)
+        for i in sorted(points - ({0} if partner else set())):
+            found, grid = _partners(c, samples[i], qd)
+            complete = complete and grid
+            queue += [(p, True) for p in found]
+    return candidates, len(branches), whole, complete
+
+
 def _nearest(c, qd, q):
     """The closure nearest qd reached from the closure q along the loops: the step towards qd projected on
     the null space of Φ_q (dimensionless metric), closed again, until it vanishes or stops shortening."""
@@ -138,11 +301,19 @@ def _beyond(system, q):
     return ""
 
 
-def _within_limits(c, qd, q):
-    """The closure nearest qd reached from q (:func:`_nearest`), or q itself where that one is beyond the
-    limits."""
-    q1 = _nearest(c, qd, q)
-    return q if _beyond(c.system, q1) else q1
+def _compared(c, qd, closures):
+    """([(distance, offsets, q)] of the distinct closures reached from ``closures`` by :func:`_nearest`, each
+    kept where it ends within the position limits (else the closure it started from), held): ``held`` when
+    some slide ended beyond the limits. Distances dimensionless, periodic angles within π of qd's."""
+    out, held = [], False
+    for q in closures:
+        q1 = _nearest(c, qd, q)
+        if _beyond(c.system, q1):
+            q1, held = q, True
+        x = _offsets(c, qd, q1)
+        if all(np.abs(x - y).max() > SAME for _, y, _ in out):
+            out.append((float(np.linalg.norm(x)), x, q1))
+    return out, held
 
 
 def _closures(c, qd):
@@ -250,19 +421,36 @@ def assemble_described(c):
             ": its bodies cannot reach each other as described (check the loop's points and the links' lengths), "
             "or declare a start near a closed configuration (Scene.set_operating_point(start=...))",
             residual=res, best=q_open)
-    unique = []
-    for q in (_within_limits(c, qd, q) for q in found):
-        x = _offsets(c, qd, q)
-        if all(np.abs(x - y).max() > SAME for _, y, _ in unique):
-            unique.append((float(np.linalg.norm(x)), x, q))
-    d_min = min(d for d, _, _ in unique)
+    unique, held = _compared(c, qd, found)
+    d_min, notes, why = min(d for d, _, _ in unique), [], ""
+    if d_min > SAME:  # (the described pose closes: nothing is nearer)
+        dof = system.nv - c.rank(min(unique, key=lambda u: u[0])[2])
+        seeds = [q for _, _, q in unique]
+        if dof == 1:
+            more, branches, whole, complete = _branches(c, qd, seeds)
+            why = "" if whole else (f"a branch of its closures could not be traced whole ({branches} traced: a "
+                                    "singular position, a step that could not be closed on it, or too many)")
+            if whole and not complete:
+                why = (f"its {branches} branches were traced whole, but its assembly modes were sampled ({PARTNER_MAX} "
+                       "restarts of its dependent coordinates at each point), not enumerated")
+        else:
+            more = [p for q in seeds for p in _partners(c, q, qd)[0]]
+            why = (f"the mechanism has mobility {dof} there: its closures form surfaces, which are not traced (the "
+                   f"closures of {tried} starts and their other assembly modes were compared)")
+        unique, held = _compared(c, qd, seeds + more)
+        d_min = min(d for d, _, _ in unique)
+        if held and not why:
+            why = ("the nearest closure on some branch is beyond the position limits: the one taken is the nearest "
+                   "of the search within them")
+    where = WHERE_FOUND if why else WHERE
     tied = [u for u in unique if u[0] <= d_min * (1 + TIE_RTOL) + SAME]
     chosen, k = tied[0], 0
     for other in tied[1:]:
         k = int(np.flatnonzero(np.abs(other[1] - chosen[1]) > SAME)[0])
         if other[1][k] > chosen[1][k]:
             chosen = other
-    notes = []
+    if why:
+        notes.append(f"not proven the nearest: {why}; the nearest of {len(unique)} distinct closures compared")
     if len(tied) > 1:
         i = int(np.flatnonzero(np.abs(tied[0][1] - tied[1][1]) > SAME)[0])
         notes.append(f"{len(tied)} closures at the same distance {d_min:.6g} (mirror images of a symmetric "
@@ -274,22 +462,25 @@ def assemble_described(c):
     here = np.array([c.decompose(J[:k])[0] for k in ends])
     beside = _beside_ranks(c, q, qd)
     for _, _, other in unique:
+        if other is q:  # (its rank is `here`)
+            continue
         Jo = c.jacobian(other)
         beside = np.maximum(beside, [c.decompose(Jo[:k])[0] for k in ends])
     rank, generic = int(here[-1]), int(max(beside[-1], here[-1]))
     singular = rank < generic
     if singular:
+        c.check_mobility(q)  # (an isolated closure, exactly flat, looks singular: it locks the mechanism)
         lost = int(np.flatnonzero(here < beside)[0])
-        notes.append(f"loop '{c.loops[lost].name}': {WHERE} ({_coordinate_text(system, q)}) is a singular position "
-                     f"of the mechanism: the loops' Jacobian has rank {rank} there and {generic} at the closures beside "
-                     f"it (mobility {system.nv - rank} there, {system.nv - generic} elsewhere: branches of the motion "
-                     "cross there); declare a start off it (Scene.set_operating_point(start=...), or q0=)")
+        notes.append(f"loop '{c.loops[lost].name}': {where} ({_coordinate_text(system, q)}) is a singular position "
+                     f"of the mechanism: the loops' Jacobian has rank {rank} there and {generic} at the closures "
+                     f"beside it (mobility {system.nv - rank} there, {system.nv - generic} elsewhere: branches of the "
+                     "motion cross there); declare a start off it (Scene.set_operating_point(start=...), or q0=)")
     else:
-        q, why = _leave(c, q, qd)
-        if why:
-            notes.append(why)
-        q = c.assemble(q, start=WHERE)  # (recorded: the mobility is taken here; a locking loop is named)
+        q, moved = _leave(c, q, qd)
+        if moved:
+            notes.append(moved)
+        q = c.assemble(q, start=where)  # (recorded: the mobility is taken here; a locking loop is named)
     phi = float(np.abs(c.scaled_phi(c.phi(q))).max(initial=0.0))
     x = _offsets(c, qd, q)
-    return Assembly(q, WHERE, phi, x * c.col_scale, float(np.linalg.norm(x)), system.nv - rank, rank, generic,
-                    singular, tried, "; ".join(notes), time.perf_counter() - start)
+    return Assembly(q, where, phi, x * c.col_scale, float(np.linalg.norm(x)), system.nv - rank, rank, generic,
+                    singular, tried, "; ".join(notes), time.perf_counter() - start, not why)

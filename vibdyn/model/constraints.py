@@ -34,6 +34,10 @@ class _End:
 
 DRIFT_RANK = 1e3  # singular values below this × the drift off the loops do not count (decompose)
 MAX_STEP = 0.5  # largest tangent step of one assembly iteration (rad, or × the length scale m)
+LOCK_SIGMA = 10.0  # singular values below this × √(residual) (relative) are lost at a closure (isolated)
+LOCK_STEP = 1e-3  # step (dimensionless) of the second differences of the lost equations (isolated)
+LOCK_CURVATURE = 1e-5  # least |eigenvalue| (dimensionless) of a definite second-order form (isolated)
+LOCK_MAX_MOTIONS = 6  # more first-order motions than this at a closure: the isolation test is not tried
 
 
 class Constraints:
@@ -63,16 +67,19 @@ class Constraints:
         self.m = sum(self.sizes)
         L = system.length_scale
         # dimensionless scaling: position rows / L, translation columns × L
-        units = np.concatenate([self._row_units(lp) for lp in self.loops]) if self.loops else np.zeros(0)
+        units = (np.concatenate([self._row_units(lp, n, len(normals))
+                                 for lp, n, (normals, _) in zip(self.loops, self.sizes, self._axes)])
+                 if self.loops else np.zeros(0))
         self.row_units = tuple("m" if u == 1 else "rad" for u in units)  # the unit of each equation
         self.row_scale = np.where(units == 1, 1.0 / L, 1.0)
         self.col_scale = system.coordinate_scales
 
     @staticmethod
-    def _row_units(lp):
-        """1 for a position equation (m), 0 for an orientation one (rad)."""
-        pos = 3 * ("position" in lp.joint.loop_rows) + len(lp.joint.loop_normals())
-        return np.array([1] * pos + [0] * (lp.equations - pos))
+    def _row_units(lp, equations, normals):
+        """1 for a position equation (m), 0 for an orientation one (rad), of a loop of ``equations`` rows with
+        ``normals`` "normal" rows."""
+        pos = 3 * ("position" in lp.joint.loop_rows) + normals
+        return np.array([1] * pos + [0] * (equations - pos))
 
     # ----------------------------------------------------------------- equations
     def _frames(self, q, jacobians=False, v=None):
@@ -344,7 +351,7 @@ class Constraints:
         best = (out.residual, out.x)
         if best[0] <= tol:
             phi, J = (last["phi"], last["J"]) if last.get("q") is out.x else (None, None)
-            return self._closed_at(best[1], q0, start, record), phi, J
+            return self._closed_at(best[1], q0, start, record, phi, J), phi, J
         phi = self.scaled_phi(self.phi(best[1]))
         worst = self.loop_of_row(int(np.argmax(np.abs(phi))))
         raise ConvergenceError(f"assembly from {start}: the loops cannot be closed near it: loop '{worst}' "
@@ -353,14 +360,14 @@ class Constraints:
                                "(q0=, or Scene.set_operating_point(start=...))",
                                residual=float(np.abs(phi).max()), best=best[1])
 
-    def _closed_at(self, q, q0, start, record=True):
+    def _closed_at(self, q, q0, start, record=True, phi=None, J=None):
         """q with its periodic angles within π of q0's; the first closed configuration met is kept
         (:attr:`closed`, where the mobility is taken; not with ``record`` False) after the check that no loop
-        locks the mechanism."""
+        locks the mechanism. ``phi``, ``J``: Φ and Φ_q at q where the caller has them (None: evaluated)."""
         q = self.within_pi(q, q0)
         if self.closed is None and record:
-            self.check_mobility(q)
-            self.dof_closed = self.system.nv - self.rank(q)
+            J = self.jacobian(q) if J is None else J
+            self.dof_closed = self.system.nv - self.check_mobility(q, J, phi)
             self.closed = (q.copy(), start)
         return q
 
@@ -499,11 +506,17 @@ class Constraints:
             k += n
         return out
 
-    def check_mobility(self, q):
-        """ModelError naming the loop that locks the mechanism (no motion left) at the consistent q."""
-        J = self.jacobian(q)
-        if self.decompose(J)[0] < self.system.nv:
-            return
+    def check_mobility(self, q, J=None, phi=None):
+        """The rank of Φ_q at the consistent q, after a ModelError naming the loop that locks the mechanism (no
+        motion left) there: its equations leave no motion (rank nv), or q is an isolated closure
+        (:meth:`isolated`). ``J``, ``phi``: Φ_q and Φ at q where the caller has them."""
+        J = self.jacobian(q) if J is None else J
+        rank = self.decompose(J)[0]
+        if rank < self.system.nv:
+            why = self.isolated(q, J, phi)
+            if why:
+                raise ModelError(why)
+            return rank
         k = 0
         for lp, n in zip(self.loops, self.sizes):
             k += n
@@ -511,6 +524,52 @@ class Constraints:
                 before = "" if k == n else " (with the loops before it)"
                 raise ModelError(f"loop '{lp.name}' locks the mechanism{before}: with it the loops leave no motion "
                                  f"at all (mobility 0: rank {self.system.nv} of the constraint Jacobian = nv)")
+
+    def isolated(self, q, J=None, phi=None):
+        """Why the closure q is isolated ('' if it is not shown to be): a rank test at q whose tolerance comes
+        from q's own residual (singular values of the dimensionless Φ_q below LOCK_SIGMA·√|Φ| relative are
+        lost: a closure that close to an exactly singular one cannot tell them apart), then, for each lost
+        equation u (a left singular vector), the second differences of uᵀΦ along the motions N that Φ_q
+        leaves (steps LOCK_STEP, dimensionless): where the form Nᵀ(uᵀΦ_qq)N is definite, every motion the
+        first order allows opens the loop at the second (the Lyapunov–Schmidt reduction), so no closure lies
+        beside q: mobility 0 (a four-bar whose lengths add up, closed only stretched flat). An indefinite
+        form is a change point (branches cross), a zero one a redundant equation: both keep their motion."""
+        model, nv, cs = self.system.model, self.system.nv, self.col_scale
+        J = self.jacobian(q) if J is None else J
+        phi0 = self.scaled_phi(self.phi(q) if phi is None else phi)
+        res = float(np.abs(phi0).max(initial=0.0))
+        Js = self.row_scale[:, None] * J * cs[None, :]
+        if Js.size == 0:
+            return ""
+        U, s, Vt = np.linalg.svd(Js)
+        tol = max(RANK_RTOL, LOCK_SIGMA * np.sqrt(res)) * s[0]
+        rank = int(np.sum(s > tol))
+        N, lost = Vt[rank:], U[:, rank:]
+        if lost.shape[1] == 0 or not 0 < len(N) <= LOCK_MAX_MOTIONS:
+            return ""
+        h, k = LOCK_STEP, len(N)
+
+        def g(x):
+            return lost.T @ self.scaled_phi(self.phi(pin.integrate(model, q, cs * (N.T @ (h * x)))))
+
+        E = np.eye(k)
+        f0 = lost.T @ phi0
+        H = np.empty((lost.shape[1], k, k))
+        for i in range(k):
+            H[:, i, i] = g(E[i]) + g(-E[i]) - 2 * f0
+            for j in range(i):
+                H[:, i, j] = H[:, j, i] = (g(E[i] + E[j]) - g(E[i] - E[j]) - g(E[j] - E[i]) + g(-E[i] - E[j])) / 4
+        w = np.linalg.eigvalsh(H / h**2)  # (per lost equation, ascending)
+        for u, definite in zip(lost.T, (w[:, 0] > LOCK_CURVATURE) | (w[:, -1] < -LOCK_CURVATURE)):
+            if definite:
+                loop = self.loop_of_row(int(np.argmax(np.abs(u))))
+                return (f"loop '{loop}' locks the mechanism: it closes here only at an isolated configuration, "
+                        "typically with its links in line, stretched out or folded flat (their lengths add up "
+                        f"exactly): the constraint Jacobian has rank {rank} there (singular values below "
+                        f"{tol / s[0]:.1e} relative, from the closure's residual {res:.1e}, are lost) and each of "
+                        f"the {k} motion(s) it leaves to first order opens the loop at second order, so no motion is "
+                        "left (mobility 0); change a length so that the loop can move, or remove the loop")
+        return ""
 
 
 def compile_loops(system):

@@ -1,0 +1,321 @@
+"""Branches and locking of closed loops (issue 40, items 4 and 5). The assembly of a described pose compares
+every branch of the closures before calling one the nearest, against hand closures (the two assembly modes
+of a four-bar and of a slider-crank by circle intersection); a linkage whose lengths add up closes only flat
+and is refused as locked, while one merely near that flat position still works."""
+
+import math
+
+import numpy as np
+import pytest
+from conftest import MODELS
+from scipy.optimize import minimize_scalar
+
+import vibdyn as vd
+from vibdyn.defaults import ASSEMBLY_TOL
+
+A, B, C, D = 0.1, 0.3, 0.25, 0.3  # the bundled four-bar: crank, coupler, rocker, ground (m)
+NEAREST = "the closure nearest the neutral configuration"
+ALL, CRANK = np.array([True, True, True]), np.array([True, True, False])  # which coordinates are angles
+
+
+def wrap(x):
+    """Angles taken within π of zero (the described pose's), as the assembly's distance does."""
+    return (np.asarray(x) + np.pi) % (2 * np.pi) - np.pi
+
+
+def rz(t):
+    return [[math.cos(t), -math.sin(t), 0.0], [math.sin(t), math.cos(t), 0.0], [0.0, 0.0, 1.0]]
+
+
+def four_bar(tmp_path, rotation=0.0, ground=D, start=None):
+    """The bundled four-bar with its crank joint drawn rotated by ``rotation`` (rad) and its ground pivot D at
+    ``ground`` (m), no start unless one is given."""
+    text = (MODELS / "four_bar.toml").read_text()
+    crank = 'joint = { type = "pivot", axis = [0.0, 0.0, 1.0], at = [0.0, 0.0, 0.0] }'
+    ground_pivot = "at = [0.3, 0.0, 0.0] }\n\n[[joint_spring]]"
+    assert crank in text and ground_pivot in text
+    text = text.replace(crank, crank[:-2] + f", rotation = {rz(rotation)} }}")
+    text = text.replace(ground_pivot, f"at = [{ground}, 0.0, 0.0] }}\n\n[[joint_spring]]")
+    path = tmp_path / "four_bar.toml"
+    path.write_text(text)
+    scene = vd.load_scene(path)
+    scene.operating_point = None
+    if start is not None:
+        scene.set_operating_point(start=start)
+    return scene
+
+
+def circle_intersections(P, r1, Q, r2):
+    """The two points at r1 from P and r2 from Q (the left one of P→Q first); None where the circles miss."""
+    e = np.asarray(Q, float) - P
+    dist = np.linalg.norm(e)
+    x = (dist**2 + r1**2 - r2**2) / (2 * dist)
+    h2 = r1**2 - x**2
+    if h2 < 0:
+        return None
+    n = np.array([-e[1], e[0]]) / dist
+    m = P + x * e / dist
+    return m + math.sqrt(h2) * n, m - math.sqrt(h2) * n
+
+
+def four_bar_branches(theta, rotation, a=A, b=B, c=C, d=D):
+    """Hand closure: the joint coordinates (crank, coupler, rocker) of the four-bar's two assembly modes with
+    its crank joint at ``theta`` (rad, from the drawn angle ``rotation``); None where the loop cannot close."""
+    phi = rotation + theta
+    Bp, Dp = a * np.array([math.cos(phi), math.sin(phi)]), np.array([d, 0.0])
+    points = circle_intersections(Bp, b, Dp, c)
+    if points is None:
+        return None
+    return [np.array([theta, math.atan2(*(Cp - Bp)[::-1]) - phi, math.atan2(*(Cp - Dp)[::-1])]) for Cp in points]
+
+
+def slider_crank(alpha, r=0.1, L=0.3, x0=0.3):
+    """A slider-crank drawn with its crank at ``alpha`` (rad), the rod along it and the piston at x0 (m) on
+    its slider along x: the loop (rod tip on the piston pin) open there."""
+    s = vd.Scene("slider_crank_drawn", gravity=(0, -9.81, 0))
+    s.add_body("crank", joint=vd.Pivot((0, 0, 1), rotation=np.array(rz(alpha))), mass=1.0, com=(r / 2, 0, 0),
+               inertia=np.diag([1e-5, 1e-3, 1e-3]))
+    s.add_body("rod", parent="crank", joint=vd.Pivot((0, 0, 1), at=(r, 0, 0)), mass=0.5, com=(L / 2, 0, 0),
+               inertia=np.diag([1e-5, 4e-3, 4e-3]))
+    s.add_body("piston", joint=vd.Slider((1, 0, 0), at=(x0, 0, 0)), mass=2.0)
+    s.add_loop("pin", ("rod", (L, 0, 0)), ("piston", (0, 0, 0)), joint=vd.Pivot((0, 0, 1)))
+    return s
+
+
+def slider_crank_branches(theta, alpha, r=0.1, L=0.3, x0=0.3):
+    """Hand closure: (crank, rod, piston) joint coordinates of the slider-crank's two assembly modes (the pin
+    right or left of the crank tip: x = r cos φ ± √(L² − r² sin² φ))."""
+    phi = alpha + theta
+    Bp = r * np.array([math.cos(phi), math.sin(phi)])
+    out = []
+    for sign in (1.0, -1.0):
+        x = Bp[0] + sign * math.sqrt(L**2 - Bp[1] ** 2)
+        out.append(np.array([theta, math.atan2(-Bp[1], x - Bp[0]) - phi, x - x0]))
+    return out
+
+
+def hand_nearest(branches, scale, angles):
+    """(distance, closure) of the closure nearest the described pose over both hand branches: the distance as
+    the docs define it, √Σ (offset / scale)² with angles wrapped within π; a fine grid of the crank's turn,
+    then a bounded scalar search around each branch's best grid point."""
+
+    def distance(theta, k):
+        x = branches(theta)[k]
+        return float(np.linalg.norm(np.where(angles, wrap(x), x) / scale))
+
+    grid = np.linspace(-np.pi, np.pi, 4001)
+    best = (np.inf, None)
+    for k in (0, 1):
+        d = [distance(t, k) for t in grid]
+        i = int(np.argmin(d))
+        r = minimize_scalar(lambda t: distance(t, k), bounds=(grid[max(i - 1, 0)], grid[min(i + 1, 4000)]),
+                            method="bounded", options={"xatol": 1e-12})
+        if r.fun < best[0]:
+            best = (float(r.fun), branches(r.x)[k])
+    return best
+
+
+def assert_on_a_branch(x, branches, scale, angles, tol):
+    """The closure x (joint offsets) equals one of the hand branches at its own crank angle: the index of
+    that branch."""
+    gaps = [np.abs(np.where(angles, wrap(x - h), x - h) / scale).max() for h in branches(x[0])]
+    assert min(gaps) <= tol
+    return int(np.argmin(gaps))
+
+
+@pytest.mark.parametrize("rotation", [0.3, 6.0])
+def test_a_four_bar_drawn_with_its_crank_turned_assembles_at_the_nearest_of_both_branches(tmp_path, rotation):
+    """Issue 40 item 4: drawn with the crank joint turned 0.3 rad (or 6.0), the four-bar was assembled at
+    distance 1.740 on one branch and called nearest while the other branch closes at 1.555. The hand closure
+    over both branches (circle intersection, the crank's whole turn) gives the nearest; the assembly equals it
+    and says it is proven."""
+    system = four_bar(tmp_path, rotation).build()
+    a = system.constraints.assembly()
+    assert a.where == NEAREST and a.nearest and a.dof == 1
+    assert a.constraint_residual <= ASSEMBLY_TOL
+    scale = system.constraints.col_scale
+    x = system.difference(system.neutral(), a.q)
+    hand_d, hand_x = hand_nearest(lambda t: four_bar_branches(t, rotation), scale, ALL)
+    assert hand_d < 1.6  # (the hand search itself sees the nearer branch)
+    # the slide stops where the distance is flat (it varies as the square of the offset there): distances
+    # agree to the square of the stopping offset, the points to its first power
+    assert a.distance == pytest.approx(hand_d, abs=1e-8)
+    assert np.abs(wrap(x - hand_x)).max() <= 1e-4
+    assert_on_a_branch(x, lambda t: four_bar_branches(t, rotation), scale, ALL, 1e-9)
+    assert a.distance == pytest.approx(float(np.linalg.norm(wrap(x))), abs=1e-12)  # the distance is the wrapped one
+
+
+@pytest.mark.parametrize("alpha", [1.8, 2.6])
+def test_a_slider_crank_drawn_open_assembles_at_the_nearest_of_both_branches(alpha):
+    """The class of fault on a second mechanism: a slider-crank drawn with its crank at 1.8 (or 2.6) rad and
+    its rod straight along it was assembled with the pin left of the crank tip (distance 2.50, 2.36) where the
+    right branch is nearer. Hand oracle: both branches x = r cos φ ± √(L² − r² sin² φ); the piston's offset
+    divided by the length scale, as the distance is defined."""
+    system = slider_crank(alpha).build()
+    a = system.constraints.assembly()
+    assert a.where == NEAREST and a.nearest
+    scale = system.constraints.col_scale
+    assert scale[2] == system.length_scale and scale[0] == scale[1] == 1.0
+    x = system.difference(system.neutral(), a.q)
+    hand_d, hand_x = hand_nearest(lambda t: slider_crank_branches(t, alpha), scale, CRANK)
+    assert a.distance == pytest.approx(hand_d, abs=1e-8)
+    assert np.abs(np.where(CRANK, wrap(x - hand_x), x - hand_x) / scale).max() <= 1e-4
+    assert assert_on_a_branch(x, lambda t: slider_crank_branches(t, alpha), scale, CRANK, 1e-9) == 0  # pin right of B
+
+
+def test_a_closure_of_a_two_mobility_linkage_is_not_called_nearest():
+    """With mobility 2 (RSSR: the coupler spins about its own axis) the closures form surfaces, which are not
+    traced: the assembly names its closure 'a closure found near the neutral configuration' and says why."""
+    s = vd.Scene("rssr", gravity=(0, -9.81, 0))
+    s.add_body("crank", joint=vd.Pivot((0, 0, 1)), mass=1.0, com=(0.05, 0, 0), inertia=np.diag([1e-4, 1e-3, 1e-3]))
+    s.add_body("coupler", parent="crank", joint=vd.Ball(at=(0.1, 0, 0)), mass=0.5, com=(0.15, 0, 0),
+               inertia=np.diag([1e-4, 4e-3, 4e-3]))
+    s.add_body("rocker", joint=vd.Pivot((0, 1, 0), at=(0.3, 0, 0.05)), mass=0.8, com=(0.125, 0, 0),
+               inertia=np.diag([1e-4, 4e-3, 4e-3]))
+    s.add_loop("S", ("coupler", (0.3, 0, 0)), ("rocker", (0.25, 0, 0)), joint=vd.Ball())
+    system = s.build()
+    a = system.constraints.assembly()
+    assert a.dof == 2 and not a.nearest and "nearest" not in a.where
+    assert system.constraints.closed[1] == a.where == "a closure found near the neutral configuration"
+    assert "not proven the nearest: the mechanism has mobility 2" in a.note
+
+
+def reach_gap(a, b, c, d, phi):
+    """|BD| − (b + c) with the crank at φ: > 0 where the coupler and rocker cannot reach (hand geometry)."""
+    return math.hypot(d - a * math.cos(phi), a * math.sin(phi)) - (b + c)
+
+
+@pytest.mark.parametrize("start", [None, {"crank": 0.02, "coupler": -0.02, "rocker": 3.1}])
+def test_a_four_bar_whose_lengths_add_up_is_refused_as_locked(tmp_path, start):
+    """Issue 40 item 5: ground 0.65 m = 0.1 + 0.3 + 0.25: the loop closes only stretched flat (hand geometry:
+    |BD| − (b + c) is 0 at φ = 0 and positive at every other crank angle, so no motion is left). It was
+    accepted with mobility 1, a 6504 rad/s mode and a 3.7e6 N loop force; now it is refused at build, from
+    the described pose or from a declared start, as a bar pinned at its tip is ('locks the mechanism')."""
+    d = A + B + C
+    assert reach_gap(A, B, C, d, 0.0) == pytest.approx(0.0, abs=1e-15)
+    assert min(reach_gap(A, B, C, d, p) for p in np.linspace(1e-3, 2 * np.pi - 1e-3, 2001)) > 0
+    scene = four_bar(tmp_path, ground=d, start=start)
+    with pytest.raises(vd.ModelError, match=r"loop 'pin' locks the mechanism: .*lengths add up.*rank 1 .*mobility 0"):
+        scene.build()
+
+
+@pytest.mark.parametrize("ground", [0.649, 0.6499])
+def test_a_four_bar_near_its_flat_position_still_moves(tmp_path, ground):
+    """Ground 0.649 m (or 0.6499): 1 (0.1) mm short of flat, the loop closes over a small range of crank
+    angles (hand geometry: |BD| ≤ b + c for |φ| up to φ_max) and keeps mobility 1: the lock test at its
+    closure does not refuse it. Its closure and equilibrium lie on a hand branch."""
+    phi_max = math.acos((A**2 + ground**2 - (B + C) ** 2) / (2 * A * ground))
+    assert 0 < phi_max < 0.5
+    system = four_bar(tmp_path, ground=ground).build()
+    a = system.constraints.assembly()
+    assert system.dof == a.dof == 1 and not a.singular and a.nearest
+    scale = system.constraints.col_scale
+
+    def branches(t):
+        return four_bar_branches(t, 0.0, d=ground)
+
+    x = system.difference(system.neutral(), a.q)
+    assert abs(x[0]) < phi_max
+    assert_on_a_branch(x, branches, scale, ALL, 1e-9)
+    eq = system.equilibrium()
+    xe = system.difference(system.neutral(), eq.q)
+    assert abs(xe[0]) < phi_max
+    assert_on_a_branch(xe, branches, scale, ALL, 1e-9)
+
+
+@pytest.mark.parametrize("gap,locked", [(0.0, True), (1e-3, False)])
+def test_a_slider_crank_whose_slider_line_touches_its_reach_is_locked(gap, locked):
+    """The lock on a second mechanism: a slider-crank whose piston slides along y on the line x = r + L − gap.
+    With gap 0 the pin reaches that line only with crank and rod stretched along x (hand: the reach circle
+    |P| ≤ r + L touches the line at one point): refused as locked. 1 mm inside, it moves (mobility 1) and its
+    closure is the hand one, crank and rod each at ±acos-determined angles with |P| ≤ r + L."""
+    r, L = 0.1, 0.3
+    s = vd.Scene("slider_crank_locked", gravity=(0, -9.81, 0))
+    s.add_body("crank", joint=vd.Pivot((0, 0, 1)), mass=1.0, com=(r / 2, 0, 0), inertia=np.diag([1e-5, 1e-3, 1e-3]))
+    s.add_body("rod", parent="crank", joint=vd.Pivot((0, 0, 1), at=(r, 0, 0)), mass=0.5, com=(L / 2, 0, 0),
+               inertia=np.diag([1e-5, 4e-3, 4e-3]))
+    s.add_body("piston", joint=vd.Slider((0, 1, 0), at=(r + L - gap, 0, 0)), mass=2.0)
+    s.add_loop("pin", ("rod", (L, 0, 0)), ("piston", (0, 0, 0)), joint=vd.Pivot((0, 0, 1)))
+    if locked:
+        with pytest.raises(vd.ModelError, match=r"loop 'pin' locks the mechanism: .*mobility 0"):
+            s.build()
+        return
+    system = s.build()
+    assert system.dof == 1
+    q = system.assemble()
+    crank, rod, y = system.difference(system.neutral(), q)
+    pin = r * np.array([math.cos(crank), math.sin(crank)]) + L * np.array([math.cos(crank + rod),
+                                                                           math.sin(crank + rod)])
+    assert pin == pytest.approx([r + L - gap, y], abs=1e-12)
+    assert abs(y) <= math.sqrt((r + L) ** 2 - (r + L - gap) ** 2) + 1e-12
+
+
+E3, F4, E5, F6 = (0.15, 0.05), (0.125, -0.05), 0.2, 0.2  # Watt six-bar: dyad pivots on coupler and rocker (m)
+
+
+def watt(rotation):
+    """A Watt I six-bar: the bundled four-bar (crank drawn turned by ``rotation``) with a dyad (links 5 and
+    6, 0.2 m each) joining a point E of the coupler to a point F of the rocker, two loops, drawn open."""
+    s = vd.Scene("watt", gravity=(0, -9.81, 0))
+    inertia = np.diag([1e-5, 1e-3, 1e-3])
+    s.add_body("crank", joint=vd.Pivot((0, 0, 1), rotation=np.array(rz(rotation))), mass=1.0, com=(0.05, 0, 0),
+               inertia=inertia)
+    s.add_body("coupler", parent="crank", joint=vd.Pivot((0, 0, 1), at=(A, 0, 0)), mass=0.5, com=(0.15, 0, 0),
+               inertia=inertia)
+    s.add_body("link5", parent="coupler", joint=vd.Pivot((0, 0, 1), at=(*E3, 0)), mass=0.3, com=(0.1, 0, 0),
+               inertia=inertia)
+    s.add_body("rocker", joint=vd.Pivot((0, 0, 1), at=(D, 0, 0)), mass=0.8, com=(0.125, 0, 0), inertia=inertia)
+    s.add_body("link6", parent="rocker", joint=vd.Pivot((0, 0, 1), at=(*F4, 0)), mass=0.3, com=(0.1, 0, 0),
+               inertia=inertia)
+    s.add_loop("C", ("coupler", (B, 0, 0)), ("rocker", (C, 0, 0)), joint=vd.Pivot((0, 0, 1)))
+    s.add_loop("G", ("link5", (E5, 0, 0)), ("link6", (F6, 0, 0)), joint=vd.Pivot((0, 0, 1)))
+    return s
+
+
+def watt_branches(theta, rotation):
+    """Hand closure: {(i, j): joint coordinates (crank, coupler, link5, rocker, link6)} of the Watt six-bar's
+    four assembly modes (the four-bar's mode i, the dyad's j) with the crank at ``theta``; the modes that
+    cannot close there are left out."""
+    out = {}
+    for i, x in enumerate(four_bar_branches(theta, rotation) or []):
+        phi = rotation + theta
+        psi3, psi4 = phi + x[1], x[2]
+        Bp, Dp = A * np.array([math.cos(phi), math.sin(phi)]), np.array([D, 0.0])
+        E = Bp + np.array(rz(psi3))[:2, :2] @ E3
+        F = Dp + np.array(rz(psi4))[:2, :2] @ F4
+        for j, G in enumerate(circle_intersections(E, E5, F, F6) or []):
+            psi5, psi6 = math.atan2(*(G - E)[::-1]), math.atan2(*(G - F)[::-1])
+            out[i, j] = np.array([theta, x[1], psi5 - psi3, psi4, psi6 - psi4])
+    return out
+
+
+@pytest.mark.parametrize("rotation", [0.0, 0.5, 3.0])
+def test_a_watt_six_bar_drawn_open_is_not_called_nearest_unless_it_is(rotation):
+    """Two loops, four dependent coordinates: the Watt six-bar's assembly modes (four: the four-bar's two, each
+    with the dyad's two) are sampled by restarts, not enumerated, so its closure is not called the nearest,
+    and the note says why. Drawn with the crank turned 0, 0.5, 3.0 rad the assembly took closures at 2.04,
+    3.21, 4.13 and called them nearest where a hand mode closes at 1.65, 1.55, 2.47 (hand closure: the
+    four-bar's circle intersection, then the dyad's, on a fine grid of the crank's turn refined by a bounded
+    search on each mode). Now the closure is on a hand mode, never nearer than the hand nearest, and for these
+    drawings it is that one."""
+    system = watt(rotation).build()
+    a = system.constraints.assembly()
+    assert not a.nearest and a.where == "a closure found near the neutral configuration" and a.dof == 1
+    assert "not proven the nearest" in a.note and "sampled" in a.note
+    x = system.difference(system.neutral(), a.q)
+    grid = np.linspace(-np.pi, np.pi, 4001)
+    best = np.inf
+    for k in ((0, 0), (0, 1), (1, 0), (1, 1)):
+        def distance(t):
+            mode = watt_branches(t, rotation).get(k)
+            return np.inf if mode is None else float(np.linalg.norm(wrap(mode)))
+
+        d = np.array([distance(t) for t in grid])
+        i = int(np.argmin(d))
+        r = minimize_scalar(distance, bounds=(grid[max(i - 1, 0)], grid[min(i + 1, 4000)]), method="bounded",
+                            options={"xatol": 1e-12})
+        best = min(best, float(r.fun))
+    gaps = [np.abs(wrap(x - h)).max() for h in watt_branches(x[0], rotation).values()]
+    assert min(gaps) <= 1e-9  # on a hand assembly mode
+    assert a.distance >= best - 1e-8
+    assert a.distance == pytest.approx(best, abs=1e-8)
