@@ -92,6 +92,11 @@ class LinearModel:
         return self.M.shape[0]
 
     @property
+    def hold(self) -> tuple[str, ...]:
+        """Names of the coordinates held at their speed (``linearize(hold=...)``): none for a tree's model."""
+        return ()
+
+    @property
     def D(self):
         """Damping: symmetric part of C."""
         return 0.5 * (self.C + self.C.T)

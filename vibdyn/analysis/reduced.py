@@ -81,6 +81,12 @@ class ReducedLinearModel(LinearModel):
         return self.null_space.T @ By, self.null_space.T @ Bv
 
     @property
+    def hold(self) -> tuple[str, ...]:
+        """Names of the coordinates held at their speed (what :func:`vibdyn.analysis.linearize.linearize` was given as
+        ``hold``; the drives' coordinates are the system's own)."""
+        return tuple(self.system.coordinates[i] for i in self.reduction.held_speeds)
+
+    @property
     def drive(self) -> dict[str, float]:
         """{drive, or coordinate held at its speed: τ}: the force (N or N·m) each holder exerts along its
         coordinate at the operating point (empty without held coordinates)."""
@@ -124,7 +130,7 @@ class ConstrainedLinearModel(ReducedLinearModel):
         m = _modes(self, **kwargs)
         N = self.null_space
         cs = m.complex_shapes
-        return replace(m, linear=self.tree, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
+        return replace(m, linear=self.tree, reduced=self.reduced, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
 
     def with_modal_damping(self, zeta):
         return self.with_damping(self.reduced.with_modal_damping(zeta).C)

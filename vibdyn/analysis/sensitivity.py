@@ -32,6 +32,7 @@ from ..defaults import EPS
 from ..description import parameters as _parameters
 from ..errors import ConvergenceError, ModelError
 from ..model.fd import differences
+from .modal import invariant_pair
 
 #: relative step of the pipeline's differences (h = STEP·|p|, or STEP × the parameter's scale at p = 0)
 STEP = 1e-4
@@ -44,9 +45,10 @@ STEP = 1e-4
 class Sensitivity:
     """Derivatives of the modes of a linear model with respect to named parameters.
 
-    Per mode (rows, in the order of :class:`~vibdyn.analysis.modal.Modes`) and parameter (columns), each
-    derivative named ``d_`` and its quantity (as ``dM``, ``dK``): ``d_omega`` ∂ω/∂p of the undamped natural
-    frequencies ``omega0`` (rad/s per unit of p) and ``d_omega_error`` (absolute, same unit); ``d_omega2``
+    Per mode (rows: the modes of the linear model asked about — a held or looped model's own, in the order of
+    its :class:`~vibdyn.analysis.modal.Modes`) and parameter (columns), each derivative named ``d_`` and its
+    quantity (as ``dM``, ``dK``): ``d_omega`` ∂ω/∂p of the undamped natural frequencies ``omega0`` (rad/s per
+    unit of p; of the growth rate √|ω²| (1/s) where ``unstable``) and ``d_omega_error`` (absolute, same unit); ``d_omega2``
     ∂ω²/∂p (rad²/s² per unit); ``d_shapes`` ∂φ/∂p (nv × n_modes × n_params, of the mass-normalised shapes,
     zero where ``repeated``: a repeated mode's shape derivative is not unique) with ``d_shapes_error``. Damped
     modes (``d_omega_n``, ``d_zeta``: rows of the modes' damped eigenvalues): ∂ω_n/∂p (rad/s per unit), ∂ζ/∂p
@@ -81,6 +83,12 @@ class Sensitivity:
     note: str = ""
     modes: Any = field(default=None, repr=False)  # the base modes the derivatives are of
     nelson: Any = field(default=None, repr=False)  # () -> (∂φ, its error): computed on first use
+    #: per mode: ω² < 0, so ``omega0`` is the growth rate √|ω²| (1/s) and ``d_omega`` its derivative
+    unstable: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    #: per damped mode: its eigenvalue is repeated and not diagonalisable within the error (a defective pair,
+    #: critical damping): ``d_eigenvalues`` is then the derivative of the pair's mean ½(λ₁ + λ₂) (well defined),
+    #: and ``d_omega_n``, ``d_zeta`` are not defined there (their errors inf)
+    defective: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
 
     @cached_property
     def _shape_derivatives(self):
@@ -126,6 +134,9 @@ class Sensitivity:
                 "d_omega_error_rad_s_per_unit": self.d_omega_error.tolist(), "normalised": self.normalised.tolist(),
                 "d_zeta_per_unit": self.d_zeta.tolist(), "d_zeta_error_per_unit": self.d_zeta_error.tolist(),
                 "d_omega_n_rad_s_per_unit": self.d_omega_n.tolist(), "repeated": self.repeated.tolist(),
+                "unstable": self.unstable.tolist(), "defective": self.defective.tolist(),
+                "d_eigenvalues_1_s_per_unit": [[[z.real, z.imag] for z in row] for row in self.d_eigenvalues],
+                "d_eigenvalues_error_1_s_per_unit": self.d_eigenvalues_error.tolist(),
                 "method": self.method, "elapsed_s": self.elapsed, "note": self.note}
 
     def __str__(self) -> str:
@@ -136,6 +147,8 @@ class Sensitivity:
             for j, p in enumerate(self.params):
                 rows.append([str(i + 1), f"{w:.6g}", p, self.units[j], f"{self.d_omega[i, j]:.6g}",
                              f"{self.d_omega_error[i, j]:.1e}", f"{self.normalised[i, j]:.4g}"])
+                if self.unstable.size and self.unstable[i]:
+                    rows[-1][1] += " (growth rate, 1/s)"
         head = ["mode", "ω (rad/s)", "parameter", "unit", "∂ω/∂p (rad/s per unit)", "error (rad/s per unit)", "(p/ω) ∂ω/∂p"]
         return ("\n".join(table(head, rows)) + f"\n{self.method}, {self.elapsed * 1e3:.1f} ms"
                 + (f"\nnote: {self.note}" if self.note else ""))
@@ -153,8 +166,8 @@ class _Pipeline:
     base one was (static equilibrium from the base pose, the same held speeds, or the base pose held),
     linearised analytically (finite differences where the analytic path refuses)."""
 
-    def __init__(self, make_scene: Callable, q0, v0, regime):
-        self.make_scene, self.q0, self.v0, self.regime = make_scene, q0, v0, regime
+    def __init__(self, make_scene: Callable, q0, v0, regime, hold=()):
+        self.make_scene, self.q0, self.v0, self.regime, self.hold = make_scene, q0, v0, regime, tuple(hold)
 
     def __call__(self, values):
         scene, speeds = self.make_scene(values)
@@ -170,6 +183,8 @@ class _Pipeline:
         else:
             op = self.q0
         at = {"v": self.v0} if self.regime == "pose" else {}  # (an operating point carries its own velocity)
+        if self.hold:  # reduced as the base model is: the same coordinates held at their (new) speeds
+            at["hold"] = self.hold
         try:
             lin = system.linearize(op, method="analytic", **at)
         except ModelError:
@@ -299,7 +314,8 @@ def _undamped(modes, dM, dK, eM, eK):
             + 8 * EPS * np.abs(d_w2))
     d_w, e_w = np.zeros((n_m, n_p)), np.zeros((n_m, n_p))
     pos = omega > 0
-    d_w[pos] = d_w2[pos] / (2 * omega[pos, None])
+    # ω = √|ω²|: an unstable mode's (ω² < 0, ω its growth rate) moves as −∂ω²/(2ω)
+    d_w[pos] = np.where(w2[pos] < 0, -1.0, 1.0)[:, None] * d_w2[pos] / (2 * omega[pos, None])
     e_w[pos] = e_w2[pos] / (2 * omega[pos, None])
     zero = ~pos
     leaves = zero[:, None] & (np.abs(d_w2) > e_w2)
@@ -342,15 +358,23 @@ def _nelson(M, Ks, Phi, w2, dKs, dM, eKs, eM, d_w2, e_w2, dw2_base, skip):
 
 
 def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
-    """(∂λ, error, ∂ω_n, error, ∂ζ, error) of the damped eigenvalues (one per mode, as the modes list them)."""
+    """(∂λ, error, ∂ω_n, error, ∂ζ, error, defective) of the damped eigenvalues (one per mode, as the modes list
+    them); a defective pair's ∂λ is its mean's, its ∂ω_n and ∂ζ not defined (errors inf)."""
     lam_m = modes.damped_eigenvalues
     n_d, n_p, n = len(lam_m), len(dK), lin.nv
     if not n_d:
         z = np.zeros((0, n_p))
-        return z.astype(complex), z, z, z, z, z
+        return z.astype(complex), z, z, z, z, z, np.zeros(0, bool)
     A = lin.A
     lam, W, V = sla.eig(A, left=True, right=True)
     idx = [int(np.argmin(np.abs(lam - x))) for x in lam_m]
+    defective = np.asarray(modes.defective, bool) if modes.defective.size else np.zeros(n_d, bool)
+    # a defective pair's eigenvalues have no derivative (they split as √δp): the pair's mean does, ½ trace(Y ∂A Z)
+    # over its invariant subspace (Z right, Y left basis, Y Z = I)
+    pairs = {}
+    for r in np.flatnonzero(defective):
+        near = np.sort(np.abs(lam - lam_m[r]))
+        pairs[r] = invariant_pair(A, lam_m[r], 0.5 * (near[1] + near[2]) if near.size > 2 else np.inf)
     Minv = np.linalg.inv(lin.M)
     aMinv = np.abs(Minv)
     MiK, MiC = Minv @ lin.K, Minv @ lin.C
@@ -365,12 +389,29 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
         eA[n:, n:] = aMinv @ (eC[j] + eM[j] @ np.abs(MiC))
         eA += 4 * n * EPS * np.abs(dA)
         for r, k in enumerate(idx):
+            if r in pairs:
+                continue
             w, v = W[:, k], V[:, k]
             den = w.conj() @ v
             d_l[r, j] = (w.conj() @ dA @ v) / den
             e_l[r, j] = (np.abs(w) @ eA @ np.abs(v)) / abs(den)
-    # the eigenvalue's own uncertainty moves the formula's terms: its relative error times the derivative
-    e_l += np.abs(d_l) * np.asarray(modes.eigenvalue_relative_error)[:, None] * 2
+        for r, pair in pairs.items():
+            if pair is None:  # (not isolated from the others: no mean to give)
+                e_l[r, j] = np.inf
+            else:
+                Y, Z = pair[:2]
+                d_l[r, j] = 0.5 * np.trace(Y @ dA @ Z)
+                e_l[r, j] = 0.5 * np.trace(np.abs(Y) @ eA @ np.abs(Z))
+    # the eigenvalue's own uncertainty moves the formula's terms: its error relative to its distance to the
+    # nearest other eigenvalue (the conditioning of wᴴv: a nearly defective pair's derivatives are large and
+    # known only to δλ/gap) or to |λ|, times the derivative
+    gaps = np.abs(lam[:, None] - lam[None, :])
+    np.fill_diagonal(gaps, np.inf)
+    near = np.minimum(gaps.min(axis=1)[idx], np.abs(lam_m))
+    near = np.where(defective, np.abs(lam_m), near)
+    rel = np.where(near > 0, np.asarray(modes.eigenvalue_error) / np.where(near > 0, near, 1.0),
+                   np.asarray(modes.eigenvalue_relative_error))
+    e_l += np.abs(d_l) * rel[:, None] * 2
     zero = np.asarray(modes.damped_zero) if modes.damped_zero.size else np.zeros(n_d, bool)
     d_l[zero] = 0.0
     e_l[zero] = 0.0
@@ -380,7 +421,10 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     e_wn = e_l.copy()
     d_z = np.where(mag > 0, -d_l.real / safe + lam_m.real[:, None] * d_wn / safe**2, 0.0)
     e_z = np.where(mag > 0, 2 * e_l / safe, 0.0)
-    return d_l, e_l, d_wn, e_wn, d_z, e_z
+    # |λ| and −Re λ/|λ| of each of a defective pair have no derivative there (one-sided ones differ): not defined
+    e_wn[defective] = np.inf
+    e_z[defective] = np.inf
+    return d_l, e_l, d_wn, e_wn, d_z, e_z, defective
 
 
 # ------------------------------------------------------------------------------------------ entry point
@@ -411,9 +455,12 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
     else:
         raise ModelError(f"sensitivity: expected modes, a linear model, a system, a scene or a builder, got "
                          f"{type(source).__name__}")
-    lin = base_modes.linear
+    # the linear model the modes were solved on (a mechanism's or a held model's reduced one, not its tree): the
+    # derivatives are of it, reduced as it is
+    lin = base_modes.linear if base_modes.reduced is None else base_modes.reduced
     system = lin.system
-    regime, speeds = _regime(system, lin)
+    hold = lin.hold
+    regime, speeds = _regime(system, getattr(lin, "tree", None) or lin)
     scene = system.scene
     requested = [params] if isinstance(params, str) else params
     if not isinstance(requested, (list, tuple)) or not requested:
@@ -445,13 +492,13 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
                 sc_vals.append(x)
         return _parameters.with_values(scene, plist, sc_vals), sp
 
-    pipeline = _Pipeline(make_scene, lin.q, lin.v, regime)
+    pipeline = _Pipeline(make_scene, lin.q, lin.v, regime, hold)
     steps = np.array([_step(values[j], units[j], system.length_scale) for j in range(len(names))])
     direct: dict[int, tuple] = {}
     from ..model.derivatives import untrusted
 
     # (the element path takes Pinocchio's joint velocity derivatives, wrong for some joint types: not there)
-    if system.reduction.is_identity and regime in ("static", "pose", "held") \
+    if system.reduction.is_identity and not hold and regime in ("static", "pose", "held") \
             and not untrusted(system)[0].size:
         # a tree about a point it holds or finds again: the analytic model is the base, and a parameter a force
         # is proportional to (a stiffness, a damping) is differentiated on its element alone, no rebuild
@@ -582,13 +629,19 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
         values, steps = np.asarray(values)[keep], np.asarray(steps)[keep]
         dM, dC, dK, eM, eC, eK = (x[keep] for x in (dM, dC, dK, eM, eC, eK))
     d_w2, e_w2, d_w, e_w, repeated, nelson = _undamped(base_modes, dM, dK, eM, eK)
-    d_l, e_l, d_wn, e_wn, d_z, e_z = _damped(base_modes, lin, dM, dC, dK, eM, eC, eK)
+    d_l, e_l, d_wn, e_wn, d_z, e_z, defective = _damped(base_modes, lin, dM, dC, dK, eM, eC, eK)
     note = dropped
     if repeated.any():
         listed = ", ".join(str(i + 1) for i in np.flatnonzero(repeated))
         note += ("; " if note else "") + (
             f"modes {listed} have repeated frequencies: their derivatives are those of the subspace's eigenvalues "
             "(ascending), their shape derivatives are not unique (given as 0)")
+    unstable = np.asarray(base_modes.unstable, bool).copy()
+    if unstable.any():
+        listed = ", ".join(str(i + 1) for i in np.flatnonzero(unstable))
+        note += ("; " if note else "") + (
+            f"mode(s) {listed} unstable (ω² < 0): omega0 is the growth rate √|ω²| (1/s) and d_omega its derivative "
+            "−∂ω²/∂p / (2√|ω²|)")
     if np.isinf(e_w).any():
         note += ("; " if note else "") + "a rigid mode leaves zero: its ∂ω/∂p is unbounded (see omega2, rad²/s² per unit)"
     for name, arr in (("∂ω/∂p", d_w), ("∂ζ/∂p", d_z)):
@@ -596,4 +649,5 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
             raise ModelError(f"sensitivity: {name} is not finite (the scene's scales are too extreme)")
     return Sensitivity(tuple(names), tuple(units), np.asarray(values, float), base_modes.omega.copy(), d_w, e_w,
                        d_w2, e_w2, repeated, d_l, e_l, d_wn, e_wn, d_z, e_z, dM, dC, dK, eM, eC, eK,
-                       np.asarray(steps), method, time.perf_counter() - start, note, base_modes, nelson)
+                       np.asarray(steps), method, time.perf_counter() - start, note, base_modes, nelson,
+                       unstable=unstable, defective=defective)
