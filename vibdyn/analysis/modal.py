@@ -509,7 +509,8 @@ def _defective_pairs(A, E, lam, dlam, eta):
         return defective
     norm = float(np.abs(A).sum(axis=0).max())
     done = np.zeros(m, bool)
-    for i in np.argsort(-dlam / np.maximum(np.abs(lam), 1e-300)):
+    size = np.maximum(np.abs(lam), 1e-12 * max(float(np.abs(lam).max()), 1e-300))
+    for i in np.argsort(np.log(size) - np.log(np.maximum(dlam, 1e-300))):  # (the least well known first)
         if done[i]:
             continue
         gap = np.abs(lam - lam[i])

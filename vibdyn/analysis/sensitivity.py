@@ -32,6 +32,7 @@ from ..defaults import EPS
 from ..description import parameters as _parameters
 from ..errors import ConvergenceError, ModelError
 from ..model.fd import differences
+from .linearize import linearize
 from .modal import invariant_pair
 
 #: relative step of the pipeline's differences (h = STEP·|p|, or STEP × the parameter's scale at p = 0)
@@ -166,8 +167,11 @@ class _Pipeline:
     base one was (static equilibrium from the base pose, the same held speeds, or the base pose held),
     linearised analytically (finite differences where the analytic path refuses)."""
 
-    def __init__(self, make_scene: Callable, q0, v0, regime, hold=()):
+    def __init__(self, make_scene: Callable, q0, v0, regime, hold=(), independent=None):
         self.make_scene, self.q0, self.v0, self.regime, self.hold = make_scene, q0, v0, regime, tuple(hold)
+        # a reduced model's independent coordinates, kept at every p (a choice flipping between p ± h, at a
+        # symmetric pose, would difference models in different coordinates)
+        self.independent = None if independent is None else np.asarray(independent, dtype=int)
 
     def __call__(self, values):
         scene, speeds = self.make_scene(values)
@@ -183,12 +187,12 @@ class _Pipeline:
         else:
             op = self.q0
         at = {"v": self.v0} if self.regime == "pose" else {}  # (an operating point carries its own velocity)
-        if self.hold:  # reduced as the base model is: the same coordinates held at their (new) speeds
-            at["hold"] = self.hold
+        # reduced as the base model is: the same coordinates held at their (new) speeds, the same independent ones
+        at.update(hold=self.hold, independent=self.independent)
         try:
-            lin = system.linearize(op, method="analytic", **at)
+            lin = linearize(system, op, method="analytic", **at)
         except ModelError:
-            lin = system.linearize(op, method="fd", **at)
+            lin = linearize(system, op, method="fd", **at)
         return getattr(lin, "reduced", lin)  # a mechanism's: in its independent motions
 
 
@@ -226,14 +230,20 @@ def _step(value, unit, length_scale):
 
 def _differences(pipeline, base_values, j, h, one_sided):
     """(derivatives, their errors) of (M, C, K) along parameter j: central differences (or one-sided, second
-    order, at a bound), each error the h step's truncation estimated from the 2h one plus the models' own errors
-    over the step."""
+    order, at a bound), each error |D(h) − D(2h)| plus the models' own errors carried over the step.
+
+    |D(h) − D(2h)| is three times the h step's truncation, and about the size of the evaluations' random part
+    (the rounding of a model's finite differences, of its operating point found again, whatever its source: the
+    four evaluations show it, where a bound of it over the step was 1e2–1e4 times what the differences carry).
+    The models' error estimates (finite-difference truncation, the bounds of their rounding) are systematic:
+    smooth in p, they cancel in a difference but for their own variation, their relative size times the
+    derivative. An entry that moves with p carries at least one rounding of its value each side (ε |X| over the
+    step); one equal at every point moves with nothing (its difference is exact)."""
     def at(x):
         vals = np.array(base_values, float)
         vals[j] = x
         lin = pipeline(vals)
-        noise = (EPS * np.abs(lin.M) * lin.nv, np.abs(lin.C_error), np.abs(lin.K_error))
-        return (lin.M, lin.C, lin.K), noise
+        return (lin.M, lin.C, lin.K), (None, lin.C_error, lin.K_error)
 
     p = base_values[j]
     if one_sided:
@@ -242,13 +252,23 @@ def _differences(pipeline, base_values, j, h, one_sided):
         Dh = [(-3 * a + 4 * b - c) / (2 * h) for a, b, c in zip(X[0][0], X[1][0], X[2][0])]
         D2 = [(-3 * a + 4 * c - d) / (4 * h) for a, c, d in zip(X[0][0], X[2][0], X[3][0])]
         T = [a - b for a, b in zip(Dh, D2)]
-        noise = [(3 * n0 + 4 * n1 + n2) / (2 * h) for n0, n1, n2 in zip(X[0][1], X[1][1], X[2][1])]
+        weight = 8 / (2 * h)  # (|−3| + 4 + |−1| rounding units over 2h)
     else:
         xs = [p - 2 * h, p - h, p + h, p + 2 * h]
         X = [at(x) for x in xs]
         Dh, T = _richardson([X[2][0], X[3][0], X[1][0], X[0][0]], h)
-        noise = [(n1 + n2) / (2 * h) for n1, n2 in zip(X[1][1], X[2][1])]
-    err = [np.abs(t) / 3 + n for t, n in zip(T, noise)]
+        weight = 2 / (2 * h)
+    err = []
+    for k, (d, t) in enumerate(zip(Dh, T)):
+        values = np.array([x[0][k] for x in X])
+        size = np.abs(values).max(axis=0)
+        moved = np.any(values != values[0], axis=0)
+        e = np.abs(t) + np.where(moved, EPS * size * weight, 0.0)
+        errors = [x[1][k] for x in X if x[1][k] is not None]
+        if errors:  # a model's own estimate, relative to its matrix, times the derivative
+            rel = max(float(np.abs(x).max(initial=0.0)) for x in errors) / max(float(size.max(initial=0.0)), 1e-300)
+            e += rel * np.abs(d)
+        err.append(e)
     return Dh, err
 
 
@@ -492,7 +512,7 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
                 sc_vals.append(x)
         return _parameters.with_values(scene, plist, sc_vals), sp
 
-    pipeline = _Pipeline(make_scene, lin.q, lin.v, regime, hold)
+    pipeline = _Pipeline(make_scene, lin.q, lin.v, regime, hold, getattr(lin, "independent", None))
     steps = np.array([_step(values[j], units[j], system.length_scale) for j in range(len(names))])
     direct: dict[int, tuple] = {}
     from ..model.derivatives import untrusted
@@ -511,6 +531,8 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
                 direct[j] = col
     else:  # the base model again through the pipeline: in the coordinates the differences are in (a mechanism's
         lin = pipeline(values)  # independent motions), analytic
+        if pipeline.independent is None and getattr(lin, "independent", None) is not None:
+            pipeline.independent = np.asarray(lin.independent, dtype=int)
         base_modes = lin.modes()
     return _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, start, unused, direct)
 
@@ -585,9 +607,9 @@ def _of_builder(build, params, start, unused):
     def make_scene(vals):
         return build(**{k: float(x) for k, x in zip(names, vals)}), speeds
 
-    pipeline = _Pipeline(make_scene, tree.q, tree.v, regime)
-    steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
     lin = getattr(tree, "reduced", tree)  # (a mechanism's: in its independent motions, as the pipeline's)
+    pipeline = _Pipeline(make_scene, tree.q, tree.v, regime, independent=getattr(lin, "independent", None))
+    steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
     return _assemble(pipeline, lin.modes(), lin, names, ["(the builder's)"] * len(names), values, steps,
                      [False] * len(names), start, unused)
 
