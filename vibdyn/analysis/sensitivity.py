@@ -652,18 +652,19 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
         dM, dC, dK, eM, eC, eK = (x[keep] for x in (dM, dC, dK, eM, eC, eK))
     d_w2, e_w2, d_w, e_w, repeated, nelson = _undamped(base_modes, dM, dK, eM, eK)
     d_l, e_l, d_wn, e_wn, d_z, e_z, defective = _damped(base_modes, lin, dM, dC, dK, eM, eC, eK)
-    note = dropped
-    if repeated.any():
-        listed = ", ".join(str(i + 1) for i in np.flatnonzero(repeated))
-        note += ("; " if note else "") + (
-            f"modes {listed} have repeated frequencies: their derivatives are those of the subspace's eigenvalues "
-            "(ascending), their shape derivatives are not unique (given as 0)")
     unstable = np.asarray(base_modes.unstable, bool).copy()
-    if unstable.any():
-        listed = ", ".join(str(i + 1) for i in np.flatnonzero(unstable))
-        note += ("; " if note else "") + (
-            f"mode(s) {listed} unstable (ω² < 0): omega0 is the growth rate √|ω²| (1/s) and d_omega its derivative "
-            "−∂ω²/∂p / (2√|ω²|)")
+    notes = [dropped] if dropped else []
+    for mask, text in (
+            (repeated, "modes {} have repeated frequencies: their derivatives are those of the subspace's eigenvalues "
+                       "(ascending), their shape derivatives are not unique (given as 0)"),
+            (defective, "damped modes {}: a repeated eigenvalue, not diagonalisable within the error (critical "
+                        "damping): ∂λ/∂p, ∂ω_n/∂p and ∂ζ/∂p of each are not defined there (errors inf); d_eigenvalues "
+                        "gives the pair's mean ½∂(λ₁ + λ₂)/∂p"),
+            (unstable, "mode(s) {} unstable (ω² < 0): omega0 is the growth rate √|ω²| (1/s) and d_omega its "
+                       "derivative −∂ω²/∂p / (2√|ω²|)")):
+        if mask.any():
+            notes.append(text.format(", ".join(str(i + 1) for i in np.flatnonzero(mask))))
+    note = "; ".join(notes)
     if np.isinf(e_w).any():
         note += ("; " if note else "") + "a rigid mode leaves zero: its ∂ω/∂p is unbounded (see omega2, rad²/s² per unit)"
     for name, arr in (("∂ω/∂p", d_w), ("∂ζ/∂p", d_z)):
