@@ -130,7 +130,7 @@ class ConstrainedLinearModel(ReducedLinearModel):
         m = _modes(self, **kwargs)
         N = self.null_space
         cs = m.complex_shapes
-        return replace(m, linear=self.tree, reduced=self.reduced, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
+        return replace(m, linear=self.tree, reduced=self, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
 
     def with_modal_damping(self, zeta):
         return self.with_damping(self.reduced.with_modal_damping(zeta).C)
