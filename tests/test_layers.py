@@ -65,6 +65,8 @@ ENTRY_POINTS = {
     ("vibdyn.analysis.linearize", "LinearModel.state_space"): {"vibdyn.analysis.statespace"},
     ("vibdyn.analysis.linearize", "LinearModel.modes"): {"vibdyn.analysis.modal"},
     ("vibdyn.analysis.linearize", "LinearModel.with_rayleigh"): {"vibdyn.analysis.modal"},
+    # and the modes' to their sensitivities (which read the modes' own eigenproblem)
+    ("vibdyn.analysis.modal", "Modes.sensitivity"): {"vibdyn.analysis.sensitivity"},
     ("vibdyn.analysis.campbell_diagram", "Campbell.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.results", "TimeResult.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.analysis.nonlinear.harmonic_balance", "ForcedResponseCurve.plot"): {"vibdyn.faces.plots"},

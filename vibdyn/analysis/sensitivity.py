@@ -49,11 +49,12 @@ class Sensitivity:
     Per mode (rows: the modes of the linear model asked about — a held or looped model's own, in the order of
     its :class:`~vibdyn.analysis.modal.Modes`) and parameter (columns), each derivative named ``d_`` and its
     quantity (as ``dM``, ``dK``): ``d_omega`` ∂ω/∂p of the undamped natural frequencies ``omega0`` (rad/s per
-    unit of p; of the growth rate √|ω²| (1/s) where ``unstable``) and ``d_omega_error`` (absolute, same unit); ``d_omega2``
-    ∂ω²/∂p (rad²/s² per unit); ``d_shapes`` ∂φ/∂p (nv × n_modes × n_params, of the mass-normalised shapes,
-    zero where ``repeated``: a repeated mode's shape derivative is not unique) with ``d_shapes_error``. Damped
-    modes (``d_omega_n``, ``d_zeta``: rows of the modes' damped eigenvalues): ∂ω_n/∂p (rad/s per unit), ∂ζ/∂p
-    (1 per unit), ∂λ/∂p (``d_eigenvalues``, 1/s per unit) with their absolute errors.
+    unit of p; of the growth rate √|ω²| (1/s) where ``unstable``) and ``d_omega_error`` (absolute, same unit);
+    ``d_omega2`` ∂ω²/∂p (rad²/s² per unit); ``d_shapes`` ∂φ/∂p (nv × n_modes × n_params, of the mass-normalised
+    shapes in the coordinates of ``modes``, a reduced model's independent ones; zero where ``repeated``: a
+    repeated mode's shape derivative is not unique) with ``d_shapes_error``. Damped modes (``d_omega_n``,
+    ``d_zeta``: rows of the modes' damped eigenvalues): ∂ω_n/∂p (rad/s per unit), ∂ζ/∂p (1 per unit), ∂λ/∂p
+    (``d_eigenvalues``, 1/s per unit) with their absolute errors (``defective``: a pair at critical damping).
     ``dM``, ``dC``, ``dK`` (n_params × nv × nv) and their errors ``dM_error`` …: the linear model's derivatives.
     """
 
