@@ -222,3 +222,21 @@ def test_stated_errors_track_the_actual_ones(model, name, what, factor):
     actual = np.abs(got[:, 0] - truth)
     assert np.all(actual <= err[:, 0] + own), (actual, err[:, 0], own)
     assert np.all(err[:, 0] <= factor * (actual + own)), (err[:, 0], actual, own)
+
+
+def test_two_modes_coalescing_under_a_circulatory_stiffness_are_a_defective_pair():
+    """M = I, K = [[k1, a], [−a, k2]]: λ² = −μ, μ = (k1 + k2)/2 ± √(((k1 − k2)/2)² − a²), one double μ at
+    a = |k1 − k2|/2 (a flutter onset): λ = ±i√μ each a Jordan block, on the imaginary axis (it grows as t)."""
+    import dataclasses
+
+    S = vd.Scene("two")
+    S.add_body("m1", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
+    S.add_body("m2", parent="m1", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
+    S.add_joint_spring("m1", stiffness=1.0)
+    lin = S.build().linearize(method="analytic")
+    k1, k2 = 30.0, 10.0
+    m = dataclasses.replace(lin, M=np.eye(2), K=np.array([[k1, (k1 - k2) / 2], [-(k1 - k2) / 2, k2]]),
+                            K_error=np.zeros((2, 2))).modes()
+    assert m.defective.all() and m.stability == "neutral" and not m.damped_zero.any()
+    assert np.all(np.abs(m.damped_eigenvalues - 1j * np.sqrt((k1 + k2) / 2)) <= m.eigenvalue_error)
+    assert np.all(m.eigenvalue_error < 1e-5 * np.sqrt((k1 + k2) / 2))

@@ -418,8 +418,12 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         listed = ", ".join(str(i + 1) for i in np.flatnonzero(defective))
         note += ("; " if note else "") + (
             f"damped modes {listed}: a repeated eigenvalue λ = {lam_modes[defective][0]:.6g} 1/s, not diagonalisable "
-            "within the error (a defective pair, as at critical damping): its modes are one, its shape and its "
-            "derivatives not defined there")
+            "within the error (a defective pair: critical damping, or two modes coalescing): its modes are one, "
+            "its shape and its derivatives not defined there")
+        if stability == "stable" and np.any(lam_modes.real[defective] >= -(lam_error * mag)[defective]):
+            # (on the imaginary axis a Jordan block grows as t: bounded no more, nor unstable beyond the error)
+            stability = "neutral"
+            note += "; that pair is on the imaginary axis within its error (it grows as t there): neutral"
     return Modes(lin, w2, omega, Phi, rigid, unstable, rel, zero_threshold, lam, lam_modes, zeta, mag, omega_d,
                  lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start, note,
                  eigenproblem=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes, eigenvalue_uncertainty=lam_abs,
