@@ -78,7 +78,7 @@ def test_rigid_rotor_held_at_its_spin_has_as_many_rows_as_modes():
     bounce = np.sqrt(2 * 2e4 / 10.0)
     for r, wn in enumerate(s.modes.omega_n):
         exact = 0.0 if abs(wn - bounce) < 1e-6 * bounce else whirl[min(whirl, key=lambda x: abs(x - wn))]
-        assert abs(s.d_omega_n[r, 0] - exact) <= s.d_omega_n_error[r, 0] + 1e-12, (wn, s.d_omega_n[r, 0], exact)
+        assert abs(s.d_omega_n[r, 0] - exact) <= s.d_omega_n_error[r, 0], (wn, s.d_omega_n[r, 0], exact)
 
 
 # ------------------------------------------------------------------------------------------ 2: unstable modes
@@ -196,7 +196,7 @@ def test_trammel_sensitivities_are_covered_by_their_estimates():
         assert err <= 1e-6 * abs(truth), (name, err)  # an estimate that says something
 
 
-def pipeline_oracle(model, name, what, rel=2e-2):
+def pipeline_oracle(model, name, what, rel=2e-3):
     """∂(ω or ζ)/∂p of a bundled model by differences of rebuilt scenes (sixth order, with its own error)."""
     base = vd.load_scene(model)
     p = parameters(base, [name])[0]
@@ -209,8 +209,10 @@ def pipeline_oracle(model, name, what, rel=2e-2):
 
 
 @pytest.mark.parametrize("model, name, what, factor", [
-    ("four_bar", "rocker.joint.at.x", "omega", 100),  # stated was 9764× the error
-    ("trailer", "rod.inertia.yy", "zeta", 100),  # 1789×
+    # (the factors leave room for the machine: measured here 65× a lucky error of the four-bar, whose differences
+    # sit at their rounding floor (0.5–3× the error at other steps), 27–76× the trailer's, near 1e-13)
+    ("four_bar", "rocker.joint.at.x", "omega", 300),  # stated was 9764× the error
+    ("trailer", "rod.inertia.yy", "zeta", 300),  # 1789×
     # 2.2e6×: what remains is the base model's stated K error (a bound of its rounding, ~1e3× its actual one),
     # carried through ω² into −ω² ∂M: the same as the modes' own ω error
     ("slider_crank", "piston.mass", "omega", 3000),
@@ -221,7 +223,7 @@ def test_stated_errors_track_the_actual_ones(model, name, what, factor):
     got, err = (s.d_omega, s.d_omega_error) if what == "omega" else (s.d_zeta, s.d_zeta_error)
     actual = np.abs(got[:, 0] - truth)
     assert np.all(actual <= err[:, 0] + own), (actual, err[:, 0], own)
-    assert np.all(err[:, 0] <= factor * (actual + own)), (err[:, 0], actual, own)
+    assert np.all(err[:, 0] <= factor * (actual + own)), (err[:, 0], actual, own, err[:, 0] / (actual + own))
 
 
 def test_two_modes_coalescing_under_a_circulatory_stiffness_are_a_defective_pair():
