@@ -429,7 +429,8 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
                  eigenproblem=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes, eigenvalue_uncertainty=lam_abs,
                  omega_error=np.where(rigid, np.sqrt(uncertainty), rel * omega) if any_rigid else rel * omega,
                  # (a zero eigenvalue's relative error is relative to the largest |λ|)
-                 eigenvalue_error=lam_error * np.where(zero_modes, lam_scale, mag), defective=defective)
+                 eigenvalue_error=lam_error * np.where(zero_modes, lam_scale, mag),
+                 defective=defective)
 
 
 _NO_REAL, _NO_COMPLEX, _NO_BOOL = np.zeros(0), np.zeros(0, complex), np.zeros(0, bool)  # undamped: no state form
