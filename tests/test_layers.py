@@ -74,6 +74,8 @@ ENTRY_POINTS = {
     ("vibdyn.analysis.rotor_stability", "CriticalSpeedMap.plot"): {"vibdyn.faces.campbell_plot"},
     ("vibdyn.analysis.unbalance", "UnbalanceResponse.plot"): {"vibdyn.faces.rotor_plots"},
     ("vibdyn.analysis.unbalance", "UnbalanceResponse.polar"): {"vibdyn.faces.rotor_plots"},
+    # and the modes' to their sensitivities (which read the modes' own eigenproblem)
+    ("vibdyn.analysis.modal", "Modes.sensitivity"): {"vibdyn.analysis.sensitivity"},
     ("vibdyn.results", "TimeResult.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.analysis.nonlinear.harmonic_balance", "ForcedResponseCurve.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.analysis.nonlinear.backbone", "Backbone.plot"): {"vibdyn.faces.plots"},

@@ -92,6 +92,11 @@ class LinearModel:
         return self.M.shape[0]
 
     @property
+    def hold(self) -> tuple[str, ...]:
+        """Names of the coordinates held at their speed (``linearize(hold=...)``): none for a tree's model."""
+        return ()
+
+    @property
     def D(self):
         """Damping: symmetric part of C."""
         return 0.5 * (self.C + self.C.T)
@@ -284,7 +289,7 @@ def reference_state(system, at=None, v=None, t=0.0):
 
 def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: float = 0.0,
               a: ArrayLike | None = None, method: str = "fd", step: float = FD_STEP,
-              hold: str | list[str] | tuple[str, ...] = ()) -> LinearModel:
+              hold: str | list[str] | tuple[str, ...] = (), independent: Any = None) -> LinearModel:
     """Linear model of ``system`` about ``at`` (an Equilibrium/SteadyMotion, a configuration q, or None
     for the neutral configuration) with velocity ``v`` (zero if None) at time ``t``.
 
@@ -299,7 +304,8 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     and falls back to "fd" (the result's ``method`` says so). A mechanism with loops, a scene with drives, and
     ``hold`` (coordinate names held at their speed in v by their drive: a Campbell diagram's spin) are
     linearised in the independent coordinates of the system's reduction
-    (:mod:`vibdyn.model.reduction`, :func:`vibdyn.analysis.reduced.linearize`).
+    (:mod:`vibdyn.model.reduction`, :func:`vibdyn.analysis.reduced.linearize`); ``independent`` (indices in v) keeps
+    those as the independent coordinates instead of choosing them (another model's, to compare or difference).
     """
     reduction = system.reduction
     if hold:
@@ -309,7 +315,8 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     if not reduction.is_identity:  # in the independent coordinates of the loops, drives and held speeds
         from .reduced import linearize as reduced_linearize
 
-        return reduced_linearize(system, reduction, at, v=v, t=t, a=a, method=method, step=step)
+        return reduced_linearize(system, reduction, at, v=v, t=t, a=a, method=method, step=step,
+                                 independent=independent)
     return tree_linearize(system, at, v=v, t=t, a=a, method=method, step=step)
 
 

@@ -75,6 +75,12 @@ class Modes:
     omega_error: np.ndarray = field(default_factory=lambda: np.zeros(0))
     #: estimated absolute error of each damped eigenvalue (1/s)
     eigenvalue_error: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: per damped mode: its eigenvalue is one of a pair repeated and not diagonalisable within the error (a
+    #: defective pair, as at critical damping c = 2√(km)); its ``eigenvalue_error`` is the pair's ~√(|t| η) split
+    defective: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    #: the reduced linear model the eigenproblem was solved on, where ``linear`` is its tree (a mechanism's or a held
+    #: model's modes: shapes in the tree's coordinates); None when it is ``linear`` itself
+    reduced: Any = field(default=None, repr=False)
     error = Renamed("relative_error")
 
     def verdict(self, ignore_zeros: int = 0) -> str:
@@ -393,7 +399,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         N2 -= Ke.T
         damped = bool(np.maximum.reduce(N2, axis=None) > 2e-13 * np.maximum.reduce(abs_Ks, axis=None))
     if damped:
-        lam, lam_modes, shapes_c, lam_error, lam_abs, modes_abs = _state_modes(lin)
+        lam, lam_modes, shapes_c, lam_error, lam_abs, modes_abs, defective = _state_modes(lin)
         mag = np.abs(lam_modes)
         # an eigenvalue is zero (rigid or cyclic) when it is within 10 × its own uncertainty of 0 (or at
         # round-off of the largest): a genuine slow mode (a precession at 0.0025 rad/s beside a spin of 1e6)
@@ -413,7 +419,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         lam = lam_modes = _NO_COMPLEX
         lam_error = mag = zeta = omega_d = lam_abs = _NO_REAL
         lam_scale = 1.0
-        zero = zero_modes = _NO_BOOL
+        zero = zero_modes = defective = _NO_BOOL
         shapes_c = np.zeros((n, 0), complex)
         classical = True
     stability, within = classify(rigid, unstable, lam, zero, lam_abs)
@@ -421,12 +427,23 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     if within:
         note = (f"growth rate {within[0]:.2g} 1/s within its own error {within[1]:.2g} 1/s: neutral within the "
                 "error, not unstable")
+    if defective.any():
+        listed = ", ".join(str(i + 1) for i in np.flatnonzero(defective))
+        note += ("; " if note else "") + (
+            f"damped modes {listed}: a repeated eigenvalue λ = {lam_modes[defective][0]:.6g} 1/s, not diagonalisable "
+            "within the error (a defective pair: critical damping, or two modes coalescing): its modes are one, "
+            "its shape and its derivatives not defined there")
+        if stability == "stable" and np.any(lam_modes.real[defective] >= -(lam_error * mag)[defective]):
+            # (on the imaginary axis a Jordan block grows as t: bounded no more, nor unstable beyond the error)
+            stability = "neutral"
+            note += "; that pair is on the imaginary axis within its error (it grows as t there): neutral"
     return Modes(lin, w2, omega, Phi, rigid, unstable, rel, zero_threshold, lam, lam_modes, zeta, mag, omega_d,
                  lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start, note,
                  eigenproblem=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes, eigenvalue_uncertainty=lam_abs,
                  omega_error=np.where(rigid, np.sqrt(uncertainty), rel * omega) if any_rigid else rel * omega,
                  # (a zero eigenvalue's relative error is relative to the largest |λ|)
-                 eigenvalue_error=lam_error * np.where(zero_modes, lam_scale, mag))
+                 eigenvalue_error=lam_error * np.where(zero_modes, lam_scale, mag),
+                 defective=defective)
 
 
 _NO_REAL, _NO_COMPLEX, _NO_BOOL = np.zeros(0), np.zeros(0, complex), np.zeros(0, bool)  # undamped: no state form
@@ -460,22 +477,79 @@ def _state_modes(lin):
     E = np.zeros_like(A)
     E[n:, :n], E[n:, n:] = Minv @ lin.K_error, Minv @ lin.C_error
     E += 2 * n * EPS * np.abs(A)
-    dlam = (np.einsum("ij,ij->j", np.abs(W), E @ np.abs(V))
-            / np.maximum(np.abs(np.einsum("ij,ij->j", W.conj(), V)), 1e-300))
+    eta = np.einsum("ij,ij->j", np.abs(W), E @ np.abs(V))
+    dlam = eta / np.maximum(np.abs(np.einsum("ij,ij->j", W.conj(), V)), 1e-300)
+    defective = _defective_pairs(A, E, lam, dlam, eta)
     scale = max(np.abs(lam).max(initial=0.0), 1e-300)
     lam = np.where(np.abs(lam.imag) <= 1e-12 * scale, lam.real + 0j, lam)
     lam = np.where(np.abs(lam) <= 1e-12 * scale, 0j, lam)
     order = np.lexsort((lam.real, np.abs(lam.imag)))
-    lam, V, dlam = lam[order], V[:, order], dlam[order]
+    lam, V, dlam, defective = lam[order], V[:, order], dlam[order], defective[order]
     keep = lam.imag >= 0  # one of each conjugate pair, and the real eigenvalues
-    lm, Vm, dm = lam[keep], V[:n, keep], dlam[keep]
+    lm, Vm, dm, dfm = lam[keep], V[:n, keep], dlam[keep], defective[keep]
     order = np.argsort(np.abs(lm), kind="stable")
-    lm, Vm, dm = lm[order], Vm[:, order], dm[order]
+    lm, Vm, dm, dfm = lm[order], Vm[:, order], dm[order], dfm[order]
     big = np.argmax(np.abs(Vm), axis=0)
     piv = Vm[big, np.arange(Vm.shape[1])]
     Vm = Vm / np.where(np.abs(piv) > 0, piv, 1.0)
     rel = dm / np.where(np.abs(lm) > 0, np.abs(lm), scale)
-    return lam, lm, Vm, rel, dlam, dm
+    return lam, lm, Vm, rel, dlam, dm, dfm
+
+
+def invariant_pair(A, mu, radius):
+    """(Y, Z, T₁₁) of the two eigenvalues of A within ``radius`` of ``mu`` (None unless exactly two): Z (2n × 2)
+    an orthonormal basis of their invariant subspace, Y (2 × 2n) the left one with Y Z = I (the spectral
+    projector Z Y), T₁₁ = Y A Z their 2×2 upper triangular Schur block."""
+    T, Z, sdim = sla.schur(A, output="complex", sort=lambda z: abs(z - mu) <= radius)
+    if sdim != 2:
+        return None
+    X = sla.solve_sylvester(T[:2, :2], -T[2:, 2:], T[:2, 2:]) if T.shape[0] > 2 else np.zeros((2, 0))
+    return np.hstack([np.eye(2), -X]) @ Z.conj().T, Z[:, :2], T[:2, :2]
+
+
+#: a pair whose split s satisfies s² ≤ DEFECTIVE_FACTOR · |t| η (t its Jordan coupling, η the size of A's error
+#: on it) coalesces within the error: repeated and not diagonalisable (as a rigid mode is "within 10 × its error")
+DEFECTIVE_FACTOR = 10.0
+
+
+def _defective_pairs(A, E, lam, dlam, eta):
+    """Per eigenvalue of A: one of a pair that is repeated and not diagonalisable within the error (a Jordan
+    block: critical damping). ``dlam`` (first-order uncertainties, 1/s) is corrected in place for such a pair: a
+    perturbation η of a Jordan block of coupling t splits it by ~√(|t| η), which first-order theory (∝ 1/|wᴴv|,
+    unbounded there) cannot say.
+
+    Only pairs whose first-order discs overlap are examined (the ordered complex Schur form of A, the pair first,
+    gives its 2×2 block [[a, t], [0, b]] and, through the Sylvester equation of the spectral projector, its left
+    basis, so η is the block's own error); pairs at zero within √(‖A‖ η) are left to the rigid-mode test."""
+    m = lam.size
+    defective = np.zeros(m, bool)
+    # pairs inside each other's first-order uncertainty (an exact eigenvalue, δλ = 0, is no pair's); the usual
+    # case, every eigenvalue told apart, costs this much alone
+    close = np.abs(np.subtract.outer(lam, lam)) < np.add.outer(dlam, dlam)
+    if np.count_nonzero(close) == np.count_nonzero(dlam):  # (the diagonal: each uncertain eigenvalue with itself)
+        return defective
+    ii, jj = np.nonzero(close)
+    # (a rigid or cyclic zero, within a Jordan block's split of it, is the rigid-mode test's)
+    pairs = (ii < jj) & (np.abs(lam[ii] + lam[jj]) > 20 * np.sqrt(np.abs(A).sum(axis=0).max()
+                                                                  * np.maximum(eta[ii], eta[jj])))
+    done = np.zeros(m, bool)
+    for i, j in zip(ii[pairs], jj[pairs]):
+        if done[i] or done[j]:
+            continue
+        mu, half = 0.5 * (lam[i] + lam[j]), 0.5 * abs(lam[i] - lam[j])
+        others = np.delete(np.abs(lam - mu), [i, j])
+        pair = invariant_pair(A, mu, 0.5 * (half + others.min(initial=np.inf)) if others.size else np.inf)
+        if pair is None:
+            continue
+        done[[i, j]] = True
+        Y, Z, T = pair
+        t = abs(T[0, 1])
+        eta2 = float((np.abs(Y) @ E @ np.abs(Z)).max())
+        split = 0.5 * abs(T[0, 0] - T[1, 1])
+        if t > DEFECTIVE_FACTOR * eta2 and split**2 <= DEFECTIVE_FACTOR * t * eta2:
+            defective[[i, j]] = True
+            dlam[[i, j]] = np.sqrt(split**2 + t * eta2) + eta2
+    return defective
 
 
 def classify(rigid, unstable, eigenvalues, zero, uncertainty, ignore_zeros=0):

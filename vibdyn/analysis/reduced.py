@@ -81,6 +81,12 @@ class ReducedLinearModel(LinearModel):
         return self.null_space.T @ By, self.null_space.T @ Bv
 
     @property
+    def hold(self) -> tuple[str, ...]:
+        """Names of the coordinates held at their speed (what :func:`vibdyn.analysis.linearize.linearize` was given as
+        ``hold``; the drives' coordinates are the system's own)."""
+        return tuple(self.system.coordinates[i] for i in self.reduction.held_speeds)
+
+    @property
     def drive(self) -> dict[str, float]:
         """{drive, or coordinate held at its speed: τ}: the force (N or N·m) each holder exerts along its
         coordinate at the operating point (empty without held coordinates)."""
@@ -124,7 +130,7 @@ class ConstrainedLinearModel(ReducedLinearModel):
         m = _modes(self, **kwargs)
         N = self.null_space
         cs = m.complex_shapes
-        return replace(m, linear=self.tree, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
+        return replace(m, linear=self.tree, reduced=self, shapes=N @ m.shapes, complex_shapes=N @ cs if cs.size else cs)
 
     def with_modal_damping(self, zeta):
         return self.with_damping(self.reduced.with_modal_damping(zeta).C)
@@ -149,7 +155,7 @@ class DrivenLinearModel(ConstrainedLinearModel):
 
 
 def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_STEP,
-              multipliers=None) -> ReducedLinearModel:
+              multipliers=None, independent=None) -> ReducedLinearModel:
     """Linear model of ``system`` in the independent coordinates of ``reduction`` about ``at`` (an operating
     point, or a configuration, closed first) with velocity ``v`` (zero if None; it must keep the loops
     closed) at time ``t`` (s); the held coordinates' q and v are their laws' or speeds (see the module).
@@ -157,7 +163,8 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
     ``a``: the reference motion's accelerations. None: the independent coordinates do not accelerate about an
     operating point or with loops (the dependent ones keep Φ_q a + γ = 0); otherwise (a state of a driven
     motion) the motion's own. Given, its driven entries must be the laws' (and with loops it must be zero).
-    ``multipliers``: the loop forces λ (None: the operating point's, or the minimum-norm λ with Φ_qᵀλ = r)."""
+    ``multipliers``: the loop forces λ (None: the operating point's, or the minimum-norm λ with Φ_qᵀλ = r).
+    ``independent``: the independent coordinates (indices in v) to keep instead of choosing them."""
     start = time.perf_counter()
     R = reduction
     q0, v0, t0 = reference_state(system, at, v, t)
@@ -173,7 +180,7 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
         raise ModelError("linearize: the velocity v of the operating point opens the loops (Φ_q v ≠ 0: "
                          f"{opening:.3e} dimensionless): give a motion the loops allow (a steady motion's v, or "
                          "v = N ż)")
-    ind, N = R.independent(q0)
+    ind, N = R.independent(q0, independent)
     if not ind.size:
         raise ModelError(f"linearize: every coordinate of scene '{system.name}' is held ({R.describe()}): nothing "
                          "is free to vibrate")

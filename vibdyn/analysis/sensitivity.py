@@ -33,6 +33,8 @@ from ..defaults import EPS
 from ..description import parameters as _parameters
 from ..errors import ConvergenceError, ModelError
 from ..model.fd import differences
+from .linearize import linearize
+from .modal import invariant_pair
 
 #: relative step of the pipeline's differences (h = STEP·|p|, or STEP × the parameter's scale at p = 0)
 STEP = 1e-4
@@ -45,13 +47,15 @@ STEP = 1e-4
 class Sensitivity:
     """Derivatives of the modes of a linear model with respect to named parameters.
 
-    Per mode (rows, in the order of :class:`~vibdyn.analysis.modal.Modes`) and parameter (columns), each
-    derivative named ``d_`` and its quantity (as ``dM``, ``dK``): ``d_omega`` ∂ω/∂p of the undamped natural
-    frequencies ``omega0`` (rad/s per unit of p) and ``d_omega_error`` (absolute, same unit); ``d_omega2``
-    ∂ω²/∂p (rad²/s² per unit); ``d_shapes`` ∂φ/∂p (nv × n_modes × n_params, of the mass-normalised shapes,
-    zero where ``repeated``: a repeated mode's shape derivative is not unique) with ``d_shapes_error``. Damped
-    modes (``d_omega_n``, ``d_zeta``: rows of the modes' damped eigenvalues): ∂ω_n/∂p (rad/s per unit), ∂ζ/∂p
-    (1 per unit), ∂λ/∂p (``d_eigenvalues``, 1/s per unit) with their absolute errors.
+    Per mode (rows: the modes of the linear model asked about — a held or looped model's own, in the order of
+    its :class:`~vibdyn.analysis.modal.Modes`) and parameter (columns), each derivative named ``d_`` and its
+    quantity (as ``dM``, ``dK``): ``d_omega`` ∂ω/∂p of the undamped natural frequencies ``omega0`` (rad/s per
+    unit of p; of the growth rate √|ω²| (1/s) where ``unstable``) and ``d_omega_error`` (absolute, same unit);
+    ``d_omega2`` ∂ω²/∂p (rad²/s² per unit); ``d_shapes`` ∂φ/∂p (nv × n_modes × n_params, of the mass-normalised
+    shapes in the coordinates of ``modes``, a reduced model's independent ones; zero where ``repeated``: a
+    repeated mode's shape derivative is not unique) with ``d_shapes_error``. Damped modes (``d_omega_n``,
+    ``d_zeta``: rows of the modes' damped eigenvalues): ∂ω_n/∂p (rad/s per unit), ∂ζ/∂p (1 per unit), ∂λ/∂p
+    (``d_eigenvalues``, 1/s per unit) with their absolute errors (``defective``: a pair at critical damping).
     ``dM``, ``dC``, ``dK`` (n_params × nv × nv) and their errors ``dM_error`` …: the linear model's derivatives.
     """
 
@@ -82,6 +86,12 @@ class Sensitivity:
     note: str = ""
     modes: Any = field(default=None, repr=False)  # the base modes the derivatives are of
     nelson: Any = field(default=None, repr=False)  # () -> (∂φ, its error): computed on first use
+    #: per mode: ω² < 0, so ``omega0`` is the growth rate √|ω²| (1/s) and ``d_omega`` its derivative
+    unstable: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    #: per damped mode: its eigenvalue is repeated and not diagonalisable within the error (a defective pair,
+    #: critical damping): ``d_eigenvalues`` is then the derivative of the pair's mean ½(λ₁ + λ₂) (well defined),
+    #: and ``d_omega_n``, ``d_zeta`` are not defined there (their errors inf)
+    defective: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
 
     @cached_property
     def _shape_derivatives(self):
@@ -127,6 +137,9 @@ class Sensitivity:
                 "d_omega_error_rad_s_per_unit": self.d_omega_error.tolist(), "normalised": self.normalised.tolist(),
                 "d_zeta_per_unit": self.d_zeta.tolist(), "d_zeta_error_per_unit": self.d_zeta_error.tolist(),
                 "d_omega_n_rad_s_per_unit": self.d_omega_n.tolist(), "repeated": self.repeated.tolist(),
+                "unstable": self.unstable.tolist(), "defective": self.defective.tolist(),
+                "d_eigenvalues_1_s_per_unit": [[[z.real, z.imag] for z in row] for row in self.d_eigenvalues],
+                "d_eigenvalues_error_1_s_per_unit": self.d_eigenvalues_error.tolist(),
                 "method": self.method, "elapsed_s": self.elapsed, "note": self.note}
 
     def __str__(self) -> str:
@@ -137,6 +150,8 @@ class Sensitivity:
             for j, p in enumerate(self.params):
                 rows.append([str(i + 1), f"{w:.6g}", p, self.units[j], f"{self.d_omega[i, j]:.6g}",
                              f"{self.d_omega_error[i, j]:.1e}", f"{self.normalised[i, j]:.4g}"])
+                if self.unstable.size and self.unstable[i]:
+                    rows[-1][1] += " (growth rate, 1/s)"
         head = ["mode", "ω (rad/s)", "parameter", "unit", "∂ω/∂p (rad/s per unit)", "error (rad/s per unit)", "(p/ω) ∂ω/∂p"]
         return ("\n".join(table(head, rows)) + f"\n{self.method}, {self.elapsed * 1e3:.1f} ms"
                 + (f"\nnote: {self.note}" if self.note else ""))
@@ -154,8 +169,11 @@ class _Pipeline:
     base one was (static equilibrium from the base pose, the same held speeds, or the base pose held),
     linearised analytically (finite differences where the analytic path refuses)."""
 
-    def __init__(self, make_scene: Callable, q0, v0, regime):
-        self.make_scene, self.q0, self.v0, self.regime = make_scene, q0, v0, regime
+    def __init__(self, make_scene: Callable, q0, v0, regime, hold=(), independent=None):
+        self.make_scene, self.q0, self.v0, self.regime, self.hold = make_scene, q0, v0, regime, tuple(hold)
+        # a reduced model's independent coordinates, kept at every p (a choice flipping between p ± h, at a
+        # symmetric pose, would difference models in different coordinates)
+        self.independent = None if independent is None else np.asarray(independent, dtype=int)
 
     def __call__(self, values):
         scene, speeds = self.make_scene(values)
@@ -171,10 +189,12 @@ class _Pipeline:
         else:
             op = self.q0
         at = {"v": self.v0} if self.regime == "pose" else {}  # (an operating point carries its own velocity)
+        # reduced as the base model is: the same coordinates held at their (new) speeds, the same independent ones
+        at.update(hold=self.hold, independent=self.independent)
         try:
-            lin = system.linearize(op, method="analytic", **at)
+            lin = linearize(system, op, method="analytic", **at)
         except ModelError:
-            lin = system.linearize(op, method="fd", **at)
+            lin = linearize(system, op, method="fd", **at)
         return getattr(lin, "reduced", lin)  # a mechanism's: in its independent motions
 
 
@@ -212,14 +232,20 @@ def _step(value, unit, length_scale):
 
 def _differences(pipeline, base_values, j, h, one_sided):
     """(derivatives, their errors) of (M, C, K) along parameter j: central differences (or one-sided, second
-    order, at a bound), each error the h step's truncation estimated from the 2h one plus the models' own errors
-    over the step."""
+    order, at a bound), each error |D(h) − D(2h)| plus the models' own errors carried over the step.
+
+    |D(h) − D(2h)| is three times the h step's truncation, and about the size of the evaluations' random part
+    (the rounding of a model's finite differences, of its operating point found again, whatever its source: the
+    four evaluations show it, where a bound of it over the step was 1e2–1e4 times what the differences carry).
+    The models' error estimates (finite-difference truncation, the bounds of their rounding) are systematic:
+    smooth in p, they cancel in a difference but for their own variation, their relative size times the
+    derivative. An entry that moves with p carries at least one rounding of its value each side (ε |X| over the
+    step); one equal at every point moves with nothing (its difference is exact)."""
     def at(x):
         vals = np.array(base_values, float)
         vals[j] = x
         lin = pipeline(vals)
-        noise = (EPS * np.abs(lin.M) * lin.nv, np.abs(lin.C_error), np.abs(lin.K_error))
-        return (lin.M, lin.C, lin.K), noise
+        return (lin.M, lin.C, lin.K), (None, lin.C_error, lin.K_error)
 
     p = base_values[j]
     if one_sided:
@@ -228,13 +254,23 @@ def _differences(pipeline, base_values, j, h, one_sided):
         Dh = [(-3 * a + 4 * b - c) / (2 * h) for a, b, c in zip(X[0][0], X[1][0], X[2][0])]
         D2 = [(-3 * a + 4 * c - d) / (4 * h) for a, c, d in zip(X[0][0], X[2][0], X[3][0])]
         T = [a - b for a, b in zip(Dh, D2)]
-        noise = [(3 * n0 + 4 * n1 + n2) / (2 * h) for n0, n1, n2 in zip(X[0][1], X[1][1], X[2][1])]
+        weight = 8 / (2 * h)  # (|−3| + 4 + |−1| rounding units over 2h)
     else:
         xs = [p - 2 * h, p - h, p + h, p + 2 * h]
         X = [at(x) for x in xs]
         Dh, T = _richardson([X[2][0], X[3][0], X[1][0], X[0][0]], h)
-        noise = [(n1 + n2) / (2 * h) for n1, n2 in zip(X[1][1], X[2][1])]
-    err = [np.abs(t) / 3 + n for t, n in zip(T, noise)]
+        weight = 2 / (2 * h)
+    err = []
+    for k, (d, t) in enumerate(zip(Dh, T)):
+        values = np.array([x[0][k] for x in X])
+        size = np.abs(values).max(axis=0)
+        moved = np.any(values != values[0], axis=0)
+        e = np.abs(t) + np.where(moved, EPS * size * weight, 0.0)
+        errors = [x[1][k] for x in X if x[1][k] is not None]
+        if errors:  # a model's own estimate, relative to its matrix, times the derivative
+            rel = max(float(np.abs(x).max(initial=0.0)) for x in errors) / max(float(size.max(initial=0.0)), 1e-300)
+            e += rel * np.abs(d)
+        err.append(e)
     return Dh, err
 
 
@@ -300,7 +336,8 @@ def _undamped(modes, dM, dK, eM, eK):
             + 8 * EPS * np.abs(d_w2))
     d_w, e_w = np.zeros((n_m, n_p)), np.zeros((n_m, n_p))
     pos = omega > 0
-    d_w[pos] = d_w2[pos] / (2 * omega[pos, None])
+    # ω = √|ω²|: an unstable mode's (ω² < 0, ω its growth rate) moves as −∂ω²/(2ω)
+    d_w[pos] = np.where(w2[pos] < 0, -1.0, 1.0)[:, None] * d_w2[pos] / (2 * omega[pos, None])
     e_w[pos] = e_w2[pos] / (2 * omega[pos, None])
     zero = ~pos
     leaves = zero[:, None] & (np.abs(d_w2) > e_w2)
@@ -343,15 +380,23 @@ def _nelson(M, Ks, Phi, w2, dKs, dM, eKs, eM, d_w2, e_w2, dw2_base, skip):
 
 
 def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
-    """(∂λ, error, ∂ω_n, error, ∂ζ, error) of the damped eigenvalues (one per mode, as the modes list them)."""
+    """(∂λ, error, ∂ω_n, error, ∂ζ, error, defective) of the damped eigenvalues (one per mode, as the modes list
+    them); a defective pair's ∂λ is its mean's, its ∂ω_n and ∂ζ not defined (errors inf)."""
     lam_m = modes.damped_eigenvalues
     n_d, n_p, n = len(lam_m), len(dK), lin.nv
     if not n_d:
         z = np.zeros((0, n_p))
-        return z.astype(complex), z, z, z, z, z
+        return z.astype(complex), z, z, z, z, z, np.zeros(0, bool)
     A = lin.A
     lam, W, V = sla.eig(A, left=True, right=True)
     idx = [int(np.argmin(np.abs(lam - x))) for x in lam_m]
+    defective = np.asarray(modes.defective, bool) if modes.defective.size else np.zeros(n_d, bool)
+    # a defective pair's eigenvalues have no derivative (they split as √δp): the pair's mean does, ½ trace(Y ∂A Z)
+    # over its invariant subspace (Z right, Y left basis, Y Z = I)
+    pairs = {}
+    for r in np.flatnonzero(defective):
+        near = np.sort(np.abs(lam - lam_m[r]))
+        pairs[r] = invariant_pair(A, lam_m[r], 0.5 * (near[1] + near[2]) if near.size > 2 else np.inf)
     Minv = np.linalg.inv(lin.M)
     aMinv = np.abs(Minv)
     MiK, MiC = Minv @ lin.K, Minv @ lin.C
@@ -366,12 +411,29 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
         eA[n:, n:] = aMinv @ (eC[j] + eM[j] @ np.abs(MiC))
         eA += 4 * n * EPS * np.abs(dA)
         for r, k in enumerate(idx):
+            if r in pairs:
+                continue
             w, v = W[:, k], V[:, k]
             den = w.conj() @ v
             d_l[r, j] = (w.conj() @ dA @ v) / den
             e_l[r, j] = (np.abs(w) @ eA @ np.abs(v)) / abs(den)
-    # the eigenvalue's own uncertainty moves the formula's terms: its relative error times the derivative
-    e_l += np.abs(d_l) * np.asarray(modes.eigenvalue_relative_error)[:, None] * 2
+        for r, pair in pairs.items():
+            if pair is None:  # (not isolated from the others: no mean to give)
+                e_l[r, j] = np.inf
+            else:
+                Y, Z = pair[:2]
+                d_l[r, j] = 0.5 * np.trace(Y @ dA @ Z)
+                e_l[r, j] = 0.5 * np.trace(np.abs(Y) @ eA @ np.abs(Z))
+    # the eigenvalue's own uncertainty moves the formula's terms: its error relative to its distance to the
+    # nearest other eigenvalue (the conditioning of wᴴv: a nearly defective pair's derivatives are large and
+    # known only to δλ/gap) or to |λ|, times the derivative
+    gaps = np.abs(lam[:, None] - lam[None, :])
+    np.fill_diagonal(gaps, np.inf)
+    near = np.minimum(gaps.min(axis=1)[idx], np.abs(lam_m))
+    near = np.where(defective, np.abs(lam_m), near)
+    rel = np.where(near > 0, np.asarray(modes.eigenvalue_error) / np.where(near > 0, near, 1.0),
+                   np.asarray(modes.eigenvalue_relative_error))
+    e_l += np.abs(d_l) * rel[:, None] * 2
     zero = np.asarray(modes.damped_zero) if modes.damped_zero.size else np.zeros(n_d, bool)
     d_l[zero] = 0.0
     e_l[zero] = 0.0
@@ -381,7 +443,10 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     e_wn = e_l.copy()
     d_z = np.where(mag > 0, -d_l.real / safe + lam_m.real[:, None] * d_wn / safe**2, 0.0)
     e_z = np.where(mag > 0, 2 * e_l / safe, 0.0)
-    return d_l, e_l, d_wn, e_wn, d_z, e_z
+    # |λ| and −Re λ/|λ| of each of a defective pair have no derivative there (one-sided ones differ): not defined
+    e_wn[defective] = np.inf
+    e_z[defective] = np.inf
+    return d_l, e_l, d_wn, e_wn, d_z, e_z, defective
 
 
 # ------------------------------------------------------------------------------------------ entry point
@@ -430,9 +495,12 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
     else:
         raise ModelError(f"sensitivity: expected modes, a linear model, a system, a scene or a builder, got "
                          f"{type(source).__name__}")
-    lin = base_modes.linear
+    # the linear model the modes were solved on (a mechanism's or a held model's reduced one, not its tree): the
+    # derivatives are of it, reduced as it is
+    lin = base_modes.linear if base_modes.reduced is None else base_modes.reduced
     system = lin.system
-    regime, speeds = _regime(system, lin)
+    hold = lin.hold
+    regime, speeds = _regime(system, getattr(lin, "tree", None) or lin)
     scene = system.scene
     requested = [params] if isinstance(params, str) else params
     if not isinstance(requested, (list, tuple)) or not requested:
@@ -464,13 +532,13 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
                 sc_vals.append(x)
         return _parameters.with_values(scene, plist, sc_vals), sp
 
-    pipeline = _Pipeline(make_scene, lin.q, lin.v, regime)
+    pipeline = _Pipeline(make_scene, lin.q, lin.v, regime, hold, getattr(lin, "independent", None))
     steps = np.array([_step(values[j], units[j], system.length_scale) for j in range(len(names))])
     direct: dict[int, tuple] = {}
     from ..model.derivatives import untrusted
 
     # (the element path takes Pinocchio's joint velocity derivatives, wrong for some joint types: not there)
-    if system.reduction.is_identity and regime in ("static", "pose", "held") \
+    if system.reduction.is_identity and not hold and regime in ("static", "pose", "held") \
             and not untrusted(system)[0].size:
         # a tree about a point it holds or finds again: the analytic model is the base, and a parameter a force
         # is proportional to (a stiffness, a damping) is differentiated on its element alone, no rebuild
@@ -483,6 +551,8 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
                 direct[j] = col
     else:  # the base model again through the pipeline: in the coordinates the differences are in (a mechanism's
         lin = pipeline(values)  # independent motions), analytic
+        if pipeline.independent is None and getattr(lin, "independent", None) is not None:
+            pipeline.independent = np.asarray(lin.independent, dtype=int)
         base_modes = lin.modes()
     return _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, start, unused, direct)
 
@@ -558,9 +628,9 @@ def _of_builder(build, params, start, unused):
     def make_scene(vals):
         return build(**{k: float(x) for k, x in zip(names, vals)}), speeds
 
-    pipeline = _Pipeline(make_scene, tree.q, tree.v, regime)
-    steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
     lin = getattr(tree, "reduced", tree)  # (a mechanism's: in its independent motions, as the pipeline's)
+    pipeline = _Pipeline(make_scene, tree.q, tree.v, regime, independent=getattr(lin, "independent", None))
+    steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
     return _assemble(pipeline, lin.modes(), lin, names, ["(the builder's)"] * len(names), values, steps,
                      [False] * len(names), start, unused)
 
@@ -602,13 +672,20 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
         values, steps = np.asarray(values)[keep], np.asarray(steps)[keep]
         dM, dC, dK, eM, eC, eK = (x[keep] for x in (dM, dC, dK, eM, eC, eK))
     d_w2, e_w2, d_w, e_w, repeated, nelson = _undamped(base_modes, dM, dK, eM, eK)
-    d_l, e_l, d_wn, e_wn, d_z, e_z = _damped(base_modes, lin, dM, dC, dK, eM, eC, eK)
-    note = dropped
-    if repeated.any():
-        listed = ", ".join(str(i + 1) for i in np.flatnonzero(repeated))
-        note += ("; " if note else "") + (
-            f"modes {listed} have repeated frequencies: their derivatives are those of the subspace's eigenvalues "
-            "(ascending), their shape derivatives are not unique (given as 0)")
+    d_l, e_l, d_wn, e_wn, d_z, e_z, defective = _damped(base_modes, lin, dM, dC, dK, eM, eC, eK)
+    unstable = np.asarray(base_modes.unstable, bool).copy()
+    notes = [dropped] if dropped else []
+    for mask, text in (
+            (repeated, "modes {} have repeated frequencies: their derivatives are those of the subspace's eigenvalues "
+                       "(ascending), their shape derivatives are not unique (given as 0)"),
+            (defective, "damped modes {}: a repeated eigenvalue, not diagonalisable within the error (critical "
+                        "damping): ∂λ/∂p, ∂ω_n/∂p and ∂ζ/∂p of each are not defined there (errors inf); d_eigenvalues "
+                        "gives the pair's mean ½∂(λ₁ + λ₂)/∂p"),
+            (unstable, "mode(s) {} unstable (ω² < 0): omega0 is the growth rate √|ω²| (1/s) and d_omega its "
+                       "derivative −∂ω²/∂p / (2√|ω²|)")):
+        if mask.any():
+            notes.append(text.format(", ".join(str(i + 1) for i in np.flatnonzero(mask))))
+    note = "; ".join(notes)
     if np.isinf(e_w).any():
         note += ("; " if note else "") + "a rigid mode leaves zero: its ∂ω/∂p is unbounded (see omega2, rad²/s² per unit)"
     for name, arr in (("∂ω/∂p", d_w), ("∂ζ/∂p", d_z)):
@@ -616,4 +693,5 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
             raise ModelError(f"sensitivity: {name} is not finite (the scene's scales are too extreme)")
     return Sensitivity(tuple(names), tuple(units), np.asarray(values, float), base_modes.omega.copy(), d_w, e_w,
                        d_w2, e_w2, repeated, d_l, e_l, d_wn, e_wn, d_z, e_z, dM, dC, dK, eM, eC, eK,
-                       np.asarray(steps), method, time.perf_counter() - start, note, base_modes, nelson)
+                       np.asarray(steps), method, time.perf_counter() - start, note, base_modes, nelson,
+                       unstable=unstable, defective=defective)

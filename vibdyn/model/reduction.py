@@ -170,9 +170,8 @@ class Reduction:
             ind = self.free if keep is None else np.asarray(keep, dtype=int)
             return ind, np.eye(nv)[:, ind]
         J = self._loops.jacobian(q)
-        if keep is not None:
-            return self._loops.partition(J, keep)
-        ind, N = self._loops.partition(J)
+        # (kept or chosen, the held coordinates are independent of the loops, then left out of the basis)
+        ind, N = self._loops.partition(J, None if keep is None else np.union1d(keep, self.held))
         tied = [self.coordinates[i] for i in self.held if i not in ind]
         if tied:
             raise ModelError(f"{', '.join(tied)} cannot be held on its own: the loops tie it to the other "
