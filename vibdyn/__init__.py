@@ -48,6 +48,8 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
                           "transmissibility"),
     "analysis.identify": ("fit_rayleigh", "log_decrement", "HalfPower", "LogDecrement", "RayleighFit"),
     "analysis.statespace": ("StateSpace",),
+    "description.psd": ("PSD", "Delay"),
+    "analysis.response.random": ("RandomResponse",),
     "results": ("TimeResult",),
     "analysis.campbell_diagram": ("campbell", "Campbell", "CriticalSpeed"),
     "analysis.nonlinear.periodic": ("periodic_orbit", "floquet", "PeriodicOrbit"),
