@@ -50,6 +50,7 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.statespace": ("StateSpace",),
     "description.psd": ("PSD", "Delay"),
     "analysis.response.random": ("RandomResponse",),
+    "analysis.response.monte_carlo": ("monte_carlo", "MonteCarlo"),
     "results": ("TimeResult",),
     "analysis.campbell_diagram": ("campbell", "Campbell", "CriticalSpeed"),
     "analysis.nonlinear.periodic": ("periodic_orbit", "floquet", "PeriodicOrbit"),

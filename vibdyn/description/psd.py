@@ -207,6 +207,33 @@ class PSD:
                     for a, b in zip(edges[:-1], edges[1:]))
         return math.sqrt(total)
 
+    def sample(self, duration: float, seed: int | None = None, f_max: float | None = None) -> RandomSignal:
+        """A Gaussian sample path of the process (SI), seeded: Σ_k (A_k cos 2πf_k t − B_k sin 2πf_k t) at
+        f_k = k/duration inside the band (up to ``f_max`` Hz, required for a band reaching infinity), A_k, B_k
+        independent normal of variance ∫G df over the cell [f_k − Δf/2, f_k + Δf/2] (so the sample's expected
+        variance is ∫G df over the band, exactly; numpy's default_rng(seed)). Periodic of period ``duration`` s."""
+        T = scalar(duration, "PSD sample duration (s)", positive=True)
+        hi = self.band[1] if f_max is None else min(self.band[1], scalar(f_max, "PSD sample f_max (Hz)",
+                                                                         positive=True))
+        if not math.isfinite(hi):
+            raise ModelError("PSD.sample: the band reaches infinity: give f_max (Hz), the highest frequency to sample")
+        lo = self.band[0]
+        k = np.arange(max(1, math.floor(lo * T + 0.5)), math.ceil(hi * T - 0.5) + 1)
+        if k.size == 0:
+            raise ModelError(f"PSD.sample: no frequency k/{T:g} Hz inside the band {lo:g}…{hi:g} Hz (a longer "
+                             "duration)")
+        if k.size > 2_000_000:
+            raise ModelError(f"PSD.sample: {k.size} harmonics (duration × f_max): shorten the duration or lower f_max")
+        f = k / T
+        a = np.maximum((k - 0.5) / T, lo)
+        b = np.minimum((k + 0.5) / T, hi)
+        x, w = np.polynomial.legendre.leggauss(8)  # each cell's ∫G by 8-point Gauss–Legendre
+        nodes = 0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * x[None, :]
+        cell = 0.5 * (b - a) * (self(nodes.ravel()).reshape(nodes.shape) @ w)
+        rng = np.random.default_rng(seed)
+        z = rng.standard_normal((2, f.size)) * np.sqrt(np.maximum(cell, 0.0))
+        return RandomSignal(f, np.hypot(z[0], z[1]), np.arctan2(z[1], z[0]), self.quantity)
+
     def to_dict(self) -> dict:
         """Plain data (JSON-ready; a callable cannot be written)."""
         if self.kind == "function":
@@ -249,3 +276,47 @@ class Delay:
         if not -1.0 <= c <= 1.0:
             raise ModelError(f"cross-spectrum coherence must be within [-1, 1], got {c:g}")
         object.__setattr__(self, "coherence", c)
+
+
+@dataclass(frozen=True, eq=False)
+class RandomSignal:
+    """A sample path Σ_k a_k cos(2πf_k t + φ_k) of a random process (SI, of ``quantity``) and, for a motion, its
+    displacement, velocity and acceleration (exact derivatives and integrals of each harmonic, without the
+    constants of integration: zero-mean)."""
+
+    frequency: np.ndarray  # Hz
+    amplitude: np.ndarray
+    phase: np.ndarray  # rad
+    quantity: str
+
+    def _derived(self, t, k):
+        w = 2 * np.pi * self.frequency
+        t = np.asarray(t, dtype=float)
+        arg = np.multiply.outer(t, w) + self.phase + k * np.pi / 2
+        return np.cos(arg) @ (self.amplitude * w ** k)
+
+    def __call__(self, t):
+        """The sampled quantity at times t (s)."""
+        return self._derived(t, 0)
+
+    def _motion(self, t, order):
+        if ORDER[self.quantity] is None:
+            raise ModelError(f"random signal: a {self.quantity} has no displacement, velocity or acceleration")
+        return self._derived(t, order - ORDER[self.quantity])
+
+    def displacement(self, t):
+        """Displacement (m) of a motion sample at t (s)."""
+        return self._motion(t, 0)
+
+    def velocity(self, t):
+        """Velocity (m/s) of a motion sample at t (s)."""
+        return self._motion(t, 1)
+
+    def acceleration(self, t):
+        """Acceleration (m/s²) of a motion sample at t (s)."""
+        return self._motion(t, 2)
+
+    @property
+    def variance(self) -> float:
+        """Σ a_k²/2 (SI²): this sample's mean square over its period."""
+        return float(np.sum(self.amplitude ** 2) / 2)
