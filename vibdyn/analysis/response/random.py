@@ -149,7 +149,7 @@ class RandomResponse:
             S = np.einsum("foi,fij,fpj->fop", H, G, H.conj()).real
             return (S * ((2 * np.pi * f) ** (2 * q))[:, None, None]).reshape(f.size, n * n)
 
-        res = integrate(g, self._points, self._upper, rtol=rtol, groups=np.zeros(n * n, int))
+        res = integrate(g, self.split_points, self.upper_hz, rtol=rtol, groups=np.zeros(n * n, int))
         return res.value.reshape(n, n)
 
     def to_dict(self) -> dict:
@@ -174,9 +174,9 @@ class RandomResponse:
 
         return plot_response(path, self, quantity, **kwargs)
 
-    # integration settings kept for the covariance and plots
-    _points: np.ndarray = field(default=None, repr=False)
-    _upper: float = field(default=math.inf, repr=False)
+    # the integration's settings, kept for the covariance and the plots
+    split_points: np.ndarray = field(default=None, repr=False)  # Hz: where the quadrature starts split
+    upper_hz: float = field(default=math.inf, repr=False)  # the inputs' highest frequency (may be inf)
     psds: tuple = field(default=(), repr=False)
 
 
