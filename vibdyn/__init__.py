@@ -194,4 +194,5 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "campbell", "Campbell", "CriticalSpeed", "sweep", "sample", "Sweep", "Samples", "Statistic", "Tracked",
            "examples", "forced_response_curve", "ForcedResponseCurve", "PointForce", "SupportMotion",
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
-           "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing"]
+           "update", "Update", "simulate", "linearize", "equilibrium", "Reduction", "Assembly", "forcing",
+           "PSD", "Delay", "RandomResponse", "monte_carlo", "MonteCarlo"]

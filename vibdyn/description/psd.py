@@ -109,6 +109,21 @@ class PSD:
             raise ModelError(f"PSD.function: expected a callable of the frequency (Hz), got {fun!r}")
         return cls(None, None, unit, tuple(band), fun, tuple(np.ravel(points)))
 
+    @classmethod
+    def iso8608(cls, road_class: str, speed: float, band: tuple = (0.011, 2.83)) -> PSD:
+        """The vertical displacement PSD (m²/Hz, temporal) of an ISO 8608 road of class "A" … "H" driven at
+        ``speed`` m/s: in spatial frequency n (cycles/m), G_d(n) = G_d(n0)·(n/n0)^-2 with n0 = 0.1 cycle/m and
+        G_d(n0) the class's geometric mean (16e-6 m³ for A, ×4 per class), over ``band`` (cycles/m); in time,
+        f = n·V and G(f) = G_d(f/V)/V over f = V·band (Hz). Exact as a two-breakpoint log-log table."""
+        classes = "ABCDEFGH"
+        if not (isinstance(road_class, str) and len(road_class) == 1 and road_class.upper() in classes):
+            raise ModelError(f"ISO 8608 road class: one of {', '.join(classes)}, got {road_class!r}")
+        V = scalar(speed, "ISO 8608 road speed (m/s)", positive=True)
+        lo, hi = (scalar(x, "ISO 8608 band (cycles/m)", positive=True) for x in band)
+        gd0 = 16e-6 * 4 ** classes.index(road_class.upper())
+        n = np.array([lo, hi])
+        return cls(n * V, gd0 * (n / 0.1) ** -2 / V, "m^2/Hz")
+
     # ------------------------------------------------------------------ what it is
     @property
     def quantity(self) -> str:
