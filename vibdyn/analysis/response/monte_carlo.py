@@ -73,6 +73,18 @@ class MonteCarlo:
         err = (a - b).std(axis=0, ddof=1) / math.sqrt(self.samples) / np.maximum(ra + rb, 1e-300)
         return ra - rb, err
 
+    def ratio(self, quantity: str = "displacement") -> tuple:
+        """(mean over the samples of nonlinear RMS / linear RMS, its sampling error) per output: each sample path
+        drove both models, so the ratio cancels most of the path-to-path spread of either RMS."""
+        a, b = self._pick(quantity, "nonlinear"), self._pick(quantity, "linear")
+        if self.samples < 2:
+            raise ModelError("Monte Carlo: the sampling error needs at least 2 samples")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            q = np.sqrt(a / b)
+        if not np.all(np.isfinite(q)):
+            raise ModelError("Monte Carlo: a linear RMS is zero (an output the input does not reach): no ratio")
+        return q.mean(axis=0), q.std(axis=0, ddof=1) / math.sqrt(self.samples)
+
     def to_dict(self) -> dict:
         out = {"outputs": list(self.outputs), "units": list(self.units), "samples": self.samples,
                "duration_s": self.duration, "settle_s": self.settle, "seed": self.seed, "elapsed_s": self.elapsed}
