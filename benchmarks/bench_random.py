@@ -120,13 +120,13 @@ def main(argv=None):
         if gap <= 0.01:
             grid = f
             break
-        n_pts = int(round(n_pts * 1.25))
+        n_pts = round(n_pts * 1.25)
     repeats = 2 if args.quick else 5
     t_v, t_r = [], []
+    calls = (lambda: vibdyn_rms(lin), lambda: trapezoid_rms(lin, grid))
     for i in range(repeats):  # interleaved, rotating order
-        order = [0, 1] if i % 2 == 0 else [1, 0]
-        for j in order:
-            (t_v if j == 0 else t_r).append(best(lambda: vibdyn_rms(lin) if j == 0 else trapezoid_rms(lin, grid), 1))
+        for j in ([0, 1] if i % 2 == 0 else [1, 0]):
+            (t_v if j == 0 else t_r).append(best(calls[j], 1))
     tv, tr = min(t_v), min(t_r)
     out = {"n": args.n, "grid_points_for_1_percent": int(grid.size), "vibdyn_s": tv, "receptance_s": tr,
            "ratio": tv / tr, "target_ratio": TARGET, "vibdyn_max_relative_error_estimate": float(np.max(err / ref)),

@@ -75,6 +75,7 @@ for fn in modes.frequency_hz:
     print(f"Miles at {fn:.1f} Hz: {np.sqrt(np.pi / 2 * fn * 10 * spec(np.array([fn]))[0]) / G:.2f} G rms")
 
 # %%
-# The response PSDs over the input (log-log)
+# The response PSDs over the input (log-log), and the two modes in the browser viewer (offline page)
 fig = r.plot(None, "acceleration")
+vd.export_html(modes, "viewer_random_box.html")
 plt.show()

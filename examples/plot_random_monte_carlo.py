@@ -60,4 +60,5 @@ ax.axvline(theory.rms()[0], color="C2", lw=0.8, label="random_response (linear, 
 ax.set_xlabel("linear RMS per sample (m)")
 ax.set_ylabel("nonlinear RMS per sample (m)")
 ax.legend()
+vd.export_html(m, "viewer_random_monte_carlo.html")  # the linear mode, offline
 plt.show()

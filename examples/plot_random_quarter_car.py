@@ -11,7 +11,8 @@ spatial frequency n (cycles/m):
 G_d(n0) = 16, 64, 256, 1024 … ×10⁻⁶ m³ for classes A, B, C, D … At a speed V the wheel meets the frequency
 f = n V (Hz), and the same variance spread over V times the band gives the temporal PSD G(f) = G_d(f/V)/V
 (m²/Hz), which ``vd.PSD.iso8608(class, speed)`` builds (over n = 0.011 … 2.83 cycles/m). The comfort measure
-is the body's RMS acceleration; the suspension's travel is the body's motion relative to the wheel.
+is the body's RMS acceleration; the suspension's travel is the body's motion relative to the wheel; the
+tyre's dynamic load (its spring's force) is the road holding.
 """
 
 # %%
@@ -27,11 +28,13 @@ car = vd.load_scene("quarter_car").build().operating_point().linearize()
 road = vd.PSD.iso8608("C", speed=20.0)
 print(road, f"road RMS {road.rms() * 1e3:.2f} mm")
 r = car.random_response(road, support="road", direction=(0, 0, 1), outputs=["body", "wheel"],
-                        relative=[("body", "wheel")])
+                        relative=[("body", "wheel")], springs=["tyre"])
 acc, acc_err = r.rms("acceleration"), r.rms_error("acceleration")
 travel, travel_err = r.rms("displacement")[2], r.rms_error("displacement")[2]
 print(f"body acceleration {acc[0]:.6f} ± {acc_err[0]:.1e} m/s² rms; suspension travel {travel * 1e3:.6f} ± "
       f"{travel_err * 1e3:.1e} mm rms ({r.method}, {r.elapsed * 1e3:.1f} ms)")
+tyre = r.rms("displacement")[3]  # a spring's "displacement" output is its force (N)
+print(f"tyre load {tyre:.1f} N rms: {tyre / (285.0 * 9.81):.1%} of the static load")
 
 # %%
 # An independent check in the road's own variable: the body's acceleration variance
@@ -80,4 +83,5 @@ ax.set_title("quarter car on ISO 8608 roads (one-sided PSDs in Hz)")
 # The response PSDs (one-sided, per Hz) over the road's, log-log: the body's bounce at 1.2 Hz and the
 # wheel hop at 11 Hz.
 fig2 = r.plot(None, "acceleration")
+vd.export_html(car.modes(), "viewer_random_quarter_car.html")  # the bounce and the wheel hop, offline
 plt.show()

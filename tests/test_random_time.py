@@ -34,7 +34,7 @@ def test_sample_is_gaussian_with_the_psd_variance_and_exact_derivatives():
     assert abs(var.mean() - exact) <= 4 * var.std(ddof=1) / math.sqrt(var.size)
     s = p.sample(40.0, seed=3)
     t = np.linspace(0.0, 40.0, 40001)
-    a, v, x = s.acceleration(t), s.velocity(t), s.displacement(t)
+    a, v = s.acceleration(t), s.velocity(t)
     np.testing.assert_array_equal(a, s(t))
     h = 1e-5
     np.testing.assert_allclose((s.velocity(t[:50] + h) - s.velocity(t[:50] - h)) / (2 * h), a[:50],

@@ -16,7 +16,8 @@ def read_psd(path, unit=None):
 
     rows, found = [], None
     try:
-        text = open(path, encoding="utf-8").read()
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
     except OSError as e:
         raise ModelError(f"PSD file {path}: cannot read: {e.strerror or e}") from None
     for n, line in enumerate(text.splitlines(), 1):

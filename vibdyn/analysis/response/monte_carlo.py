@@ -38,8 +38,8 @@ class MonteCarlo:
     def __repr__(self):
         from ..._format import duration, summary, values
 
-        return summary("MonteCarlo", f"{self.samples} samples of {self.duration:g} s", *(
-            f"{m} displacement RMS {values(self.rms('displacement', m))}" for m in self.variance), duration(self.elapsed))
+        rms = (f"{m} displacement RMS {values(self.rms('displacement', m))}" for m in self.variance)
+        return summary("MonteCarlo", f"{self.samples} samples of {self.duration:g} s", *rms, duration(self.elapsed))
 
     def _pick(self, quantity, model):
         if quantity not in QUANTITIES:
@@ -98,12 +98,13 @@ class MonteCarlo:
 def monte_carlo(lin, psd: PSD, support: str, direction, outputs=None, *, duration: float, samples: int = 8,
                 seed: int | None = 0, settle: float | None = None, dt: float | None = None, f_max: float | None = None,
                 models=("linear", "nonlinear"), rtol: float = 1e-6) -> MonteCarlo:
-    """Monte Carlo in time for a support moving along ``direction`` (world axes) with the motion PSD ``psd``:
-    ``samples`` seeded sample paths (:meth:`vibdyn.PSD.sample`, period ``duration`` s, up to ``f_max`` Hz), each
-    run from the operating point of ``lin`` for ``settle`` + ``duration`` s (``settle`` default: five time
-    constants of the least damped mode) through the nonlinear :func:`vibdyn.simulate` (the scene with the
-    support's motion replaced; dop853 at ``rtol``: the sampling error dominates) and the linear :func:`forced_response`; statistics over the
-    last ``duration`` s at steps ``dt`` (default 1/(20 f_max)). ``outputs``: coordinate names (None: all)."""
+    """Monte Carlo in time for a support moving along ``direction`` (world axes) with the motion PSD ``psd``
+    (:class:`MonteCarlo`): ``samples`` seeded sample paths (:meth:`vibdyn.PSD.sample`, period ``duration`` s,
+    up to ``f_max`` Hz), each run from the operating point of ``lin`` for ``settle`` + ``duration`` s
+    (``settle`` default: five time constants of the least damped mode) through the nonlinear
+    :func:`vibdyn.simulate` (the scene with the support's motion replaced; dop853 at ``rtol``: the sampling
+    error dominates) and the linear :func:`forced_response`; statistics over the last ``duration`` s at steps
+    ``dt`` (default 1/(20 f_max)). ``outputs``: coordinate names (None: all)."""
     start = time.perf_counter()
     system = lin.system
     if not isinstance(psd, PSD) or ORDER[psd.quantity] is None:

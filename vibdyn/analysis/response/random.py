@@ -22,9 +22,10 @@ import scipy.linalg as sla
 
 from ..._check import unknown_name
 from ...defaults import EPS
+from ...description.elements import WORLD
 from ...description.psd import ORDER, PSD, Delay
 from ...errors import ModelError
-from .base import reduced
+from .base import reduced, support_input_of
 from .channels import Channels, channels
 from .damping import damped_model
 from .quadrature import integrate
@@ -188,6 +189,8 @@ class _Input:
     b: tuple  # (B0, B1, B2): generalized force per unit input as B0 + sB1 + s²B2 (full nv)
     order: int  # s-power dividing the transfer (0 force, 0/1/2 displacement/velocity/acceleration)
     prescribed: int | None = None  # coordinate index if the input is a prescribed joint
+    support: str | None = None  # the support's name if the input is a support's motion
+    direction: np.ndarray | None = None  # its direction (world axes)
 
 
 def _inputs(lin, spec, support, direction):
@@ -215,8 +218,10 @@ def _inputs(lin, spec, support, direction):
                                  f"acceleration PSD, not {psd.unit}")
             if direction is None:
                 raise ModelError(f"random response: support '{key}' needs direction=(x, y, z) (world axes)")
-            how = _support(lin, key, direction)
-            out.append(_Input(how[3][0], psd, (how[1][:, 0], how[2][:, 0], zero), ORDER[q]))
+            how = support_input_of(lin, key, direction)
+            d = np.asarray(direction, dtype=float)
+            out.append(_Input(how[3][0], psd, (how[1][:, 0], how[2][:, 0], zero), ORDER[q], None, key,
+                              d / np.linalg.norm(d)))
         elif isinstance(key, str) and key in system.coordinates:
             p = lin.coordinate_index(key)
             unit = lin.units[p]
@@ -247,12 +252,6 @@ def _inputs(lin, spec, support, direction):
     if sum(i.prescribed is not None for i in out) > 1:
         raise ModelError("random response: at most one prescribed coordinate per analysis")
     return out
-
-
-def _support(lin, name, direction):
-    from .base import support_input_of
-
-    return support_input_of(lin, name, direction)
 
 
 def _cross(inputs, keys, cross):
@@ -348,7 +347,7 @@ class _Plant:
         """(f_d Hz, half-power half-width Hz) of each oscillating or real pole."""
         lam = self.lam
         if self.hysteretic:
-            Phi, w2, c, d, _ = self.model.modal
+            _, w2, c, d, _ = self.model.modal
             w = np.sqrt(np.abs(w2))
             with np.errstate(divide="ignore", invalid="ignore"):
                 hw = 0.5 * c + np.where(w > 0, 0.5 * d / w, 0.0)
@@ -377,7 +376,7 @@ class _Plant:
 
 # ====================================================================== the analysis
 def random_response(lin, psd, support=None, direction=None, outputs=None, *, cross=None, relative=None,
-                    damping=None, method="auto", tolerance=1e-8):
+                    springs=None, damping=None, method="auto", tolerance=1e-8):
     """Stationary response of the linear model to random inputs (:class:`RandomResponse`), one-sided PSDs in Hz.
 
     ``psd``: a :class:`vibdyn.PSD` with ``support=NAME`` (a support, moving along ``direction`` (world axes),
@@ -387,7 +386,8 @@ def random_response(lin, psd, support=None, direction=None, outputs=None, *, cro
     cross-spectrum of inputs a and b: a coefficient ρ in [-1, 1] (G_ab = ρ√(G_aa G_bb)), a co-spectrum PSD
     (real), or a :class:`vibdyn.Delay` (b is a lagging copy of a). ``outputs``: as :func:`receptance`;
     ``relative``: pairs (a, b) of output specs whose difference a − b is added (a spring's deflection, a
-    rattle space). ``damping``: None/"viscous", "none" or :class:`vibdyn.Hysteretic`. ``method``: "auto"
+    rattle space); ``springs``: names of point springs whose axial force (N, its change from the operating
+    point: k·δL; the "displacement" quantity of such an output is the force) is added. ``damping``: None/"viscous", "none" or :class:`vibdyn.Hysteretic`. ``method``: "auto"
     (Lyapunov when every input is white over all frequencies and the case allows it, else quadrature),
     "lyapunov" or "quadrature". ``tolerance``: relative accuracy of the RMS values by quadrature.
     """
@@ -400,17 +400,26 @@ def random_response(lin, psd, support=None, direction=None, outputs=None, *, cro
     inputs = _inputs(lin, psd, support, direction)
     keys = list(psd) if isinstance(psd, dict) else [support]
     cr = _cross(inputs, keys, cross)
-    out = _outputs(lin, outputs, relative)
-    rows, offset = out.matrix, None
+    out, ends = _outputs(lin, outputs, relative, springs)
+    rows = out.matrix
+    # feedthrough per unit input: a prescribed coordinate's own motion, a support's motion at a spring's end
+    offset = np.zeros((rows.shape[0], len(inputs)))
+    for k, inp in enumerate(inputs):
+        if inp.prescribed is not None:
+            offset[:, k] = rows[:, inp.prescribed]
+        elif inp.support is not None:
+            for j, end in enumerate(ends):
+                offset[j, k] += sum(c @ inp.direction for body, c in end if body == inp.support)
     p = next((i.prescribed for i in inputs if i.prescribed is not None), None)
     if p is not None:
         free = np.array([i for i in range(lin.nv) if i != p])
         model = reduced(model, free)
-        offset = np.array([rows[:, p] if i.prescribed is not None else np.zeros(rows.shape[0]) for i in inputs]).T
         rows = rows[:, free]
         bs = [[inp.b[k][free] for inp in inputs] for k in range(3)]
     else:
         bs = [[inp.b[k] for inp in inputs] for k in range(3)]
+    if not offset.any():
+        offset = None
     plant = _Plant(model, rows, bs)
     _check_stable(plant, inputs)
     orders = np.array([i.order for i in inputs])
@@ -455,12 +464,13 @@ def random_response(lin, psd, support=None, direction=None, outputs=None, *, cro
                           transfer, cov, converged, pts, hi, tuple(i.psd for i in inputs))
 
 
-def _outputs(lin, outputs, relative):
+def _outputs(lin, outputs, relative, springs):
+    """(Channels, spring ends): the outputs' rows, with relative motions and springs' axial forces appended;
+    spring ends: per spring row, [(support name, coefficient 3-vector)] of its ends on supports (a support's
+    displacement y moves the force by coefficient·y)."""
     out = channels(lin, outputs, None, "outputs")
-    if not relative:
-        return out
     rows, labels, units = [out.matrix], list(out.labels), list(out.units)
-    for pair in relative:
+    for pair in relative or ():
         if not (isinstance(pair, (tuple, list)) and len(pair) == 2):
             raise ModelError(f"random response relative: expected pairs (a, b) of outputs, got {pair!r}")
         a, b = (channels(lin, [x], None, "relative outputs") for x in pair)
@@ -469,7 +479,40 @@ def _outputs(lin, outputs, relative):
         rows.append(a.matrix - b.matrix)
         labels.append(f"{a.labels[0]} − {b.labels[0]}")
         units.append(a.units[0])
-    return Channels(np.vstack(rows), tuple(labels), tuple(units))
+    ends = [[] for _ in labels]
+    for name in [springs] if isinstance(springs, str) else list(springs or ()):
+        row, end = _spring_row(lin, name)
+        rows.append(row[None, :])
+        labels.append(f"{name} (force)")
+        units.append("N")
+        ends.append(end)
+    return Channels(np.vstack(rows), tuple(labels), tuple(units)), ends
+
+
+def _spring_row(lin, name):
+    """The change of a point spring's axial force, k·u·(δp_b − δp_a) (N), as a row over the coordinates, and its
+    ends on supports."""
+    from ...description.elements.spring import Spring, anchor
+
+    system = lin.system
+    element = system.scene.elements.get(name)
+    if not isinstance(element, Spring):
+        springs = [e.name for e in system.scene.elements.values() if isinstance(e, Spring)]
+        raise unknown_name(name, springs, "spring", what="random response springs")
+    xa, xb = anchor(system, element.a, lin.q, lin.t), anchor(system, element.b, lin.q, lin.t)
+    L = float(np.linalg.norm(xb - xa))
+    if not L > 0:
+        raise ModelError(f"random response: spring '{name}' has zero length at the operating point: its line of "
+                         "action (and its force's change) is undefined")
+    u = (xb - xa) / L
+    row = np.zeros(lin.nv)
+    ends = []
+    for sign, (body, point) in ((-1.0, element.a), (1.0, element.b)):
+        if body in system.support_index:
+            ends.append((body, sign * element.stiffness * u))
+        elif body != WORLD:
+            row += sign * element.stiffness * (u @ lin.point_jacobian([(body, point)]))
+    return row, ends
 
 
 def _diagonal(H, G):
@@ -487,11 +530,11 @@ def _check_stable(plant, inputs):
                          "stationary response exists")
     fd, hw = plant.poles()
     for f, h in zip(fd, hw):
-        if h <= 1e-12 * max(f, 1e-300) and f > 1e-9 * scale / (2 * np.pi) or (f == 0 and h == 0):
-            if any(i.psd(np.array([f]))[0] > 0 for i in inputs):
-                what = "a rigid-body mode (0 Hz)" if f == 0 else f"an undamped mode at {f:.6g} Hz"
-                raise ModelError(f"random response: {what} lies where the input has power: the response variance "
-                                 "is unbounded; add damping (lin.with_modal_damping(ζ)) or band-limit the input")
+        undamped = h <= 1e-12 * max(f, 1e-300) and f > 1e-9 * scale / (2 * np.pi) or (f == 0 and h == 0)
+        if undamped and any(i.psd(np.array([f]))[0] > 0 for i in inputs):
+            what = "a rigid-body mode (0 Hz)" if f == 0 else f"an undamped mode at {f:.6g} Hz"
+            raise ModelError(f"random response: {what} lies where the input has power: the response variance "
+                             "is unbounded; add damping (lin.with_modal_damping(ζ)) or band-limit the input")
 
 
 def _quadrature(transfer, pts, hi, lo, n_out, tol):
