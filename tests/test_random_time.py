@@ -130,3 +130,31 @@ def test_psd_plots(tmp_path):
         vd.PSD.white(1.0, unit="N^2/Hz").plot(tmp_path / "w.png")
     with pytest.raises(vd.ModelError, match="no such directory"):
         spec.plot(tmp_path / "missing" / "x.png")
+
+
+MODELS = sorted((__import__("pathlib").Path(__file__).resolve().parents[1] / "models").glob("*.toml"))
+# the refusals vibdyn random may give on a bundled model: physical impossibilities, each said in words
+RANDOM_REFUSALS = ("lies where the input has power", "is an angle (rad)", "unstable", "leaves no free coordinate")
+
+
+@pytest.mark.parametrize("path", MODELS, ids=[p.stem for p in MODELS])
+def test_cli_random_on_every_bundled_model(path, tmp_path):
+    """``vibdyn random`` on each bundled model: its first support under a band-limited acceleration PSD, else a
+    force on its linear model's first coordinate: a table of finite RMS values, or a refusal that says why."""
+    spec = tmp_path / "spec.txt"
+    system = vd.load_scene(path).build()
+    if system.supports:
+        spec.write_text("# unit: (m/s^2)^2/Hz\n0.5 1e-3\n50 1e-3\n")
+        where = ["--support", system.supports[0].name]
+    else:
+        lin = system.operating_point().linearize()
+        unit = "N^2/Hz" if lin.units[0] == "m" else "(N*m)^2/Hz"
+        spec.write_text(f"# unit: {unit}\n0.5 1e-3\n50 1e-3\n")
+        where = ["--force", lin.coordinates[0]]
+    code, out, err = run(["random", path, "--psd", spec, *where])
+    if code == 2 and "undamped mode" in err:  # modal damping makes it bounded
+        code, out, err = run(["random", path, "--psd", spec, *where, "--zeta", "0.02"])
+    if code == 0:
+        assert "acceleration" in out and "nan" not in out.lower().split(), out
+    else:
+        assert code == 2 and err.startswith("vibdyn: error:") and any(w in err for w in RANDOM_REFUSALS), err

@@ -1,4 +1,5 @@
-"""``vibdyn random MODEL --psd FILE --support NAME``: RMS responses to a random support motion (a PSD table)."""
+"""``vibdyn random MODEL --psd FILE --support NAME`` (or ``--force COORDINATE``): RMS responses to a random
+support motion or force given by a PSD table (one-sided, in Hz)."""
 
 import json
 import sys
@@ -45,13 +46,18 @@ def read_psd(path, unit=None):
 
 
 def add(sub, scene_help):
-    r = sub.add_parser("random", help="RMS responses to a random support motion given by a PSD table (one-sided, Hz)")
+    r = sub.add_parser("random", help="RMS responses to a random support motion or force: a PSD table (one-sided, Hz)")
     r.add_argument("scene", help=scene_help)
     r.add_argument("--psd", required=True, help="text file: frequency (Hz) and level per line, log-log between")
-    r.add_argument("--unit", help="the PSD's unit (g^2/Hz, (m/s^2)^2/Hz, (m/s)^2/Hz, m^2/Hz) if the file has none")
-    r.add_argument("--support", required=True, help="the moving support (or a prescribed coordinate)")
+    r.add_argument("--unit", help="the PSD's unit (g^2/Hz, (m/s^2)^2/Hz, (m/s)^2/Hz, m^2/Hz, N^2/Hz, (N*m)^2/Hz) "
+                   "if the file has none")
+    where = r.add_mutually_exclusive_group(required=True)
+    where.add_argument("--support", help="the moving support (or a prescribed coordinate): a motion PSD")
+    where.add_argument("--force", help="a coordinate the random force acts on: a force PSD (N^2/Hz or (N*m)^2/Hz)")
     r.add_argument("--direction", default="0,0,1", help="the support's direction, world axes (default 0,0,1)")
     r.add_argument("--outputs", nargs="+", help="coordinate names (default: all)")
+    r.add_argument("--zeta", type=float, help="modal damping ratio on every mode, replacing the model's damping "
+                   "(an undamped model's RMS is unbounded)")
     r.add_argument("--png", help="save the input and response PSDs (log-log) to this PNG file")
     r.add_argument("--json", action="store_true", help="print a JSON object instead of text")
 
@@ -67,13 +73,20 @@ def command(scene, args, out=None):
         raise ModelError(f"--direction: expected three comma-separated numbers, got {args.direction!r}")
     system = scene.build()
     lin = system.operating_point().linearize()
-    coordinate = args.support in system.coordinates
-    res = lin.random_response(psd, support=args.support, direction=None if coordinate else d, outputs=args.outputs)
+    if args.zeta is not None:
+        lin = lin.with_modal_damping(args.zeta)
+    target = args.force or args.support
+    coordinate = target in system.coordinates
+    if args.force:
+        res = lin.random_response({args.force: psd}, outputs=args.outputs)
+    else:
+        res = lin.random_response(psd, support=args.support, direction=None if coordinate else d, outputs=args.outputs)
     if args.json:
         p(json.dumps(json_ready({"scene": system.name, "psd": psd.to_dict(), "support": args.support,
-                                 "direction": None if coordinate else list(d), **res.to_dict()}), indent=1))
+                                 "force": args.force, "direction": None if coordinate else list(d),
+                                 **res.to_dict()}), indent=1))
     else:
-        p(f"{system.name}: {psd!r} at '{args.support}'" + ("" if coordinate else f" along {d}"))
+        p(f"{system.name}: {psd!r} {'on' if args.force else 'at'} '{target}'" + ("" if coordinate else f" along {d}"))
         p(f"input RMS {psd.rms():.6g} {psd.si_unit.split('^2/Hz')[0].strip('()')}; method {res.method}; "
           f"{res.elapsed * 1e3:.1f} ms; linear model's relative error {res.model_error:.1e}")
         p(f"{'output':<24} {'quantity':<13} {'RMS':>14} {'± error':>10}  unit")
