@@ -344,3 +344,19 @@ def test_spring_forces_against_the_transmissibility():
     np.testing.assert_allclose(r.psd(f)[:, 3], 16000.0 ** 2 * np.abs(tb - tw) ** 2 * road(f), rtol=tol)
     with pytest.raises(vd.ModelError, match="'shock_absorber'"):
         car.random_response(road, support="road", direction=(0, 0, 1), springs=["shock_absorber"])
+
+
+@pytest.mark.parametrize("zeta, ratio", [(1e-4, 1.0), (0.02, 1e6), (1e-3, 1e4)])
+def test_extreme_damping_and_stiffness_ratios_quadrature_against_lyapunov(zeta, ratio):
+    """Very light damping (Q = 5000) and stiffness ratios up to 1e6 (poles 3 decades apart): the quadrature
+    (white force mapped to infinity) against the exact Lyapunov solution, within both estimates, and its
+    estimate at the requested 1e-8."""
+    lin, *_ = chain2(k=(1000.0, 1000.0 * ratio), c=(0.0, 0.0))
+    lin = lin.with_modal_damping(zeta)
+    w = {"m1": vd.PSD.white(1.0, unit="N^2/Hz")}
+    a = lin.random_response(w, outputs=["m1", "m2"])
+    b = lin.random_response(w, outputs=["m1", "m2"], method="quadrature")
+    assert a.method == "lyapunov" and b.converged
+    for q in ("displacement", "velocity"):
+        assert np.all(np.abs(a.rms(q) - b.rms(q)) <= a.rms_error(q) + b.rms_error(q)), q
+        assert np.all(b.rms_error(q) <= 1e-8 * b.rms(q)) and np.all(a.rms_error(q) <= 1e-8 * a.rms(q))
