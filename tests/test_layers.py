@@ -35,7 +35,8 @@ LAYERS = {"errors": 0, "_check": 0, "_deprecation": 0, "_format": 0, "defaults":
 # the model layer's machinery that the description's plugins (element kinds) build on
 PLUGIN_MACHINERY = {"vibdyn.model.points", "vibdyn.model.groups"}
 PURE_DESCRIPTION = ("vibdyn.description.scene", "vibdyn.description.inertia", "vibdyn.description.laws",
-                    "vibdyn.description.shapes", "vibdyn.description.loops")
+                    "vibdyn.description.shapes", "vibdyn.description.loops",
+                    "vibdyn.description.psd")
 MAX_LINES = 700
 SYSTEM_MAX_LINES = 350  # vibdyn/model/system.py
 
@@ -64,7 +65,8 @@ ENTRY_POINTS = {
     ("vibdyn.analysis.response.seismic", "SeismicResponse.plot"): {"vibdyn.faces.spectrum_plots"},
     # the linear model's methods are entry points to the analyses built on it (same layer, above it)
     **{("vibdyn.analysis.linearize", f"LinearModel.{m}"): {"vibdyn.analysis.response"}
-       for m in ("free_response", "receptance", "harmonic_response", "base_response", "forced_response")},
+       for m in ("free_response", "receptance", "harmonic_response", "base_response", "forced_response",
+                 "random_response")},
     ("vibdyn.analysis.linearize", "LinearModel.appropriation"): {"vibdyn.analysis.response.appropriation"},
     ("vibdyn.analysis.linearize", "LinearModel.state_space"): {"vibdyn.analysis.statespace"},
     ("vibdyn.analysis.linearize", "LinearModel.modes"): {"vibdyn.analysis.modal"},
@@ -76,6 +78,8 @@ ENTRY_POINTS = {
     ("vibdyn.analysis.unbalance", "UnbalanceResponse.polar"): {"vibdyn.faces.rotor_plots"},
     # and the modes' to their sensitivities (which read the modes' own eigenproblem)
     ("vibdyn.analysis.modal", "Modes.sensitivity"): {"vibdyn.analysis.sensitivity"},
+    ("vibdyn.description.psd", "PSD.plot"): {"vibdyn.faces.random_plots"},
+    ("vibdyn.analysis.response.random", "RandomResponse.plot"): {"vibdyn.faces.random_plots"},
     ("vibdyn.results", "TimeResult.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.analysis.nonlinear.harmonic_balance", "ForcedResponseCurve.plot"): {"vibdyn.faces.plots"},
     ("vibdyn.analysis.nonlinear.backbone", "Backbone.plot"): {"vibdyn.faces.plots"},

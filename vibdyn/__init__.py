@@ -51,6 +51,9 @@ _WHERE = {  # module (relative to vibdyn) -> the public names it defines
     "analysis.response.record_spectrum": ("RecordSpectrum",),
     "analysis.identify": ("fit_rayleigh", "log_decrement", "HalfPower", "LogDecrement", "RayleighFit"),
     "analysis.statespace": ("StateSpace",),
+    "description.psd": ("PSD", "Delay"),
+    "analysis.response.random": ("RandomResponse",),
+    "analysis.response.monte_carlo": ("monte_carlo", "MonteCarlo"),
     "results": ("TimeResult",),
     "analysis.campbell_diagram": ("campbell", "Campbell", "CriticalSpeed", "Onset"),
     "analysis.rotor_stability": ("stability_limit", "StabilityLimit", "critical_speed_map", "CriticalSpeedMap"),
@@ -216,4 +219,4 @@ __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot"
            "periodic_orbit", "floquet", "PeriodicOrbit", "backbone", "Backbone", "sensitivity", "Sensitivity",
            "update", "Update", "parameters", "with_values", "Parameter", "simulate", "linearize", "equilibrium",
            "Reduction", "Assembly", "forcing", "SeismicResponse", "RecordSpectrum", "DesignSpectrum", "eurocode8",
-           "asce7"]
+           "asce7", "PSD", "Delay", "RandomResponse", "monte_carlo", "MonteCarlo"]

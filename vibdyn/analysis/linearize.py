@@ -25,7 +25,7 @@ from ..errors import ModelError
 if TYPE_CHECKING:  # result types of the entry points below (imported on call, not at import)
     from ..model.system import System
     from .modal import Modes
-    from .response import FRF, Appropriation, HarmonicResponse, TimeResponse
+    from .response import FRF, Appropriation, HarmonicResponse, RandomResponse, TimeResponse
     from .statespace import StateSpace
 from ..model import dynamics
 from . import modal
@@ -216,6 +216,14 @@ class LinearModel:
         from .response import forced_response
 
         return forced_response(self, t, force, inputs, **kwargs)
+
+    def random_response(self, psd: Any, support: str | None = None, direction: ArrayLike | None = None,
+                        outputs: Any = None, **kwargs: Any) -> RandomResponse:
+        """Stationary response to random inputs given by one-sided PSDs in Hz: RMS, spectra, covariances
+        (:func:`vibdyn.analysis.response.random_response`)."""
+        from .response import random_response
+
+        return random_response(self, psd, support, direction, outputs, **kwargs)
 
     def appropriation(self, mode: int, inputs: Any = None, **kwargs: Any) -> Appropriation:
         """Force pattern exciting one undamped mode alone (:func:`vibdyn.analysis.response.appropriation`)."""

@@ -1,5 +1,5 @@
 """The ``vibdyn`` command: ``info``, ``modes``, ``demo``, ``frf``, ``bench``, ``simulate``, ``view``,
-``campbell`` and the nonlinear ``frc``, ``floquet``, ``backbone`` (:mod:`vibdyn.faces.nonlinear_command`)
+``campbell``, ``random`` and the nonlinear ``frc``, ``floquet``, ``backbone`` (:mod:`vibdyn.faces.nonlinear_command`)
 (``vibdyn COMMAND --help``; ``COMMANDS`` below lists each one's parser and runner).
 
 SCENE is a TOML scene file, a bundled model name, or ``robot:NAME`` for a robot of example-robot-data (e.g.
@@ -563,6 +563,18 @@ def _run_spectrum(args):
     command(load(args.scene), args)
 
 
+def _add_random(sub):
+    from .random_command import add
+
+    add(sub, SCENE_HELP)
+
+
+def _run_random(args):
+    from .random_command import command
+
+    command(load(args.scene), args)
+
+
 def _run_nonlinear(args):
     from .nonlinear_command import RUNNERS
 
@@ -574,7 +586,7 @@ COMMANDS = {"info": (_add_info, _run_info), "modes": (_add_modes, _run_modes), "
             "frf": (_add_frf, _run_frf), "bench": (_add_bench, None), "simulate": (_add_simulate, _run_simulate),
             "view": (_add_view, _run_view), "campbell": (_add_campbell, _run_campbell),
             "sensitivity": (_add_sensitivity, _run_sensitivity),
-            "spectrum": (_add_spectrum, _run_spectrum),
+            "spectrum": (_add_spectrum, _run_spectrum), "random": (_add_random, _run_random),
             **{name: (add, _run_nonlinear) for name, add in NONLINEAR.items()}}
 
 

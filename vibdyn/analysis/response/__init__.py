@@ -11,6 +11,8 @@
 - Forced transients: modal Duhamel integrals or the exact state-space discretisation (scipy expm), both
   with Gauss–Legendre quadrature of the force between time points; scipy's ``solve_ivp`` on the state form
   as the independent check.
+- Random response: one-sided PSD inputs (Hz), variances by the Lyapunov equation (white) or adaptive
+  quadrature placed at the poles (tables), with error estimates.
 - Modal appropriation: the force pattern that drives a single undamped mode in phase quadrature.
 
 Conventions: δq are the tangent coordinates of the linear model (m or rad) measured from the operating
@@ -33,8 +35,10 @@ from .frf import (
            harmonic_response,
            receptance,
 )
+from .monte_carlo import MonteCarlo, monte_carlo
+from .random import RandomResponse, random_response
 from .transient import TimeResponse, forced_response, free_response
 
-__all__ = ["Appropriation", "Channels", "FRF", "HarmonicResponse", "Hysteretic", "Peaks", "Receptance",
-           "SingularResponse", "TimeResponse", "appropriation", "base_response", "channels", "forced_response",
-           "free_response", "harmonic_response", "receptance", "transmissibility"]
+__all__ = ["Appropriation", "Channels", "FRF", "HarmonicResponse", "Hysteretic", "MonteCarlo", "Peaks",
+           "RandomResponse", "Receptance", "SingularResponse", "TimeResponse", "appropriation", "base_response", "channels", "forced_response",
+           "free_response", "harmonic_response", "monte_carlo", "random_response", "receptance", "transmissibility"]

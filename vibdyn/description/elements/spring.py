@@ -102,7 +102,7 @@ def free_lengths(system, springs):
     q0 = system.neutral()
     out = []
     for s in springs:
-        xa, xb = _anchor(system, s.a, q0), _anchor(system, s.b, q0)
+        xa, xb = anchor(system, s.a, q0), anchor(system, s.b, q0)
         L = float(np.linalg.norm(xb - xa))
         l0 = L if s.free_length is None else s.free_length
         if s.a[0] == s.b[0] and np.array_equal(np.asarray(s.a[1], float), np.asarray(s.b[1], float)):
@@ -118,7 +118,7 @@ def free_lengths(system, springs):
     return out
 
 
-def _anchor(system, att, q, t=0.0):
+def anchor(system, att, q, t=0.0):
     """World position (m) of an attachment (body point, world point or support point) at (q, t)."""
     body, point = att
     if body == WORLD:
