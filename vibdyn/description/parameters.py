@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -52,7 +53,7 @@ class Parameter:
         return self.attribute in NONNEGATIVE
 
 
-def parameters(scene, names) -> list[Parameter]:
+def parameters(scene: Any, names: Any) -> list[Parameter]:
     """The parameters of ``scene`` named by ``names`` (a name or a list; a vector named whole stands for its
     components); an unknown name is a ModelError with the names there are and the closest match."""
     if isinstance(names, str):
@@ -77,14 +78,14 @@ def parameters(scene, names) -> list[Parameter]:
     return out
 
 
-def with_values(scene, params, values=None):
+def with_values(scene: Any, params: Any, values: Any = None) -> Any:
     """A copy of ``scene`` with new values (SI, each in its parameter's unit): ``params`` a dict {name: value}
     (``with_values(scene, {"k.stiffness": 120.0, "cart.mass": 2.0})``), or a list of names or of
     :class:`Parameter` (as :func:`parameters` gives them) with ``values`` one number each."""
     if isinstance(params, dict):
         if values is not None:
             raise ModelError("with_values: give a dict {name: value}, or names and values, not both")
-        params, values = list(params), list(params.values())
+        params, values = list(params), list(dict(params).values())
     elif isinstance(params, (str, Parameter)):
         params = [params]
     if values is None:

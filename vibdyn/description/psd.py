@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -47,11 +49,11 @@ class PSD:
     ((m/s²)²/Hz, (m/s)²/Hz, m²/Hz, N²/Hz or (N·m)²/Hz: see :attr:`si_unit`).
     """
 
-    frequency: np.ndarray | None  # breakpoints (Hz), or None (white, callable)
-    values: np.ndarray | float | None = None  # levels in ``unit`` (a table, or the white level)
+    frequency: Any  # breakpoints (Hz: an array), or None (white, callable)
+    values: Any = None  # levels in ``unit`` (a table's array, or the white level)
     unit: str = "(m/s^2)^2/Hz"
     band: tuple = (0.0, math.inf)  # (f_lo, f_hi) Hz where the PSD may be non-zero
-    fun: object = field(default=None, repr=False)  # callable f_hz ↦ levels in ``unit``
+    fun: Any = field(default=None, repr=False)  # callable f_hz ↦ levels in ``unit``
     points: tuple = ()  # extra frequencies (Hz) where a callable bends (quadrature breakpoints)
 
     def __post_init__(self):

@@ -11,6 +11,8 @@ import math
 import os
 from dataclasses import dataclass
 
+from typing import Any
+
 import numpy as np
 
 from .._check import finite_array, scalar, unit_axis
@@ -31,7 +33,7 @@ class Record:
     integrals of the piecewise-linear acceleration. Integrators do not step over its kinks: ``max_step`` (= dt)
     bounds their steps and ``breakpoints`` are the sample times."""
 
-    acceleration: tuple
+    acceleration: Any
     dt: float
     direction: tuple = (1.0, 0.0, 0.0)
     start: float = 0.0
@@ -58,7 +60,7 @@ class Record:
     # the support-motion protocol (3-vectors along the direction) ---------------------------------
     def ground(self, t: float) -> tuple[float, float, float]:
         """(displacement m, velocity m/s, acceleration m/s²) of the ground along ``direction`` at t (s)."""
-        a, v, u = self._table
+        a, v, u = self._table  # type: ignore[attr-defined]
         n = a.size
         s = (t - self.start) / self.dt
         if s <= 0.0:
@@ -146,7 +148,8 @@ class Record:
                 lines = f.read().splitlines()
         except OSError as e:
             raise ModelError(f"{what}: cannot be read ({e.strerror or e})") from None
-        rows, first = [], None
+        rows: list = []
+        first = None
         for number, line in enumerate(lines, 1):
             text = line.strip()
             if not text or text[0] in "#%":

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -95,9 +96,9 @@ class MonteCarlo:
         return out
 
 
-def monte_carlo(lin, psd: PSD, support: str, direction, outputs=None, *, duration: float, samples: int = 8,
-                seed: int | None = 0, settle: float | None = None, dt: float | None = None, f_max: float | None = None,
-                models=("linear", "nonlinear"), rtol: float = 1e-6) -> MonteCarlo:
+def monte_carlo(lin: Any, psd: PSD, support: str, direction: Any, outputs: Any = None, *, duration: float,
+                samples: int = 8, seed: int | None = 0, settle: float | None = None, dt: float | None = None,
+                f_max: float | None = None, models: Any = ("linear", "nonlinear"), rtol: float = 1e-6) -> MonteCarlo:
     """Monte Carlo in time for a support moving along ``direction`` (world axes) with the motion PSD ``psd``
     (:class:`MonteCarlo`): ``samples`` seeded sample paths (:meth:`vibdyn.PSD.sample`, period ``duration`` s,
     up to ``f_max`` Hz), each run from the operating point of ``lin`` for ``settle`` + ``duration`` s
@@ -139,7 +140,7 @@ def monte_carlo(lin, psd: PSD, support: str, direction, outputs=None, *, duratio
     var = {m: np.zeros((3, n, len(idx))) for m in models}
     err = {m: 0.0 for m in models}
     for i, ss in enumerate(seeds):
-        sig = psd.sample(T, seed=np.random.default_rng(ss).integers(2 ** 63), f_max=top)
+        sig = psd.sample(T, seed=int(np.random.default_rng(ss).integers(2 ** 63)), f_max=top)
         pos = lambda s, sig=sig: d * float(sig.displacement(s))  # noqa: E731
         vel = lambda s, sig=sig: d * float(sig.velocity(s))  # noqa: E731
         for model in models:

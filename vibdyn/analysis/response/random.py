@@ -17,6 +17,8 @@ import math
 import time
 from dataclasses import dataclass, field
 
+from typing import Any
+
 import numpy as np
 import scipy.linalg as sla
 
@@ -57,8 +59,8 @@ class RandomResponse:
     evaluations: int
     elapsed: float
     model_error: float
-    transfer: object = field(repr=False)  # (f_hz array) ↦ (H: n_f × n_out × n_in, G: n_f × n_in × n_in)
-    lyapunov: object = field(default=None, repr=False)  # {order: output covariance} when solved exactly
+    transfer: Any = field(repr=False)  # (f_hz array) ↦ (H: n_f × n_out × n_in, G: n_f × n_in × n_in)
+    lyapunov: Any = field(default=None, repr=False)  # {order: output covariance} when solved exactly
     converged: bool = True
 
     def __repr__(self):
@@ -176,7 +178,7 @@ class RandomResponse:
         return plot_response(path, self, quantity, **kwargs)
 
     # the integration's settings, kept for the covariance and the plots
-    split_points: np.ndarray = field(default=None, repr=False)  # Hz: where the quadrature starts split
+    split_points: Any = field(default=None, repr=False)  # Hz: where the quadrature starts split
     upper_hz: float = field(default=math.inf, repr=False)  # the inputs' highest frequency (may be inf)
     psds: tuple = field(default=(), repr=False)
 
