@@ -27,8 +27,8 @@ from ...model.derivatives import linear_terms
 from ...model.forcing import forcing
 from ...simulation.simulate import SimulationError, simulate
 from ...solvers.tracking import assign
-from .shooting import (MAX_SEGMENTS, RCOND, Shooting, conservative, damping_only, energy_roundoff, first_return,
-                       free_indices, growth_segments, motion_scales)
+from .shooting import (MAX_SEGMENTS, RCOND, SCALE_RTOL, Shooting, conservative, damping_only, energy_roundoff,
+                       first_return, flow_scales, free_indices, growth_segments, motion_scales)
 
 __all__ = ["PeriodicOrbit", "Liouville", "periodic_orbit", "floquet"]
 TOL = 1e-10  # default closing tolerance (scaled residual: rad, length scales, velocities per 2π/T)
@@ -265,22 +265,28 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
     k = len(nodes)
     omega_v = max(_omega_guess(system, q_start, v_start, t0, free), 2 * math.pi / period)
     max_step = STEP_RESOLUTION / omega_v
-    if first is None or k != 1:
-        trial = Shooting(system, t0, period * (1 if k == 1 else 1.0 / k), False, 1, omega, rtol, max_step=max_step)
-        try:
+    span = period * (1 if k == 1 else 1.0 / k)
+    try:
+        if first is None or k != 1:
+            # the flows' tolerances are rtol of the motion's size, measured first by a loose run
+            fs = flow_scales(system, simulate(system, t0 + span, q_start, v_start, t0=t0, rtol=max(rtol, SCALE_RTOL),
+                                              error_method="local", max_step=max_step), omega)
+            trial = Shooting(system, t0, span, False, 1, omega, rtol, max_step=max_step, flow_scales=fs)
             first = trial.flows(trial.pack([nodes[0]]), full=True)[0]
-        except SimulationError as e:
-            raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "
-                                   "start closer to the orbit, or give nodes along it (q0, v0 one row each)",
-                                   best=nodes) from e
-        kinetic = float(np.max(first.kinetic))
-    else:
-        kinetic = max(system.energy(q, v, t).kinetic for q, v, t in zip(first.q, first.v, first.t)) if cons else 0.0
+            kinetic = float(np.max(first.kinetic))
+        else:
+            fs = flow_scales(system, first, omega)
+            kinetic = max(system.energy(q, v, t).kinetic for q, v, t in zip(first.q, first.v, first.t)) if cons else 0.0
+    except SimulationError as e:
+        raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "
+                               "start closer to the orbit, or give nodes along it (q0, v0 one row each)",
+                               best=nodes) from e
     scales = motion_scales(system, first, omega, relative=autonomous)
     phase_spec = _phase(system, q_start, v_start, t0, omega, free, phase, scales, what) if autonomous else None
     energy = _energy_condition(system, q_start, v_start, t0, kinetic, scales, free, tol, what) if cons else None
     m = segments if segments is not None else k if k > 1 else growth_segments(first.state_transition)
-    shoot = Shooting(system, t0, period, autonomous, m, omega, rtol, phase_spec, energy, scales, max_step)
+    shoot = Shooting(system, t0, period, autonomous, m, omega, rtol, phase_spec, energy, scales, max_step,
+                     flow_scales=fs)
     if m > 1 and k == 1:  # nodes along a first run from the start
         run = simulate(system, t0 + period, q_start, v_start, t0=t0, rtol=rtol, error_method="local",
                        t_eval=[shoot.time(i, period) for i in range(m)])
@@ -360,13 +366,14 @@ def _start_nodes(system, q0, v0, t0, segments, what):
 
 
 def _omega_guess(system, q, v, t, free):
-    """A frequency scale (rad/s) at a start: the largest of √|eig(M⁻¹K)| there and the scaled speed; 1 if
-    neither is positive."""
+    """A frequency scale (rad/s) at a start: the largest of √|eig(M⁻¹K)| there and the angles' speeds (rad/s: a
+    turning pivot's); 1 if neither is positive. A slider's speed is no frequency: over the scene's length scale
+    (1 mm for a slider at the origin) it made the flows' steps hundreds of times too short."""
     M, K, _ = linear_terms(system, q, v, t)
     f = np.ix_(free, free)
     lam = np.abs(np.linalg.eigvals(np.linalg.solve(M[f], K[f])))
-    s = np.asarray(system.coordinate_scales)[free]
-    w = max(math.sqrt(float(lam.max(initial=0.0))), float(np.abs(v[free] / s).max(initial=0.0)))
+    angles = np.asarray(system.units)[free] == "rad"
+    w = max(math.sqrt(float(lam.max(initial=0.0))), float(np.abs(v[free][angles]).max(initial=0.0)))
     return w if w > 0 and math.isfinite(w) else 1.0
 
 
