@@ -447,10 +447,14 @@ def _moves(system, shoot, orbit, tol, damped, what):
 def _result(system, shoot, x, residual, iterations, points, cons, start, tol):
     m, n = shoot.m, shoot.n
     per = max(2, 2 * math.ceil(points / (2 * m)))  # outputs per segment (even: the half-grid quadrature)
-    x, residual, iterations, deviation, runs, coarse = _polish(shoot, x, residual, iterations, per, tol)
+    x, residual, iterations, deviation, runs, coarse, (mono_before, mono_after) = _polish(shoot, x, residual,
+                                                                                         iterations, per, tol)
     nodes, T = shoot.unpack(x)
-    if runs is None:  # (the polish step not taken: the error estimate's runs from x)
+    taken = runs is not None
+    if not taken:  # (the polish step not taken: the error estimate's runs from x)
         runs = shoot.flows(x, error="rerun", points=per, refine=2)
+    # Φ's own integration error, per segment (an entry's size × √(2n): a typical perturbation's 2-norm, not the worst)
+    own = [float(r.state_transition_error) * math.sqrt(2 * n) for r in runs]
     # the variational equations' own error: halving the largest step (DOP853, order 8: counted as if order 4);
     # against the flows before the polish step where it was taken (their difference also holds the step's own
     # change of Φ, the deviation: a larger estimate, never a smaller one)
@@ -482,7 +486,12 @@ def _result(system, shoot, x, residual, iterations, points, cons, start, tol):
         period_error = float(np.abs(Jp[-1]) @ (np.abs(r) + e)) * shoot.unknown_scale[-1]
         if float(np.abs(Vt[~keep, -1]).max(initial=0.0)) > UNDETERMINED:
             period_error = math.inf
-    mu, mu_err = multipliers(mono, mono_err)
+    # the multipliers' moves between Φ and the monodromies computed otherwise: the Newton's coarser flows from x
+    # (the steps' halving over 15, or with the polish step taken, that step's change too) and the polish step's
+    others = [] if mono_before is None else [(mono_before, 1.0 if taken else 15.0)]
+    if not taken and mono_after is not None:
+        others.append((mono_after, 1.0))
+    mu, mu_err = multipliers(mono, mono_err, _product([P for P, _, _ in maps], own)[1], others)
     trivial = 1 if shoot.free_period else 0  # the flow's own multiplier (a conservative one's second is neutral)
     traj = runs[0] if m == 1 else _join(runs)
     full = _product([np.asarray(rr.state_transition) for rr in runs], [0.0] * m)[0]
@@ -497,12 +506,13 @@ def _result(system, shoot, x, residual, iterations, points, cons, start, tol):
 
 def _polish(shoot, x, residual, iterations, per, tol):
     """One more Newton step from the converged x, taken if it lowers the residual or keeps it within ``tol``:
-    (x, residual, iterations, deviation, runs, coarse) with ``deviation`` the 2-norm of the change of the monodromy
-    across that step — the monodromy's error from the orbit's own closing error (Φ at a point a residual away from
+    (x, residual, iterations, deviation, runs, coarse, monodromies) with ``deviation`` the 2-norm of the change of the
+    monodromy across that step — the monodromy's error from the orbit's own closing error (Φ at a point a residual away from
     the orbit), which decides the split of a defective multiplier such as the double 1 of a conservative orbit.
     The flows from the step's end are the error estimate's (``per`` outputs a segment, steps halved, a rerun at
     tolerances / 100): ``runs`` those where the step is taken (else None: the caller makes them from x), ``coarse``
-    the Newton's flows from x (the halved steps' comparison)."""
+    the Newton's flows from x (the halved steps' comparison); ``monodromies`` (Φ from x by those, Φ from the step's
+    end or None)."""
     nodes, T = shoot.unpack(x)
     before = shoot.flows(x)
     r = shoot.residual_of(nodes, before)
@@ -518,15 +528,15 @@ def _polish(shoot, x, residual, iterations, per, tol):
     r2 = None if after is None else shoot.residual_of(nodes2, after)
     if r2 is None or not np.all(np.isfinite(r2)):
         shoot.seed(x, before)  # (x's flows are the ones wanted next, not integrated again)
-        return x, residual, iterations, 0.0, None, before
+        return x, residual, iterations, 0.0, None, before, (None, None)
     mono = [_product([P for P, _, _ in shoot.segment_maps(*nr)], [0.0] * shoot.m)[0]
             for nr in ((nodes, before), (nodes2, after))]
     deviation = float(np.linalg.norm(mono[1] - mono[0], 2))
     res2 = float(np.abs(r2).max())
     if res2 < float(np.abs(r).max()) or res2 <= tol:
-        return x2, res2, iterations + 1, deviation, after, before
+        return x2, res2, iterations + 1, deviation, after, before, tuple(mono)
     shoot.seed(x, before)
-    return x, residual, iterations, deviation, None, before
+    return x, residual, iterations, deviation, None, before, tuple(mono)
 
 
 def _product(mats, errs):
@@ -547,11 +557,15 @@ def _product(mats, errs):
     return prod, float(err)
 
 
-def multipliers(mono, error):
+def multipliers(mono, error, own=None, others=()):
     """(μ by decreasing modulus, the uncertainty of each) for a monodromy whose error has 2-norm ≤ ``error``:
     κ_k · error (κ_k = ‖x‖‖y‖/|yᴴx| from the right and left eigenvectors) where that is below half the
     distance to the nearest other multiplier; for clustered or defective ones (first order fails there), the
-    largest move of μ_k over perturbations of Φ of 2-norm ``error``, times SPREAD_FACTOR."""
+    largest move of μ_k over perturbations of Φ of 2-norm ``error``, times SPREAD_FACTOR. With ``own`` (the 2-norm
+    of the part of Φ's error known only by its size: the integration's own estimate) and ``others`` (pairs (Φ', d):
+    monodromies computed otherwise, whose difference from Φ over d estimates the rest of its error), an isolated
+    μ_k's is κ_k · own plus its moves |μ_k(Φ') − μ_k| / d: the multipliers' own differences keep the cancellations
+    a bound on ‖Φ' − Φ‖ loses (κ ‖E‖ overstated a forced orbit's by 100 ×)."""
     lam, vl, vr = sla.eig(mono, left=True, right=True)
     order = np.argsort(-np.abs(lam), kind="stable")
     lam, vl, vr = lam[order], vl[:, order], vr[:, order]
@@ -561,6 +575,13 @@ def multipliers(mono, error):
     gap = np.array([np.abs(np.delete(lam, k) - lam[k]).min(initial=np.inf) for k in range(lam.size)])
     bad = ~(first < 0.5 * gap)
     err = first.copy()
+    if own is not None:
+        err = kappa * own
+        for other, divisor in others:
+            moved = np.linalg.eigvals(other)
+            rows, cols = assign(np.abs(lam[:, None] - moved[None, :]))
+            err[rows] += np.abs(moved[cols] - lam[rows]) / divisor
+        err = np.minimum(err, first)  # (never above the bound)
     if bad.any() and error > 0:
         rng = np.random.default_rng(0)
         spread = np.zeros(lam.size)
