@@ -111,7 +111,8 @@ class Derivatives:
         self.differenced = True
         system = self.system
         h = steps(system, 1e-6)
-        hq = np.maximum(h, _power_of_two(1e-6 * np.abs(pin.difference(system.model, pin.neutral(system.model), self.q))))
+        offset = pin.difference(system.model, pin.neutral(system.model), self.q)
+        hq = np.maximum(h, _power_of_two(1e-6 * np.abs(offset)))
         Dq = tangent_derivative(system, lambda qq: fun(qq, self.v), self.q, hq)
         if not with_v:
             return Dq, np.zeros_like(Dq)

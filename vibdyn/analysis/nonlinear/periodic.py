@@ -506,13 +506,13 @@ def _result(system, shoot, x, residual, iterations, points, cons, start, tol):
 
 def _polish(shoot, x, residual, iterations, per, tol):
     """One more Newton step from the converged x, taken if it lowers the residual or keeps it within ``tol``:
-    (x, residual, iterations, deviation, runs, coarse, monodromies) with ``deviation`` the 2-norm of the change of the
-    monodromy across that step — the monodromy's error from the orbit's own closing error (Φ at a point a residual away from
-    the orbit), which decides the split of a defective multiplier such as the double 1 of a conservative orbit.
-    The flows from the step's end are the error estimate's (``per`` outputs a segment, steps halved, a rerun at
-    tolerances / 100): ``runs`` those where the step is taken (else None: the caller makes them from x), ``coarse``
-    the Newton's flows from x (the halved steps' comparison); ``monodromies`` (Φ from x by those, Φ from the step's
-    end or None)."""
+    (x, residual, iterations, deviation, runs, coarse, monodromies) with ``deviation`` the 2-norm of the change of
+    the monodromy across that step — the monodromy's error from the orbit's own closing error (Φ at a point a
+    residual away from the orbit), which decides the split of a defective multiplier such as the double 1 of a
+    conservative orbit. The flows from the step's end are the error estimate's (``per`` outputs a segment, steps
+    halved, a rerun at tolerances / 100): ``runs`` those where the step is taken (else None: the caller makes them
+    from x), ``coarse`` the Newton's flows from x (the halved steps' comparison); ``monodromies`` (Φ from x by
+    those, Φ from the step's end or None)."""
     nodes, T = shoot.unpack(x)
     before = shoot.flows(x)
     r = shoot.residual_of(nodes, before)
