@@ -425,12 +425,13 @@ def guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms):
     fixed direction (:func:`_guard_plan`; q moved by ``integrate``, δv scaled by max(1, |v0|), and zero where C is
     zero by construction: no velocity dependence and v0 = 0), the states ±δ, ±2δ in one pass. Its error
     estimate: :func:`fd_error`'s from the 2δ difference, with the round-off of the forces that cancel in r
-    (``terms``, the largest of them, or of the point forces, through the tree's transforms as the analytic
-    estimate's floor, |M||a0| + |C||v0|: inertia and Coriolis forces that RNEA sums away, and the point springs'
-    rounding), plus K's and C's own. ``disagreement``: None, or how far beyond GUARD_SAFETY × that estimate
-    they disagree. It checks formulas, not numbers: once per compiled system (its workspace) and kind of state —
-    at rest, or moving (where C's velocity terms join) — as a derivative wrong for a joint type or an element is
-    wrong at almost every state (a Campbell diagram or a continuation pays for it once)."""
+    (``terms``; the forces the steps make, |K||δq| + |C|(|v0| + 2|δv|) + |M||a0|: stiffness, inertia and Coriolis
+    forces that RNEA sums away; the largest of all these, or of the point forces, through the tree's transforms as
+    the analytic estimate's floor; the point springs' rounding), plus K's and C's own. ``disagreement``: None, or
+    how far beyond GUARD_SAFETY × that estimate they disagree. It checks formulas, not numbers: once per compiled
+    system (its workspace) and kind of state — at rest, or moving (where C's velocity terms join) — as a derivative
+    wrong for a joint type or an element is wrong at almost every state (a Campbell diagram or a continuation
+    pays for it once)."""
     moving = bool(system.depends_on_velocity or np.count_nonzero(v0))
     passed = ws.stencils.setdefault("guard passed", set())
     if moving in passed:  # this system's formulas already agreed with differences in this kind of state
@@ -442,10 +443,19 @@ def guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms):
         dv, V = dv * w, Y * w
         V += v0
     s = system.coordinate_scales
-    largest = max([float((terms * s).max()) if len(s) else 0.0] + [  # (point forces at the operating point, still
-        np.linalg.norm(ws.forces[j][:3]) * system.length_scale + np.linalg.norm(ws.forces[j][3:])  # in the
-        for j in system.point_joints])  # workspace's buffers: N·m through the length scale)
-    forces = terms + largest / s
+    made = np.abs(K) @ dq_abs  # the forces the steps themselves make (N or N·m): their round-off too
+    if moving:
+        made += np.abs(C) @ (np.abs(v0) + 2 * np.abs(dv))
+    if np.count_nonzero(a0):
+        made += np.abs(M) @ np.abs(a0)
+    # the largest force in the tree reaches every row through its transforms, where it cancels: the operating
+    # point's terms, its point forces (still in the workspace's buffers: N·m through the length scale) and the
+    # steps' own (a spun rotor's spin row sums tilt × spin products that cancel, while its own forces are all 0)
+    largest = max([float((terms * s).max()) if len(s) else 0.0, float((made * s).max(initial=0.0))] + [
+        np.linalg.norm(ws.forces[j][:3]) * system.length_scale + np.linalg.norm(ws.forces[j][3:])
+        for j in system.point_joints])
+    forces = terms + made
+    forces += largest / s
     rounding = force_rounding(system, ws, q0, t0, np.ones(1))  # (springs' forces from rounded positions)
     r, F = dynamics.inverse_dynamics_rows(system, ws, Q, V if moving else v0, a0, t0)
     r -= F  # rows: +δ, +2δ, −δ, −2δ
@@ -456,13 +466,9 @@ def guard(system, ws, q0, v0, a0, t0, M, K, C, K_err, C_err, terms):
     T += D  # D(δ) − D(2δ)
     off = K @ dq
     bound = K_err @ dq_abs
-    forces += np.abs(K) @ dq_abs  # (the forces the steps themselves make: their round-off too)
     if moving:
         off += C @ dv
         bound += C_err @ np.abs(dv)
-        forces += np.abs(C) @ (np.abs(v0) + 2 * np.abs(dv))
-    if np.count_nonzero(a0):
-        forces += np.abs(M) @ np.abs(a0)
     off -= D
     bound += fd_error(D[:, None], T[:, None], forces, 1.0)[:, 0]
     if rounding is not None:

@@ -105,18 +105,33 @@ class Derivatives:
 
     def element_fd(self, fun, with_v=True):
         """Central differences (∂/∂q, ∂/∂v) of an element's own output ``fun(q, v)`` (for user callables,
-        which have no derivative)."""
+        which have no derivative), with steps 1e-6 of each coordinate's scale or of its own size where larger
+        (|Δq| from the neutral configuration, |v|: a slider at the origin has a length scale of 1 mm, and steps of
+        1e-9 m left round-off of 1e-7 in the derivatives of a motion of metres)."""
         self.differenced = True
-        h = steps(self.system, 1e-6)
-        Dq = tangent_derivative(self.system, lambda qq: fun(qq, self.v), self.q, h)
-        Dv = vector_derivative(lambda vv: fun(self.q, vv), self.v, h) if with_v else np.zeros_like(Dq)
-        return Dq, Dv
+        system = self.system
+        h = steps(system, 1e-6)
+        offset = pin.difference(system.model, pin.neutral(system.model), self.q)
+        hq = np.maximum(h, _power_of_two(1e-6 * np.abs(offset)))
+        Dq = tangent_derivative(system, lambda qq: fun(qq, self.v), self.q, hq)
+        if not with_v:
+            return Dq, np.zeros_like(Dq)
+        hv = np.maximum(h, _power_of_two(1e-6 * np.abs(self.v)))
+        return Dq, vector_derivative(lambda vv: fun(self.q, vv), self.v, hv)
 
     def group_force(self, group, q, v):
         """One joint-space group's Q(q, v) at this time."""
         Q = np.zeros(self.system.nv)
         group.apply(self.t, q, v, None, Q, None)
         return Q
+
+
+def _power_of_two(x):
+    """x rounded to the nearest power of two (zeros stay 0): steps a coordinate moves by exactly."""
+    out = np.zeros_like(x)
+    pos = x > 0
+    out[pos] = np.exp2(np.round(np.log2(x[pos])))
+    return out
 
 
 _UNTRUSTED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # system -> (columns, their steps): made once per system

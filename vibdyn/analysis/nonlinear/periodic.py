@@ -28,8 +28,8 @@ from ...model.forcing import forcing
 from ...simulation.flow import Flow
 from ...simulation.trajectory import SimulationError
 from ...solvers.tracking import assign
-from .shooting import (MAX_SEGMENTS, RCOND, Shooting, conservative, damping_only, energy_roundoff, first_return,
-                       free_indices, growth_segments, motion_scales)
+from .shooting import (MAX_SEGMENTS, RCOND, SCALE_RTOL, Shooting, conservative, damping_only, energy_roundoff,
+                       first_return, flow_scales, free_indices, growth_segments, motion_scales)
 
 __all__ = ["PeriodicOrbit", "Liouville", "periodic_orbit", "floquet"]
 TOL = 1e-10  # default closing tolerance (scaled residual: rad, length scales, velocities per 2π/T)
@@ -266,22 +266,28 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
     k = len(nodes)
     omega_v = max(_omega_guess(system, q_start, v_start, t0, free), 2 * math.pi / period)
     max_step = STEP_RESOLUTION / omega_v
-    if first is None or k != 1:
-        trial = Shooting(system, t0, period * (1 if k == 1 else 1.0 / k), False, 1, omega, rtol, max_step=max_step)
-        try:
+    span = period * (1 if k == 1 else 1.0 / k)
+    try:
+        if first is None or k != 1:
+            # the flows' tolerances are rtol of the motion's size, measured first by a loose run
+            fs = flow_scales(system, simulate(system, t0 + span, q_start, v_start, t0=t0, rtol=max(rtol, SCALE_RTOL),
+                                              error_method="local", max_step=max_step), omega)
+            trial = Shooting(system, t0, span, False, 1, omega, rtol, max_step=max_step, flow_scales=fs)
             first = trial.flows(trial.pack([nodes[0]]), full=True)[0]
-        except SimulationError as e:
-            raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "
-                                   "start closer to the orbit, or give nodes along it (q0, v0 one row each)",
-                                   best=nodes) from e
-        kinetic = float(np.max(first.kinetic))
-    else:
-        kinetic = max(system.energy(q, v, t).kinetic for q, v, t in zip(first.q, first.v, first.t)) if cons else 0.0
+            kinetic = float(np.max(first.kinetic))
+        else:
+            fs = flow_scales(system, first, omega)
+            kinetic = max(system.energy(q, v, t).kinetic for q, v, t in zip(first.q, first.v, first.t)) if cons else 0.0
+    except SimulationError as e:
+        raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "
+                               "start closer to the orbit, or give nodes along it (q0, v0 one row each)",
+                               best=nodes) from e
     scales = motion_scales(system, first, omega, relative=autonomous)
     phase_spec = _phase(system, q_start, v_start, t0, omega, free, phase, scales, what) if autonomous else None
     energy = _energy_condition(system, q_start, v_start, t0, kinetic, scales, free, tol, what) if cons else None
     m = segments if segments is not None else k if k > 1 else growth_segments(first.state_transition)
-    shoot = Shooting(system, t0, period, autonomous, m, omega, rtol, phase_spec, energy, scales, max_step)
+    shoot = Shooting(system, t0, period, autonomous, m, omega, rtol, phase_spec, energy, scales, max_step,
+                     flow_scales=fs)
     if m > 1 and k == 1:  # nodes along a first run from the start
         run = Flow(system, q_start, v_start, rtol=rtol)(q_start, v_start, t0, t0 + period,
                                                        t_eval=[shoot.time(i, period) for i in range(m)])
@@ -361,13 +367,14 @@ def _start_nodes(system, q0, v0, t0, segments, what):
 
 
 def _omega_guess(system, q, v, t, free):
-    """A frequency scale (rad/s) at a start: the largest of √|eig(M⁻¹K)| there and the scaled speed; 1 if
-    neither is positive."""
+    """A frequency scale (rad/s) at a start: the largest of √|eig(M⁻¹K)| there and the angles' speeds (rad/s: a
+    turning pivot's); 1 if neither is positive. A slider's speed is no frequency: over the scene's length scale
+    (1 mm for a slider at the origin) it made the flows' steps hundreds of times too short."""
     M, K, _ = linear_terms(system, q, v, t)
     f = np.ix_(free, free)
     lam = np.abs(np.linalg.eigvals(np.linalg.solve(M[f], K[f])))
-    s = np.asarray(system.coordinate_scales)[free]
-    w = max(math.sqrt(float(lam.max(initial=0.0))), float(np.abs(v[free] / s).max(initial=0.0)))
+    angles = np.asarray(system.units)[free] == "rad"
+    w = max(math.sqrt(float(lam.max(initial=0.0))), float(np.abs(v[free][angles]).max(initial=0.0)))
     return w if w > 0 and math.isfinite(w) else 1.0
 
 
@@ -441,10 +448,14 @@ def _moves(system, shoot, orbit, tol, damped, what):
 def _result(system, shoot, x, residual, iterations, points, cons, start, tol):
     m, n = shoot.m, shoot.n
     per = max(2, 2 * math.ceil(points / (2 * m)))  # outputs per segment (even: the half-grid quadrature)
-    x, residual, iterations, deviation, runs, coarse = _polish(shoot, x, residual, iterations, per, tol)
+    x, residual, iterations, deviation, runs, coarse, (mono_before, mono_after) = _polish(shoot, x, residual,
+                                                                                         iterations, per, tol)
     nodes, T = shoot.unpack(x)
-    if runs is None:  # (the polish step not taken: the error estimate's runs from x)
+    taken = runs is not None
+    if not taken:  # (the polish step not taken: the error estimate's runs from x)
         runs = shoot.flows(x, error="rerun", points=per, refine=2)
+    # Φ's own integration error, per segment (an entry's size × √(2n): a typical perturbation's 2-norm, not the worst)
+    own = [float(r.state_transition_error) * math.sqrt(2 * n) for r in runs]
     # the variational equations' own error: halving the largest step (DOP853, order 8: counted as if order 4);
     # against the flows before the polish step where it was taken (their difference also holds the step's own
     # change of Φ, the deviation: a larger estimate, never a smaller one)
@@ -476,7 +487,12 @@ def _result(system, shoot, x, residual, iterations, points, cons, start, tol):
         period_error = float(np.abs(Jp[-1]) @ (np.abs(r) + e)) * shoot.unknown_scale[-1]
         if float(np.abs(Vt[~keep, -1]).max(initial=0.0)) > UNDETERMINED:
             period_error = math.inf
-    mu, mu_err = multipliers(mono, mono_err)
+    # the multipliers' moves between Φ and the monodromies computed otherwise: the Newton's coarser flows from x
+    # (the steps' halving over 15, or with the polish step taken, that step's change too) and the polish step's
+    others = [] if mono_before is None else [(mono_before, 1.0 if taken else 15.0)]
+    if not taken and mono_after is not None:
+        others.append((mono_after, 1.0))
+    mu, mu_err = multipliers(mono, mono_err, _product([P for P, _, _ in maps], own)[1], others)
     trivial = 1 if shoot.free_period else 0  # the flow's own multiplier (a conservative one's second is neutral)
     traj = runs[0] if m == 1 else _join(runs)
     full = _product([np.asarray(rr.state_transition) for rr in runs], [0.0] * m)[0]
@@ -491,12 +507,13 @@ def _result(system, shoot, x, residual, iterations, points, cons, start, tol):
 
 def _polish(shoot, x, residual, iterations, per, tol):
     """One more Newton step from the converged x, taken if it lowers the residual or keeps it within ``tol``:
-    (x, residual, iterations, deviation, runs, coarse) with ``deviation`` the 2-norm of the change of the monodromy
-    across that step — the monodromy's error from the orbit's own closing error (Φ at a point a residual away from
-    the orbit), which decides the split of a defective multiplier such as the double 1 of a conservative orbit.
-    The flows from the step's end are the error estimate's (``per`` outputs a segment, steps halved, a rerun at
-    tolerances / 100): ``runs`` those where the step is taken (else None: the caller makes them from x), ``coarse``
-    the Newton's flows from x (the halved steps' comparison)."""
+    (x, residual, iterations, deviation, runs, coarse, monodromies) with ``deviation`` the 2-norm of the change of
+    the monodromy across that step — the monodromy's error from the orbit's own closing error (Φ at a point a
+    residual away from the orbit), which decides the split of a defective multiplier such as the double 1 of a
+    conservative orbit. The flows from the step's end are the error estimate's (``per`` outputs a segment, steps
+    halved, a rerun at tolerances / 100): ``runs`` those where the step is taken (else None: the caller makes them
+    from x), ``coarse`` the Newton's flows from x (the halved steps' comparison); ``monodromies`` (Φ from x by
+    those, Φ from the step's end or None)."""
     nodes, T = shoot.unpack(x)
     before = shoot.flows(x)
     r = shoot.residual_of(nodes, before)
@@ -512,15 +529,15 @@ def _polish(shoot, x, residual, iterations, per, tol):
     r2 = None if after is None else shoot.residual_of(nodes2, after)
     if r2 is None or not np.all(np.isfinite(r2)):
         shoot.seed(x, before)  # (x's flows are the ones wanted next, not integrated again)
-        return x, residual, iterations, 0.0, None, before
+        return x, residual, iterations, 0.0, None, before, (None, None)
     mono = [_product([P for P, _, _ in shoot.segment_maps(*nr)], [0.0] * shoot.m)[0]
             for nr in ((nodes, before), (nodes2, after))]
     deviation = float(np.linalg.norm(mono[1] - mono[0], 2))
     res2 = float(np.abs(r2).max())
     if res2 < float(np.abs(r).max()) or res2 <= tol:
-        return x2, res2, iterations + 1, deviation, after, before
+        return x2, res2, iterations + 1, deviation, after, before, tuple(mono)
     shoot.seed(x, before)
-    return x, residual, iterations, deviation, None, before
+    return x, residual, iterations, deviation, None, before, tuple(mono)
 
 
 def _product(mats, errs):
@@ -541,11 +558,15 @@ def _product(mats, errs):
     return prod, float(err)
 
 
-def multipliers(mono, error):
+def multipliers(mono, error, own=None, others=()):
     """(μ by decreasing modulus, the uncertainty of each) for a monodromy whose error has 2-norm ≤ ``error``:
     κ_k · error (κ_k = ‖x‖‖y‖/|yᴴx| from the right and left eigenvectors) where that is below half the
     distance to the nearest other multiplier; for clustered or defective ones (first order fails there), the
-    largest move of μ_k over perturbations of Φ of 2-norm ``error``, times SPREAD_FACTOR."""
+    largest move of μ_k over perturbations of Φ of 2-norm ``error``, times SPREAD_FACTOR. With ``own`` (the 2-norm
+    of the part of Φ's error known only by its size: the integration's own estimate) and ``others`` (pairs (Φ', d):
+    monodromies computed otherwise, whose difference from Φ over d estimates the rest of its error), an isolated
+    μ_k's is κ_k · own plus its moves |μ_k(Φ') − μ_k| / d: the multipliers' own differences keep the cancellations
+    a bound on ‖Φ' − Φ‖ loses (κ ‖E‖ overstated a forced orbit's by 100 ×)."""
     lam, vl, vr = sla.eig(mono, left=True, right=True)
     order = np.argsort(-np.abs(lam), kind="stable")
     lam, vl, vr = lam[order], vl[:, order], vr[:, order]
@@ -555,6 +576,13 @@ def multipliers(mono, error):
     gap = np.array([np.abs(np.delete(lam, k) - lam[k]).min(initial=np.inf) for k in range(lam.size)])
     bad = ~(first < 0.5 * gap)
     err = first.copy()
+    if own is not None:
+        err = kappa * own
+        for other, divisor in others:
+            moved = np.linalg.eigvals(other)
+            rows, cols = assign(np.abs(lam[:, None] - moved[None, :]))
+            err[rows] += np.abs(moved[cols] - lam[rows]) / divisor
+        err = np.minimum(err, first)  # (never above the bound)
     if bad.any() and error > 0:
         rng = np.random.default_rng(0)
         spread = np.zeros(lam.size)

@@ -41,6 +41,8 @@ RCOND = 1e-10  # singular values of the scaled Jacobian below this (relative) ar
 MIN_ALPHA = 1.0 / 32  # the line search's shortest step: below it the flows' noise decides, not the model
 STEP_CAP = 1.0  # largest Newton step per scaled unknown (1 rad, one length scale, T/2π)
 ROUNDOFF = 16.0  # ulps of the energy's terms: its round-off
+RESOLVED = 1e-3  # the flows resolve a coordinate to rtol of at least this × the largest motion of its unit
+SCALE_RTOL = 1e-6  # the loose run that sizes the motion before the first flow (its steps cost little)
 CHECK_STEP = 3e-5  # the transitions' check: flows from the nodes moved by this (and twice this) of the scales
 # (1e-4 before: with Φ exact to its tolerance, the differences' truncation then exceeded the flows' error/h and the
 # second pair ran on the ball pendulum's backbone; a stiffness 1e-4 too large is still caught)
@@ -95,10 +97,12 @@ class Shooting:
     given), ("flow", q_ref, v_ref, u) with u the unit scaled flow at the start, or ("velocity", k) (the free
     velocity number k is zero at t0); ``energy``: None or (E_target J, E_scale J); ``scales``: per tangent
     coordinate (m or rad; default the system's coordinate scales); ``transition_rtol``: the state transitions'
-    own tolerance (None: rtol; looser where they only make the Newton steps, as along a continuation)."""
+    own tolerance (None: rtol; looser where they only make the Newton steps, as along a continuation);
+    ``flow_scales``: per tangent coordinate, the motion's size (m or rad) the flows' absolute tolerance is rtol of
+    (None: ``scales``, or without them the flows' default, rtol of the coordinate scales)."""
 
     def __init__(self, system, t0, period, free_period, segments, omega, rtol, phase=None, energy=None, scales=None,
-                 max_step=math.inf, transition_rtol=None):
+                 max_step=math.inf, transition_rtol=None, flow_scales=None):
         self.system, self.model, self.t0, self.m = system, system.model, float(t0), int(segments)
         self.period, self.free_period, self.rtol = float(period), bool(free_period), float(rtol)
         self.max_step = float(max_step)
@@ -114,8 +118,11 @@ class Shooting:
         # the energy row's difference steps (m or rad; those of coordinates that are not free are not used)
         self.h_energy = 1e-6 * cs
         self.h_energy[self.free] = 1e-6 * np.maximum(self.s, cs[self.free])
-        # the flows' absolute tolerance: rtol of each coordinate's scale, or of its motion where that is smaller
-        self.atol = None if scales is None else float(rtol) * np.tile(np.minimum(full, cs), 2)
+        # the flows' absolute tolerance: rtol of each coordinate's motion (``flow_scales``, default ``scales``), never
+        # of the scene's length (a slider at the origin has a length scale of 1 mm: an orbit of metres then ran
+        # ~70 times more steps, at tolerances below its round-off where it crosses 0)
+        fs = full if flow_scales is None else np.asarray(flow_scales, dtype=float)
+        self.atol = None if scales is None and flow_scales is None else float(rtol) * np.tile(fs, 2)
         self.omega = float(omega)
         self.node_scale = np.concatenate([self.s, self.s * self.omega])
         self.unknown_scale = np.concatenate([np.tile(self.node_scale, self.m)]
@@ -455,6 +462,24 @@ def motion_scales(system, run, omega, relative=False):
     cs = np.asarray(system.coordinate_scales, dtype=float)
     rho = min(1.0, float((moves / cs).max(initial=0.0))) if relative else 1.0
     return np.maximum(cs * (rho if rho > 0 else 1.0), moves)
+
+
+def flow_scales(system, run, omega) -> np.ndarray:
+    """Per tangent coordinate, the size of its motion in ``run`` (m or rad: |Δq| from the start, |v|/ω), at least
+    RESOLVED × the largest motion of the coordinates of its unit: what the flows' absolute tolerance is rtol of. The
+    scene's own scales enter only where nothing of that unit moves (ρ times them, ρ the motion's fraction of
+    them, as :func:`motion_scales` takes it)."""
+    q0 = run.q[0]
+    dq = np.abs([system.difference(q0, q) for q in run.q]).max(axis=0)
+    moves = np.maximum(dq, np.abs(run.v).max(axis=0) / omega)
+    out = motion_scales(system, run, omega, relative=True)
+    units = np.asarray(system.units)
+    for unit in set(units.tolist()):
+        kind = units == unit
+        largest = float(moves[kind].max(initial=0.0))
+        if largest > 0:
+            out[kind] = np.maximum(moves[kind], RESOLVED * largest)
+    return out
 
 
 def energy_roundoff(system, q, v, t) -> float:
