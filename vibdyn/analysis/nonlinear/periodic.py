@@ -270,8 +270,8 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
     try:
         if first is None or k != 1:
             # the flows' tolerances are rtol of the motion's size, measured first by a loose run
-            fs = flow_scales(system, simulate(system, t0 + span, q_start, v_start, t0=t0, rtol=max(rtol, SCALE_RTOL),
-                                              error_method="local", max_step=max_step), omega)
+            loose = Flow(system, q_start, v_start, rtol=max(rtol, SCALE_RTOL), max_step=max_step)
+            fs = flow_scales(system, loose(q_start, v_start, t0, t0 + span), omega)
             trial = Shooting(system, t0, span, False, 1, omega, rtol, max_step=max_step, flow_scales=fs)
             first = trial.flows(trial.pack([nodes[0]]), full=True)[0]
             kinetic = float(np.max(first.kinetic))
