@@ -84,6 +84,38 @@ class Reduction:
             out.append(f"held speeds of {', '.join(self.coordinates[i] for i in self.held_speeds)}")
         return "; ".join(out) or "nothing (a tree)"
 
+    # ------------------------------------------------------------------ what an analysis may ask of it
+    # {analysis: {what the scene has: why the analysis refuses it}}: the analyses name what they do, the
+    # reduction answers (the message's "{describe}" is :meth:`describe`)
+    REFUSALS = {
+        "periodic orbits": {"loops": "not available for a mechanism with closed loops (the simulation gives no "
+                                     "variational equations there)"},
+        "backbones": {"loops": "not available for a mechanism with closed loops",
+                      "drives": "the scene has drives or moving supports: a backbone needs an autonomous scene"},
+        "harmonic balance": {"loops": "scenes with closed loops are not handled by harmonic balance yet",
+                             "drives": "scenes with drives are not handled by harmonic balance yet"},
+        "variational equations": {"loops": "variational equations: not available for a mechanism with closed loops "
+                                           "(the projection onto the loops has no variational counterpart here)"},
+        "held configurations": {"loops": "not available for a mechanism with closed loops ({describe}); use "
+                                         "equilibrium()"},
+    }
+
+    def has(self) -> tuple[str, ...]:
+        """What reduces the coordinates, by name: "loops", "drives", "held speeds" (empty for a tree)."""
+        return tuple(name for name, x in (("loops", self._loops), ("drives", self._drives),
+                                          ("held speeds", self.held_speeds or None)) if x is not None)
+
+    def require(self, analysis: str, what: str | None = None, **refusals: str) -> None:
+        """Nothing, if ``analysis`` (a key of :attr:`REFUSALS`, or any name with its own ``refusals``: {"loops",
+        "drives", "held_speeds": message}) handles everything this reduction has; else the ModelError
+        "{what}: {why}" naming the first thing it has that the analysis lacks ("{describe}" in a message: what
+        reduces the coordinates, "{drives}": the drives' names)."""
+        table = {**self.REFUSALS.get(analysis, {}), **{k.replace("_", " "): m for k, m in refusals.items()}}
+        for part in self.has():
+            if part in table:
+                drives = ", ".join(self._drives.names) if self._drives is not None else ""
+                raise ModelError(f"{what or analysis}: {table[part].format(describe=self.describe(), drives=drives)}")
+
     def holding(self, speeds: dict) -> Reduction:
         """This reduction with the coordinates ``speeds`` ({index in v: speed, rad/s or m/s}) held at those
         speeds as well (a Campbell diagram's spin, held by its drive)."""
@@ -142,11 +174,24 @@ class Reduction:
         """q on the loops (assembled nearest q, a ConvergenceError naming ``start`` if they cannot close)."""
         return np.array(q, dtype=float) if self._loops is None else self._loops.assemble(q, start=start)
 
+    def closures(self, qs) -> np.ndarray:
+        """Largest |Φ| of the loops (m for positions, rad for orientations) at each configuration of ``qs``;
+        zeros without loops."""
+        if self._loops is None:
+            return np.zeros(len(qs))
+        return np.array([np.abs(self._loops.phi(q)).max(initial=0.0) for q in qs])
+
+    def default_start(self, system) -> tuple[np.ndarray, str]:
+        """(q, what) a run of ``system`` starts from when given none: neutral ("q0"); with loops the system's start
+        (:meth:`System.start_configuration`, closed by :meth:`close`)."""
+        return (system.neutral(), "q0") if self._loops is None else system.start_configuration()
+
     def project(self, q, v, M=None) -> tuple[np.ndarray, np.ndarray]:
-        """(q, v) on the loops: q closed, v the M-orthogonal projection on the motions they allow."""
+        """(q, v) on the loops: q closed, v the M-orthogonal projection on the motions they allow (``M`` the
+        mass matrix at q, or a function of q giving it: called only with loops)."""
         if self._loops is None:
             return np.array(q, dtype=float), np.array(v, dtype=float)
-        return self._loops.project(q, v, M)
+        return self._loops.project(q, v, M(q) if callable(M) else M)
 
     def conditioning(self, q) -> float:
         """σ_min/σ_max of the loops' dimensionless Jacobian at q (1 without loops)."""
@@ -192,6 +237,44 @@ class Reduction:
         _, N0 = self.independent(q0, ind)
         q = pin.integrate(self.model, q0, N0 @ dz)
         return q if self._loops is None else self._loops.close(q, self.dependent(ind))
+
+    def step(self, q, N, dz, start: str = "an iterate") -> np.ndarray:
+        """q moved by N dz (``N`` the basis at q, dz per independent coordinate), the loops closed again (a
+        ConvergenceError naming ``start`` if they cannot): the move of a search in the independent coordinates."""
+        import pinocchio as pin
+
+        if self._loops is None:
+            return pin.integrate(self.model, q, N @ dz)
+        if not np.any(dz):
+            return q
+        return self._loops.assemble(pin.integrate(self.model, q, N @ dz), start=start)
+
+    def reduce(self, ind, N, r) -> np.ndarray:
+        """Nᵀ r: the generalized forces r (nv, or nv × m) on the independent coordinates ``ind`` (basis N)."""
+        return r[ind] if self._loops is None else N.T @ r  # (without loops N is the identity's columns: exact)
+
+    def derivative(self, q, ind, N, reduced, tree, h, start: str = "an iterate") -> np.ndarray:
+        """∂ρ/∂z at q (n × n, columns: ``ind``) of the reduced forces ρ = N(q)ᵀ r(q) as the independent coordinates
+        move: without loops Nᵀ ``tree``(q) N (N constant: ``tree`` the nv × nv ∂r/∂q); with loops central
+        differences of ``reduced`` (q ↦ ρ, N re-evaluated there, same ``ind``) through :meth:`step`, steps
+        ``h`` (nv, per tangent coordinate) at ``ind``."""
+        if self._loops is None:
+            return tree(q)[np.ix_(ind, ind)]
+        from .fd import vector_derivative
+
+        return vector_derivative(lambda x: reduced(self.step(q, N, x, start)), np.zeros(ind.size), h[ind])
+
+    def require_uniform(self, what: str, t: float, scales) -> None:
+        """Nothing if the drives do not accelerate at t (|a_d| ≤ 1e-10 per s² × ``scales``, 1 rad or the length
+        scale: at rest or in uniform motion, where the free coordinates may have an equilibrium), else the
+        ModelError saying which does."""
+        if self._drives is None:
+            return
+        ad = self._drives.values(t)[2]
+        for k in np.flatnonzero(np.abs(ad) > 1e-10 * np.asarray(scales)[self._drives.index]):
+            raise ModelError(f"{what}: drive '{self._drives.names[k]}' accelerates at t = {t:g} s (a = {ad[k]:.6g} "
+                             f"{self._drives.units[k]}/s²): the free coordinates have no equilibrium while it does; "
+                             "linearise about a state of the motion (system.linearize(q, v=v, t=t)) or simulate it")
 
     def reference_acceleration(self, ws, q, v, t: float, ind) -> np.ndarray:
         """Accelerations (nv) of the reference motion whose independent coordinates do not accelerate: the
