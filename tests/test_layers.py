@@ -52,7 +52,7 @@ ENTRY_POINTS = {
     ("vibdyn.model.system", "System.linearize"): {"vibdyn.analysis.linearize"},
     # a reduced system (loops, drives, held speeds: vibdyn.model.reduction) is linearised, on call, in its
     # independent coordinates
-    ("vibdyn.analysis.linearize", "linearize"): {"vibdyn.analysis.reduced"},
+    ("vibdyn.analysis.linearize", "linearize.reduced"): {"vibdyn.analysis.reduced"},
     # and the one equilibrium search gives a mechanism's result its loop forces (LoopEquilibrium builds on it)
     ("vibdyn.analysis.equilibrium", "search"): {"vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.simulate"): {"vibdyn.simulation.simulate"},
@@ -340,8 +340,6 @@ REDUCTION_FLAGS = {"curved", "time_laws", "is_identity", "held_names", "held_spe
 REDUCTION_NAMES = {"reduction", "R"}
 # modules that still read a flag, each with what remains to be done (issue 41 item 1, in progress): empty at the end
 FLAG_READERS_LEFT: dict[str, str] = {
-    "vibdyn.analysis.linearize": "linearize picks the tree's or the reduced model by is_identity",
-    "vibdyn.analysis.reduced": "reduced.linearize: the curved branches (constraint-force curvature, moving terms)",
     "vibdyn.analysis.sensitivity": "the regime of a driven scene, the analytic path of a tree (sens owns the file)",
 }
 

@@ -362,8 +362,9 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
 def _finish(point, N, ignore_zeros, start, travel=0.0):
     """``point`` with its stability from the modes of its linear model (the reference motion not accelerating),
     and the error of its offsets: |N| |K⁺| × the remaining forces (N the basis of the independent coordinates,
-    None: the identity) plus what the loops' closure leaves, and along rigid (neutral) directions, where any offset is an equilibrium, the drift of
-    a search that travelled ``travel`` (m or rad) with a Jacobian differenced to a relative √eps."""
+    None: the identity) plus what the loops' closure leaves, and along rigid (neutral) directions, where any
+    offset is an equilibrium, the drift of a search that travelled ``travel`` (m or rad) with a Jacobian
+    differenced to a relative √eps."""
     system, q = point.system, point.q
     lin = linearize(system, point)
     m = lin.modes()

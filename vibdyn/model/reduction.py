@@ -254,8 +254,8 @@ class Reduction:
         return r[ind] if self._loops is None else N.T @ r  # (without loops N is the identity's columns: exact)
 
     def derivative(self, q, ind, N, reduced, tree, h, start: str = "an iterate") -> np.ndarray:
-        """∂ρ/∂z at q (n × n, columns: ``ind``) of the reduced forces ρ = N(q)ᵀ r(q) as the independent coordinates
-        move: without loops Nᵀ ``tree``(q) N (N constant: ``tree`` the nv × nv ∂r/∂q); with loops central
+        """∂ρ/∂z at q (n × n, columns: ``ind``) of the reduced forces ρ = N(q)ᵀ r(q) as the independent
+        coordinates move: without loops Nᵀ ``tree``(q) N (N constant: ``tree`` the nv × nv ∂r/∂q); with loops central
         differences of ``reduced`` (q ↦ ρ, N re-evaluated there, same ``ind``) through :meth:`step`, steps
         ``h`` (nv, per tangent coordinate) at ``ind``."""
         if self._loops is None:
@@ -300,13 +300,66 @@ class Reduction:
             a[self._drives.index] = self._drives.values(t)[2]
         return dynamics.held_accelerations(system, ws, q, v, t, a, self.free)[0]
 
+    def motion_acceleration(self, system, ws, q, v, t: float, ind, a=None, steady: bool = False) -> np.ndarray:
+        """Accelerations (nv) of the motion a linear model is taken about at (q, v, t): ``a`` if given (its driven
+        entries must be the laws'), else the reference motion's (:meth:`reference_acceleration`) about an
+        operating point (``steady``), or the held motion's (:meth:`accelerations`, checked finite). With loops
+        always the reference motion's: the only one they are linearised about (another ``a`` is refused)."""
+        if self._loops is not None or (a is None and steady):
+            ref = self.reference_acceleration(ws, q, v, t, ind)
+            if a is not None and np.any(np.abs(np.asarray(a, dtype=float) - ref) > 1e-10 * system.coordinate_scales):
+                self.require("accelerating motions", "linearize", loops=(
+                    "a mechanism with loops is linearised about an equilibrium or a steady motion (its independent "
+                    "coordinates do not accelerate): give a = None"))
+            return ref
+        if a is None:
+            a0 = self.accelerations(system, ws, q, v, t)
+            if not np.all(np.isfinite(a0)):
+                system.check_mass_matrix(q, "the operating point")
+                raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t})")
+            return a0
+        a0 = system.check_velocity(a, "a")
+        d, ad = self.driven, self.law_values(t)[2]
+        # (within the tolerance of the equilibria's drives at rest: 1e-10 per s² × 1 rad or the length scale)
+        if np.any(np.abs(a0[d] - ad) > 1e-10 * system.coordinate_scales[d]):
+            names = [self.coordinates[i] for i in d]
+            raise ModelError(f"linearize: a at the driven coordinates ({', '.join(names)}) must be the drives' "
+                             f"accelerations at t = {t:g} s, {ad.tolist()}; got {a0[d].tolist()} (give a = None "
+                             "for the motion's)")
+        return a0
+
+    def linear_model(self, tree, reduced):
+        """The linear model in this reduction's coordinates: ``tree``() where it is the identity (a tree with
+        nothing held: the tree's own model, nv × nv), else ``reduced``(self) (in the independent coordinates)."""
+        return tree() if self.is_identity else reduced(self)
+
+    def reduce_model(self, ind, N, tree, moving, moving_terms) -> tuple:
+        """(M_r, C_r, K_r, K_error, C_error, K_error_terms) of the tree's linear model ``tree`` (nv × nv) in the
+        independent coordinates ``ind`` (basis N): without loops its block at ind (N the identity's columns);
+        with loops NᵀAN (errors through |N|; M_r symmetrised), or, about a motion (``moving``) where N depends on
+        q, ``moving_terms``() = (K_r, C_r, K_error, C_error) from the reduced equations themselves (and no
+        error terms: None)."""
+        if self._loops is None:
+            ii = np.ix_(ind, ind)
+            terms = None if tree.K_error_terms is None else tuple(T[:, ind] for T in tree.K_error_terms[:2])
+            return tree.M[ii], tree.C[ii], tree.K[ii], tree.K_error[ii], tree.C_error[ii], terms
+        aN = np.abs(N)
+        M_r = N.T @ tree.M @ N
+        M_r = 0.5 * (M_r + M_r.T)
+        if moving:
+            K_r, C_r, K_err, C_err = moving_terms()
+        else:
+            C_r, K_r = N.T @ tree.C @ N, N.T @ tree.K @ N
+            K_err, C_err = aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN
+        return M_r, C_r, K_r, K_err, C_err, None
+
     # ------------------------------------------------------------------ forces of the reduction
     def multipliers(self, q, r) -> np.ndarray:
-        """λ: the loop forces (minimum norm, Φ_qᵀλ = r on the loops' rows) balancing the residual r (nv); empty
-        without loops."""
+        """λ: the loop forces (minimum norm, Φ_qᵀλ = r on the loops' rows) balancing the residual r (nv, or a
+        function giving it: called only with loops); empty without loops."""
         if self._loops is None:
             return np.zeros(0)
-        return self._loops.multipliers(self._loops.jacobian(q), r)
+        return self._loops.multipliers(self._loops.jacobian(q), r() if callable(r) else r)
 
     def constraint_force(self, lam):
         """q ↦ Φ_q(q)ᵀ λ (nv): the loops' generalized forces at fixed λ (None without loops)."""

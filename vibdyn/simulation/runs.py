@@ -235,8 +235,8 @@ def settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_s
     max_step = np.inf if max_step is None else scalar(max_step, f"{what}: max_step (s)", positive=True)
     if progress not in (None, True, False):
         raise ModelError(f"{what}: progress must be None, True or False, got {progress!r}")
-    work = bool(system.supports) or bool(R.driven.size) or any(type(g).potential is ForceGroup.potential or g.time_dependent
-                                         for g in system.force_groups)
+    work = bool(system.supports) or bool(R.driven.size) or any(
+        type(g).potential is ForceGroup.potential or g.time_dependent for g in system.force_groups)
     return Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work, t0,
                      events, variational, stepper)
 
