@@ -1,6 +1,7 @@
 """Equilibria: static (Q − g = 0 at v = 0) and steady motions (some coordinates turning at constant speed,
-the others at rest relative to them), found by Newton in the tangent space, and their stability; and
-configurations held by drives (robots under gravity, which have no free equilibrium).
+the others at rest relative to them), found by one Newton search in the independent coordinates of the system's
+reduction whatever the scene (tree, drives, loops: :func:`search`), and their stability; and configurations
+held by drives (robots under gravity, which have no free equilibrium).
 """
 
 from __future__ import annotations

@@ -10,8 +10,10 @@ v = N(q) ż (:mod:`vibdyn.model.constraints`). :class:`Reduction` composes the t
 
 N's rows at the independent coordinates being the identity. Analyses, the studies and the time layer ask the
 reduction (``system.reduction``, or :meth:`Reduction.holding` for an analysis that holds more) to put a state
-on it (:meth:`impose`, :meth:`close`, :meth:`project`), for its basis (:meth:`independent`), its consistent
-accelerations, its constraint forces and the curvature they add to K; they never ask whether a scene has loops
+on it (:meth:`impose`, :meth:`close`, :meth:`project`), for its basis (:meth:`independent`) and moves in it
+(:meth:`step`, :meth:`chart`), to reduce forces and their derivatives (:meth:`reduce`, :meth:`derivative`,
+:meth:`reduce_model`), for its reference and consistent accelerations, its constraint forces and the curvature
+they add to K, and whether it allows an analysis (:meth:`require`); they never ask whether a scene has loops
 or drives. The reduction of a tree is the identity (``kind`` "tree", n = nv, N = I).
 """
 
