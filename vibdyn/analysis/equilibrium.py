@@ -230,7 +230,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
         q, origin = system.start_configuration() if q0 is Declared else R.default_start(system)
     else:
         q, origin = system.check_configuration(np.array(q0, dtype=float), "q0").copy(), "q0"
-    turns = turns_hint(system, q)  # (said if the search fails: a start in degrees is far from everything)
+    q_given = q  # (a start in degrees is far from everything: said if the search fails)
     v = np.zeros(nv)
     for i, s in cyclic.items():
         v[i] = guess if s is None else s
@@ -238,6 +238,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
     try:
         q = R.close(q, start=origin)
     except ConvergenceError as e:
+        turns = turns_hint(system, q_given)
         if not turns:
             raise
         raise ConvergenceError(f"{e}; the start has {turns}", residual=e.residual, best=e.best) from None
@@ -256,6 +257,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
     rest = [k for k, i in enumerate(ind) if int(i) not in cyclic]  # positions in ind: unknown positions
     unknown = [i for i, s in cyclic.items() if s is None]  # indices in v: unknown speeds
     rows = rest + [position[i] for i in unknown]  # equations: no acceleration of these
+    block = np.ix_(rows, rest)
     h, unit = steps(system, 1e-6), system.coordinate_scales
     what = "steady motion" if cyclic or R.held.size else "static equilibrium"
     moved = f"an iterate of the {what} search"
@@ -292,7 +294,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
         J = R.derivative(qq, ind1, b["N"], lambda q1: R.reduce(ind1, R.independent(q1, ind1)[1],
                                                                 residual(q1, vv, ind1)),
                          lambda q1: jacobian_q(system, q1, vv, a, t, h), 1e-6 * unit, moved)
-        cols = [J[np.ix_(rows, rest)]]
+        cols = [J[block]]
         if unknown:
             Jv = jacobian_v(system, qq, vv, a, t, h * np.maximum(1.0, np.abs(vv)))
             cols.append(R.reduce(ind1, b["N"], Jv)[np.ix_(rows, unknown)])
@@ -338,7 +340,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
     if out.status not in ("converged", "stagnated"):
         b = at(out.x)
         raise ConvergenceError(_not_converged(system, what, max_iter, out.residual, b["q"], tree_forces(out.x),
-                                              target, b["ind"][rest], turns),
+                                              target, b["ind"][rest], turns_hint(system, q_given)),
                                residual=out.residual, best=b["q"])
     b = at(out.x)
     q, v, ind, N, r, f = b["q"], b["v"], b["ind"], b["N"], b["r"], b["f"]
@@ -372,7 +374,7 @@ def _finish(point, N, ignore_zeros, start, travel=0.0):
     stability = m.verdict(ignore_zeros=ignore_zeros)
     Kinv, M = np.abs(np.linalg.pinv(lin.K, rcond=1e-10)), m.linear.M
     q_error = Kinv @ np.full(Kinv.shape[1], point.residual) if Kinv.size else np.zeros(Kinv.shape[0])
-    if N is not None:  # in the independent coordinates: on the tree's through N (the held offsets are exact)
+    if N is not None and N.shape[1] < N.shape[0]:  # on the tree's coordinates through N (held offsets: exact)
         q_error = np.abs(N) @ q_error
         # and the loops closed to their assembly's tolerance: |Φ| (dimensionless) over the Jacobian's
         # σ_min/σ_max moves every coordinate by up to that many units (0 without loops)

@@ -50,6 +50,8 @@ class Reduction:
             mask[self._drives.index] = True
         mask[list(self.held_speeds)] = True
         self.held, self.free = np.flatnonzero(mask), np.flatnonzero(~mask)
+        # N without loops (the identity's columns at ``free``), made when first asked; the laws at the last t
+        self._basis, self._law_memo = None, None
         for a in (self.held, self.free):
             a.flags.writeable = False
         parts = (["loops"] if self._loops is not None else []) + (["held"] if self.held.size else [])
@@ -141,6 +143,17 @@ class Reduction:
             v[i] = s
         return q, v
 
+    def _laws(self, t: float) -> tuple:
+        """The drives' (q_d, v_d, a_d) at t, read-only, kept for the last t asked (a search or a linearisation
+        asks again and again at one t; the laws are functions of t alone)."""
+        memo = self._law_memo  # (one read: another thread may replace it meanwhile)
+        if memo is None or memo[0] != t:
+            values = tuple(np.array(x, dtype=float) for x in self._drives.values(t))
+            for x in values:
+                x.flags.writeable = False
+            memo = self._law_memo = (t, values)
+        return memo[1]
+
     def law_values(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(q_d, v_d, a_d) of the driven coordinates at t (empty without drives): see :meth:`Drives.values`."""
         if self._drives is None:
@@ -214,7 +227,12 @@ class Reduction:
         basis along a path) instead of choosing them (loops: QR with column pivoting)."""
         nv = self.nv
         if self._loops is None:
-            ind = self.free if keep is None else np.asarray(keep, dtype=int)
+            if keep is None or keep is self.free:  # (the same basis at every q: made once, read-only)
+                if self._basis is None:
+                    self._basis = np.eye(nv)[:, self.free]
+                    self._basis.flags.writeable = False
+                return self.free, self._basis
+            ind = np.asarray(keep, dtype=int)
             return ind, np.eye(nv)[:, ind]
         J = self._loops.jacobian(q)
         if keep is not None:
@@ -261,7 +279,8 @@ class Reduction:
         differences of ``reduced`` (q ↦ ρ, N re-evaluated there, same ``ind``) through :meth:`step`, steps
         ``h`` (nv, per tangent coordinate) at ``ind``."""
         if self._loops is None:
-            return tree(q)[np.ix_(ind, ind)]
+            J = tree(q)
+            return J if ind.size == self.nv else J[np.ix_(ind, ind)]
         from .fd import vector_derivative
 
         return vector_derivative(lambda x: reduced(self.step(q, N, x, start)), np.zeros(ind.size), h[ind])
@@ -272,7 +291,7 @@ class Reduction:
         ModelError saying which does."""
         if self._drives is None:
             return
-        ad = self._drives.values(t)[2]
+        ad = self._laws(t)[2]
         for k in np.flatnonzero(np.abs(ad) > 1e-10 * np.asarray(scales)[self._drives.index]):
             raise ModelError(f"{what}: drive '{self._drives.names[k]}' accelerates at t = {t:g} s (a = {ad[k]:.6g} "
                              f"{self._drives.units[k]}/s²): the free coordinates have no equilibrium while it does; "
@@ -284,7 +303,7 @@ class Reduction:
         loops closed (Φ_q a + γ = 0) on the dependent ones."""
         a = np.zeros(self.nv)
         if self._drives is not None:
-            a[self._drives.index] = self._drives.values(t)[2]
+            a[self._drives.index] = self._laws(t)[2]
         if self._loops is not None and np.any(v):
             c = self._loops
             a += c.dependent_solution(c.jacobian(q), -c.bias(q, v), self.dependent(ind))
