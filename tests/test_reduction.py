@@ -131,3 +131,42 @@ def test_held_speed_accelerations_are_the_rotating_frame_closed_form():
     q, v = R.impose(system.neutral(), np.zeros(2), 0.0)
     a = R.accelerations(system, system.workspace(), q, v, 0.0)
     assert a[0] == 0.0 and a[1] == pytest.approx(9.0 * 0.4, rel=1e-12)
+
+
+def test_the_reduction_answers_refusals_by_name():
+    """An analysis names itself; the reduction says what the scene has that the analysis lacks (issue 41)."""
+    tree, loops = rotor_with_slider(), vd.load_scene("four_bar").build()
+    driven = vd.load_scene("shaken_pendulum").build()
+    for name in ("backbones", "harmonic balance", "periodic orbits", "variational equations"):
+        assert tree.reduction.require(name, "x") is None
+    with pytest.raises(vd.ModelError, match=r"^backbone: not available for a mechanism with closed loops$"):
+        loops.reduction.require("backbones", "backbone")
+    with pytest.raises(vd.ModelError, match=r"^x: scenes with drives are not handled by harmonic balance yet$"):
+        driven.reduction.require("harmonic balance", "x")
+    assert loops.reduction.has() == ("loops",) and driven.reduction.has() == ("drives",) and tree.reduction.has() == ()
+    # an analysis's own refusal, only for what the scene has
+    assert driven.reduction.require("a stepper", "y", loops="no loops here") is None
+    with pytest.raises(vd.ModelError, match=r"^y: held \(drives .*\)$"):
+        driven.reduction.require("a stepper", "y", drives="held ({describe})")
+
+
+def test_the_reduced_stiffness_through_the_chart_is_the_linear_models():
+    """At a mechanism's equilibrium, ∂(Nᵀr)/∂z through the chart (Reduction.derivative: N re-evaluated, loops closed
+    again) is the reduced K of its linear model, Nᵀ(K − ∂(Φ_qᵀλ)/∂q)N: two paths, within their error estimates."""
+    system = vd.load_scene("four_bar").build()
+    R, eq = system.reduction, system.equilibrium()
+    zero = np.zeros(system.nv)
+    ind, N = R.independent(eq.q)
+
+    def reduced(q1):
+        return R.reduce(ind, R.independent(q1, ind)[1], system.inverse_dynamics(q1, zero, zero))
+
+    h = 1e-4 * system.coordinate_scales
+    J1 = R.derivative(eq.q, ind, N, reduced, None, h)
+    J2 = R.derivative(eq.q, ind, N, reduced, None, 2 * h)
+    lin = system.linearize(eq)
+    tol = 2 * np.abs(J1 - J2) + lin.K_error + 1e-9 * np.abs(lin.K).max()
+    assert np.all(np.abs(J1 - lin.K) <= tol)
+    # the check can fail: holding N at its value at the equilibrium drops the loop forces' curvature
+    frozen = R.derivative(eq.q, ind, N, lambda q1: N.T @ system.inverse_dynamics(q1, zero, zero), None, h)
+    assert np.any(np.abs(frozen - lin.K) > 100 * tol)

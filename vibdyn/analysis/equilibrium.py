@@ -1,18 +1,19 @@
 """Equilibria: static (Q − g = 0 at v = 0) and steady motions (some coordinates turning at constant speed,
-the others at rest relative to them), found by Newton in the tangent space, and their stability; and
-configurations held by drives (robots under gravity, which have no free equilibrium).
+the others at rest relative to them), found by one Newton search in the independent coordinates of the system's
+reduction whatever the scene (tree, drives, loops: :func:`search`), and their stability; and configurations
+held by drives (robots under gravity, which have no free equilibrium).
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
 
-from .._check import has_coordinates, integer, scalar, start_hint
+from .._check import has_coordinates, integer, scalar, start_hint, turns_hint
 from .._deprecation import Renamed
 from .._format import number, table
 from ..defaults import EQUILIBRIUM_TOL, MAX_ITER
@@ -112,23 +113,13 @@ class OperatingPoint:
 Equilibrium = OperatingPoint  # (the former name: a static equilibrium is one kind of operating point)
 
 def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
-    """Static equilibrium near ``q0`` (neutral if None): Newton with line search; least-squares steps where
-    K is singular (free or cyclic coordinates). Raises ConvergenceError with the best point. A mechanism with
-    loops: :func:`vibdyn.analysis.constrained.equilibrium` (q0 need not close them). A scene with drives:
-    the free coordinates' equilibrium with the driven ones held at their laws' position and speed at t
-    (:func:`driven_start`; a moving drive makes it a steady motion)."""
+    """Static equilibrium near ``q0`` (neutral if None; with loops the system's start, and q0 need not close
+    them): Newton in the independent coordinates of the system's reduction (:func:`search`), with line search
+    and least-squares steps where K is singular (free or cyclic coordinates). Raises ConvergenceError with the
+    best point. With drives, the driven coordinates are held at their laws' position and speed at t (a moving
+    drive makes it a steady motion); with loops, the result also carries the loop forces."""
     _given_start(system, q0, "equilibrium: q0")
-    return _static(system, q0, t, tol, max_iter)
-
-
-def _static(system, q0, t, tol, max_iter):
-    if system.reduction.time_laws:
-        return _solve(system, *driven_start(system, "equilibrium", q0, t, {}), tol, max_iter)
-    if system.reduction.curved:
-        from .constrained import equilibrium
-
-        return equilibrium(system, q0, t, tol, max_iter)
-    return _solve(system, q0, t, {}, tol, max_iter)
+    return search(system, q0, t, {}, tol, max_iter, caller="equilibrium")
 
 
 def static_configuration(system, equilibrium: Any, what: str) -> np.ndarray:
@@ -141,6 +132,8 @@ def static_configuration(system, equilibrium: Any, what: str) -> np.ndarray:
     return np.array(system.equilibrium(equilibrium).q, dtype=float)
 
 
+
+
 def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, guess=1.0):
     """Steady motion: the coordinates named in ``v_cyclic`` turn at constant speed — a number (given) or
     None (found from the forces, starting from ``guess`` rad/s or m/s) — while the others rest.
@@ -150,38 +143,42 @@ def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_ite
     rest where that one is not unstable.
 
     Example (a rotor driven by τ = 10 − ω² carrying a sprung slider): ``steady_motion({"rotor": None})``.
-    With drives, the driven coordinates move at their laws' speeds at t (:func:`driven_start`).
+    With drives, the driven coordinates move at their laws' speeds at t; with loops, the turning coordinates
+    carry the loops with them (Φ_q v = 0: a rotor under the mechanism) at given speeds (:func:`search`).
     """
     _given_start(system, q0, "steady_motion: q0")
     return _steady(system, v_cyclic, q0, t, tol, max_iter, guess)
 
 
 def _steady(system, v_cyclic, q0, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, guess=1.0):
-    if system.reduction.curved:  # a mechanism with loops: speeds given (constrained.steady_motion)
-        from .constrained import steady_motion as constrained_steady_motion
-
-        return constrained_steady_motion(system, v_cyclic, q0, t, tol, max_iter)
     if not isinstance(v_cyclic, dict) or not v_cyclic:
         raise ModelError("steady_motion: v_cyclic must be a dict {coordinate: speed or None}")
     cyclic = {}
     for name, speed in v_cyclic.items():
+        if speed is None:
+            system.reduction.require("steady motions of unknown speed", "steady_motion", loops=(
+                f"the speed of '{name}' must be given for a mechanism with loops (a speed found from the forces "
+                "is not supported there)"))
         i = system.coordinate_index(name)
         cyclic[i] = None if speed is None else scalar(speed, f"steady_motion: speed of '{name}'")
-    if system.reduction.time_laws:
-        return _solve(system, *driven_start(system, "steady_motion", q0, t, cyclic), tol, max_iter, guess)
     given = all(s is not None for s in cyclic.values()) and max_iter > 0
+    # (followed from rest in the tree's own coordinates: a scene that nothing else reduces)
+    given = given and not system.reduction.has()
     try:
-        found = _solve(system, q0, t, cyclic, tol, max_iter, guess)
+        found = search(system, q0, t, cyclic, tol, max_iter, guess, caller="steady_motion")
     except ConvergenceError as failed:
         if not given:
             raise
         # (from rest, a spun body's steady pose may lie far from the start: follow it as the speeds grow)
-        return _solve(system, _along_speed(system, q0, t, cyclic, failed), t, cyclic, tol, max_iter, guess)
+        q_rest = system.start_configuration()[0] if q0 is Declared else q0
+        return search(system, _along_speed(system, q_rest, t, cyclic, failed), t, cyclic, tol, max_iter, guess,
+                      caller="steady_motion")
     if given and q0 is None and found.stability == "unstable":
         # sought from rest, found on another branch (a pendulum flung inwards): the one spun up from rest instead,
         # where that one is not unstable
         try:
-            spun = _solve(system, _along_speed(system, None, t, cyclic, None), t, cyclic, tol, max_iter, guess)
+            spun = search(system, _along_speed(system, None, t, cyclic, None), t, cyclic, tol, max_iter, guess,
+                          caller="steady_motion")
         except ConvergenceError:
             return found
         return spun if spun.stability != "unstable" else found
@@ -258,6 +255,8 @@ def equilibria(system, starts, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
     return sorted(found, key=lambda e: system.energy(e.q, e.v).potential)
 
 
+
+
 def held(system, q=None, v=None, t=0.0):
     """The configuration ``q`` (neutral if None) moving at the constant velocity ``v`` (0 if None), held by
     drives on every coordinate: ``drive`` is the generalized force (N or N·m) they add to balance gravity,
@@ -269,10 +268,10 @@ def held(system, q=None, v=None, t=0.0):
 
 
 def _held(system, q, v, t):
-    _refuse_drives(system, "held")
-    if system.reduction.curved:
-        raise ModelError(f"held: not available for a mechanism with closed loops ({system.reduction.describe()}); "
-                         "use equilibrium()")
+    system.reduction.require("held configurations", "held", drives=(
+        f"scene '{system.name}' has drives ({{drives}}) whose coordinates move with time: not supported yet; "
+        "linearise it about a state of its motion (system.linearize(q, v=v, t=t), free coordinates) or simulate "
+        "it"))
     start = time.perf_counter()
     has_coordinates(system, "held", "to hold")
     q = system.neutral() if q is None else system.check_configuration(np.array(q, dtype=float), "held q").copy()
@@ -285,7 +284,8 @@ def _held(system, q, v, t):
     # round-off of RNEA: a multiple of eps × nv × the forces' scale (largest drive, or weight × length scale)
     weight = sum(I.mass for I in system.model.inertias) * np.linalg.norm(system.scene.gravity) * system.length_scale
     tolerance = 100 * system.nv * np.finfo(float).eps * max(np.abs(r).max(initial=0.0), weight, 1e-300)
-    return _finish(system, q, v, t, "held", 0.0, tolerance, 0, 0, speeds, drive, start)
+    point = OperatingPoint(system, q, v, float(t), "held", 0.0, tolerance, 0, "", speeds, drive, 0.0)
+    return _finish(point, None, 0, start)
 
 
 def operating_point(system: System, tol: float = EQUILIBRIUM_TOL, max_iter: int = MAX_ITER) -> OperatingPoint:
@@ -293,20 +293,19 @@ def operating_point(system: System, tol: float = EQUILIBRIUM_TOL, max_iter: int 
     (:func:`held`) if it says so (robots' default), a steady motion (:func:`steady_motion`) if it names cyclic
     coordinates, else the static equilibrium nearest its start (neutral by default)."""
     op = system.scene.operating_point or {}
-    # (a mechanism with loops starts from the declared start itself, and names it if it cannot close)
-    q0 = system.start_configuration()[0] if op.get("start") is not None and not system.reduction.curved else None
+    declared = Declared if op.get("start") is not None else None
     # (the declared start is hinted where it is read: not again as a start given here)
     if op.get("held"):
-        return _held(system, q0, None, 0.0)
+        return _held(system, system.start_configuration()[0] if declared else None, None, 0.0)
     if op.get("cyclic"):
-        return _steady(system, op["cyclic"], q0, tol=tol, max_iter=max_iter)
-    return _static(system, q0, 0.0, tol, max_iter)
+        return _steady(system, op["cyclic"], declared, tol=tol, max_iter=max_iter)
+    return search(system, declared, 0.0, {}, tol, max_iter, caller="equilibrium")
 
 
 def _given_start(system, q0, what):
     """The degrees hint for a start ``q0`` the user gave (None: none given), as simulate's (a ``q0`` that is not a
     configuration is refused by the search itself, in its words)."""
-    if q0 is None or not system.nv:
+    if q0 is None or q0 is Declared or not system.nv:
         return
     try:
         q = system.check_configuration(q0, what)
@@ -315,173 +314,218 @@ def _given_start(system, q0, what):
     start_hint(system, q, what)
 
 
-def _refuse_drives(system, what):
-    """A ModelError for a scene with drives (rheonomic joints): not supported here yet."""
-    if system.reduction.time_laws:
-        raise ModelError(f"{what}: scene '{system.name}' has drives ({', '.join(system.reduction.driven_names)}) whose "
-                         "coordinates move with time: not supported yet; linearise it about a state of its motion "
-                         "(system.linearize(q, v=v, t=t), free coordinates) or simulate it")
+class Declared:
+    """q0 of a search that starts from the scene's declared start (:meth:`System.start_configuration`: a
+    mechanism's names it if its loops cannot close there)."""
 
 
-def driven_start(system, what, q0, t, cyclic):
-    """(q0, t, cyclic) of an equilibrium search in a scene with drives: the driven coordinates held at their
-    laws' position (in q0) and speed (given cyclic speeds) at t, the free ones searched for. The laws must
-    not accelerate there (|a_d| ≤ 1e-10 per s² × 1 rad or the length scale): a drive at rest or in uniform
-    motion (a crank at constant speed), else there is no equilibrium and a ModelError says so."""
-    R, t = system.reduction, system.check_time(t)
-    qd, vd, ad = R.law_values(t)
-    scale = system.coordinate_scales[R.driven]
-    for k in np.flatnonzero(np.abs(ad) > 1e-10 * scale):
-        raise ModelError(f"{what}: drive '{R.driven_names[k]}' accelerates at t = {t:g} s (a = {ad[k]:.6g} "
-                         f"{R.driven_units[k]}/s²): the free coordinates have no equilibrium while it does; "
-                         "linearise about a state of the motion (system.linearize(q, v=v, t=t)) or simulate it")
-    for i in cyclic:
-        if i in R.driven:
-            raise ModelError(f"{what}: coordinate '{system.coordinates[i]}' is driven: its speed is its drive's")
-    q = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
-    q[R.driven_q] = qd
-    return q, t, {**cyclic, **{int(i): float(s) for i, s in zip(R.driven, vd)}}
-
-
-def _solve(system, q0, t, cyclic, tol, max_iter, guess=1.0):
+def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"):
+    """The one equilibrium search, for every scene: Newton in the independent coordinates z of the system's
+    reduction R (:mod:`vibdyn.model.reduction`), q moved by :meth:`~Reduction.step` (the loops closed again),
+    on the reduced forces ρ = N(q)ᵀ r(q, v, a_ref) of the coordinates at (relative) rest and of those whose
+    speed is unknown, r the inverse dynamics and a_ref :meth:`~Reduction.reference_acceleration`.
+    ``cyclic``: {index in v: speed (rad/s or m/s), or None to find it from ``guess``}; the held coordinates
+    (drives) move at their laws' position and speed at t (:meth:`~Reduction.impose`)."""
     start = time.perf_counter()
     has_coordinates(system, "steady motion" if cyclic else "equilibrium", "to balance")
+    R, names, nv, nq = system.reduction, system.coordinates, system.nv, system.nq
     t, tol = system.check_time(t), scalar(tol, "equilibrium tol", positive=True)
     max_iter, guess = integer(max_iter, "equilibrium max_iter", minimum=0), scalar(guess, "steady_motion guess")
-    nv, model = system.nv, system.model
-    q = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
-    system.check_limits(q, "equilibrium search start")
-    q_start = q.copy()
+    R.require_uniform(caller, t, system.coordinate_scales)
+    for i in cyclic:
+        if i in R.held:
+            raise ModelError(f"{caller}: coordinate '{names[i]}' is driven: its speed is its drive's")
+    if q0 is None or q0 is Declared:
+        q, origin = system.start_configuration() if q0 is Declared else R.default_start(system)
+    else:
+        q, origin = system.check_configuration(np.array(q0, dtype=float), "q0").copy(), "q0"
+    q_given = q  # (a start in degrees is far from everything: said if the search fails)
     v = np.zeros(nv)
-    given = {i: s for i, s in cyclic.items() if s is not None}
-    unknown = [i for i, s in cyclic.items() if s is None]
-    for i, s in given.items():
-        v[i] = s
-    for i in unknown:
-        v[i] = guess
-    rest = [i for i in range(nv) if i not in cyclic]  # coordinates at (relative) rest: unknown positions
-    rows = rest + unknown  # equations: no acceleration of these
-    a0 = np.zeros(nv)
-    h = steps(system, 1e-6)
-    unit = system.coordinate_scales
-    what = "steady motion" if cyclic else "static equilibrium"
+    for i, s in cyclic.items():
+        v[i] = guess if s is None else s
+    q, v = R.impose(q, v, t)
+    try:
+        q = R.close(q, start=origin)
+    except ConvergenceError as e:
+        turns = turns_hint(system, q_given)
+        if not turns:
+            raise
+        raise ConvergenceError(f"{e}; the start has {turns}", residual=e.residual, best=e.best) from None
+    system.check_limits(q, "equilibrium search start")
+    if R.opening(q, v) > 1e-9:
+        raise ModelError(f"steady_motion: turning {', '.join(names[i] for i in cyclic)} opens the loops (Φ_q v ≠ "
+                         "0): the cyclic coordinates of a mechanism with loops must carry the loops with them (a "
+                         "rotor under the mechanism)")
+    ind, _ = R.independent(q)
+    fixed = [names[i] for i in cyclic if i not in ind]
+    if fixed:
+        raise ModelError(f"steady_motion: {', '.join(fixed)} cannot turn freely: the loops tie it to the other "
+                         "coordinates (give a coordinate the loops leave free)")
+    keep = ind if cyclic else None  # (a steady motion keeps its cyclic coordinates independent)
+    position = {int(i): k for k, i in enumerate(ind)}
+    rest = [k for k, i in enumerate(ind) if int(i) not in cyclic]  # positions in ind: unknown positions
+    unknown = [i for i, s in cyclic.items() if s is None]  # indices in v: unknown speeds
+    rows = rest + [position[i] for i in unknown]  # equations: no acceleration of these
+    block = np.ix_(rows, rest)
+    h, unit = steps(system, 1e-6), system.coordinate_scales
+    what = "steady motion" if cyclic or R.held.size else "static equilibrium"
+    moved = f"an iterate of the {what} search"
 
-    def residual(q, v):
-        return dynamics.inverse_dynamics(system, system.workspace(), q, v, a0, t)
+    def acceleration(q, v, ind):
+        return R.reference_acceleration(system.workspace(), q, v, t, ind)
 
-    def jacobian(q, v):
-        Jq = jacobian_q(system, q, v, a0, t, h)
-        cols = [Jq[np.ix_(rows, rest)]]
-        if unknown:
-            Jv = jacobian_v(system, q, v, a0, t, h * np.maximum(1.0, np.abs(v)))
-            cols.append(Jv[np.ix_(rows, unknown)])
-        return np.hstack(cols)
-
-    r = residual(q, v)
-    J = jacobian(q, v)
-    force_scale = max(np.abs(r).max(initial=0.0), (np.abs(np.diag(J)[: len(rest)]) * unit[rest]).max(initial=0.0),
-                      1e-300)
-    target = tol * force_scale
-    max_step = np.concatenate([0.5 * unit[rest], [max(1.0, abs(v[i])) for i in unknown]])
-    nq = system.nq
+    def residual(q, v, ind):
+        return dynamics.inverse_dynamics(system, system.workspace(), q, v, acceleration(q, v, ind), t)
 
     def split(x):  # the unknowns: the configuration, then the unknown speeds
         vv = v.copy()
         vv[unknown] = x[nq:]
         return x[:nq], vv
 
+    memo = {"x": None}
+
+    def at(x):
+        """The basis, the residual r (nv) and the reduced forces ρ (n) at the unknowns x."""
+        if memo["x"] is not x and (memo["x"] is None or not np.array_equal(memo["x"], x)):
+            qq, vv = split(x)
+            ind1, N1 = R.independent(qq, keep)
+            r = residual(qq, vv, ind1)
+            memo.update(x=x, q=qq, v=vv, ind=ind1, N=N1, r=r, f=R.reduce(ind1, N1, r))
+        return memo
+
+    def rho(x):
+        return at(x)["f"][rows]
+
+    def jacobian(x):
+        b = at(x)
+        qq, vv, ind1 = b["q"], b["v"], b["ind"]
+        a = acceleration(qq, vv, ind1)
+        J = R.derivative(qq, ind1, b["N"], lambda q1: R.reduce(ind1, R.independent(q1, ind1)[1],
+                                                                residual(q1, vv, ind1)),
+                         lambda q1: jacobian_q(system, q1, vv, a, t, h), 1e-6 * unit, moved)
+        cols = [J[block]]
+        if unknown:
+            Jv = jacobian_v(system, qq, vv, a, t, h * np.maximum(1.0, np.abs(vv)))
+            cols.append(R.reduce(ind1, b["N"], Jv)[np.ix_(rows, unknown)])
+        return np.hstack(cols)
+
     def retract(x, step):
-        dq = np.zeros(nv)
-        dq[rest] = step[: len(rest)]
-        return np.concatenate([pin.integrate(model, x[:nq], dq), x[nq:] + step[len(rest):]])
-
-    seen = {}  # the full residual of the last point the iteration evaluated (the step's hook needs it)
-
-    def rows_of(x):
-        seen["x"], seen["r"] = x, residual(*split(x))
-        return seen["r"][rows]
-
-    def full(x):
-        return seen["r"] if seen["x"] is x or np.array_equal(seen["x"], x) else residual(*split(x))
-
-    def shape_step(x, f, J, step):
-        qq, vv = split(x)
-        left = f + J @ step  # what the linear model cannot remove (K = 0 along it here)
-        if np.linalg.norm(left) > 0.5 * np.linalg.norm(f):
-            _refuse_constant(system, what, qq, vv, full(x), residual, rest, np.abs(left[: len(rest)]) > 0.5 * target,
-                             force_scale, unit)
-            # a gradient step: move along the unbalanced force, as far as a step may go
-            step = step - left / (np.abs(left) / max_step).max()
-        return _within_limits(system, what, qq, step.copy(), rest, full(x), unit, target)
+        b = at(x)
+        dz = np.zeros(b["ind"].size)
+        dz[rest] = step[: len(rest)]
+        return np.concatenate([R.step(b["q"], b["N"], dz, moved), x[nq:] + step[len(rest):]])
 
     x0 = np.concatenate([q, v[unknown]])
-    seen["x"], seen["r"] = x0, r
-    out = newton(rows_of, x0, lambda x: jacobian(*split(x)), retract, tol=target, max_iter=max_iter,
-                 start=(r[rows], J), steps=Steps(max_step=max_step, expand=True, shape=shape_step,
-                                                 min_alpha=1e-3, on_no_decrease="accept", stall=1e3, polish=True))
+    b = at(x0)
+    J = jacobian(x0)
+    r_rest = np.diag(J)[: len(rest)] * unit[ind[rest]]
+    force_scale = max(np.abs(b["r"]).max(initial=0.0), np.abs(r_rest).max(initial=0.0), 1e-300)
+    target = tol * force_scale
+    max_step = np.concatenate([0.5 * unit[ind[rest]], [max(1.0, abs(v[i])) for i in unknown]])
+
+    def tree_forces(x):
+        """The reduced forces at x on the tree's coordinates (nv; zero at the held and dependent ones)."""
+        b = at(x)
+        out = np.zeros(nv)
+        out[b["ind"]] = b["f"]
+        return out
+
+    def shape_step(x, f, J, step):
+        b = at(x)
+        left = f + J @ step  # what the linear model cannot remove (K = 0 along it here)
+        if np.linalg.norm(left) > 0.5 * np.linalg.norm(f):
+            _refuse_constant(system, what, b, R, rest, np.abs(left[: len(rest)]) > 0.5 * target, force_scale,
+                             lambda q1: residual(q1, b["v"], b["ind"]))
+            # a gradient step: move along the unbalanced force, as far as a step may go
+            step = step - left / (np.abs(left) / max_step).max()
+        return _within_limits(system, what, b["q"], step.copy(), b["ind"][rest], tree_forces(x), unit, target)
+
+    out = newton(rho, x0, jacobian, retract, tol=target, max_iter=max_iter, start=(b["f"][rows], J),
+                 steps=Steps(max_step=max_step, expand=True, shape=shape_step, min_alpha=1e-3,
+                             on_no_decrease="accept", stall=1e3, polish=True))
     if out.status == "diverged":
         raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=out.residual,
                                best=split(out.x)[0])
     if out.status not in ("converged", "stagnated"):
-        raise ConvergenceError(_not_converged(system, what, max_iter, (out.residual, *split(out.x)), target, rest,
-                                              residual), residual=out.residual, best=split(out.x)[0])
-    it = out.iterations
-    best = (out.residual, *split(out.x))
-    travel = float(np.abs(system.difference(q_start, best[1])).max(initial=0.0))
-    q, v = best[1], best[2]
-    r = residual(q, v)
-    names = system.coordinates
-    drive = {names[i]: float(r[i]) for i in given}
-    return _finish(system, q, v, t, "steady" if cyclic else "static", float(best[0]), float(target), it,
-                   len(cyclic), {names[i]: float(v[i]) for i in cyclic}, drive, start, travel)
+        b = at(out.x)
+        raise ConvergenceError(_not_converged(system, what, max_iter, out.residual, b["q"], tree_forces(out.x),
+                                              target, b["ind"][rest], turns_hint(system, q_given)),
+                               residual=out.residual, best=b["q"])
+    b = at(out.x)
+    q, v, ind, N, r, f = b["q"], b["v"], b["ind"], b["N"], b["r"], b["f"]
+    travel = float(np.abs(system.difference(x0[:nq], q)).max(initial=0.0))
+    given = [i for i, s in cyclic.items() if s is not None]
+    turning = [position[i] for i in cyclic]
+    drive = {names[i]: float(f[position[i]]) for i in given}
+    drive.update({names[i]: float(r[i]) for i in R.held})
+    speeds = {names[i]: float(v[i]) for i in [*cyclic, *R.held]}
+    lam = R.multipliers(q, r - N[:, turning] @ f[turning] if turning else r)
+    loops = {"multipliers": lam, "loop_forces": R.split(lam), "constraint_residual": R.closure(q)} if lam.size else {}
+    if loops:  # a mechanism's equilibrium also carries its loop forces
+        from .constrained import LoopEquilibrium as kind
+    else:
+        kind = OperatingPoint
+    regime = "steady" if what == "steady motion" else "static"
+    point = kind(system, q, v, float(t), regime, float(np.abs(f[rows]).max(initial=0.0)), float(target),
+                 out.iterations, "", speeds, drive, 0.0, **loops)
+    return _finish(point, N, len(speeds), start, travel)
 
 
-def _finish(system, q, v, t, regime, residual, tolerance, iterations, ignore_zeros, speeds, drive, start,
-            travel=0.0):
-    """The OperatingPoint at (q, v): its stability from the modes of the linear model (a = 0), and the error
-    of its offsets: |K⁺| × the remaining forces, and along rigid (neutral) directions, where any offset is an
-    equilibrium, the drift of a search that travelled ``travel`` (m or rad) with a Jacobian differenced to a
-    relative √eps."""
-    nv = system.nv
-    lin = linearize(system, q, v=v, t=t, a=np.zeros(nv))
+def _finish(point, N, ignore_zeros, start, travel=0.0):
+    """``point`` with its stability from the modes of its linear model (the reference motion not accelerating),
+    and the error of its offsets: |N| |K⁺| × the remaining forces (N the basis of the independent coordinates,
+    None: the identity) plus what the loops' closure leaves, and along rigid (neutral) directions, where any
+    offset is an equilibrium, the drift of a search that travelled ``travel`` (m or rad) with a Jacobian
+    differenced to a relative √eps."""
+    system, q = point.system, point.q
+    lin = linearize(system, point)
     m = lin.modes()
     stability = m.verdict(ignore_zeros=ignore_zeros)
-    Kinv, M = np.linalg.pinv(lin.K, rcond=1e-10), lin.M
-    if not system.reduction.is_identity:  # the free coordinates' model: the driven offsets are their laws', exact
-        Kinv, M = lin.null_space @ Kinv @ lin.null_space.T, lin.tree.M
-    q_error = np.abs(Kinv) @ np.full(nv, residual) if nv else np.zeros(0)
-    if iterations:  # the offsets carry the round-off of the steps that reached them
+    Kinv, M = np.abs(np.linalg.pinv(lin.K, rcond=1e-10)), m.linear.M
+    q_error = Kinv @ np.full(Kinv.shape[1], point.residual) if Kinv.size else np.zeros(Kinv.shape[0])
+    if N is not None and N.shape[1] < N.shape[0]:  # on the tree's coordinates through N (held offsets: exact)
+        q_error = np.abs(N) @ q_error
+        # and the loops closed to their assembly's tolerance: |Φ| (dimensionless) over the Jacobian's
+        # σ_min/σ_max moves every coordinate by up to that many units (0 without loops)
+        R = system.reduction
+        q_error = q_error + R.closure(q) / R.conditioning(q) * system.coordinate_scales
+    if point.iterations:  # the offsets carry the round-off of the steps that reached them
         q_error = q_error + 4 * np.finfo(float).eps * (np.abs(system.difference(system.neutral(), q)) + 1.0)
         if m.rigid.any():
             P = np.abs(m.shapes[:, m.rigid] @ (m.shapes[:, m.rigid].T @ M))  # M-projector on rigid modes
             q_error = q_error + np.sqrt(np.finfo(float).eps) * travel * P.sum(axis=1)
-    return OperatingPoint(system, q, v, float(t), regime, residual, tolerance, iterations, stability, speeds, drive,
-                       time.perf_counter() - start, m, q_error)
+    return replace(point, stability=stability, elapsed=time.perf_counter() - start, modes=m, q_error=q_error)
 
 
-def _refuse_constant(system, what, q, v, r, residual, rest, candidates, force_scale, unit):
-    """Raise ConvergenceError if the unbalanced force along some coordinate is the same at every
-    configuration tried (it does not depend on q): then there is no stationary point at all."""
-    idx = [rest[k] for k in np.flatnonzero(candidates)]
-    if not idx:
+def _refuse_constant(system, what, b, R, rest, candidates, force_scale, residual):
+    """Raise ConvergenceError if the unbalanced force along some independent coordinate (positions ``rest`` in
+    b["ind"]) is the same at every configuration tried (it does not depend on q): then there is no stationary
+    point at all."""
+    ks = [rest[k] for k in np.flatnonzero(candidates)]
+    if not ks:
         return
+    ind, N, f, q = b["ind"], b["N"], b["f"], b["q"]
+    unit = system.coordinate_scales
     rng = np.random.default_rng(0)
-    same = np.ones(len(idx), bool)
+    same = np.ones(len(ks), bool)
     for _ in range(3):
-        dq = np.zeros(system.nv)
-        dq[rest] = rng.uniform(-1.0, 1.0, len(rest)) * unit[rest]
-        r2 = residual(pin.integrate(system.model, q, dq), v)
-        same &= np.abs(r2[idx] - r[idx]) <= 1e-9 * force_scale
+        dz = np.zeros(ind.size)
+        dz[rest] = rng.uniform(-1.0, 1.0, len(rest)) * unit[ind[rest]]
+        try:
+            q2 = R.step(q, N, dz)
+        except ConvergenceError:  # (loops that cannot close there: no verdict)
+            return
+        f2 = R.reduce(ind, R.independent(q2, ind)[1], residual(q2))
+        same &= np.abs(f2[ks] - f[ks]) <= 1e-9 * force_scale
     if not same.any():
         return
-    names = [system.coordinates[i] for i, s in zip(idx, same) if s]
-    forces = ", ".join(f"'{system.coordinates[i]}': {number(-r[i], 'N' if system.units[i] == 'm' else 'N·m')}"
-                       for i, s in zip(idx, same) if s)
+    coords = [(system.coordinates[ind[k]], system.units[ind[k]], f[k]) for k, s in zip(ks, same) if s]
+    forces = ", ".join(f"'{n}': {number(-x, 'N' if u == 'm' else 'N·m')}" for n, u, x in coords)
     raise ConvergenceError(
-        f"no {what}: the generalized force along {', '.join(repr(n) for n in names)} is constant "
+        f"no {what}: the generalized force along {', '.join(repr(n) for n, _, _ in coords)} is constant "
         f"({forces}, the same at every configuration tried: it does not depend on q), so there is no "
         "stationary point. Hold it instead (system.held(q), or `held = true` under [operating_point] in a "
-        "scene file), or add a spring or a force that balances it", residual=float(np.abs(r[idx]).max()),
+        "scene file), or add a spring or a force that balances it", residual=float(np.abs(f[ks]).max()),
         best=q.copy())
 
 
@@ -514,19 +558,21 @@ def _within_limits(system, what, q, step, rest, r, unit, target):
     return step * scale
 
 
-def _not_converged(system, what, max_iter, best, target, rest, residual):
-    """The message of a search that did not converge: the coordinates that did not settle, and a start."""
-    res, q, v = best
-    r = residual(q, v)
+def _not_converged(system, what, max_iter, res, q, r, target, rest, turns):
+    """The message of a search that did not converge at q (residual ``res``, forces r on the tree's coordinates):
+    the coordinates that did not settle, and a start."""
     x = system.difference(system.neutral(), q)
     bad = [i for i in rest if abs(r[i]) > target]
     units = system.units
     parts = [f"'{system.coordinates[i]}' (unbalanced {number(-r[i], 'N' if units[i] == 'm' else 'N·m')} at "
              f"{number(x[i], units[i])})" for i in bad]
+    head = (f"{what} search did not converge in {max_iter} iterations: residual {res:.3e} (target "
+            f"{target:.3e}); not settled: {', '.join(parts) or 'none'}.")
+    if turns:  # (a start in degrees: the hint below would be as far off)
+        return f"{head} start nearer an equilibrium (q0=); the start has {turns}"
     unit = system.coordinate_scales
     hint = " ".join(f"{system.coordinates[i]}={number(x[i] - 0.5 * unit[i] * np.sign(r[i]), digits=3)}"
                     for i in bad)
-    return (f"{what} search did not converge in {max_iter} iterations: residual {res:.3e} (target "
-            f"{target:.3e}); not settled: {', '.join(parts) or 'none'}. Start nearer an equilibrium: "
-            f"`--start {hint}` (vibdyn modes/frf), `start = {{ {hint.replace(' ', ', ').replace('=', ' = ')} }}` "
-            "under [operating_point] in the scene file, or q0= in Python")
+    return (f"{head} Start nearer an equilibrium: `--start {hint}` (vibdyn modes/frf), "
+            f"`start = {{ {hint.replace(' ', ', ').replace('=', ' = ')} }}` under [operating_point] in the scene file, "
+            "or q0= in Python")

@@ -320,12 +320,14 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
         held = [system.coordinate_index(name) for name in ([hold] if isinstance(hold, str) else hold)]
         speeds = reference_state(system, at, v, t)[1]
         reduction = reduction.holding({i: float(speeds[i]) for i in held})
-    if not reduction.is_identity:  # in the independent coordinates of the loops, drives and held speeds
+
+    def reduced(R):  # in the independent coordinates of the loops, drives and held speeds
         from .reduced import linearize as reduced_linearize
 
-        return reduced_linearize(system, reduction, at, v=v, t=t, a=a, method=method, step=step,
-                                 independent=independent)
-    return tree_linearize(system, at, v=v, t=t, a=a, method=method, step=step)
+        return reduced_linearize(system, R, at, v=v, t=t, a=a, method=method, step=step, independent=independent)
+
+    return reduction.linear_model(lambda: tree_linearize(system, at, v=v, t=t, a=a, method=method, step=step),
+                                  reduced)
 
 
 def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: float = 0.0,

@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from .._check import all_finite
 from .._deprecation import Renamed
 from ..defaults import FD_STEP
 from ..errors import ModelError
@@ -96,7 +95,7 @@ class ReducedLinearModel(LinearModel):
     def relinearize(self, method):
         """The same operating point linearised again with ``method`` (the tree's part: "fd" or "analytic")."""
         again = linearize(self.system, self.reduction, self.q, v=self.v, t=self.t, method=method,
-                          multipliers=self.multipliers, a=None if self.reduction.curved else self.a)
+                          multipliers=self.multipliers, a=self.a)  # (with loops: their reference motion's)
         return type(self)(**{f.name: getattr(again, f.name) for f in fields(type(self))})
 
     def summary(self):
@@ -172,9 +171,6 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
     if R.closure(q0) > 1e-9:
         q0 = R.close(q0)
     moving = bool(np.any(v0))
-    if R.curved and a is not None and np.any(a):
-        raise ModelError("linearize: a mechanism with loops is linearised about an equilibrium or a steady motion "
-                         "(its independent coordinates do not accelerate): give a = None")
     opening = R.opening(q0, v0)
     if opening > 1e-9:
         raise ModelError("linearize: the velocity v of the operating point opens the loops (Φ_q v ≠ 0: "
@@ -185,55 +181,32 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
         raise ModelError(f"linearize: every coordinate of scene '{system.name}' is held ({R.describe()}): nothing "
                          "is free to vibrate")
     ws = system.workspace()
-    if R.curved or (a is None and hasattr(at, "drive")):
-        a0 = R.reference_acceleration(ws, q0, v0, t0, ind)
-    elif a is None:
-        a0 = R.accelerations(system, ws, q0, v0, t0)
-        if not all_finite(a0):
-            system.check_mass_matrix(q0, "the operating point")
-            raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t0})")
-    else:
-        a0 = system.check_velocity(a, "a")
-        d, ad = R.driven, R.law_values(t0)[2]
-        # (within the tolerance of the equilibria's drives at rest: 1e-10 per s² × 1 rad or the length scale)
-        if np.any(np.abs(a0[d] - ad) > 1e-10 * system.coordinate_scales[d]):
-            names = [system.coordinates[i] for i in d]
-            raise ModelError(f"linearize: a at the driven coordinates ({', '.join(names)}) must be the drives' "
-                             f"accelerations at t = {t0:g} s, {ad.tolist()}; got {a0[d].tolist()} (give a = None "
-                             "for the motion's)")
+    a0 = R.motion_acceleration(system, ws, q0, v0, t0, ind, a, steady=a is None and hasattr(at, "drive"))
     tree = tree_linearize(system, q0, v=v0, t=t0, a=a0, method=method, step=step)
     evaluations = tree.evaluations
-    lam = None
-    if R.curved:
-        aN = np.abs(N)
-        r = dynamics.inverse_dynamics(system, ws, q0, v0, a0, t0)
-        if multipliers is None:
-            multipliers = getattr(at, "multipliers", None)
-        lam = R.multipliers(q0, r) if multipliers is None else np.asarray(multipliers, dtype=float)
-        h = steps(system, step)
+    h = steps(system, step)
+    terms = None
+    if multipliers is None:
+        multipliers = getattr(at, "multipliers", None)
+    lam = R.multipliers(q0, lambda: dynamics.inverse_dynamics(system, ws, q0, v0, a0, t0)) if multipliers is None \
+        else np.asarray(multipliers, dtype=float)
+    force = R.constraint_force(lam)
+    if force is not None:  # the loops' forces Φ_qᵀλ turn with q: their curvature joins K
         terms = dynamics.cancelling_terms(system, ws, q0, v0, a0, t0)
-        G, T = tangent_derivative(system, R.constraint_force(lam), q0, h, estimate=True)
+        G, T = tangent_derivative(system, force, q0, h, estimate=True)
         tree = replace(tree, K=tree.K - G, K_error=tree.K_error + fd_error(G, T, terms, h))
         evaluations += 4 * system.nv + 1
-    if not R.curved:  # N: columns of the identity, the free block itself
-        ii = np.ix_(ind, ind)
-        M_r, C_r, K_r, K_err, C_err = tree.M[ii], tree.C[ii], tree.K[ii], tree.K_error[ii], tree.C_error[ii]
-    else:
-        M_r = N.T @ tree.M @ N
-        M_r = 0.5 * (M_r + M_r.T)
-        if moving:
-            K_r, C_r, K_err, C_err = moving_terms(system, R, q0, v0, t0, ind, h, aN.T @ terms)
-            evaluations += 8 * ind.size
-        else:
-            C_r, K_r = N.T @ tree.C @ N, N.T @ tree.K @ N
-            K_err, C_err = aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN
-    terms_r = None
-    if tree.K_error_terms is not None and not R.curved:  # (the held rows dropped: columns of the identity)
-        terms_r = (tree.K_error_terms[0][:, ind], tree.K_error_terms[1][:, ind])
-    cls = ConstrainedLinearModel if R.curved else DrivenLinearModel
+
+    def differenced():
+        nonlocal evaluations
+        evaluations += 8 * ind.size
+        return moving_terms(system, R, q0, v0, t0, ind, h, np.abs(N).T @ terms)
+
+    M_r, C_r, K_r, K_err, C_err, terms_r = R.reduce_model(ind, N, tree, moving, differenced)
+    rank = R.free.size - ind.size  # (what the loops tie; 0 without them)
+    cls = ConstrainedLinearModel if rank else DrivenLinearModel
     return cls(system, q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err, tree.method, time.perf_counter() - start,
-               evaluations, terms_r, null_space=N, tree=tree, multipliers=lam,
-               rank=R.free.size - ind.size if R.curved else 0,
+               evaluations, terms_r, null_space=N, tree=tree, multipliers=lam if lam.size else None, rank=rank,
                independent=tuple(int(i) for i in ind), reduction=R)
 
 

@@ -10,8 +10,10 @@ v = N(q) ż (:mod:`vibdyn.model.constraints`). :class:`Reduction` composes the t
 
 N's rows at the independent coordinates being the identity. Analyses, the studies and the time layer ask the
 reduction (``system.reduction``, or :meth:`Reduction.holding` for an analysis that holds more) to put a state
-on it (:meth:`impose`, :meth:`close`, :meth:`project`), for its basis (:meth:`independent`), its consistent
-accelerations, its constraint forces and the curvature they add to K; they never ask whether a scene has loops
+on it (:meth:`impose`, :meth:`close`, :meth:`project`), for its basis (:meth:`independent`) and moves in it
+(:meth:`step`, :meth:`chart`), to reduce forces and their derivatives (:meth:`reduce`, :meth:`derivative`,
+:meth:`reduce_model`), for its reference and consistent accelerations, its constraint forces and the curvature
+they add to K, and whether it allows an analysis (:meth:`require`); they never ask whether a scene has loops
 or drives. The reduction of a tree is the identity (``kind`` "tree", n = nv, N = I).
 """
 
@@ -48,6 +50,8 @@ class Reduction:
             mask[self._drives.index] = True
         mask[list(self.held_speeds)] = True
         self.held, self.free = np.flatnonzero(mask), np.flatnonzero(~mask)
+        # N without loops (the identity's columns at ``free``), made when first asked; the laws at the last t
+        self._basis, self._law_memo = None, None
         for a in (self.held, self.free):
             a.flags.writeable = False
         parts = (["loops"] if self._loops is not None else []) + (["held"] if self.held.size else [])
@@ -84,6 +88,38 @@ class Reduction:
             out.append(f"held speeds of {', '.join(self.coordinates[i] for i in self.held_speeds)}")
         return "; ".join(out) or "nothing (a tree)"
 
+    # ------------------------------------------------------------------ what an analysis may ask of it
+    # {analysis: {what the scene has: why the analysis refuses it}}: the analyses name what they do, the
+    # reduction answers (the message's "{describe}" is :meth:`describe`)
+    REFUSALS = {
+        "periodic orbits": {"loops": "not available for a mechanism with closed loops (the simulation gives no "
+                                     "variational equations there)"},
+        "backbones": {"loops": "not available for a mechanism with closed loops",
+                      "drives": "the scene has drives or moving supports: a backbone needs an autonomous scene"},
+        "harmonic balance": {"loops": "scenes with closed loops are not handled by harmonic balance yet",
+                             "drives": "scenes with drives are not handled by harmonic balance yet"},
+        "variational equations": {"loops": "variational equations: not available for a mechanism with closed loops "
+                                           "(the projection onto the loops has no variational counterpart here)"},
+        "held configurations": {"loops": "not available for a mechanism with closed loops ({describe}); use "
+                                         "equilibrium()"},
+    }
+
+    def has(self) -> tuple[str, ...]:
+        """What reduces the coordinates, by name: "loops", "drives", "held speeds" (empty for a tree)."""
+        return tuple(name for name, x in (("loops", self._loops), ("drives", self._drives),
+                                          ("held speeds", self.held_speeds or None)) if x is not None)
+
+    def require(self, analysis: str, what: str | None = None, **refusals: str) -> None:
+        """Nothing, if ``analysis`` (a key of :attr:`REFUSALS`, or any name with its own ``refusals``: {"loops",
+        "drives", "held_speeds": message}) handles everything this reduction has; else the ModelError
+        "{what}: {why}" naming the first thing it has that the analysis lacks ("{describe}" in a message: what
+        reduces the coordinates, "{drives}": the drives' names)."""
+        table = {**self.REFUSALS.get(analysis, {}), **{k.replace("_", " "): m for k, m in refusals.items()}}
+        for part in self.has():
+            if part in table:
+                drives = ", ".join(self._drives.names) if self._drives is not None else ""
+                raise ModelError(f"{what or analysis}: {table[part].format(describe=self.describe(), drives=drives)}")
+
     def holding(self, speeds: dict) -> Reduction:
         """This reduction with the coordinates ``speeds`` ({index in v: speed, rad/s or m/s}) held at those
         speeds as well (a Campbell diagram's spin, held by its drive)."""
@@ -106,6 +142,17 @@ class Reduction:
         for i, s in self.held_speeds.items():
             v[i] = s
         return q, v
+
+    def _laws(self, t: float) -> tuple:
+        """The drives' (q_d, v_d, a_d) at t, read-only, kept for the last t asked (a search or a linearisation
+        asks again and again at one t; the laws are functions of t alone)."""
+        memo = self._law_memo  # (one read: another thread may replace it meanwhile)
+        if memo is None or memo[0] != t:
+            values = tuple(np.array(x, dtype=float) for x in self._drives.values(t))
+            for x in values:
+                x.flags.writeable = False
+            memo = self._law_memo = (t, values)
+        return memo[1]
 
     def law_values(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(q_d, v_d, a_d) of the driven coordinates at t (empty without drives): see :meth:`Drives.values`."""
@@ -142,11 +189,24 @@ class Reduction:
         """q on the loops (assembled nearest q, a ConvergenceError naming ``start`` if they cannot close)."""
         return np.array(q, dtype=float) if self._loops is None else self._loops.assemble(q, start=start)
 
+    def closures(self, qs) -> np.ndarray:
+        """Largest |Φ| of the loops (m for positions, rad for orientations) at each configuration of ``qs``;
+        zeros without loops."""
+        if self._loops is None:
+            return np.zeros(len(qs))
+        return np.array([np.abs(self._loops.phi(q)).max(initial=0.0) for q in qs])
+
+    def default_start(self, system) -> tuple[np.ndarray, str]:
+        """(q, what) a run of ``system`` starts from when given none: neutral ("q0"); with loops the system's start
+        (:meth:`System.start_configuration`, closed by :meth:`close`)."""
+        return (system.neutral(), "q0") if self._loops is None else system.start_configuration()
+
     def project(self, q, v, M=None) -> tuple[np.ndarray, np.ndarray]:
-        """(q, v) on the loops: q closed, v the M-orthogonal projection on the motions they allow."""
+        """(q, v) on the loops: q closed, v the M-orthogonal projection on the motions they allow (``M`` the
+        mass matrix at q, or a function of q giving it: called only with loops)."""
         if self._loops is None:
             return np.array(q, dtype=float), np.array(v, dtype=float)
-        return self._loops.project(q, v, M)
+        return self._loops.project(q, v, M(q) if callable(M) else M)
 
     def conditioning(self, q) -> float:
         """σ_min/σ_max of the loops' dimensionless Jacobian at q (1 without loops)."""
@@ -167,7 +227,12 @@ class Reduction:
         basis along a path) instead of choosing them (loops: QR with column pivoting)."""
         nv = self.nv
         if self._loops is None:
-            ind = self.free if keep is None else np.asarray(keep, dtype=int)
+            if keep is None or keep is self.free:  # (the same basis at every q: made once, read-only)
+                if self._basis is None:
+                    self._basis = np.eye(nv)[:, self.free]
+                    self._basis.flags.writeable = False
+                return self.free, self._basis
+            ind = np.asarray(keep, dtype=int)
             return ind, np.eye(nv)[:, ind]
         J = self._loops.jacobian(q)
         # (kept or chosen, the held coordinates are independent of the loops, then left out of the basis)
@@ -192,13 +257,52 @@ class Reduction:
         q = pin.integrate(self.model, q0, N0 @ dz)
         return q if self._loops is None else self._loops.close(q, self.dependent(ind))
 
+    def step(self, q, N, dz, start: str = "an iterate") -> np.ndarray:
+        """q moved by N dz (``N`` the basis at q, dz per independent coordinate), the loops closed again (a
+        ConvergenceError naming ``start`` if they cannot): the move of a search in the independent coordinates."""
+        import pinocchio as pin
+
+        if self._loops is None:
+            return pin.integrate(self.model, q, N @ dz)
+        if not np.any(dz):
+            return q
+        return self._loops.assemble(pin.integrate(self.model, q, N @ dz), start=start)
+
+    def reduce(self, ind, N, r) -> np.ndarray:
+        """Nᵀ r: the generalized forces r (nv, or nv × m) on the independent coordinates ``ind`` (basis N)."""
+        return r[ind] if self._loops is None else N.T @ r  # (without loops N is the identity's columns: exact)
+
+    def derivative(self, q, ind, N, reduced, tree, h, start: str = "an iterate") -> np.ndarray:
+        """∂ρ/∂z at q (n × n, columns: ``ind``) of the reduced forces ρ = N(q)ᵀ r(q) as the independent
+        coordinates move: without loops Nᵀ ``tree``(q) N (N constant: ``tree`` the nv × nv ∂r/∂q); with loops central
+        differences of ``reduced`` (q ↦ ρ, N re-evaluated there, same ``ind``) through :meth:`step`, steps
+        ``h`` (nv, per tangent coordinate) at ``ind``."""
+        if self._loops is None:
+            J = tree(q)
+            return J if ind.size == self.nv else J[np.ix_(ind, ind)]
+        from .fd import vector_derivative
+
+        return vector_derivative(lambda x: reduced(self.step(q, N, x, start)), np.zeros(ind.size), h[ind])
+
+    def require_uniform(self, what: str, t: float, scales) -> None:
+        """Nothing if the drives do not accelerate at t (|a_d| ≤ 1e-10 per s² × ``scales``, 1 rad or the length
+        scale: at rest or in uniform motion, where the free coordinates may have an equilibrium), else the
+        ModelError saying which does."""
+        if self._drives is None:
+            return
+        ad = self._laws(t)[2]
+        for k in np.flatnonzero(np.abs(ad) > 1e-10 * np.asarray(scales)[self._drives.index]):
+            raise ModelError(f"{what}: drive '{self._drives.names[k]}' accelerates at t = {t:g} s (a = {ad[k]:.6g} "
+                             f"{self._drives.units[k]}/s²): the free coordinates have no equilibrium while it does; "
+                             "linearise about a state of the motion (system.linearize(q, v=v, t=t)) or simulate it")
+
     def reference_acceleration(self, ws, q, v, t: float, ind) -> np.ndarray:
         """Accelerations (nv) of the reference motion whose independent coordinates do not accelerate: the
         drives' laws' a_d at t on the driven rows, zero on the other held ones and on ``ind``, and what keeps the
         loops closed (Φ_q a + γ = 0) on the dependent ones."""
         a = np.zeros(self.nv)
         if self._drives is not None:
-            a[self._drives.index] = self._drives.values(t)[2]
+            a[self._drives.index] = self._laws(t)[2]
         if self._loops is not None and np.any(v):
             c = self._loops
             a += c.dependent_solution(c.jacobian(q), -c.bias(q, v), self.dependent(ind))
@@ -216,13 +320,66 @@ class Reduction:
             a[self._drives.index] = self._drives.values(t)[2]
         return dynamics.held_accelerations(system, ws, q, v, t, a, self.free)[0]
 
+    def motion_acceleration(self, system, ws, q, v, t: float, ind, a=None, steady: bool = False) -> np.ndarray:
+        """Accelerations (nv) of the motion a linear model is taken about at (q, v, t): ``a`` if given (its driven
+        entries must be the laws'), else the reference motion's (:meth:`reference_acceleration`) about an
+        operating point (``steady``), or the held motion's (:meth:`accelerations`, checked finite). With loops
+        always the reference motion's: the only one they are linearised about (another ``a`` is refused)."""
+        if self._loops is not None or (a is None and steady):
+            ref = self.reference_acceleration(ws, q, v, t, ind)
+            if a is not None and np.any(np.abs(np.asarray(a, dtype=float) - ref) > 1e-10 * system.coordinate_scales):
+                self.require("accelerating motions", "linearize", loops=(
+                    "a mechanism with loops is linearised about an equilibrium or a steady motion (its independent "
+                    "coordinates do not accelerate): give a = None"))
+            return ref
+        if a is None:
+            a0 = self.accelerations(system, ws, q, v, t)
+            if not np.all(np.isfinite(a0)):
+                system.check_mass_matrix(q, "the operating point")
+                raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t})")
+            return a0
+        a0 = system.check_velocity(a, "a")
+        d, ad = self.driven, self.law_values(t)[2]
+        # (within the tolerance of the equilibria's drives at rest: 1e-10 per s² × 1 rad or the length scale)
+        if np.any(np.abs(a0[d] - ad) > 1e-10 * system.coordinate_scales[d]):
+            names = [self.coordinates[i] for i in d]
+            raise ModelError(f"linearize: a at the driven coordinates ({', '.join(names)}) must be the drives' "
+                             f"accelerations at t = {t:g} s, {ad.tolist()}; got {a0[d].tolist()} (give a = None "
+                             "for the motion's)")
+        return a0
+
+    def linear_model(self, tree, reduced):
+        """The linear model in this reduction's coordinates: ``tree``() where it is the identity (a tree with
+        nothing held: the tree's own model, nv × nv), else ``reduced``(self) (in the independent coordinates)."""
+        return tree() if self.is_identity else reduced(self)
+
+    def reduce_model(self, ind, N, tree, moving, moving_terms) -> tuple:
+        """(M_r, C_r, K_r, K_error, C_error, K_error_terms) of the tree's linear model ``tree`` (nv × nv) in the
+        independent coordinates ``ind`` (basis N): without loops its block at ind (N the identity's columns);
+        with loops NᵀAN (errors through |N|; M_r symmetrised), or, about a motion (``moving``) where N depends on
+        q, ``moving_terms``() = (K_r, C_r, K_error, C_error) from the reduced equations themselves (and no
+        error terms: None)."""
+        if self._loops is None:
+            ii = np.ix_(ind, ind)
+            terms = None if tree.K_error_terms is None else tuple(T[:, ind] for T in tree.K_error_terms[:2])
+            return tree.M[ii], tree.C[ii], tree.K[ii], tree.K_error[ii], tree.C_error[ii], terms
+        aN = np.abs(N)
+        M_r = N.T @ tree.M @ N
+        M_r = 0.5 * (M_r + M_r.T)
+        if moving:
+            K_r, C_r, K_err, C_err = moving_terms()
+        else:
+            C_r, K_r = N.T @ tree.C @ N, N.T @ tree.K @ N
+            K_err, C_err = aN.T @ tree.K_error @ aN, aN.T @ tree.C_error @ aN
+        return M_r, C_r, K_r, K_err, C_err, None
+
     # ------------------------------------------------------------------ forces of the reduction
     def multipliers(self, q, r) -> np.ndarray:
-        """λ: the loop forces (minimum norm, Φ_qᵀλ = r on the loops' rows) balancing the residual r (nv); empty
-        without loops."""
+        """λ: the loop forces (minimum norm, Φ_qᵀλ = r on the loops' rows) balancing the residual r (nv, or a
+        function giving it: called only with loops); empty without loops."""
         if self._loops is None:
             return np.zeros(0)
-        return self._loops.multipliers(self._loops.jacobian(q), r)
+        return self._loops.multipliers(self._loops.jacobian(q), r() if callable(r) else r)
 
     def constraint_force(self, lam):
         """q ↦ Φ_q(q)ᵀ λ (nv): the loops' generalized forces at fixed λ (None without loops)."""

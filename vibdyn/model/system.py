@@ -227,7 +227,7 @@ class System(Compiled):
     def equilibrium(self, q0: ArrayLike | None = None, t: float = 0.0, tol: float = EQUILIBRIUM_TOL,
                     max_iter: int = MAX_ITER) -> OperatingPoint:
         """Static equilibrium near q0 (see :func:`vibdyn.analysis.equilibrium.static_equilibrium`; with loops
-        :func:`vibdyn.analysis.constrained.equilibrium`, q0 need not be consistent)."""
+        q0 need not be consistent)."""
         from ..analysis.equilibrium import static_equilibrium
 
         return static_equilibrium(self, q0, t, tol, max_iter)

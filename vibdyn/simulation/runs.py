@@ -112,7 +112,7 @@ def solve(system, cfg):
 
 def singular_note(system, traj):
     """Why a mechanism's run can stop at a singular position of its loops ('' if it is not at one)."""
-    if not system.reduction.curved or not len(traj.t):
+    if not len(traj.t):
         return ""
     cond = system.reduction.conditioning(traj.q[-1])
     if cond > SINGULAR_NOTE:
@@ -170,9 +170,9 @@ def settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_s
                          "subclass)")
     method = stepper.name
     variational = bool(variational)
-    if variational and system.reduction.curved:
-        raise ModelError(f"{what}: variational equations: not available for a mechanism with closed loops (the "
-                         "projection onto the loops has no variational counterpart here)")
+    R = system.reduction
+    if variational:
+        R.require("variational equations", what)
     if variational and not stepper.supports_variational:
         raise ModelError(f"{what}: method '{method}' does not integrate the variational equations (use "
                          f"{', '.join(m for m, c in METHODS.items() if c.supports_variational)})")
@@ -180,23 +180,19 @@ def settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_s
         events = checked_events(stepper, events, what)
     if hasattr(q0, "q") and hasattr(q0, "v"):  # an equilibrium or a steady motion
         q0, v0 = q0.q, q0.v if v0 is None else v0
-    if system.reduction.curved and not stepper.supports_loops:
-        raise ModelError(f"{what}: method '{method}' does not handle closed loops; use "
-                         f"{', '.join(m for m, c in METHODS.items() if c.supports_loops)} (projected onto the loops)")
+    lacks = {"loops": f"method '{method}' does not handle closed loops; use "
+                      f"{', '.join(m for m, c in METHODS.items() if c.supports_loops)} (projected onto the loops)",
+             "drives": f"method '{method}' does not integrate a scene with drives (use "
+                       f"{', '.join(m for m, c in METHODS.items() if c.supports_drives)})"}
+    R.require(f"method '{method}'", what, **{k: m for k, m in lacks.items() if not getattr(stepper, f"supports_{k}")})
     given = q0 is not None
-    q0, start = system.start_configuration() if q0 is None and system.reduction.curved else (
-        system.neutral() if q0 is None else system.check_configuration(q0, f"{what}: q0"), "q0")
+    q0, start = R.default_start(system) if q0 is None else (system.check_configuration(q0, f"{what}: q0"), "q0")
     if given:  # a start may wind a pendulum many turns, but it is more often degrees given for radians
         start_hint(system, q0, f"{what}: q0")
     v0 = np.zeros(system.nv) if v0 is None else system.check_velocity(v0, f"{what}: v0")
-    if system.reduction.time_laws:  # the driven entries of q0 and v0 are the laws' at t0
-        if not stepper.supports_drives:
-            raise ModelError(f"{what}: method '{method}' does not integrate a scene with drives (use "
-                             f"{', '.join(m for m, c in METHODS.items() if c.supports_drives)})")
-        q0, v0 = system.reduction.impose(q0, v0, t0)
-    if system.reduction.curved:  # the run starts on the loops: its energies and errors are of that state
-        q0 = system.reduction.close(q0, start=start)
-        q0, v0 = system.reduction.project(q0, v0, system.mass_matrix(q0))
+    q0, v0 = R.impose(q0, v0, t0)  # the driven entries of q0 and v0 are the laws' at t0
+    # the run starts on the loops: its energies and errors are of that state
+    q0, v0 = R.project(R.close(q0, start=start), v0, system.mass_matrix)
     system.check_mass_matrix(q0, "the initial configuration q0")
     rtol = scalar(rtol, f"{what}: rtol")
     if not MIN_RTOL <= rtol < 1.0:
@@ -242,8 +238,8 @@ def settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_s
         dt = min(dt, law_step)
     if progress not in (None, True, False):
         raise ModelError(f"{what}: progress must be None, True or False, got {progress!r}")
-    work = bool(system.supports) or system.reduction.time_laws or any(type(g).potential is ForceGroup.potential or g.time_dependent
-                                         for g in system.force_groups)
+    work = bool(system.supports) or bool(R.driven.size) or any(
+        type(g).potential is ForceGroup.potential or g.time_dependent for g in system.force_groups)
     return Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work, t0,
                      events, variational, stepper)
 

@@ -147,9 +147,7 @@ class Trajectory(TimeResult):
     def constraint_residual(self) -> np.ndarray:
         """Largest |Φ| of the loops at each output (m for positions, rad for orientations; zeros for a
         tree): how well the motion keeps the loops closed (see :mod:`vibdyn.model.reduction`)."""
-        if not self.system.reduction.curved:
-            return np.zeros(len(self.t))
-        return np.array([np.abs(self.system.constraint_residual(q)).max(initial=0.0) for q in self.q])
+        return self.system.reduction.closures(self.q)
 
     @property
     def energy(self) -> np.ndarray:

@@ -292,10 +292,9 @@ def _bad_coordinate(coordinate, what):
 def _conservative_part(system, what):
     """(the System with its dampers and velocity-dependent forces off — a view of the compiled System, nothing
     rebuilt — and the note)."""
-    if system.reduction.curved:
-        raise ModelError(f"{what}: not available for a mechanism with closed loops")
+    system.reduction.require("backbones", what)  # (loops, drives)
     has_coordinates(system, what, "oscillates")
-    if system.reduction.time_laws or system.supports:
+    if system.supports:
         raise ModelError(f"{what}: the scene has drives or moving supports: a backbone needs an autonomous scene")
     timed = [type(g).__name__ for g in system.force_groups if g.time_dependent]
     if timed:

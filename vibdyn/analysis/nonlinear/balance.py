@@ -144,7 +144,7 @@ class Balance:
         self.k, self.iq = system.additive_coordinates
         self.h = steps(system, FD_STEP)
         self.support = excitation.where == "support"
-        self.curved = bool(system.curved_coordinates)
+        self.charted = bool(system.curved_coordinates)  # q ⊕ x is no sum on some joints
         self._memo, self._kept = None, OrderedDict()
         X0 = np.zeros((2 * H + 1) * self.n)
         r0 = self._samples(X0, 1.0)[3]
@@ -153,7 +153,7 @@ class Balance:
     def _samples(self, X, omega):
         Xm = X.reshape(2 * self.H + 1, self.n)
         x, xd, xdd = self.E @ Xm, omega * (self.E1 @ Xm), omega**2 * (self.E2 @ Xm)
-        if self.curved:
+        if self.charted:
             r = np.array([self._sample(j, x[j], xd[j], xdd[j], omega) for j in range(self.N)])
             return x, xd, xdd, r
         Q = np.repeat(self.q_eq[None, :], self.N, axis=0)
@@ -209,7 +209,7 @@ class Balance:
         Q, xd, xdd, r = self._samples(X, omega)
         N, n, sys_, ws = self.N, self.n, self.system, self.system.workspace()
         K, C, M = np.empty((N, n, n)), np.empty((N, n, n)), np.empty((N, n, n))
-        if self.curved:  # ∂/∂x, ∂/∂ẋ, ∂/∂ẍ of each sample's residual by central differences
+        if self.charted:  # ∂/∂x, ∂/∂ẋ, ∂/∂ẍ of each sample's residual by central differences
             for j in range(N):
                 K[j] = vector_derivative(lambda y: self._sample(j, y, xd[j], xdd[j], omega), Q[j], self.h)
                 C[j] = vector_derivative(lambda y: self._sample(j, Q[j], y, xdd[j], omega), xd[j], self.h)

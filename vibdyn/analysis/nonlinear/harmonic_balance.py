@@ -275,10 +275,7 @@ def _bad_coordinate(coordinate):
 
 def _check_system(system):
     what = "forced_response_curve"
-    if system.reduction.curved:
-        raise ModelError(f"{what}: scenes with closed loops are not handled by harmonic balance yet")
-    if system.reduction.time_laws:
-        raise ModelError(f"{what}: scenes with drives are not handled by harmonic balance yet")
+    system.reduction.require("harmonic balance", what)
     timed = [type(g).__name__ for g in system.force_groups if getattr(g, "time_dependent", False)]
     if timed:
         raise ModelError(f"{what}: the scene's own forces depend on time ({', '.join(timed)}): they are not "

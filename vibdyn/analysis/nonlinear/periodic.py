@@ -220,9 +220,7 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
     as the first run instead of integrating it again (None: integrated here)."""
     start = time.perf_counter()
     what = "periodic_orbit"
-    if system.reduction.curved:
-        raise ModelError(f"{what}: not available for a mechanism with closed loops (the simulation gives no "
-                         "variational equations there)")
+    system.reduction.require("periodic orbits", what)
     if system.nv == 0:
         raise ModelError(f"{what}: the scene has no coordinates: nothing moves")
     t0 = scalar(t0, f"{what}: t0 (s)")

@@ -143,8 +143,6 @@ class Shooting:
     @staticmethod
     def impose(system, nodes, t0, T):
         """Nodes [(q, v)] with their driven coordinates set to the drives' values at t0 + i·T/m."""
-        if system.reduction.is_identity:
-            return list(nodes)
         return [system.reduction.impose(q, v, t0 + i * T / len(nodes)) for i, (q, v) in enumerate(nodes)]
 
     def time(self, i, T):
@@ -174,9 +172,7 @@ class Shooting:
             dq[self.free] = d[:n]
             q1, v1 = pin.integrate(self.model, q, dq), np.array(v, dtype=float)
             v1[self.free] += d[n:]
-            if not self.reduction.is_identity:
-                q1, v1 = self.reduction.impose(q1, v1, self.time(i, T))
-            out.append((q1, v1))
+            out.append(self.reduction.impose(q1, v1, self.time(i, T)))
         return self.pack(out, T)
 
     # ------------------------------------------------------------------ flows
