@@ -83,7 +83,7 @@ class ReducedLinearModel(LinearModel):
     def hold(self) -> tuple[str, ...]:
         """Names of the coordinates held at their speed (what :func:`vibdyn.analysis.linearize.linearize` was given as
         ``hold``; the drives' coordinates are the system's own)."""
-        return tuple(self.system.coordinates[i] for i in self.reduction.held_speeds)
+        return self.reduction.held_at_speed()
 
     @property
     def drive(self) -> dict[str, float]:

@@ -120,6 +120,10 @@ class Reduction:
                 drives = ", ".join(self._drives.names) if self._drives is not None else ""
                 raise ModelError(f"{what or analysis}: {table[part].format(describe=self.describe(), drives=drives)}")
 
+    def held_at_speed(self) -> tuple[str, ...]:
+        """Names of the coordinates held at a speed (``holding``: a Campbell diagram's spin; not the drives')."""
+        return tuple(self.coordinates[i] for i in self.held_speeds)
+
     def holding(self, speeds: dict) -> Reduction:
         """This reduction with the coordinates ``speeds`` ({index in v: speed, rad/s or m/s}) held at those
         speeds as well (a Campbell diagram's spin, held by its drive)."""
