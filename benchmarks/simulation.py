@@ -36,7 +36,8 @@ import vibdyn as vd
 
 from . import common as C
 from .bench_linearize import pendulum_chain
-from .bench_simulate import MJCF as A01_MJCF, a01_error, ball_chain_scene
+from .bench_simulate import MJCF as A01_MJCF
+from .bench_simulate import a01_error, ball_chain_scene
 
 TARGET = 1e-8  # the equal-error comparison point with MuJoCo
 

@@ -25,8 +25,8 @@ import vibdyn as vd
 from vibdyn.analysis.modal import QR_LIMIT
 
 from . import common as C
-from .linearization import MuJoCoLinear, exact_omega, lin_modes, omega_error
 from .bench_linearize import pendulum_chain
+from .linearization import MuJoCoLinear, exact_omega, lin_modes, omega_error
 
 POINT_TARGET_S = 20e-6
 LIN_TARGET_RATIO = 1.0

@@ -23,7 +23,6 @@ import numpy as np
 
 import vibdyn as vd
 
-
 scene = vd.load_scene("trailer")
 book = scene.references
 system = scene.build()

@@ -18,10 +18,20 @@ import pinocchio as pin
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from oracles import (
+    REPORT,
+    assert_close,
+    bias,
+    point_jacobian,
+    random_chain,
+    random_inertia,
+    random_rotation,
+    rk4_step,
+    spring_force_q,
+    tangent_gradient,
+)
 
 import vibdyn as vd
-from oracles import (REPORT, assert_close, bias, point_jacobian, random_chain, random_inertia, random_rotation,
-                     rk4_step, spring_force_q, tangent_gradient)
 
 G = 9.81
 FEW = settings(max_examples=12, deadline=None)

@@ -332,9 +332,8 @@ def test_a_flows_state_transition_may_be_held_to_its_own_looser_tolerance():
     state's end the same within both runs' own error estimates (the state is still held to rtol), Φ within 100×
     its looser tolerance of the tight Φ; a rerun's estimate of Φ's error reruns it at transition_rtol / 100 too, and
     covers the difference to the tight Φ. A transition_rtol below rtol is refused."""
-    from vibdyn.simulation.flow import Flow
-
     from benchmarks.nonlinear_speed import ball_point_spring
+    from vibdyn.simulation.flow import Flow
 
     system = ball_point_spring()
     q0 = system.integrate(system.neutral(), np.array([0.0, 0.8, 0.0]))

@@ -7,12 +7,11 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import MODELS
 
 import vibdyn as vd
-from vibdyn.results import TimeResult
 from vibdyn.faces.cli import main
-
-from conftest import MODELS
+from vibdyn.results import TimeResult
 
 matplotlib = pytest.importorskip("matplotlib")
 

@@ -3,11 +3,10 @@ exactly in the scene files' [reference] tables) and independent integrations (sc
 
 import numpy as np
 import pytest
+from conftest import MODELS
 
 import vibdyn as vd
 from vibdyn.analysis.response import Hysteretic, transmissibility
-
-from conftest import MODELS
 
 X = (1.0, 0.0, 0.0)
 EPS = np.finfo(float).eps

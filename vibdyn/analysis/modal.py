@@ -15,14 +15,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.linalg import lapack
 from numpy.typing import ArrayLike
+from scipy.linalg import lapack
 
 from .._check import all_finite, scalar, vector3
 from .._deprecation import Renamed, RenamedKeyword
-from ..solvers.tracking import mac  # noqa: F401  (vd.mac, and the modes' own use)
 from ..defaults import EPS
 from ..errors import ModelError
+from ..solvers.tracking import mac  # noqa: F401  (vd.mac, and the modes' own use)
 
 if TYPE_CHECKING:
     from .linearize import LinearModel

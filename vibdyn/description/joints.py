@@ -28,8 +28,17 @@ from typing import ClassVar
 import numpy as np
 import pinocchio as pin
 
-from .._check import (kind_of, rotation_matrix, scalar, unit_axis, value_number, value_rotation, value_string,
-                      value_vec3, vector3)
+from .._check import (
+    kind_of,
+    rotation_matrix,
+    scalar,
+    unit_axis,
+    value_number,
+    value_rotation,
+    value_string,
+    value_vec3,
+    vector3,
+)
 from .._deprecation import Renamed, warn_once
 from ..errors import ModelError
 

@@ -103,12 +103,6 @@ from difflib import get_close_matches
 from importlib import resources
 from pathlib import Path
 
-
-from ..description import inertia as _inertia
-from ..description import joints as _joints
-from ..description.elements import KINDS, WORLD
-from ..description.elements.base import file_attachment
-from ..description.scene import Scene
 from .._check import (
     BadValue,
     as_list,
@@ -125,6 +119,11 @@ from .._check import (
     value_table,
     value_vec3,
 )
+from ..description import inertia as _inertia
+from ..description import joints as _joints
+from ..description.elements import KINDS, WORLD
+from ..description.elements.base import file_attachment
+from ..description.scene import Scene
 from ..errors import ModelError, SceneFileError
 from .bundled import bundled_model, bundled_models, is_model_name
 

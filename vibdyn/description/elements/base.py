@@ -14,7 +14,6 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-
 from ..._check import MAX_LENGTH, bounded, finite_array, vector3
 from ...errors import ModelError
 

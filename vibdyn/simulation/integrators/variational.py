@@ -26,7 +26,7 @@ import pinocchio as pin
 from ...model import dynamics
 from ...model.derivatives import linear_terms
 from ...model.points import cross
-from .base import Stepper, StepError
+from .base import StepError, Stepper
 
 ARG0, ARG1 = pin.ArgumentPosition.ARG0, pin.ArgumentPosition.ARG1
 
