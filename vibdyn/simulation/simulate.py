@@ -45,7 +45,7 @@ from typing import Any
 
 from .._deprecation import RenamedKeyword
 from .flow import Flow
-from .integrators import ALIASES, METHODS  # noqa: F401  (the module's public names)
+from .integrators import ALIASES, METHODS
 from .runs import settings
 from .trajectory import SimulationError, Trajectory, q_names  # noqa: F401  (the module's public names)
 
