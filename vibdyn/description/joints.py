@@ -59,7 +59,8 @@ class Joint:
     kind = Renamed("type")
     group = Renamed("lie_group")
     #: scene-file keys every joint takes, and each type's own (``file_keys``, ``file_required``)
-    common_file_keys: ClassVar[dict] = {"type": value_string, "at": value_vec3, "rotation": value_rotation, "name": value_string}
+    common_file_keys: ClassVar[dict] = {"type": value_string, "at": value_vec3, "rotation": value_rotation,
+                                        "name": value_string}
     file_keys: ClassVar[dict] = {}
     file_required: ClassVar[tuple] = ()
     suffixes: ClassVar[tuple[str, ...]] = ()
