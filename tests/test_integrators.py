@@ -61,7 +61,8 @@ def test_registry_declares_every_method():
 def within_estimate(traj, q_err, v_err):
     """The errors (at every output) within the run's own estimate (see the module docstring)."""
     if traj.error_method == "local":
-        return q_err.max() <= traj.error + roundoff(traj) and v_err.max() <= traj.velocity_error + OMEGA * roundoff(traj)
+        return (q_err.max() <= traj.error + roundoff(traj)
+                and v_err.max() <= traj.velocity_error + OMEGA * roundoff(traj))
     so_far = np.maximum.accumulate
     return (np.all(q_err <= ESTIMATE_SLACK * so_far(traj.q_error) + roundoff(traj))
             and np.all(v_err <= ESTIMATE_SLACK * so_far(traj.v_error) + OMEGA * roundoff(traj)))

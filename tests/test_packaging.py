@@ -55,8 +55,8 @@ def test_a_path_is_a_path(tmp_path, monkeypatch):
         with pytest.raises(vd.SceneFileError) as e:
             vd.load_scene(path)
         # not loaded as the bundled model, but the error says how to load it (a checkout's path, installed)
-        assert str(e.value) == (f"file {Path(path)}: no such scene file; the bundled model 'four_bar' loads by its bare "
-                                "name: vd.load_scene('four_bar') (vibdyn modes four_bar on the command line)")
+        assert str(e.value) == (f"file {Path(path)}: no such scene file; the bundled model 'four_bar' loads by its "
+                                "bare name: vd.load_scene('four_bar') (vibdyn modes four_bar on the command line)")
     with pytest.raises(vd.SceneFileError, match="no such scene file$"):
         vd.load_scene("sub/no_model_of_this_name.toml")
     shutil.copy(MODELS / "helical.toml", tmp_path / "four_bar.toml")
