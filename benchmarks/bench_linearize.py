@@ -36,10 +36,10 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: threaded OpenBLAS is far slower here
 
-import numpy as np  # noqa: E402
-import scipy.linalg as sla  # noqa: E402
+import numpy as np
+import scipy.linalg as sla
 
-import vibdyn as vd  # noqa: E402
+import vibdyn as vd
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results" / "linearize.json"

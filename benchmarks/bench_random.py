@@ -29,9 +29,9 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-import vibdyn as vd  # noqa: E402
+import vibdyn as vd
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results" / "random.json"

@@ -34,11 +34,11 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: threaded OpenBLAS is far slower here
 
-import numpy as np  # noqa: E402
-import scipy.linalg as sla  # noqa: E402
-from scipy.special import ellipj, ellipk  # noqa: E402
+import numpy as np
+import scipy.linalg as sla
+from scipy.special import ellipj, ellipk
 
-import vibdyn as vd  # noqa: E402
+import vibdyn as vd
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent

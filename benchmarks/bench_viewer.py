@@ -17,7 +17,7 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import vibdyn as vd  # noqa: E402
+import vibdyn as vd
 
 
 def chain(n):

@@ -161,9 +161,9 @@ def vcurve_case(S):
         method = "fd" if h else "analytic"
         (lin, m), t, peak = C.measure(lambda: lin_modes(system, q0, method, h), 1)
         err = float(np.abs(lin.K - K_exact).max() / np.abs(K_exact).max())
-        runs.append(C.run_record(f"vibdyn fd step={h:g}" if h else "vibdyn analytic", "vibdyn", err, lin.relative_error, t,
-                                 lin.evaluations, peak, method=method, step=h, omega_error=omega_error(m.omega, ref),
-                                 omega_estimate=m.relative_error))
+        runs.append(C.run_record(f"vibdyn fd step={h:g}" if h else "vibdyn analytic", "vibdyn", err,
+                                 lin.relative_error, t, lin.evaluations, peak, method=method, step=h,
+                                 omega_error=omega_error(m.omega, ref), omega_estimate=m.relative_error))
     return C.case_record(f"FD step V-curve (chain n={n})", "linearization", "exact K (closed form)", runs,
                          x="step", unit="relative, K")
 

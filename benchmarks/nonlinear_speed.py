@@ -66,7 +66,9 @@ def interleaved(fns, rounds):
 def breakdown(fn):
     """(result, {phase: [flows, steps, evaluations, s]}, total s): ``fn()`` with the time layer's flows counted by
     the analysis stage that asked for them."""
-    from vibdyn.analysis.nonlinear import backbone as B, periodic as P, shooting as SH
+    from vibdyn.analysis.nonlinear import backbone as B
+    from vibdyn.analysis.nonlinear import periodic as P
+    from vibdyn.analysis.nonlinear import shooting as SH
 
     try:
         from vibdyn.simulation import flow as F

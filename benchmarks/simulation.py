@@ -36,7 +36,8 @@ import vibdyn as vd
 
 from . import common as C
 from .bench_linearize import pendulum_chain
-from .bench_simulate import MJCF as A01_MJCF, a01_error, ball_chain_scene
+from .bench_simulate import MJCF as A01_MJCF
+from .bench_simulate import a01_error, ball_chain_scene
 
 TARGET = 1e-8  # the equal-error comparison point with MuJoCo
 
@@ -194,7 +195,8 @@ def _chain_settings(S, slow=False):
                        [("dop853", {"rtol": 1e-8})])
     mj_set = _settings(S, [("RK4", d) for d in (1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5)]
                        + [("implicitfast", d) for d in (1e-3, 1e-4, 1e-5)],
-                       [("RK4", d) for d in (1e-2, 3e-3, 1e-3, 3e-4, 1e-4)] + [("implicitfast", d) for d in (1e-3, 1e-4)],
+                       [("RK4", d) for d in (1e-2, 3e-3, 1e-3, 3e-4, 1e-4)]
+                       + [("implicitfast", d) for d in (1e-3, 1e-4)],
                        [("RK4", 1e-3)])
     return vd_set, mj_set
 
@@ -265,7 +267,8 @@ def case_a03(S):
 
     settings = _settings(S, [("radau", {"rtol": r}) for r in (1e-5, 1e-7)] + [("bdf", {"rtol": 1e-6})]
                          + [("dop853", {"rtol": r, "error": "rerun"}) for r in (1e-5, 1e-6)],
-                         [("radau", {"rtol": 1e-6})] + [("dop853", {"rtol": r, "error": "rerun"}) for r in (1e-5, 1e-6)],
+                         [("radau", {"rtol": 1e-6})]
+                         + [("dop853", {"rtol": r, "error": "rerun"}) for r in (1e-5, 1e-6)],
                          [("dop853", {"rtol": 1e-6, "error": "rerun"})])
     runs = vibdyn_runs(system, system.neutral(), np.zeros(system.nv), ref["t"], err, settings, S)
     return C.case_record("IFToMM A03 Andrew's squeezer (0.03 s)", "simulation", "CWI test set reference solution", runs,

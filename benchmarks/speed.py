@@ -25,8 +25,8 @@ import vibdyn as vd
 from vibdyn.analysis.modal import QR_LIMIT
 
 from . import common as C
-from .linearization import MuJoCoLinear, exact_omega, lin_modes, omega_error
 from .bench_linearize import pendulum_chain
+from .linearization import MuJoCoLinear, exact_omega, lin_modes, omega_error
 
 POINT_TARGET_S = 20e-6
 LIN_TARGET_RATIO = 1.0
@@ -184,8 +184,8 @@ def case_floor(S):
         best = interleaved(fns, {"smoke": 3, "quick": 50 if n < 100 else 10, "full": 200 if n < 100 else 30}[S.mode])
         for method in ("analytic", "fd"):
             lin, m = fns[method]()
-            r = C.run_record(f"vibdyn {method}, n={n}", "vibdyn", omega_error(m.omega, ref), m.relative_error, best[method],
-                             lin.evaluations, method=method)
+            r = C.run_record(f"vibdyn {method}, n={n}", "vibdyn", omega_error(m.omega, ref), m.relative_error,
+                             best[method], lin.evaluations, method=method)
             r["ratio_to_raw_pinocchio"] = best[method] / best["raw"]
             r["ratio_to_raw_with_shapes"] = best[method] / best["raw shapes"]
             if "inverseFD" in best:
@@ -219,8 +219,8 @@ def case_floor(S):
     case["time_goes_to"] = ("; ".join(where) + ". The rest is Python around the compiled calls: the checks (a regular "
                             "mass matrix, finite results, the circulatory test) and the error estimates (the round-off "
                             "of the terms that cancel, eigen residuals, quadratic forms of K's error): at n = 10 about "
-                            "100 small numpy operations and Python calls of about 1 µs each, at n = 100 the residual's and the quadratic "
-                            "forms' matrix products")
+                            "100 small numpy operations and Python calls of about 1 µs each, at n = 100 the residual's "
+                            "and the quadratic forms' matrix products")
     if inverse:  # the issue's other target on these sizes: ≤ 1.5× inverseFD at n = 10, ≤ 1× from n = 30 on
         case["inverse_fd_note"] = ("/ mujoco inverseFD + eigh: " + ", ".join(inverse) + " (target ≤ 1.5 at n = 10, "
                                    "≤ 1 from n = 30 on). The FD path evaluates 4n + 1 configurations (its truncation "

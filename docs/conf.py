@@ -10,8 +10,9 @@ DOCS = Path(__file__).resolve().parent
 os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")  # the Dask example's pages without its INFO log
 sys.path.insert(0, str(DOCS / "_ext"))
 
-import vibdyn  # noqa: E402
 from vibdyn_gallery import VIEWER_ROOT  # noqa: E402
+
+import vibdyn  # noqa: E402
 
 project = "vibdyn"
 author = "the vibdyn authors"

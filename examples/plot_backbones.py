@@ -93,6 +93,7 @@ fig
 # %%
 # The motion on the out-of-phase NNM
 # ----------------------------------
-# ``vd.export_html`` of a backbone (or of one of its ``orbits``): the viewer loops one period of the largest-energy orbit: the real nonlinear motion, not a linear mode shape.
+# ``vd.export_html`` of a backbone (or of one of its ``orbits``): the viewer loops one period of the largest-energy
+# orbit: the real nonlinear motion, not a linear mode shape.
 vd.export_html(nnm2, "viewer_backbones.html")
 plt.show()

@@ -27,7 +27,6 @@ import numpy as np
 
 import vibdyn as vd
 
-
 scene = vd.load_scene("rotor_slider")
 book = scene.references
 system = scene.build()

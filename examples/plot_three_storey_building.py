@@ -25,7 +25,6 @@ import scipy.linalg
 
 import vibdyn as vd
 
-
 scene = vd.load_scene("three_storey_building")
 system = scene.build()
 # analytic linearisation (RNEA derivatives + the springs' own): the storeys' 10 m springs make the finite

@@ -23,7 +23,6 @@ import numpy as np
 
 import vibdyn as vd
 
-
 scene = vd.load_scene("trailer")
 book = scene.references
 system = scene.build()
@@ -37,7 +36,8 @@ print(system.coordinates, "nv =", system.nv)
 # exact to round-off).
 eq = system.equilibrium()
 lin = eq.linearize()
-print(f"equilibrium {eq.stability}, residual {eq.residual:.1e} N; K's relative error estimate {lin.relative_error:.1e}, "
+print(f"equilibrium {eq.stability}, residual {eq.residual:.1e} N; "
+      f"K's relative error estimate {lin.relative_error:.1e}, "
       f"linearised in {lin.elapsed * 1e3:.2f} ms")
 for name, value, ref, err in [("M", lin.M, book["mass_matrix"], 1e-12),
                               ("K", lin.K, book["stiffness_matrix"], lin.K_error),

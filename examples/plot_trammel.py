@@ -27,7 +27,6 @@ from scipy.optimize import brentq
 
 import vibdyn as vd
 
-
 scene = vd.load_scene("trammel")
 book = scene.references
 system = scene.build()

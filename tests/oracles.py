@@ -461,7 +461,7 @@ def a05_mjcf_run(mujoco, t_out, q0, v0, dt):
     return np.array(out)
 
 
-# ---------------------------------------------------------------------------------------------- IFToMM A04 cut elsewhere
+# --------------------------------------------------------------------------------------- IFToMM A04 cut elsewhere
 def bricard_cut_at_c(a04):
     """IFToMM A04 (the scene of models/iftomm_a04.toml) as another tree: rods 1, 2 from A and rods 5, 4, 3 from
     F, the loop closed at C (P3) instead of F. Same rods, same joints; other coordinates and other loop

@@ -4,8 +4,8 @@ Kerschen's two-mass oscillator with a cubic spring against an independent shooti
 result's own error estimate."""
 
 import json
-import re
 import math
+import re
 
 import numpy as np
 import pytest

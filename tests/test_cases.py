@@ -11,11 +11,10 @@ import json
 
 import numpy as np
 import pytest
+from conftest import MODELS
 
 import vibdyn as vd
 from vibdyn.faces.cli import main
-
-from conftest import MODELS
 
 RTOL = 1e-6
 

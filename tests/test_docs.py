@@ -6,9 +6,9 @@ name of vibdyn."""
 import re
 
 import pytest
+from conftest import ROOT
 
 import vibdyn
-from conftest import ROOT
 
 DOCS = ROOT / "docs"
 BLOCK = re.compile(r"^```python[^\n]*\n(.*?)^```", re.S | re.M)
@@ -28,7 +28,6 @@ def test_the_guide_has_code():
 def test_page_code_runs(page, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # no models/ folder here: the pages load the bundled models by name, as installed
     import matplotlib
-
     import matplotlib.pyplot as plt
 
     matplotlib.use("Agg")

@@ -13,11 +13,10 @@ import subprocess
 import sys
 
 import pytest
-
 from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "docs"))
-import check_site  # noqa: E402
+import check_site
 
 sys.path.remove(str(ROOT / "docs"))
 

@@ -18,10 +18,20 @@ import pinocchio as pin
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from oracles import (
+    REPORT,
+    assert_close,
+    bias,
+    point_jacobian,
+    random_chain,
+    random_inertia,
+    random_rotation,
+    rk4_step,
+    spring_force_q,
+    tangent_gradient,
+)
 
 import vibdyn as vd
-from oracles import (REPORT, assert_close, bias, point_jacobian, random_chain, random_inertia, random_rotation,
-                     rk4_step, spring_force_q, tangent_gradient)
 
 G = 9.81
 FEW = settings(max_examples=12, deadline=None)
@@ -592,7 +602,8 @@ def test_potential_consistency(make):
         l0 = {"bb": 0.15, "zero": 0.0}
         n0 = system.neutral()
         l0["bw"] = np.linalg.norm(system.point_position("slide", (0.1, 0, 0), n0) - np.array([0.0, 0.5, 0.3]))
-        Q = sum(spring_force_q(system, e.a, e.b, e.stiffness, l0[e.name], q) for e in s.elements_of(vd.description.elements.Spring))
+        Q = sum(spring_force_q(system, e.a, e.b, e.stiffness, l0[e.name], q)
+                for e in s.elements_of(vd.description.elements.Spring))
         Q = Q + np.array([-6.0 * (q[0] - 0.3), -150.0 * (q[1] + 0.05)])
         assert_close(system.generalized_forces(q, z), Q, 1e-12, scale=1.0, what="springs Jᵀf")
 
@@ -725,7 +736,7 @@ def test_elements_sharing_a_joint_add_up():
         assert lin.C[0, 0] == pytest.approx(3.0, rel=1e-9) and not lin.C[1:].any() and not lin.C[:, 1:].any(), method
 
 
-# ================================================================================================ trees: coordinate order
+# ========================================================================================= trees: coordinate order
 def test_tree_added_out_of_depth_first_order():
     """The same Y-shaped tree added trunk, left, right, leaf (not depth-first) must have the same dynamics
     as when added depth-first. CRBA (mass_matrix) assumes each subtree's coordinates are contiguous."""

@@ -138,10 +138,11 @@ def _hinged(r0=0.2, m=1.0, lc=0.3, inertia=(0.03, 0.03, 0.001)):
 
 
 def test_a_steady_motion_sought_from_rest_follows_the_branch_in_speed():
-    """At 6 rad/s the steady pose is 1.12 rad from rest (Newton from rest did not converge, and its message
-    suggested an unchecked start); at 12 rad/s Newton from rest converged to another, unstable branch. Oracle: the balance of moments about the hinge, from the potential in the
-    rotating frame V(θ) = −m g l cos θ − ½Ω² J_z(θ), J_z = Ixx sin²θ + Izz cos²θ + m (r0 − l sin θ)²
-    (the arm's moment of inertia about the spin axis, rotated by θ about y)."""
+    """At 6 rad/s the steady pose is 1.12 rad from rest (Newton from rest did not converge, and its message suggested an
+    unchecked start); at 12 rad/s Newton from rest converged to another, unstable branch. Oracle: the balance of moments
+    about the hinge, from the potential in the rotating frame V(θ) = −m g l cos θ − ½Ω² J_z(θ),
+    J_z = Ixx sin²θ + Izz cos²θ + m (r0 − l sin θ)² (the arm's moment of inertia about the spin axis, rotated by θ
+    about y)."""
     from scipy.optimize import brentq
 
     r0, m, lc, (Ixx, _, Izz), g = 0.2, 1.0, 0.3, (0.03, 0.03, 0.001), 9.81

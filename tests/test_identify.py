@@ -8,11 +8,10 @@ few ε × the size of the terms: ΦᵀMΦ = 1 from eigh, a unit quaternion, a cl
 
 import numpy as np
 import pytest
+from conftest import MODELS
 
 import vibdyn as vd
 from vibdyn import identify
-
-from conftest import MODELS
 
 
 def sdof(zeta, m=2.0, k=800.0):

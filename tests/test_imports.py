@@ -10,10 +10,11 @@ import pytest
 
 import vibdyn as vd
 
-HEAVY = ("scipy.linalg", "scipy.integrate", "scipy.signal", "matplotlib", "meshcat", "tqdm", "mujoco", "dask", "distributed",
-         "pandas")
-LAZY_MODULES = ("vibdyn.simulation.simulate", "vibdyn.simulation.integrators", "vibdyn.analysis.response", "vibdyn.analysis.identify", "vibdyn.faces.plots",
-                "vibdyn.studies.sweeps", "vibdyn.analysis.campbell_diagram")
+HEAVY = ("scipy.linalg", "scipy.integrate", "scipy.signal", "matplotlib", "meshcat", "tqdm", "mujoco", "dask",
+         "distributed", "pandas")
+LAZY_MODULES = ("vibdyn.simulation.simulate", "vibdyn.simulation.integrators", "vibdyn.analysis.response",
+                "vibdyn.analysis.identify", "vibdyn.faces.plots", "vibdyn.studies.sweeps",
+                "vibdyn.analysis.campbell_diagram")
 
 
 def loaded_after(code):

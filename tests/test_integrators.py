@@ -61,7 +61,8 @@ def test_registry_declares_every_method():
 def within_estimate(traj, q_err, v_err):
     """The errors (at every output) within the run's own estimate (see the module docstring)."""
     if traj.error_method == "local":
-        return q_err.max() <= traj.error + roundoff(traj) and v_err.max() <= traj.velocity_error + OMEGA * roundoff(traj)
+        return (q_err.max() <= traj.error + roundoff(traj)
+                and v_err.max() <= traj.velocity_error + OMEGA * roundoff(traj))
     so_far = np.maximum.accumulate
     return (np.all(q_err <= ESTIMATE_SLACK * so_far(traj.q_error) + roundoff(traj))
             and np.all(v_err <= ESTIMATE_SLACK * so_far(traj.v_error) + OMEGA * roundoff(traj)))
@@ -332,9 +333,8 @@ def test_a_flows_state_transition_may_be_held_to_its_own_looser_tolerance():
     state's end the same within both runs' own error estimates (the state is still held to rtol), Φ within 100×
     its looser tolerance of the tight Φ; a rerun's estimate of Φ's error reruns it at transition_rtol / 100 too, and
     covers the difference to the tight Φ. A transition_rtol below rtol is refused."""
-    from vibdyn.simulation.flow import Flow
-
     from benchmarks.nonlinear_speed import ball_point_spring
+    from vibdyn.simulation.flow import Flow
 
     system = ball_point_spring()
     q0 = system.integrate(system.neutral(), np.array([0.0, 0.8, 0.0]))

@@ -265,7 +265,8 @@ def test_fd_steps_are_powers_of_two_so_that_positions_move_by_exactly_them():
 
     system = storeys(0.0, (0.0, 0.0, 0.0))
     h = steps(system, 1e-5)
-    assert np.all(np.exp2(np.round(np.log2(h))) == h) and np.all(np.abs(h / (1e-5 * system.coordinate_scales) - 1) < 0.42)
+    assert np.all(np.exp2(np.round(np.log2(h))) == h)
+    assert np.all(np.abs(h / (1e-5 * system.coordinate_scales) - 1) < 0.42)
     lin = system.linearize(method="fd")
     K = np.array([[1e6, -4e5, 0], [-4e5, 6e5, -2e5], [0, -2e5, 2e5]])
     assert np.array_equal(lin.K, K)

@@ -13,10 +13,9 @@ solved or another engine's arithmetic is compared. Results that carry an estimat
 
 import numpy as np
 import pytest
+from oracles import MuJoCoOracle, assert_close, random_chain, random_inertia, rel_error, scene_to_mjcf, with_min_inertia
 
 import vibdyn as vd
-from oracles import (MuJoCoOracle, assert_close, random_chain, random_inertia, rel_error, scene_to_mjcf,
-                     with_min_inertia)
 
 pytest.importorskip("mujoco")
 

@@ -24,9 +24,8 @@ Run with ``-s`` to see the measured errors.
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from scipy.optimize import linear_sum_assignment
-
 from oracles import MuJoCoOracle, random_chain, rel_error
+from scipy.optimize import linear_sum_assignment
 
 mujoco = pytest.importorskip("mujoco")
 

@@ -7,12 +7,11 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import MODELS
 
 import vibdyn as vd
-from vibdyn.results import TimeResult
 from vibdyn.faces.cli import main
-
-from conftest import MODELS
+from vibdyn.results import TimeResult
 
 matplotlib = pytest.importorskip("matplotlib")
 
@@ -27,7 +26,8 @@ def assert_png(path, min_bytes=5000):
 
 
 def test_import_vibdyn_does_not_import_matplotlib():
-    code = "import sys, vibdyn, vibdyn.faces.plots, vibdyn.analysis.response, vibdyn.analysis.identify; print('matplotlib' in sys.modules)"
+    code = ("import sys, vibdyn, vibdyn.faces.plots, vibdyn.analysis.response, vibdyn.analysis.identify; "
+            "print('matplotlib' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 
@@ -58,7 +58,8 @@ def test_cli_frf_transmissibility_and_errors(tmp_path, capsys):
     scene = tmp_path / "base.toml"
     scene.write_text('[[support]]\nname = "ground"\n'
                      'motion = { law = "harmonic_motion", amplitude = [0.0, 0.0, 0.01], omega = 15.0 }\n'
-                     '[[body]]\nname = "mass"\nmass = 2.0\njoint = { type = "slider", axis = [0, 0, 1], at = [0, 0, 1] }\n'
+                     '[[body]]\nname = "mass"\nmass = 2.0\n'
+                     'joint = { type = "slider", axis = [0, 0, 1], at = [0, 0, 1] }\n'
                      '[[spring]]\nname = "k"\na = ["ground", [0, 0, 0]]\nb = "mass"\nstiffness = 800.0\n'
                      '[[damper]]\nname = "c"\na = ["ground", [0, 0, 0]]\nb = "mass"\ndamping = 8.0\n')
     assert main(["frf", str(scene), "--input", "support:ground:0,0,1", "--output", "mass", "--json"]) == 0

@@ -3,18 +3,17 @@ exactly in the scene files' [reference] tables) and independent integrations (sc
 
 import numpy as np
 import pytest
+from conftest import MODELS
 
 import vibdyn as vd
 from vibdyn.analysis.response import Hysteretic, transmissibility
 
-from conftest import MODELS
-
 X = (1.0, 0.0, 0.0)
 EPS = np.finfo(float).eps
-# Tolerances: a result's own error estimate (modes.relative_error, frf.relative_error, response.error, ...) wherever it has one;
-# where a test checks an identity that holds to round-off (the same solve read two ways, a copied input), a
-# stated multiple of ε × the condition number of the solve, or a fixed 1e-12..1e-14 on O(1) values
-# (≥ 45 ε) with a comment.
+# Tolerances: a result's own error estimate (modes.relative_error, frf.relative_error, response.error, ...) wherever it
+# has one; where a test checks an identity that holds to round-off (the same solve read two ways, a copied input), a
+# stated multiple of ε × the condition number of the solve, or a fixed 1e-12..1e-14 on O(1) values (≥ 45 ε) with a
+# comment.
 
 
 def solved(name):
@@ -155,7 +154,8 @@ def test_R5_hysteretic_variant(method):
     assert f.damping == "hysteretic: D = 0.02 K"
     # D = αM + βK, and per-mode loss factors: modal denominators ω_r²(1 + iη_r) − ω²
     g = lin.receptance(w, method=method, damping=Hysteretic(alpha=0.1, eta=0.03))
-    assert rel(g.alpha, np.array([np.linalg.inv(K + 1j * (0.1 * M + 0.03 * K) - x * x * M) for x in w])) <= g.relative_error
+    assert (rel(g.alpha, np.array([np.linalg.inv(K + 1j * (0.1 * M + 0.03 * K) - x * x * M) for x in w]))
+            <= g.relative_error)
     m = lin.modes()
     eta = np.array([0.01, 0.05])
     h = lin.receptance(w, method=method, damping=Hysteretic(modal=eta))
@@ -285,7 +285,8 @@ def test_harmonic_response_is_the_steady_state_of_the_transient():
     hr = lin.harmonic_response(w, 1.0, ["m1"], phase=0.3)
     t = np.linspace(0, 250, 12501)
     tr = lin.forced_response(t, lambda s: [np.cos(w * s + 0.3)], ["m1"])
-    np.testing.assert_allclose(tr.x[-200:], hr.at(t[-200:]), rtol=0, atol=(tr.error + hr.frf.relative_error) * np.abs(tr.x).max())
+    np.testing.assert_allclose(tr.x[-200:], hr.at(t[-200:]), rtol=0,
+                               atol=(tr.error + hr.frf.relative_error) * np.abs(tr.x).max())
     assert hr.amplitude[0, 0] == pytest.approx(abs(lin.receptance(w).alpha[0, 0, 0]), rel=1e-14)  # the same solve
 
 
@@ -340,7 +341,8 @@ def test_rigid_body_modes(c):
     ref = lin.free_response(t, x0, v0, method="expm")
     for method in ("modal", "state", "ivp"):
         r = lin.free_response(t, x0, v0, method=method)
-        tol = r.relative_error + ref.relative_error  # both relative to max|δq|: "state" has an ill-conditioned basis here (~1e-6)
+        # both relative to max|δq|: "state" has an ill-conditioned basis here (~1e-6)
+        tol = r.relative_error + ref.relative_error
         assert rel(r.x, ref.x) <= tol
         np.testing.assert_allclose(r.x @ [1, 3] / 4, 0.1 / 4 + (0.3 - 0.6) / 4 * t, atol=tol * np.abs(ref.x).max())
     f = lambda s: [np.sin(3 * s), 0.0]  # noqa: E731

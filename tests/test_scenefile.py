@@ -9,12 +9,12 @@ solved or another engine's arithmetic is compared. Results that carry an estimat
 import math
 import sys
 import textwrap
-import tomllib
 import types
 import warnings
 
 import numpy as np
 import pytest
+import tomllib
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

@@ -121,7 +121,8 @@ def check_against_pipeline(base, params):
         make = lambda x, p=p: with_values(base, [p], [x])  # noqa: E731
         (d1, n1), (d2, _) = pipeline_difference(make, p.value, h, modes_of), pipeline_difference(
             make, p.value, 2 * h, modes_of)
-        for k, (got, err) in enumerate(((s.d_omega[:, j], s.d_omega_error[:, j]), (s.d_zeta[:, j], s.d_zeta_error[:, j]),
+        for k, (got, err) in enumerate(((s.d_omega[:, j], s.d_omega_error[:, j]),
+                                        (s.d_zeta[:, j], s.d_zeta_error[:, j]),
                                         (s.d_omega_n[:, j], s.d_omega_n_error[:, j]))):
             a, b = d1[k], d2[k]
             rich = a + (a - b) / 3
@@ -180,7 +181,8 @@ def test_repeated_frequency_of_a_symmetric_spherical_pendulum():
             method="analytic").modes().omega)[-2:] for k in (0, 1, 2)]
         forward = (-3 * w[0] + 4 * w[1] - w[2]) / (2 * h)  # second order, one side: the split's ascending order
         got = s.d_omega[flexible, j]
-        assert np.all(np.abs(got - forward) <= s.d_omega_error[flexible, j] + 1e-5 * np.abs(forward).max()), (name, got, forward)
+        assert np.all(np.abs(got - forward)
+                      <= s.d_omega_error[flexible, j] + 1e-5 * np.abs(forward).max()), (name, got, forward)
     # Ixx moves the mode about x alone (one derivative ≈ 0); gravity both equally
     assert min(abs(s.d_omega[flexible, 0])) < 1e-6 * max(abs(s.d_omega[flexible, 0]))
     assert abs(s.d_omega[flexible[0], 1] - s.d_omega[flexible[1], 1]) <= s.d_omega_error[flexible, 1].sum()

@@ -21,13 +21,12 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import scipy.linalg as sla
+from conftest import MODELS, ROOT
 from scipy.special import ellipj, ellipk
 
 import vibdyn as vd
-from vibdyn.simulation.simulate import SimulationError, Trajectory, q_names
 from vibdyn.simulation.integrators.variational import kinetic_gradient
-
-from conftest import MODELS, ROOT
+from vibdyn.simulation.simulate import SimulationError, Trajectory, q_names
 
 G = 9.81
 

@@ -3,10 +3,9 @@ is the receptance, its poles are the damped modes' eigenvalues, and scipy / pyth
 
 import numpy as np
 import pytest
+from conftest import MODELS
 
 import vibdyn as vd
-
-from conftest import MODELS
 
 W = np.array([0.3, 0.9452737864722964, 1.0, 1.4766747048245257, 3.3527111380241066, 7.0])  # rad/s, R5 peaks
 

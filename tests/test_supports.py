@@ -64,7 +64,8 @@ def test_support_in_a_scene_file_round_trips(tmp_path):
     path = tmp_path / "base.toml"
     path.write_text('[[support]]\nname = "ground"\n'
                     'motion = { law = "harmonic_motion", amplitude = [0.0, 0.0, 0.01], omega = 15.0 }\n'
-                    '[[body]]\nname = "mass"\nmass = 2.0\njoint = { type = "slider", axis = [0, 0, 1], at = [0, 0, 1] }\n'
+                    '[[body]]\nname = "mass"\nmass = 2.0\n'
+                    'joint = { type = "slider", axis = [0, 0, 1], at = [0, 0, 1] }\n'
                     '[[spring]]\nname = "k"\na = ["ground", [0, 0, 0]]\nb = "mass"\nstiffness = 800.0\n')
     scene = vd.load_scene(path)
     scene.save(tmp_path / "again.toml")

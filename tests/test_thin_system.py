@@ -95,8 +95,9 @@ def test_the_geometry_takes_a_workspace_explicitly():
     R, p = system.body_pose("b2", q)
     np.testing.assert_array_equal(M.rotation, R)
     np.testing.assert_array_equal(M.translation, p)
-    np.testing.assert_array_equal(geometry.point_velocity(system, ws, system.body_info("b1"), np.array([0.1, 0, 0]), q, v),
-                                  system.point_velocity("b1", (0.1, 0, 0), q, v))
+    np.testing.assert_array_equal(
+        geometry.point_velocity(system, ws, system.body_info("b1"), np.array([0.1, 0, 0]), q, v),
+        system.point_velocity("b1", (0.1, 0, 0), q, v))
     for x, y in zip(geometry.momentum_matrix(system, ws, q, np.zeros(3)), system.momentum_matrix(q)):
         np.testing.assert_array_equal(x, y)
 

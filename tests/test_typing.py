@@ -38,7 +38,8 @@ def test_public_api_has_type_hints():
         bare = [p.name for p in sig.parameters.values()
                 if p.name not in ("self", "cls") and p.annotation is inspect.Parameter.empty]
         if bare or sig.return_annotation is inspect.Signature.empty:
-            missing.append(f"{name}({', '.join(bare)}){'' if sig.return_annotation is not inspect.Signature.empty else ' -> ?'}")
+            arrow = "" if sig.return_annotation is not inspect.Signature.empty else " -> ?"
+            missing.append(f"{name}({', '.join(bare)}){arrow}")
     assert not missing, f"{len(missing)} public callables without full hints:\n  " + "\n  ".join(missing)
 
 

@@ -334,7 +334,8 @@ def test_live_viewer_closes_on_exception_and_dies_with_its_parent():
 @pytestmark_linux
 def test_live_trajectory_replay_shows_its_time():
     system = vd.load_scene(MODELS / "double_pendulum.toml").build()
-    traj = system.simulate(1.0, q0=system.integrate(system.neutral(), np.array([0.3, 0.0])), t_eval=np.linspace(0, 1, 51))
+    traj = system.simulate(1.0, q0=system.integrate(system.neutral(), np.array([0.3, 0.0])),
+                           t_eval=np.linspace(0, 1, 51))
     before = _servers()
     with vd.view(traj, speed=2.0) as v:
         assert v.content.n == 1 and v.state()["current"] == 0

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import ROOT
 
 import vibdyn as vd
-from conftest import ROOT
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",

@@ -3,10 +3,10 @@ and the simulation's :class:`~vibdyn.simulation.simulate.Trajectory` both derive
 
 A time result has ``t`` (s, n_t), its positions — ``q`` (configurations) in a Trajectory, ``x``
 (displacements from the operating point) in a TimeResponse, named by ``position_name`` — and ``v``, ``a``
-(one row per time: m or rad, velocities in m/s or rad/s, accelerations in m/s² or rad/s²), ``coordinates`` and ``units`` (one
-per velocity component), ``method``, ``error`` (the result's own estimated error of its positions, absolute: m
-or rad), ``elapsed`` (s), :meth:`~TimeResult.to_dict` (JSON-ready) and :meth:`~TimeResult.series` (the curves
-of chosen outputs, which :func:`vibdyn.faces.plots.time_history` and :meth:`~TimeResult.plot` draw).
+(one row per time: m or rad, velocities in m/s or rad/s, accelerations in m/s² or rad/s²), ``coordinates`` and ``units``
+(one per velocity component), ``method``, ``error`` (the result's own estimated error of its positions, absolute: m or
+rad), ``elapsed`` (s), :meth:`~TimeResult.to_dict` (JSON-ready) and :meth:`~TimeResult.series` (the curves of chosen
+outputs, which :func:`vibdyn.faces.plots.time_history` and :meth:`~TimeResult.plot` draw).
 """
 
 from typing import TYPE_CHECKING, Any
@@ -52,7 +52,8 @@ class TimeResult:
         """The protocol's part of :meth:`to_dict`: times (s), coordinates, units, the positions (q or x), v, a,
         method, error estimate and elapsed time (s)."""
         return {"t_s": self.t.tolist(), "coordinates": list(self.coordinates), "units": list(self.units),
-                self.position_name: getattr(self, self.position_name).tolist(), "v": self.v.tolist(), "a": self.a.tolist(), "method": self.method,
+                self.position_name: getattr(self, self.position_name).tolist(), "v": self.v.tolist(),
+                "a": self.a.tolist(), "method": self.method,
                 "error_estimate": self.error, "elapsed_s": self.elapsed}
 
     def to_dict(self) -> dict[str, Any]:

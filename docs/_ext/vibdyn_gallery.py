@@ -174,12 +174,12 @@ def reference_tables(app):
     """RST of two tables: every bundled scene with its source and reference values; and, for the scenes with
     reference frequencies about a static operating point, vibdyn's ω beside them, computed now."""
     import time
-    import tomllib
 
     import numpy as np
+    import tomllib
+    from sphinx.util import logging
 
     import vibdyn as vd
-    from sphinx.util import logging
 
     log = logging.getLogger(__name__)
     files = sorted(_models_dir(app).glob("*.toml"))

@@ -15,14 +15,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.linalg import lapack
 from numpy.typing import ArrayLike
+from scipy.linalg import lapack
 
 from .._check import all_finite, scalar, vector3
 from .._deprecation import Renamed, RenamedKeyword
-from ..solvers.tracking import mac  # noqa: F401  (vd.mac, and the modes' own use)
 from ..defaults import EPS
 from ..errors import ModelError
+from ..solvers.tracking import mac  # noqa: F401  (vd.mac, and the modes' own use)
 
 if TYPE_CHECKING:
     from .linearize import LinearModel
@@ -68,9 +68,12 @@ class Modes:
     elapsed: float  # s
     note: str = ""  # e.g. that an unresolved finite-difference model was replaced by the analytic one
     eigenproblem: tuple = field(default=(), repr=False)  # (M, K_s, Φ, ω², scale) of the solved eigenproblem
-    zero: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)  # per state eigenvalue: rigid/cyclic
-    damped_zero: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)  # per damped mode: rigid/cyclic
-    eigenvalue_uncertainty: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)  # 1/s, per state eigenvalue
+    #: per state eigenvalue: rigid/cyclic
+    zero: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)
+    #: per damped mode: rigid/cyclic
+    damped_zero: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)
+    #: 1/s, per state eigenvalue
+    eigenvalue_uncertainty: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     #: estimated absolute error of ω per mode (rad/s; a rigid mode's: the √δω² its zero may hide)
     omega_error: np.ndarray = field(default_factory=lambda: np.zeros(0))
     #: estimated absolute error of each damped eigenvalue (1/s)
@@ -259,7 +262,8 @@ class Modes:
             for i, lam in enumerate(self.damped_eigenvalues):
                 lines.append(f"{i + 1:>4} {lam.real:>14.8g}{lam.imag:>+14.8g}i {self.zeta[i]:>10.6g} "
                              f"{self.omega_n[i]:>12.8g} {self.omega_d[i]:>12.8g}")
-        lines.append(f"stability {self.stability}; relative error ≈ {self.relative_error:.1e}; {self.elapsed * 1e3:.2f} ms")
+        lines.append(f"stability {self.stability}; relative error ≈ {self.relative_error:.1e}; "
+                     f"{self.elapsed * 1e3:.2f} ms")
         if self.note:
             lines.append(self.note)
         return "\n".join(lines)
@@ -439,7 +443,8 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
             note += "; that pair is on the imaginary axis within its error (it grows as t there): neutral"
     return Modes(lin, w2, omega, Phi, rigid, unstable, rel, zero_threshold, lam, lam_modes, zeta, mag, omega_d,
                  lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start, note,
-                 eigenproblem=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes, eigenvalue_uncertainty=lam_abs,
+                 eigenproblem=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes,
+                 eigenvalue_uncertainty=lam_abs,
                  omega_error=np.where(rigid, np.sqrt(uncertainty), rel * omega) if any_rigid else rel * omega,
                  # (a zero eigenvalue's relative error is relative to the largest |λ|)
                  eigenvalue_error=lam_error * np.where(zero_modes, lam_scale, mag),

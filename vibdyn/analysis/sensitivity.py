@@ -152,7 +152,8 @@ class Sensitivity:
                              f"{self.d_omega_error[i, j]:.1e}", f"{self.normalised[i, j]:.4g}"])
                 if self.unstable.size and self.unstable[i]:
                     rows[-1][1] += " (growth rate, 1/s)"
-        head = ["mode", "ω (rad/s)", "parameter", "unit", "∂ω/∂p (rad/s per unit)", "error (rad/s per unit)", "(p/ω) ∂ω/∂p"]
+        head = ["mode", "ω (rad/s)", "parameter", "unit", "∂ω/∂p (rad/s per unit)", "error (rad/s per unit)",
+                "(p/ω) ∂ω/∂p"]
         return ("\n".join(table(head, rows)) + f"\n{self.method}, {self.elapsed * 1e3:.1f} ms"
                 + (f"\nnote: {self.note}" if self.note else ""))
 
@@ -687,7 +688,8 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
             notes.append(text.format(", ".join(str(i + 1) for i in np.flatnonzero(mask))))
     note = "; ".join(notes)
     if np.isinf(e_w).any():
-        note += ("; " if note else "") + "a rigid mode leaves zero: its ∂ω/∂p is unbounded (see omega2, rad²/s² per unit)"
+        note += (("; " if note else "")
+                 + "a rigid mode leaves zero: its ∂ω/∂p is unbounded (see omega2, rad²/s² per unit)")
     for name, arr in (("∂ω/∂p", d_w), ("∂ζ/∂p", d_z)):
         if not np.all(np.isfinite(arr)):
             raise ModelError(f"sensitivity: {name} is not finite (the scene's scales are too extreme)")

@@ -28,8 +28,17 @@ from typing import ClassVar
 import numpy as np
 import pinocchio as pin
 
-from .._check import (kind_of, rotation_matrix, scalar, unit_axis, value_number, value_rotation, value_string,
-                      value_vec3, vector3)
+from .._check import (
+    kind_of,
+    rotation_matrix,
+    scalar,
+    unit_axis,
+    value_number,
+    value_rotation,
+    value_string,
+    value_vec3,
+    vector3,
+)
 from .._deprecation import Renamed, warn_once
 from ..errors import ModelError
 
@@ -50,7 +59,8 @@ class Joint:
     kind = Renamed("type")
     group = Renamed("lie_group")
     #: scene-file keys every joint takes, and each type's own (``file_keys``, ``file_required``)
-    common_file_keys: ClassVar[dict] = {"type": value_string, "at": value_vec3, "rotation": value_rotation, "name": value_string}
+    common_file_keys: ClassVar[dict] = {"type": value_string, "at": value_vec3, "rotation": value_rotation,
+                                        "name": value_string}
     file_keys: ClassVar[dict] = {}
     file_required: ClassVar[tuple] = ()
     suffixes: ClassVar[tuple[str, ...]] = ()

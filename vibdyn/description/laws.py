@@ -11,7 +11,7 @@ import numpy as np
 
 from .._check import finite_array, kind_of, scalar, user_callable
 from ..errors import ModelError
-from .record import Record  # noqa: F401  (vibdyn.laws.Record: a ground-acceleration record as a support's motion)
+from .record import Record  # vibdyn.laws.Record: a ground-acceleration record as a support's motion
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,6 @@ from . import joints as _joints
 from .elements import WORLD, attachment
 
 
-
 @dataclass(frozen=True)
 class Loop:
     """A loop closure: ``a`` and ``b`` are (body, point) with the point in the body frame (m)."""

@@ -197,7 +197,8 @@ def _resolve(scene, name):
         if attr == "inertia" and len(rest) <= 1:
             I = np.array(body.inertia)
             if not rest:
-                return [Parameter(f"{name}.{k}", owner, "inertia", ij, "kg·m²", float(I[ij])) for k, ij in _INERTIA.items()]
+                return [Parameter(f"{name}.{k}", owner, "inertia", ij, "kg·m²", float(I[ij]))
+                        for k, ij in _INERTIA.items()]
             if rest[0] not in _INERTIA:
                 raise ModelError(f"parameter '{name}': an inertia's components are {', '.join(_INERTIA)}")
             return [Parameter(name, owner, "inertia", _INERTIA[rest[0]], "kg·m²", float(I[_INERTIA[rest[0]]]))]

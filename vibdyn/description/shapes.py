@@ -94,7 +94,8 @@ def _one(v, what, base):
     required, optional = SHAPE_TYPES[kind]
     for k in v:
         if k not in required + optional + COMMON:
-            raise ModelError(f"{what}: unknown key '{k}' for a {kind} (allowed: {', '.join(required + optional + COMMON)})")
+            raise ModelError(f"{what}: unknown key '{k}' for a {kind} "
+                             f"(allowed: {', '.join(required + optional + COMMON)})")
     for k in required:
         if k not in v:
             raise ModelError(f"{what}: a {kind} needs '{k}'")

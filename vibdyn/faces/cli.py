@@ -81,8 +81,8 @@ def describe(scene, system, out=None):
     if scene.elements:
         p("")
         p("force elements")
-        for line in table(["name", "kind", "details"], [[e.name, e.label, e.describe(scene)] for e in scene.elements.values()],
-                          ["<", "<", "<"]):
+        for line in table(["name", "kind", "details"],
+                          [[e.name, e.label, e.describe(scene)] for e in scene.elements.values()], ["<", "<", "<"]):
             p("  " + line)
     if scene.loops:
         c = system.constraints

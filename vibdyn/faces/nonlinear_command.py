@@ -91,7 +91,8 @@ def frc_dict(system, curve):
         "max_multiplier_modulus": np.abs(curve.multipliers[:, 0]), "multiplier_error": curve.multiplier_error,
         "stability": list(curve.stability),
         "peak": {"omega_rad_s": curve.peak.omega, "omega_error_rad_s": curve.peak.omega_error,
-                 "frequency_hz": curve.peak.frequency_hz, "amplitude": curve.peak.amplitude, "amplitude_error": curve.peak.error},
+                 "frequency_hz": curve.peak.frequency_hz, "amplitude": curve.peak.amplitude,
+                 "amplitude_error": curve.peak.error},
         "folds": [{"omega_rad_s": f.omega, "omega_error_rad_s": f.omega_error, "frequency_hz": f.frequency_hz,
                    "amplitude": f.amplitude, "amplitude_error": f.error} for f in curve.folds],
         "status": curve.status, "message": curve.message, "elapsed_s": curve.elapsed})

@@ -9,6 +9,7 @@ from .._format import number, table
 from ..errors import ModelError
 from ..simulation.simulate import SimulationError, simulate
 
+
 def command(system, args, out=None):
     """``vibdyn simulate``: run, print a summary, write ``--out`` (.npz or .csv) — the partial trajectory
     too if the run fails (the error is then raised for the command's exit status)."""

@@ -46,7 +46,6 @@ from .._check import count, scalar, unknown_name
 from ..errors import ModelError
 from .robot_scene import DEFAULT_GRAVITY, CoordinateLink, replace_fields, scene_from_model, vslice, warn  # noqa: F401
 
-
 # name -> (URDF path under example-robot-data's ``robots`` folder, floating base by default,
 #          SRDF path (reference postures) or None, default posture or None)
 ROBOTS = {

@@ -89,10 +89,10 @@ Format
     [reference]       # free-form: the values this scene must reproduce and their source;
                       # kept as ``scene.references`` (a dict) and written back as is
 
-Writing: :func:`~vibdyn.io.scenewrite.save_scene` (:mod:`vibdyn.io.scenewrite`) writes every body explicitly (a scene started from a ``[robot]`` is saved
-with the robot's bodies spelled out), the elements grouped by kind, and the references. Floats are written
-with ``repr`` so that a saved scene reads back bit for bit. Python callables cannot be written (their
-``to_dict`` raises ``ModelError``); use a law of :mod:`vibdyn.description.laws`. Comments are not kept.
+Writing: :func:`~vibdyn.io.scenewrite.save_scene` (:mod:`vibdyn.io.scenewrite`) writes every body explicitly (a scene
+started from a ``[robot]`` is saved with the robot's bodies spelled out), the elements grouped by kind, and the
+references. Floats are written with ``repr`` so that a saved scene reads back bit for bit. Python callables cannot be
+written (their ``to_dict`` raises ``ModelError``); use a law of :mod:`vibdyn.description.laws`. Comments are not kept.
 """
 
 import copy
@@ -103,12 +103,6 @@ from difflib import get_close_matches
 from importlib import resources
 from pathlib import Path
 
-
-from ..description import inertia as _inertia
-from ..description import joints as _joints
-from ..description.elements import KINDS, WORLD
-from ..description.elements.base import file_attachment
-from ..description.scene import Scene
 from .._check import (
     BadValue,
     as_list,
@@ -125,6 +119,11 @@ from .._check import (
     value_table,
     value_vec3,
 )
+from ..description import inertia as _inertia
+from ..description import joints as _joints
+from ..description.elements import KINDS, WORLD
+from ..description.elements.base import file_attachment
+from ..description.scene import Scene
 from ..errors import ModelError, SceneFileError
 from .bundled import bundled_model, bundled_models, is_model_name
 

@@ -116,7 +116,8 @@ class Compiled:
         self.support_index = MappingProxyType({s.name: i for i, s in enumerate(self.supports)})
         self.length_scale, extent = length_scale(scene, model, ws.data, infos)
         scales = np.array([self.length_scale if u == "m" else 1.0 for u in self.units])
-        self.coordinate_scales, self.inverse_scale_products = _readonly(scales), _readonly(1.0 / np.outer(scales, scales))
+        self.coordinate_scales = _readonly(scales)
+        self.inverse_scale_products = _readonly(1.0 / np.outer(scales, scales))
         additive = [(b.idx_v + i, b.idx_q + i) for b in infos.values() if b.nq == b.nv for i in range(b.nv)]
         self.additive_coordinates = tuple(np.array(c, dtype=int) for c in zip(*additive)) if additive else (
             np.zeros(0, int), np.zeros(0, int))

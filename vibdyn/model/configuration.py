@@ -23,7 +23,9 @@ def start_configuration(system: System) -> tuple[np.ndarray, str]:
     neutral: with loops, their closure nearest it) and its name."""
     start = (system.scene.operating_point or {}).get("start")
     if start is None:  # (with loops: vibdyn.model.assembly)
-        return (system.neutral(), "the neutral configuration") if system.constraints is None else system.constraints.start()
+        if system.constraints is None:
+            return system.neutral(), "the neutral configuration"
+        return system.constraints.start()
     try:
         q = configuration(system, start)
     except ModelError as e:

@@ -534,7 +534,7 @@ class Constraints:
         first order allows opens the loop at the second (the Lyapunov–Schmidt reduction), so no closure lies
         beside q: mobility 0 (a four-bar whose lengths add up, closed only stretched flat). An indefinite
         form is a change point (branches cross), a zero one a redundant equation: both keep their motion."""
-        model, nv, cs = self.system.model, self.system.nv, self.col_scale
+        model, cs = self.system.model, self.col_scale
         J = self.jacobian(q) if J is None else J
         phi0 = self.scaled_phi(self.phi(q) if phi is None else phi)
         res = float(np.abs(phi0).max(initial=0.0))

@@ -6,6 +6,7 @@ import numpy as np
 from ..errors import ModelError
 from .points import ONES3, point_set
 
+
 class ForceGroup:
     """One kind of force element, all members at once: adds its generalized force to ``Q`` (joint space,
     length nv) and, for point elements, spatial forces to ``F`` (one row (force, moment) per Pinocchio

@@ -21,7 +21,6 @@ import numpy as np
 
 from .._check import scalar
 from ..errors import ModelError
-
 from .runs import Settings, checked_error_method, checked_events, finish, settings, solve, stopped
 
 __all__ = ["Flow", "FlowResult"]

@@ -45,7 +45,7 @@ from typing import Any
 
 from .._deprecation import RenamedKeyword
 from .flow import Flow
-from .integrators import ALIASES, METHODS  # noqa: F401  (the module's public names)
+from .integrators import ALIASES, METHODS
 from .runs import settings
 from .trajectory import SimulationError, Trajectory, q_names  # noqa: F401  (the module's public names)
 
@@ -65,7 +65,8 @@ def simulate(system, t_end: float, q0=None, v0=None, method: Any = "dop853", rto
     them, the scene's declared start if it has one: :meth:`System.start_configuration`), or an
     equilibrium/steady-motion result (then v0 defaults to its v); v0: velocities (default zero). A mechanism
     with loops starts from (q0, v0) put on its loops (q0 assembled, v0 projected in the kinetic-energy
-    metric): its energies, work and errors are those of that state. ``method``: a name of :data:`METHODS` — "dop853", "rk4", "radau", "bdf"
+    metric): its energies, work and errors are those of that state. ``method``: a name of :data:`METHODS` —
+    "dop853", "rk4", "radau", "bdf"
     or "symplectic" (alias "variational") — see the module docstring — or a stepper class
     (a subclass of :class:`vibdyn.simulation.integrators.Stepper` with a ``name``).
     ``rtol`` and ``atol`` (adaptive methods): local error per step below atol + rtol·|x|,
@@ -91,7 +92,8 @@ def simulate(system, t_end: float, q0=None, v0=None, method: Any = "dop853", rto
     Drives (:meth:`vibdyn.Scene.add_drive`; every method but "symplectic"): the free coordinates alone are
     integrated; the driven entries of q0 and v0 are replaced by the laws' values at t0 and those of every
     output are the laws' (to round-off); ``traj.drive_work`` is the drives' work W_d (J) and ``traj.work``
-    includes it (the energy balance closes with it); ``state_transition`` is 2nf × 2nf over the free coordinates, ordered (δq_f, δv_f) as
+    includes it (the energy balance closes with it); ``state_transition`` is 2nf × 2nf over the free coordinates,
+    ordered (δq_f, δv_f) as
     ``system.reduction.free``.
 
     Returns a :class:`Trajectory`; Ctrl-C returns the motion so far with status "interrupted". Bad input is

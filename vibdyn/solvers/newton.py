@@ -19,7 +19,8 @@ from ..errors import ConvergenceError
 @dataclass(frozen=True)
 class NewtonResult:
     """``x`` the best point reached (least ‖F‖_∞), ``residual`` ‖F(x)‖_∞ there, ``iterations``, ``converged``
-    (residual ≤ tol), ``jacobians`` (how many were evaluated), ``status`` ("converged"; "stagnated": steps at round-off with the residual within the
+    (residual ≤ tol), ``jacobians`` (how many were evaluated), ``status`` ("converged"; "stagnated": steps at
+    round-off with the residual within the
     caller's ``stall`` factor of tol; "max_iter"; "no_decrease": no step reduces ‖F‖; "diverged": F became
     non-finite, or was at x0: no step is taken from there), ``message`` (why it stopped), ``elapsed`` (s)."""
 

@@ -156,7 +156,8 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
     """
     t0 = time.perf_counter()
     from ..analysis.sensitivity import sensitivity
-    from ..solvers.tracking import assign, mac as mac_of
+    from ..solvers.tracking import assign
+    from ..solvers.tracking import mac as mac_of
     build = scene_builder(build, "update")
     if not isinstance(start, dict) or not start:
         raise ModelError("update: start must be a dict {parameter: value} of build's keyword arguments")

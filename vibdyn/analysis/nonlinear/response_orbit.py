@@ -55,8 +55,8 @@ class ResponseOrbit:
 
     def __repr__(self):
         return summary("ResponseOrbit", f"point {self.index}", f"Ω = {number(self.omega, 'rad/s', digits=8)} "
-                       f"({number(self.frequency_hz, 'Hz', digits=6)})", f"amplitude {number(self.amplitude, self.unit)} "
-                       f"± {self.error:.1e}", self.stability)
+                       f"({number(self.frequency_hz, 'Hz', digits=6)})",
+                       f"amplitude {number(self.amplitude, self.unit)} ± {self.error:.1e}", self.stability)
 
 
 def response_orbit(curve: Any, index: int, points: int = POINTS) -> ResponseOrbit:

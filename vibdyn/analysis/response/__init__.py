@@ -40,5 +40,6 @@ from .random import RandomResponse, random_response
 from .transient import TimeResponse, forced_response, free_response
 
 __all__ = ["Appropriation", "Channels", "FRF", "HarmonicResponse", "Hysteretic", "MonteCarlo", "Peaks",
-           "RandomResponse", "Receptance", "SingularResponse", "TimeResponse", "appropriation", "base_response", "channels", "forced_response",
-           "free_response", "harmonic_response", "monte_carlo", "random_response", "receptance", "transmissibility"]
+           "RandomResponse", "Receptance", "SingularResponse", "TimeResponse", "appropriation", "base_response",
+           "channels", "forced_response", "free_response", "harmonic_response", "monte_carlo", "random_response",
+           "receptance", "transmissibility"]

@@ -44,7 +44,8 @@ class Appropriation:
     def __repr__(self):
         from ..._format import number, summary
 
-        return summary("Appropriation", f"mode {self.mode}", f"ω = {number(self.omega)} rad/s (ω_r {number(self.omega_r)})",
+        return summary("Appropriation", f"mode {self.mode}",
+                       f"ω = {number(self.omega)} rad/s (ω_r {number(self.omega_r)})",
                        f"inputs {', '.join(self.inputs)}", f"in-phase {number(self.in_phase, digits=2)}")
 
     @property

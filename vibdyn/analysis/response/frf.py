@@ -226,7 +226,8 @@ class FRF:
 
     def to_dict(self) -> dict:
         """Plain data (JSON-ready): complex numbers as [re, im], SI units."""
-        return {"frf_type": self.frf_type, "omega_rad_s": self.omega.tolist(), "frequency_hz": self.frequency_hz.tolist(),
+        return {"frf_type": self.frf_type, "omega_rad_s": self.omega.tolist(),
+                "frequency_hz": self.frequency_hz.tolist(),
                 "outputs": list(self.outputs), "inputs": list(self.inputs),
                 "output_units": list(self.output_units), "input_units": list(self.input_units),
                 "alpha": [[[[z.real, z.imag] for z in row] for row in m] for m in self.alpha],
@@ -351,7 +352,8 @@ def _transfer(model, omega, Bfun, out, method, n_modes=None, offset=None):
         Phi, w2, c, d, _ = model.modal
         keep = slice(None) if n_modes is None else slice(0, _n_modes(n_modes, w2.size))
         Phi, w2, c, d = Phi[:, keep], w2[keep], c[keep], d[keep]
-        dw2 = 2 * np.abs(w2) * model.modes.omega_relative_error[keep]  # each ω²'s uncertainty (residual: relative, of ω)
+        # each ω²'s uncertainty (residual: relative, of ω)
+        dw2 = 2 * np.abs(w2) * model.modes.omega_relative_error[keep]
     H = None
     residual = condition = amplification = 0.0
     for i, w in enumerate(omega):

@@ -16,7 +16,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-
 from typing import Any
 
 import numpy as np
@@ -389,7 +388,8 @@ def random_response(lin, psd, support=None, direction=None, outputs=None, *, cro
     (real), or a :class:`vibdyn.Delay` (b is a lagging copy of a). ``outputs``: as :func:`receptance`;
     ``relative``: pairs (a, b) of output specs whose difference a − b is added (a spring's deflection, a
     rattle space); ``springs``: names of point springs whose axial force (N, its change from the operating
-    point: k·δL; the "displacement" quantity of such an output is the force) is added. ``damping``: None/"viscous", "none" or :class:`vibdyn.Hysteretic`. ``method``: "auto"
+    point: k·δL; the "displacement" quantity of such an output is the force) is added. ``damping``:
+    None/"viscous", "none" or :class:`vibdyn.Hysteretic`. ``method``: "auto"
     (Lyapunov when every input is white over all frequencies and the case allows it, else quadrature),
     "lyapunov" or "quadrature". ``tolerance``: relative accuracy of the RMS values by quadrature.
     """

@@ -39,7 +39,8 @@ class TimeResponse(TimeResult):
     configurations: a :class:`~vibdyn.simulation.trajectory.Trajectory`'s ``q``). ``relative_error``: estimated
     error relative to max|δq| (quadrature, eigenvector conditioning or the integrator's tolerance, plus the linear
     model's error drifting the phase over the time span) and ``error`` that absolute, m or rad (as a
-    Trajectory's); ``imaginary``: largest imaginary part left by complex modes (relative, round-off). ``displacement(outputs)`` maps to body points or coordinates."""
+    Trajectory's); ``imaginary``: largest imaginary part left by complex modes (relative, round-off).
+    ``displacement(outputs)`` maps to body points or coordinates."""
 
     t: np.ndarray
     x: np.ndarray

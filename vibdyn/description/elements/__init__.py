@@ -8,6 +8,9 @@ A new kind is one new module here plus its import line below.
 from ...model.groups import ForceGroup, Group
 from ...model.points import Kinematics, cross, point_set
 from .base import KINDS, WORLD, ElementKind, attachment
+
+# the order below is the registration order of KINDS (see above): not alphabetical
+# isort: off
 from .support import Support
 from .spring import Spring
 from .damper import Damper
@@ -19,6 +22,7 @@ from .cubic_joint_spring import CubicJointSpring
 from .drive import Drive
 from .bearing import Bearing
 from .unbalance import Unbalance
+# isort: on
 
 __all__ = ["KINDS", "WORLD", "ElementKind", "ForceGroup", "Group", "Kinematics", "attachment", "cross", "point_set",
            "Support", "Spring", "Damper", "BodyForce", "JointSpring", "JointDamper", "JointForce",

@@ -3,17 +3,16 @@
 A kind is one module of this package declaring, in one place: its data (a frozen dataclass subclassing
 :class:`ElementKind`), its checks (``add``: the ``Scene.add_<table>`` method), its scene-file schema
 (``table``, ``keys``, ``required``, ``from_file``, ``to_dict``), how ``vibdyn info`` describes it
-(``describe``), its compiled evaluation (``group``: a :class:`~vibdyn.model.groups.ForceGroup` of all its members) and the group's
-analytic derivatives (``ForceGroup.derivatives``). The model layer compiles the groups of the kinds a scene has
-(:func:`vibdyn.model.forces.compile_groups`); scene files, the CLI and the analytic linearisation read the
-same declarations. Attachment points are ``(body, (x, y, z))`` with the point in the body frame (m), or
-``("world", point)``, or ``(support_name, point)`` (world axes).
+(``describe``), its compiled evaluation (``group``: a :class:`~vibdyn.model.groups.ForceGroup` of all its members) and
+the group's analytic derivatives (``ForceGroup.derivatives``). The model layer compiles the groups of the kinds a scene
+has (:func:`vibdyn.model.forces.compile_groups`); scene files, the CLI and the analytic linearisation read the same
+declarations. Attachment points are ``(body, (x, y, z))`` with the point in the body frame (m), or ``("world", point)``,
+or ``(support_name, point)`` (world axes).
 """
 
 from __future__ import annotations
 
 from typing import Any, ClassVar
-
 
 from ..._check import MAX_LENGTH, bounded, finite_array, vector3
 from ...errors import ModelError

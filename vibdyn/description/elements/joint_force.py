@@ -6,12 +6,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..._check import (call_user, count, finite_array, user_callable, value_number, value_number_or_list,
-                       value_numbers, value_string)
+from ..._check import (
+    call_user,
+    count,
+    finite_array,
+    user_callable,
+    value_number,
+    value_number_or_list,
+    value_numbers,
+    value_string,
+)
 from ..._format import with_units
 from ...errors import ModelError
-from .. import laws
 from ...model.groups import ForceGroup
+from .. import laws
 from .base import ElementKind, numbers, scalar_or_list
 
 _LAW_PARAMS = tuple(dict.fromkeys(k for name in laws.FORCE_LAWS for k in laws.law_keys(name)[0]))

@@ -8,8 +8,16 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..._check import (degrees_hint, finite_array, hint, one_or_each, stiffness_like,
-                       value_nonnegative_number_or_list, value_number_or_list, value_string)
+from ..._check import (
+    degrees_hint,
+    finite_array,
+    hint,
+    one_or_each,
+    stiffness_like,
+    value_nonnegative_number_or_list,
+    value_number_or_list,
+    value_string,
+)
 from ..._format import with_units
 from ...errors import ModelError
 from ...model.groups import ForceGroup, as_slice, tangent

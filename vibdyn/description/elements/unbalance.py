@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..._check import MAX_LENGTH, bounded, scalar, value_number, value_nonnegative, value_string, value_vec3, vector3
+from ..._check import MAX_LENGTH, bounded, scalar, value_nonnegative, value_number, value_string, value_vec3, vector3
 from ..._format import number, vector
 from .base import ElementKind
 

@@ -381,7 +381,8 @@ def _robot_geometry(src):
     model = src.pin_model()
     try:
         if src.format == "urdf":
-            gmodel = pin.buildGeomFromUrdf(model, src.path, pin.GeometryType.VISUAL, package_dirs=list(src.package_dirs))
+            gmodel = pin.buildGeomFromUrdf(model, src.path, pin.GeometryType.VISUAL,
+                                           package_dirs=list(src.package_dirs))
         else:
             gmodel = pin.buildGeomFromMJCF(model, src.path, pin.GeometryType.VISUAL)
     except (RuntimeError, ValueError, AttributeError):  # meshes missing: inertia boxes are drawn instead

@@ -109,7 +109,8 @@ def to_json(obj):
 
 PANEL_CSS = """
 body { margin: 0; font: 13px/1.35 sans-serif; }
-#meshcat-pane, #live-pane { position: absolute; left: 0; top: 0; width: 100vw; height: 100vh; overflow: hidden; border: 0; }
+#meshcat-pane, #live-pane { position: absolute; left: 0; top: 0; width: 100vw; height: 100vh; overflow: hidden;
+  border: 0; }
 #vd-panel { position: absolute; left: 8px; top: 8px; max-width: 360px; max-height: 90vh; overflow-y: auto;
   background: rgba(255,255,255,0.88); border-radius: 6px; padding: 8px 10px; z-index: 10; }
 #vd-panel h1 { font-size: 14px; margin: 0 0 4px; }

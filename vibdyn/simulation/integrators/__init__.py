@@ -6,7 +6,7 @@ error message and the command line read. Modules: the chart ODE (:mod:`.chart`),
 and the variational integrator (:mod:`.variational`).
 """
 
-from .base import Stepper, StepError
+from .base import StepError, Stepper
 from .explicit import DOP853, RK4
 from .implicit import BDF, Radau
 from .variational import Variational

@@ -23,7 +23,6 @@ import numpy as np
 
 from .chart import make_ode
 
-
 # per-step relative accuracy to which a state transition is resolved where the Jacobian differences a user callable
 # (central differences of step 1e-6 of the scale: round-off ~1e-10 of the derivative, which an embedded error
 # estimate sees as noise: held to 1e-10, van der Pol's Φ over a period takes 5600 steps instead of 70)

@@ -13,7 +13,8 @@ def driven_ode(base):
     so in a chart ξ_d = q_d(t) − centre_d); the steppers report states with the laws' values (exact to
     round-off). The free accelerations are the drives' (:meth:`vibdyn.model.drives.Drives.accelerations`);
     one more component, before the work w, integrates the drives' power v_d·τ_d (their work W_d, J), and w
-    integrates v·RNEA(q, v, a) over every coordinate: the work of the force elements and of the drives. The Jacobian (implicit methods, variational equations) has zero driven rows and columns
+    integrates v·RNEA(q, v, a) over every coordinate: the work of the force elements and of the drives. The
+    Jacobian (implicit methods, variational equations) has zero driven rows and columns
     and, on the free ones, −M_ff⁻¹K_ff and −M_ff⁻¹C_ff (K and C at the motion's accelerations): the state
     transition is the identity on the driven entries and Φ_ff on the free ones."""
 

@@ -26,7 +26,7 @@ import pinocchio as pin
 from ...model import dynamics
 from ...model.derivatives import linear_terms
 from ...model.points import cross
-from .base import Stepper, StepError
+from .base import StepError, Stepper
 
 ARG0, ARG1 = pin.ArgumentPosition.ARG0, pin.ArgumentPosition.ARG1
 
@@ -45,8 +45,8 @@ class AdStar:
 
     def __init__(self, system):
         def blocks(group, width):
-            return np.array([b.idx_v + np.arange(width) for b in system.body_infos.values() if b.joint.lie_group == group],
-                            dtype=int).reshape(-1, width)
+            return np.array([b.idx_v + np.arange(width) for b in system.body_infos.values()
+                             if b.joint.lie_group == group], dtype=int).reshape(-1, width)
 
         self.nv = system.nv
         self.ball, self.free, self.planar = blocks("SO3", 3), blocks("SE3", 6), blocks("SE2", 3)
