@@ -28,9 +28,9 @@ if TYPE_CHECKING:  # result types of the entry points below (imported on call, n
     from .response import FRF, Appropriation, HarmonicResponse, RandomResponse, TimeResponse
     from .statespace import StateSpace
 from ..model import dynamics
-from . import modal
 from ..model.derivatives import analytic_derivatives, row_derivatives, solve_mass
 from ..model.fd import differences, displaced_vectors, point_jacobian, stencil, step_stencil, vector_derivative
+from . import modal
 
 
 @dataclass(frozen=True, eq=False)
@@ -212,7 +212,8 @@ class LinearModel:
         return base_response(self, omega, support, direction, outputs, **kwargs)
 
     def forced_response(self, t: ArrayLike, force: Any = None, inputs: Any = None, **kwargs: Any) -> TimeResponse:
-        """Transient response to force histories and/or base motion (:func:`vibdyn.analysis.response.forced_response`)."""
+        """Transient response to force histories and/or base motion
+        (:func:`vibdyn.analysis.response.forced_response`)."""
         from .response import forced_response
 
         return forced_response(self, t, force, inputs, **kwargs)
@@ -308,10 +309,10 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     force elements' derivatives; the columns of joints whose type Pinocchio gets wrong, a universal joint's,
     by central differences, their error added to the estimate). The analytic K and C are checked against
     central differences of the residual along a fixed pseudo-random direction of (q, v) (:func:`guard`, once per
-    system and kind of state, at rest or moving): a disagreement beyond the differences' own error estimate warns (UserWarning naming the scene's joint types)
-    and falls back to "fd" (the result's ``method`` says so). A mechanism with loops, a scene with drives, and
-    ``hold`` (coordinate names held at their speed in v by their drive: a Campbell diagram's spin) are
-    linearised in the independent coordinates of the system's reduction
+    system and kind of state, at rest or moving): a disagreement beyond the differences' own error estimate warns
+    (UserWarning naming the scene's joint types) and falls back to "fd" (the result's ``method`` says so). A mechanism
+    with loops, a scene with drives, and ``hold`` (coordinate names held at their speed in v by their drive: a Campbell
+    diagram's spin) are linearised in the independent coordinates of the system's reduction
     (:mod:`vibdyn.model.reduction`, :func:`vibdyn.analysis.reduced.linearize`); ``independent`` (indices in v) keeps
     those as the independent coordinates instead of choosing them (another model's, to compare or difference).
     """

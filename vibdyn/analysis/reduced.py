@@ -149,8 +149,8 @@ class DrivenLinearModel(ConstrainedLinearModel):
     coordinates (``null_space`` the identity's columns there); ``drive``: {holder: τ} (N or N·m)."""
 
     def summary(self):
-        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, free={self.nv}, relative error ≈ {self.relative_error:.1e}, "
-                f"{self.elapsed * 1e3:.2f} ms)")
+        return (f"{type(self).__name__}({self.method}, nv={self.tree.nv}, free={self.nv}, "
+                f"relative error ≈ {self.relative_error:.1e}, {self.elapsed * 1e3:.2f} ms)")
 
 
 def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd", step=FD_STEP,

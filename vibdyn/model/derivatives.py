@@ -134,7 +134,8 @@ def _power_of_two(x):
     return out
 
 
-_UNTRUSTED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # system -> (columns, their steps): made once per system
+# system -> (columns, their steps): made once per system
+_UNTRUSTED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def untrusted(system):

@@ -23,8 +23,8 @@ from .compile import BodyInfo, Compiled, attachments
 from .configuration import state as _state
 from .constraints import compile_loops
 from .drives import compile_drives
-from .reduction import compile_reduction
 from .dynamics import Energy, Reactions
+from .reduction import compile_reduction
 from .workspace import PerThread, Workspace
 
 if TYPE_CHECKING:  # the analyses' result types, for the entry points' hints only (no import at run time)
@@ -46,8 +46,8 @@ class System(Compiled):
     its position limits (lower, upper) in m or rad, which equilibrium searches refuse to leave; the other
     compiled tables are listed by :class:`vibdyn.model.compile.Compiled`; ``drives``
     (:class:`vibdyn.model.drives.Drives`) and ``constraints`` (:class:`vibdyn.model.constraints.Constraints`)
-    are None without drives or loops; ``reduction`` (:class:`vibdyn.model.reduction.Reduction`) is how the
-    coordinates reduce to the independent ones, what analyses use. Its methods compute in the calling thread's :meth:`workspace`
+    are None without drives or loops; ``reduction`` (:class:`vibdyn.model.reduction.Reduction`): how the
+    coordinates reduce to the independent ones, what analyses use. Its methods compute in the thread's :meth:`workspace`
     (Pinocchio Data and force buffers), so threads may share a System; the free functions of
     :mod:`vibdyn.model.dynamics` and :mod:`vibdyn.model.geometry` take the workspace explicitly, and none reads
     what an earlier call left there. Analyses use the checked inputs (``check_*``) and the tables.
@@ -192,7 +192,8 @@ class System(Compiled):
     def generalized_forces(self, q: ArrayLike, v: ArrayLike, t: float = 0.0) -> Vector:
         """Q(q, v, t) (N or N·m per coordinate): the generalized force of every force element (not gravity)."""
         q, v, t = self.check_configuration(q), self.check_velocity(v), self.check_time(t)
-        return finite_result(dynamics.generalized_forces(self, self.workspace(), q, v, t), f"generalized forces at t = {t}")
+        return finite_result(dynamics.generalized_forces(self, self.workspace(), q, v, t),
+                             f"generalized forces at t = {t}")
 
     def gravity_forces(self, q: ArrayLike) -> Vector:
         """Generalized gravity force g(q) (N or N·m): the force gravity exerts, −∂V_gravity/∂q."""
@@ -201,7 +202,8 @@ class System(Compiled):
     def inverse_dynamics(self, q: ArrayLike, v: ArrayLike, a: ArrayLike, t: float = 0.0) -> Vector:
         """Generalized force (N or N·m) to add to the scene's own forces to move with acceleration a:
         M a + b(q, v) − Q(q, v, t), by RNEA; zero when a = accelerations(q, v, t)."""
-        tau = dynamics.inverse_dynamics(self, self.workspace(), self.check_configuration(q), self.check_velocity(v), self.check_velocity(a, "a"), self.check_time(t))
+        tau = dynamics.inverse_dynamics(self, self.workspace(), self.check_configuration(q), self.check_velocity(v),
+                                        self.check_velocity(a, "a"), self.check_time(t))
         return finite_result(tau, f"inverse dynamics at t = {t}")
 
     def energy(self, q: ArrayLike, v: ArrayLike, t: float = 0.0) -> Energy:
@@ -292,8 +294,8 @@ class System(Compiled):
 
     def point_velocity(self, body: str, point: ArrayLike, q: ArrayLike, v: ArrayLike) -> Vector:
         """World velocity (m/s) of a point given in a body's frame."""
-        b, r = self.body_info(body), vector3(point, f"point of body '{body}'")
-        return geometry.point_velocity(self, self.workspace(), b, r, self.check_configuration(q), self.check_velocity(v))
+        b, r, q = self.body_info(body), vector3(point, f"point of body '{body}'"), self.check_configuration(q)
+        return geometry.point_velocity(self, self.workspace(), b, r, q, self.check_velocity(v))
 
     # ------------------------------------------------------------- lookups
     def body_info(self, name: str) -> BodyInfo:

@@ -34,13 +34,14 @@ class Trajectory(TimeResult):
     ``q`` (n × nq) and ``v`` (n × nv) in the system's coordinates, ``a`` (n × nv, m/s² or rad/s²) the
     accelerations there (computed on first use); ``coordinates`` and ``units`` the system's; ``kinetic``,
     ``gravity``, ``elastic`` (J) from :meth:`System.energy`; ``work`` (J) the work of the non-conservative
-    forces since t0 (and of the drives: ``drive_work``, J, None without drives); ``q_error``/``v_error`` (arrays) the estimated global error at each output (tangent
-    space, largest over the coordinates: m or rad, m/s or rad/s) by ``error_method``, and ``error`` /
-    ``velocity_error`` (numbers) their largest values over the outputs; ``nfev`` dynamics evaluations, ``njev`` Jacobians
-    (implicit and symplectic methods), ``nlu`` LU factorisations (or inverses), ``accepted``/``rejected`` steps
-    (rejected is None for scipy's implicit solvers, which do not report it), all of the run itself;
-    ``error_nfev`` the evaluations spent on the error estimate (its second run, if any); ``elapsed`` (s) the
-    whole call, of which ``error_elapsed`` (s) went to the error estimate's second run; ``status`` "finished", "interrupted" (Ctrl-C) or "failed", with ``message``.
+    forces since t0 (and of the drives: ``drive_work``, J, None without drives); ``q_error``/``v_error``
+    (arrays) the estimated global error at each output (tangent space, largest over the coordinates: m or rad,
+    m/s or rad/s) by ``error_method``, and ``error`` / ``velocity_error`` (numbers) their largest values over the
+    outputs; ``nfev`` dynamics evaluations, ``njev`` Jacobians (implicit and symplectic methods), ``nlu`` LU
+    factorisations (or inverses), ``accepted``/``rejected`` steps (rejected is None for scipy's implicit solvers, which
+    do not report it), all of the run itself; ``error_nfev`` the evaluations spent on the error estimate (its second
+    run, if any); ``elapsed`` (s) the whole call, of which ``error_elapsed`` (s) went to the error estimate's second
+    run; ``status`` "finished", "interrupted" (Ctrl-C) or "failed", with ``message``.
     """
 
     system: Any = field(repr=False)

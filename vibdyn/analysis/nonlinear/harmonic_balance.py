@@ -97,11 +97,12 @@ class ForcedResponseCurve:
     Per point: ``omega`` (Ω, rad/s), ``amplitude`` (max over a period of |q_c − q_c,eq|, m or rad),
     ``error`` (its harmonic-truncation estimate, same unit), ``coefficients`` (points × (2H + 1) × nv: each tangent
     coordinate's displacement from ``q_eq``, x(τ) = c₀ + Σ_k a_k cos kτ + b_k sin kτ with τ = Ωt, its rows
-    interleaved c₀, a₁, b₁, a₂, b₂, …, a_H, b_H; :meth:`harmonic` picks one harmonic), ``multipliers`` (points × 2nv complex Floquet multipliers by Hill's method, by decreasing
-    modulus), ``multiplier_error`` (the largest error of their moduli, from Hill's method with 2H + 1
-    harmonics), ``stable`` (all |μ| < 1) and ``stability`` ("stable", "unstable", or "within the error" where
-    the largest |μ| is within its error of 1, as at a fold). ``folds`` and ``peak``; ``harmonics`` H;
-    ``status`` ("finished", "stopped", "failed") and ``message``; ``elapsed`` (s)."""
+    interleaved c₀, a₁, b₁, a₂, b₂, …, a_H, b_H; :meth:`harmonic` picks one harmonic), ``multipliers``
+    (points × 2nv complex Floquet multipliers by Hill's method, by decreasing modulus), ``multiplier_error`` (the
+    largest error of their moduli, from Hill's method with 2H + 1 harmonics), ``stable`` (all |μ| < 1) and ``stability``
+    ("stable", "unstable", or "within the error" where the largest |μ| is within its error of 1, as at a fold).
+    ``folds`` and ``peak``; ``harmonics`` H; ``status`` ("finished", "stopped", "failed") and ``message``; ``elapsed``
+    (s)."""
 
     coordinate: str
     unit: str

@@ -28,8 +28,20 @@ from ...model.forcing import forcing
 from ...simulation.flow import Flow
 from ...simulation.trajectory import SimulationError
 from ...solvers.tracking import assign
-from .shooting import (MAX_SEGMENTS, RCOND, SCALE_RTOL, Shooting, conservative, damping_only, energy_roundoff,
-                       first_return, flow_scales, free_indices, growth_segments, motion_scales)
+from .shooting import (
+    MAX_SEGMENTS,
+    RCOND,
+    SCALE_RTOL,
+    Shooting,
+    conservative,
+    damping_only,
+    energy_roundoff,
+    first_return,
+    flow_scales,
+    free_indices,
+    growth_segments,
+    motion_scales,
+)
 
 __all__ = ["PeriodicOrbit", "Liouville", "periodic_orbit", "floquet"]
 TOL = 1e-10  # default closing tolerance (scaled residual: rad, length scales, velocities per 2π/T)
@@ -142,7 +154,8 @@ class PeriodicOrbit:
                 "multipliers": [[z.real, z.imag] for z in self.multipliers],
                 "multiplier_error": self.multiplier_error.tolist(),
                 "exponents_1_s": [[z.real, z.imag] for z in self.exponents], "stable": self.stable,
-                "stability": self.stability, "liouville": dict(zip(Liouville._fields, self.liouville)), "error_estimate": self.error,
+                "stability": self.stability, "liouville": dict(zip(Liouville._fields, self.liouville)),
+                "error_estimate": self.error,
                 "velocity_error": self.velocity_error, "residual": self.residual, "segments": self.segments,
                 "iterations": self.iterations, "autonomous": self.autonomous, "energy_fixed": self.energy_fixed,
                 "elapsed_s": self.elapsed}

@@ -10,11 +10,11 @@ autonomous orbit. Equations, per segment i (node m is node 0):
 (angles of pivots compared modulo 2π, so that a rotating orbit closes), with the Jacobian [D₁ Φ_i, D₀; Φ_vi, −1]
 from each segment's state transition Φ_i (the time layer's :class:`vibdyn.simulation.flow.Flow` with
 ``variational=True``, tangent spaces: its settings checked once per problem) and Pinocchio's dDifference D₀,
-D₁, and ∂/∂T = (D₁ v, a)/m at each segment's end. An autonomous orbit adds a phase condition on x_0 (its tangent displacement from the start is
-orthogonal to the start's flow (v, a), or a chosen velocity is zero); a conservative one also keeps the
-start's energy E(x_0) = E_start (its orbits form a family in the energy: fixing it picks one member). The
-residuals and unknowns are scaled: positions by the coordinate scales (1 rad, the scene's length), velocities
-by those × 2π/T, the period by T/2π, where a coordinate's scale is the larger of its own (1 rad, the scene's
+D₁, and ∂/∂T = (D₁ v, a)/m at each segment's end. An autonomous orbit adds a phase condition on x_0 (its
+tangent displacement from the start is orthogonal to the start's flow (v, a), or a chosen velocity is zero); a
+conservative one also keeps the start's energy E(x_0) = E_start (its orbits form a family in the energy: fixing it picks
+one member). The residuals and unknowns are scaled: positions by the coordinate scales (1 rad, the scene's length),
+velocities by those × 2π/T, the period by T/2π, where a coordinate's scale is the larger of its own (1 rad, the scene's
 length) and how far it moves in a first run from the start.
 """
 
@@ -210,7 +210,8 @@ class Shooting:
         return self._flow if variational else self._plain
 
     def cached(self, x):
-        """The flows from x (FlowResults, as :meth:`flows` gives them) if they are the last ones integrated, else None."""
+        """The flows from x (FlowResults, as :meth:`flows` gives them) if they are the last ones integrated, else
+        None."""
         return self._cache[1] if self._cache[0] == np.asarray(x, dtype=float).tobytes() else None
 
     def seed(self, x, runs):
