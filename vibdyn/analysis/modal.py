@@ -535,8 +535,9 @@ def _defective_pairs(A, E, lam, dlam, eta):
         return defective
     ii, jj = np.nonzero(close)
     # (a rigid or cyclic zero, within a Jordan block's split of it, is the rigid-mode test's)
-    pairs = (ii < jj) & (np.abs(lam[ii] + lam[jj]) > 20 * np.sqrt(np.abs(A).sum(axis=0).max()
-                                                                  * np.maximum(eta[ii], eta[jj])))
+    with np.errstate(over="ignore"):  # (√‖A‖ √η: no product overflows at extreme scales; an infinite ‖A‖, no pair)
+        size = np.sqrt(np.abs(A).sum(axis=0).max())
+    pairs = (ii < jj) & (np.abs(lam[ii] + lam[jj]) > 20 * size * np.sqrt(np.maximum(eta[ii], eta[jj])))
     done = np.zeros(m, bool)
     for i, j in zip(ii[pairs], jj[pairs]):
         if done[i] or done[j]:

@@ -51,7 +51,8 @@ class Reduction:
         mask[list(self.held_speeds)] = True
         self.held, self.free = np.flatnonzero(mask), np.flatnonzero(~mask)
         # N without loops (the identity's columns at ``free``), made when first asked; the laws at the last t
-        self._basis, self._law_memo = None, None
+        self._basis: np.ndarray | None = None  # (a tree's N: made once, read-only)
+        self._law_memo: tuple | None = None
         for a in (self.held, self.free):
             a.flags.writeable = False
         parts = (["loops"] if self._loops is not None else []) + (["held"] if self.held.size else [])
@@ -232,10 +233,12 @@ class Reduction:
         nv = self.nv
         if self._loops is None:
             if keep is None or keep is self.free:  # (the same basis at every q: made once, read-only)
-                if self._basis is None:
-                    self._basis = np.eye(nv)[:, self.free]
-                    self._basis.flags.writeable = False
-                return self.free, self._basis
+                basis = self._basis
+                if basis is None:
+                    basis = np.eye(nv)[:, self.free]
+                    basis.flags.writeable = False
+                    self._basis = basis
+                return self.free, basis
             ind = np.asarray(keep, dtype=int)
             return ind, np.eye(nv)[:, ind]
         J = self._loops.jacobian(q)
