@@ -346,8 +346,8 @@ REDUCTION_READERS = ("vibdyn.model", "vibdyn.simulation.integrators", "vibdyn.fa
 
 # the reduction's answers to "what kind of scene is this" (issue 41 item 1): an analysis asks the reduction to act
 # (impose, close, independent, chart, reference_acceleration, require, ...) instead of reading these
-REDUCTION_FLAGS = {"curved", "time_laws", "is_identity", "held_names", "held_speeds", "driven_names", "driven_units",
-                   "driven_q", "law_values"}
+REDUCTION_FLAGS = {"curved", "looped", "time_laws", "is_identity", "held_names", "held_speeds", "driven_names",
+                   "driven_units", "driven_q", "law_values"}
 # ``kind`` is a common name (dtype.kind, Onset.kind): a flag only where read off a reduction
 REDUCTION_NAMES = {"reduction", "R"}
 # modules that still read a flag, each with what remains to be done (issue 41 item 1, in progress): empty at the end

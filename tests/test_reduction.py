@@ -24,7 +24,7 @@ def rotor_with_slider():
 def test_a_tree_reduces_by_the_identity():
     system = rotor_with_slider()
     R = system.reduction
-    assert R.kind == "tree" and R.is_identity and not R.curved and not R.time_laws
+    assert R.kind == "tree" and R.is_identity and not R.looped and not R.time_laws
     q, v = system.neutral(), np.array([1.0, 0.2])
     ind, N = R.independent(q)
     assert ind.tolist() == [0, 1] and np.array_equal(N, np.eye(2))
@@ -75,7 +75,7 @@ def test_loops_reduce_by_their_null_space_and_compose_with_a_held_spin():
     system = spun_trammel(k).build()
     q0 = system.configuration({"A": 2 * L * math.sin(0.7), "disk": 0.7, "B": 2 * L * math.cos(0.7)})
     R = system.reduction
-    assert R.kind == "loops" and R.curved
+    assert R.kind == "loops" and R.looped
     q = R.close(q0)
     assert R.closure(q) < 1e-12
     ind, N = R.independent(q)

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from .._deprecation import Renamed
 from ..errors import ModelError
 from . import dynamics
 
@@ -65,9 +66,11 @@ class Reduction:
         return self.kind == "tree"
 
     @property
-    def curved(self) -> bool:
+    def looped(self) -> bool:
         """True where N depends on q (loops): linear models then carry the constraint forces' curvature."""
         return self._loops is not None
+
+    curved = Renamed("looped")  # ("curved" means nq ≠ nv joints, a Lie group: docs/guide/names.md)
 
     @property
     def time_laws(self) -> bool:
