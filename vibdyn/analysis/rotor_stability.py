@@ -21,8 +21,7 @@ from numpy.typing import ArrayLike
 from .._check import finite_array
 from ..errors import ModelError
 from ..solvers.roots import bracketed_root, sign_changes, signs
-from ..solvers.tracking import match
-from .campbell_diagram import campbell, check_spin, coordinate_frame, hold, pick, speed_modes
+from .campbell_diagram import campbell, check_spin, coordinate_frame, hold, pick, speed_modes, track_columns
 
 
 # ------------------------------------------------------------------------------------- parameter studies
@@ -156,10 +155,11 @@ def stability_limit(model: Any, values: ArrayLike, spin: str, speed: float, para
     else:
         raise ModelError(f"{what}: mode must be 'forward', 'backward' or a mode number from 1 to "
                          f"{first.frequencies.size}, got {mode!r}")
-    picks = [k]
-    for a, b in zip(rows[:-1], rows[1:]):
-        cols = match(a.shapes, b.shapes, a.frequencies, b.frequencies)
-        picks.append(int(cols[picks[-1]]))
+    picks, cols = [k], [np.arange(first.frequencies.size)]
+    for r in range(1, len(rows)):
+        cols.append(track_columns(rows[r - 1], rows[r], cols[-1], rows[r - 2].frequencies[cols[-2]] if r > 1 else None,
+                                  values[r - 2:r + 1]))
+        picks.append(int(cols[-1][k]))
     dec = [r.log_dec() for r in rows]
     delta = np.array([d[0][p] for d, p in zip(dec, picks)])
     delta_err = np.array([d[1][p] for d, p in zip(dec, picks)])
