@@ -77,7 +77,14 @@ def spectrum_function(spectrum, what="response spectrum"):
             zero = None
         return S, "a function of the period", zero, slope
     arr = finite_array(spectrum, None, f"{what}: table (periods s, pseudo-accelerations m/s²)")
-    if arr.ndim == 2 and arr.shape[1] == 2 and arr.shape[0] != 2:
+    if arr.shape == (2, 2):  # two rows (periods; S_a) or two (period, S_a) pairs: read it only if one fits
+        fits = [bool(x[0, 0] >= 0 and x[0, 1] > x[0, 0] and np.all(x[1] >= 0)) for x in (arr, arr.T)]
+        if all(fits) and not np.array_equal(arr, arr.T):
+            raise ModelError(f"{what}: the 2 × 2 table {arr.tolist()} reads both as two rows (periods; "
+                             "pseudo-accelerations) and as two (period, pseudo-acceleration) pairs; add a third "
+                             "period (a point on the line between the two changes nothing)")
+        arr = arr.T if fits[1] and not fits[0] else arr
+    elif arr.ndim == 2 and arr.shape[1] == 2:
         arr = arr.T
     if arr.ndim != 2 or arr.shape[0] != 2 or arr.shape[1] < 2:
         raise ModelError(f"{what}: expected a callable of the period, or a table of periods (s) and "
