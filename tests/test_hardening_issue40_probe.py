@@ -166,3 +166,23 @@ def test_two_by_two_spectrum_table_is_ambiguous_and_refused():
     r = modes.response_spectrum([[0.0, 0.0], [5.0, 3.0]], (1, 0, 0))  # pairs (0 s, 0), (5 s, 3 m/s²)
     T = 2 * np.pi / np.sqrt(400.0)
     assert r.spectral_acceleration[0] == pytest.approx(3.0 * T / 5.0, rel=1e-12)
+
+
+# ----------------------------------------------------------------------------- the CLI
+def run(argv):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(argv)
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.mark.parametrize("extra, words", [(["--damping", "-0.1"], "damping ratio"), (["--damping", "nan"], "damping"),
+                                          (["--design", "ec8:0.3:Z"], "ground type"),
+                                          (["--design", "asce7:1:0.5:-3"], "T_L")])
+def test_spectrum_cli_names_the_wrong_value(extra, words):
+    """A negative damping ratio was reported as '--design: expected ec8:AG:GROUND…, got 'ec8:0.3:B'' (the code's
+    own refusal swallowed by the parser's except ValueError)."""
+    argv = ["spectrum", "three_storey_building", "--direction", "1", "0", "0"]
+    argv += extra if extra[0] == "--design" else ["--design", "ec8:0.3:B", *extra]
+    code, out, err = run(argv)
+    assert code == 2 and err.startswith("vibdyn: error:") and words in err and "expected ec8" not in err, err
