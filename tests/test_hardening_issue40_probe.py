@@ -186,3 +186,16 @@ def test_spectrum_cli_names_the_wrong_value(extra, words):
     argv += extra if extra[0] == "--design" else ["--design", "ec8:0.3:B", *extra]
     code, out, err = run(argv)
     assert code == 2 and err.startswith("vibdyn: error:") and words in err and "expected ec8" not in err, err
+
+
+def test_design_spectra_take_arrays_and_refuse_non_numbers():
+    """S_a('a') ended in float()'s ValueError and S_a([0.1, 0.2]) in a TypeError; EN 1998-1 type 1, ground B:
+    S = 1.2, T_B = 0.15 s, T_C = 0.5 s, η = 1 at 5 %."""
+    s = vd.eurocode8(0.3 * 9.80665, "B")
+    ag = 0.3 * 9.80665
+    expected = [ag * 1.2 * (1 + 0.1 / 0.15 * 1.5), 2.5 * ag * 1.2, 2.5 * ag * 1.2 * 0.5 / 1.0]
+    assert s(np.array([0.1, 0.3, 1.0])) == pytest.approx(expected, rel=1e-14)
+    assert s([[0.1, 0.3]]).shape == (1, 2)
+    for bad in ("a", float("nan"), None):
+        with pytest.raises(ModelError, match="period"):
+            s(bad)
