@@ -199,3 +199,14 @@ def test_design_spectra_take_arrays_and_refuse_non_numbers():
     for bad in ("a", float("nan"), None):
         with pytest.raises(ModelError, match="period"):
             s(bad)
+
+
+def test_a_tuple_of_periods_and_accelerations_is_two_rows():
+    """The documented (periods, S_a) form stays two rows even at two periods (the CLI passes its file so)."""
+    s = vd.Scene("sdof")
+    s.add_body("m", joint=vd.Slider((1, 0, 0)), mass=2.0)
+    s.add_joint_spring("m", 800.0)
+    modes = s.build().linearize(np.zeros(1), method="analytic").modes()
+    r = modes.response_spectrum((np.array([0.0, 1.0]), np.array([5.0, 3.0])), (1, 0, 0))
+    T = 2 * np.pi / np.sqrt(400.0)
+    assert r.spectral_acceleration[0] == pytest.approx(5.0 - 2.0 * T, rel=1e-12)

@@ -47,8 +47,9 @@ def correlation(omega: ArrayLike, zeta: ArrayLike) -> np.ndarray:
 
 def spectrum_function(spectrum, what="response spectrum"):
     """(S_a(T) vectorised m/s², its description, the value at T = 0 or None, slope dS_a/dT) of a spectrum: a
-    callable of the period (s), a table (periods s, S_a m/s²) (two rows, or n × 2), or a record's spectrum
-    (an object with ``periods`` and ``pseudo_acceleration``), interpolated linearly in T."""
+    callable of the period (s), a table (periods s, S_a m/s²) (two rows — a tuple (periods, S_a) always —, or
+    n × 2; a 2 × 2 list only where one reading has increasing periods), or a record's spectrum (an object with
+    ``periods`` and ``pseudo_acceleration``), interpolated linearly in T."""
     error = None
     if hasattr(spectrum, "periods") and hasattr(spectrum, "pseudo_acceleration"):
         if hasattr(spectrum, "error"):  # a record's spectrum: its own error estimate, interpolated alike
@@ -76,15 +77,16 @@ def spectrum_function(spectrum, what="response spectrum"):
         except ModelError:
             zero = None
         return S, "a function of the period", zero, slope
+    rows = isinstance(spectrum, tuple) and len(spectrum) == 2  # the documented (periods, S_a): two rows
     arr = finite_array(spectrum, None, f"{what}: table (periods s, pseudo-accelerations m/s²)")
-    if arr.shape == (2, 2):  # two rows (periods; S_a) or two (period, S_a) pairs: read it only if one fits
+    if arr.shape == (2, 2) and not rows:  # two rows (periods; S_a) or two (period, S_a) pairs: read it if one fits
         fits = [bool(x[0, 0] >= 0 and x[0, 1] > x[0, 0] and np.all(x[1] >= 0)) for x in (arr, arr.T)]
         if all(fits) and not np.array_equal(arr, arr.T):
             raise ModelError(f"{what}: the 2 × 2 table {arr.tolist()} reads both as two rows (periods; "
                              "pseudo-accelerations) and as two (period, pseudo-acceleration) pairs; add a third "
                              "period (a point on the line between the two changes nothing)")
         arr = arr.T if fits[1] and not fits[0] else arr
-    elif arr.ndim == 2 and arr.shape[1] == 2:
+    elif arr.ndim == 2 and arr.shape[1] == 2 and not (rows and arr.shape[0] == 2):
         arr = arr.T
     if arr.ndim != 2 or arr.shape[0] != 2 or arr.shape[1] < 2:
         raise ModelError(f"{what}: expected a callable of the period, or a table of periods (s) and "
