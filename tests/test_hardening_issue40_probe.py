@@ -210,3 +210,25 @@ def test_a_tuple_of_periods_and_accelerations_is_two_rows():
     r = modes.response_spectrum((np.array([0.0, 1.0]), np.array([5.0, 3.0])), (1, 0, 0))
     T = 2 * np.pi / np.sqrt(400.0)
     assert r.spectral_acceleration[0] == pytest.approx(5.0 - 2.0 * T, rel=1e-12)
+
+
+def _isotropic(k):
+    s = vd.Scene("isotropic rotor")
+    s.add_body("x", joint=vd.Slider(axis=(1, 0, 0)), mass=0.0)
+    s.add_body("y", parent="x", joint=vd.Slider(axis=(0, 1, 0)), mass=0.0)
+    s.add_body("disk", parent="y", joint=vd.Pivot(axis=(0, 0, 1)), mass=M, inertia=np.diag([.01, .01, .02]))
+    s.add_joint_spring("x", k)
+    s.add_joint_spring("y", k)
+    return s
+
+
+@pytest.mark.parametrize("values, top", [([100.0, 1e3, 1e4], 200.0), ([1e-2, 1e10], 2e5)])
+def test_critical_speed_map_of_an_isotropic_rotor_is_sqrt_k_over_m(values, top):
+    """A critical speed far below its bracket's end (ω_n = 7.07 rad/s in [0, 25]) stalled the continuation in μ
+    ('50 steps taken'): the map of the textbook Jeffcott ended in a ConvergenceError; Brent's method inside the
+    bracket now takes over."""
+    m = vd.critical_speed_map(_isotropic, values, "disk", np.linspace(0.0, top, 9))
+    for k, row, err in zip(values, m.speeds, m.errors):
+        exact = np.sqrt(k / M)
+        assert row.count() == 1  # the x and y modes reach one speed: counted once
+        assert abs(row[0] - exact) <= err[0] and err[0] < 1e-6 * exact

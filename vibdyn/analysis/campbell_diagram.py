@@ -218,9 +218,12 @@ class Campbell:
                 elif g[i + 1] == 0:
                     s = b
                 else:
-                    s = self._crossing(refs, q0, a, b, f[i], f[i + 1], order,
-                                       max(self.error[i, j], self.error[i + 1, j]))
-                    if not a <= s <= b:  # the continuation left the bracket (|Ω| is even in Ω): Brent inside it
+                    try:
+                        s = self._crossing(refs, q0, a, b, f[i], f[i + 1], order,
+                                           max(self.error[i, j], self.error[i + 1, j]))
+                    except ConvergenceError:  # (a mode line far below the bracket's end: Ω = ω/μ bends sharply)
+                        s = np.nan
+                    if not a <= s <= b:  # the continuation left the bracket (|Ω| is even in Ω) or stalled: Brent
 
                         def h(x, refs=refs, q0=q0, near=0.5 * (f[i] + f[i + 1])):
                             sm = self.at(x, q0)
