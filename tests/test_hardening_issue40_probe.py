@@ -232,3 +232,30 @@ def test_critical_speed_map_of_an_isotropic_rotor_is_sqrt_k_over_m(values, top):
         exact = np.sqrt(k / M)
         assert row.count() == 1  # the x and y modes reach one speed: counted once
         assert abs(row[0] - exact) <= err[0] and err[0] < 1e-6 * exact
+
+
+def test_base_shear_of_a_chain_with_mass_ratio_1e8_is_the_modal_sum():
+    """Masses 1.4e-6 … 243 kg, stiffnesses 70 … 2.4e8 N/m (ω from 0.53 to 8.5e6 rad/s): the base shear came out
+    631 or 657 N ± 0.005 against 663.01 N (M⁻¹K as a matrix amplified a low mode's round-off by (ω_max/ω_1)²).
+    Oracle: scipy's eigh of the exact M and K in the sliders' relative coordinates, V = SRSS of Γ_n² S_a(T_n)
+    (equal to k_1 u_1 mode by mode)."""
+    import scipy.linalg as sla
+
+    m = np.array([3.32e-06, 3.53e-06, 242.536833, 22.6677637, 1.38e-06])
+    k = np.array([2.42041916e+08, 109.4, 240.3, 181752.6, 69.6])
+    s = vd.Scene("chain")
+    parent = "world"
+    for i, (mi, ki) in enumerate(zip(m, k)):
+        s.add_body(f"b{i}", parent=parent, joint=vd.Slider((1, 0, 0)), mass=float(mi))
+        s.add_joint_spring(f"b{i}", float(ki))
+        parent = f"b{i}"
+    modes = s.build().linearize(np.zeros(m.size), method="analytic").modes()
+    spectrum = lambda T: 2.5 + 4.0 * T * np.exp(-2.0 * T)  # noqa: E731
+    Tr = np.tril(np.ones((m.size, m.size)))  # absolute displacements = Tr @ relative ones
+    w2, Phi = sla.eigh(np.diag(k), Tr.T @ np.diag(m) @ Tr)
+    gamma = Phi.T @ (Tr.T @ m)
+    Vn = gamma ** 2 * np.array([spectrum(2 * np.pi / np.sqrt(x)) for x in w2])
+    for rule, ref in (("srss", np.sqrt(Vn @ Vn)), ("abs", np.abs(Vn).sum())):
+        r = modes.response_spectrum(spectrum, (1, 0, 0), rule)
+        assert abs(r.base_shear - ref) <= r.base_shear_error, (rule, r.base_shear, ref, r.base_shear_error)
+        assert r.modal_base_shear == pytest.approx(Vn, rel=1e-6, abs=1e-12 * ref)

@@ -393,6 +393,7 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
     # the rigid part: the missing mass and the rigid modes, algebraically
     rigid_u = np.zeros(lin.nv)
     rigid_err = np.zeros(lin.nv)
+    rigid_f, rigid_f_err = np.zeros(lin.nv), np.zeros(lin.nv)  # M⁻¹K of the rigid part, mode by mode (exact)
     if missing_mass and n < n_all:
         out = slice(n, n_all)  # the modes left out, as one rigid response at S_a(0)
         rel_out = 2 * modes.omega_relative_error[out] + 2 * (np.minimum(
@@ -401,9 +402,14 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
         static = gamma_all[out] / w_all[out] ** 2
         rigid_u += Phi_all[:, out] @ static * zpa
         rigid_err += np.abs(Phi_all[:, out]) @ (np.abs(static) * rel_out) * zpa
+        rigid_f += Phi_all[:, out] @ gamma_all[out] * zpa
+        rigid_f_err += np.abs(Phi_all[:, out]) @ (np.abs(gamma_all[out]) * rel_out) * zpa
     if rigid_modes.any():
         rigid_u += U[rigid_modes].sum(axis=0)
         rigid_err += (np.abs(U[rigid_modes]) * rel[rigid_modes, None]).sum(axis=0)
+        UK = U[rigid_modes] * (w[rigid_modes] ** 2)[:, None]
+        rigid_f += UK.sum(axis=0)
+        rigid_f_err += (np.abs(UK) * rel[rigid_modes, None]).sum(axis=0)
     rho = correlation(w[dyn], z[dyn]) if dyn.any() else np.zeros((0, 0))
     drho = np.abs(correlation(w[dyn] * (1 + wrel[dyn]), z[dyn]) - rho) if dyn.any() else rho
     gd = gamma * D
@@ -423,10 +429,14 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
         ax = unit_axis(axis, f"{what} axis")
     base = finite_array(base, (3,), f"{what} base point (m)")
     _, A_ang = lin.system.momentum_matrix(lin.q, base)
-    # M⁻¹K in the model's own motions, Φ Ω² Φᵀ M (u ↦ the accelerations whose inertia the stiffness balances)
-    MinvK = (Phi_all * (w_all ** 2 / mm)) @ (Phi_all.T @ lin.M)
-    shear_row, moment_row = L @ MinvK, (A_ang.T @ ax) @ MinvK
-    (shear, moment), (shear_err, moment_err) = comb(np.vstack([shear_row, moment_row]))
+    # the inertia the stiffness balances, M⁻¹K u, taken mode by mode (M⁻¹K φ_n = ω_n² φ_n exactly): through a
+    # matrix M⁻¹K = Φ Ω² Φᵀ M, the round-off of a low mode's shape in a high mode's direction came back ×
+    # (ω_max/ω_n)² (a base shear 1 % off, stated to 7e-6, at a mass ratio of 1e8)
+    UK = U * (w ** 2)[:, None]
+    comb_f = _Combiner(lin, combination, rho, drho, UK, rel, shape_err, gd * w ** 2, Phi, rigid_f, rigid_f_err,
+                       np.flatnonzero(dyn))
+    shear_row, moment_row = L, A_ang.T @ ax  # rows on the accelerations M⁻¹K u
+    (shear, moment), (shear_err, moment_err) = comb_f(np.vstack([shear_row, moment_row]))
     names, srows = spring_rows(lin)
     sforces, serrs = comb(srows) if names else (np.zeros(0), np.zeros(0))
     if lin.has_damping:
@@ -435,7 +445,7 @@ def response_spectrum(modes, spectrum, direction, combination: str = "srss", dam
     return SeismicResponse(tuple(float(x) for x in d), combination, zeta[:n], T, w, gamma, eff_all[:n], Sa, D, U,
                            rigid_u, None if zpa is None else float(zpa), mass,
                            float(mass - eff_all[:n].sum()), modes_90, disp, disp_err, float(shear), float(shear_err),
-                           U @ shear_row, float(moment), float(moment_err), U @ moment_row,
+                           UK @ shear_row, float(moment), float(moment_err), UK @ moment_row,
                            dict(zip(names, sforces.tolist())), dict(zip(names, serrs.tolist())),
                            {name: U @ row for name, row in zip(names, srows)}, rel,
                            tuple(float(x) + 0.0 for x in ax), tuple(float(x) + 0.0 for x in base),
