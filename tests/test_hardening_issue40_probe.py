@@ -259,3 +259,39 @@ def test_base_shear_of_a_chain_with_mass_ratio_1e8_is_the_modal_sum():
         r = modes.response_spectrum(spectrum, (1, 0, 0), rule)
         assert abs(r.base_shear - ref) <= r.base_shear_error, (rule, r.base_shear, ref, r.base_shear_error)
         assert r.modal_base_shear == pytest.approx(Vn, rel=1e-6, abs=1e-12 * ref)
+
+
+def test_displacement_error_covers_a_coordinate_that_barely_moves():
+    """Masses 4.9e-5 … 794 kg, stiffnesses 4.6 … 5.3e7 N/m: the last (stiff) spring's deflection is 4.59e-12 m
+    (a 40-digit eigen-solution), float64 eigen-solvers give 7.5e-11 (vibdyn) or 6.0e-11 (scipy) — a shape's
+    error mixes other modes into it — and vibdyn stated ± 2.3e-12 (the error spread by |φ_n| alone)."""
+    mp = pytest.importorskip("mpmath")
+    mp.mp.dps = 40
+    m = np.array([0.48186453, 259.806402, 205.63132, 8.8338e-04, 793.869708, 4.887e-05])
+    k = np.array([2.56606801e+07, 26.0, 4424.7, 4.6, 5.27655392e+07, 2.87860873e+07])
+    n = m.size
+    s = vd.Scene("chain")
+    parent = "world"
+    for i in range(n):
+        s.add_body(f"b{i}", parent=parent, joint=vd.Slider((1, 0, 0)), mass=float(m[i]))
+        s.add_joint_spring(f"b{i}", float(k[i]))
+        parent = f"b{i}"
+    spectrum = lambda T: 2.5 + 4.0 * T * np.exp(-2.0 * T)  # noqa: E731
+    r = s.build().linearize(np.zeros(n), method="analytic").modes().response_spectrum(spectrum, (1, 0, 0))
+    Tr = mp.matrix(n, n)
+    for i in range(n):
+        for j in range(i + 1):
+            Tr[i, j] = 1
+    Mr = Tr.T * mp.diag([mp.mpf(float(x)) for x in m]) * Tr
+    Li = mp.cholesky(Mr) ** -1
+    E, Q = mp.eigsy(Li * mp.diag([mp.mpf(float(x)) for x in k]) * Li.T)
+    Phi = Li.T * Q
+    L = Tr.T * mp.matrix([mp.mpf(float(x)) for x in m])
+    peaks = [mp.mpf(0)] * n
+    for j in range(n):
+        w2, ph = E[j], Phi[:, j]
+        g = (ph.T * L)[0]
+        Sa = 2.5 + 4 * (2 * mp.pi / mp.sqrt(w2)) * mp.exp(-2 * (2 * mp.pi / mp.sqrt(w2)))
+        peaks = [p + (ph[i] * g * Sa / w2) ** 2 for i, p in enumerate(peaks)]
+    exact = np.array([float(mp.sqrt(p)) for p in peaks])
+    assert np.all(np.abs(r.displacement - exact) <= r.displacement_error), (r.displacement, exact)
