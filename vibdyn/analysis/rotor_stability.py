@@ -1,4 +1,5 @@
-"""Rotor stability and critical-speed maps from the Campbell machinery: the value of a parameter (a cross-coupled stiffness: API 684 level I) at which a mode's log decrement reaches
+"""Rotor stability and critical-speed maps from the Campbell machinery: the value of a parameter (a cross-coupled
+stiffness: API 684 level I) at which a mode's log decrement reaches
 zero, and the undamped critical speeds against a parameter (a bearing stiffness: API 684's map).
 
 A parameter is given either as a builder ``build(x) -> Scene | System`` (any scene change: a force law's
@@ -178,8 +179,8 @@ def stability_limit(model: Any, values: ArrayLike, spin: str, speed: float, para
 
         limit, limit_error, _ = bracketed_root(f, float(values[i]), float(values[n]), (delta[i], delta_err[i]),
                                                (delta[n], delta_err[n]), f"{what} of mode {k + 1}")
-    return StabilityLimit(name, unit, spin, speed, values, delta, delta_err, omega, whirl, k + 1, limit, limit_error, frame,
-                          time.perf_counter() - start)
+    return StabilityLimit(name, unit, spin, speed, values, delta, delta_err, omega, whirl, k + 1, limit, limit_error,
+                          frame, time.perf_counter() - start)
 
 
 def _distinct(found: list) -> tuple:
@@ -198,7 +199,8 @@ class CriticalSpeedMap:
     """Undamped critical speeds against a parameter (see :func:`critical_speed_map`).
 
     ``values`` (n,) the parameter's values (SI); ``speeds`` (n × k) the 1st, 2nd, … critical speeds (rad/s)
-    at each value, ascending, each once (modes reaching one speed within their errors count once), a masked array (masked where fewer were found in the speed range); ``errors``
+    at each value, ascending, each once (modes reaching one speed within their errors count once), a masked array
+    (masked where fewer were found in the speed range); ``errors``
     alike (rad/s); ``critical`` the :class:`~vibdyn.analysis.campbell_diagram.CriticalSpeed` items per value;
     ``order`` the engine order; ``speed_range`` (rad/s) searched; ``elapsed`` s."""
 
@@ -224,7 +226,8 @@ class CriticalSpeedMap:
         return campbell_plot.critical_speed_map(self, path=path, units=units, dpi=dpi)
 
     def to_dict(self) -> dict:
-        return {"parameter": self.parameter, "unit": self.unit, "spin": self.spin, "order": self.order, "values": self.values.tolist(),
+        return {"parameter": self.parameter, "unit": self.unit, "spin": self.spin, "order": self.order,
+                "values": self.values.tolist(),
                 "critical_speeds_rad_s": [[c.speed for c in row] for row in self.critical],
                 "errors_rad_s": [[c.error for c in row] for row in self.critical],
                 "mode_numbers": [[c.number for c in row] for row in self.critical],
