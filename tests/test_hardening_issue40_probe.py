@@ -295,3 +295,15 @@ def test_displacement_error_covers_a_coordinate_that_barely_moves():
         peaks = [p + (ph[i] * g * Sa / w2) ** 2 for i, p in enumerate(peaks)]
     exact = np.array([float(mp.sqrt(p)) for p in peaks])
     assert np.all(np.abs(r.displacement - exact) <= r.displacement_error), (r.displacement, exact)
+
+
+def test_seismic_combine_refuses_wrong_rows_and_a_record_itself():
+    """combine() of NaN rows gave NaN ± NaN, of rows of the wrong width numpy's matmul error; a Record given as
+    the spectrum said only 'expected numbers'."""
+    modes = vd.load_scene("three_storey_building").build().operating_point().linearize(method="analytic").modes()
+    r = modes.response_spectrum(lambda T: 3.0, (1, 0, 0))
+    for rows in (np.full((1, 3), np.nan), np.ones((2, 5)), "abc"):
+        with pytest.raises(ModelError, match="combine"):
+            r.combine(rows)
+    with pytest.raises(ModelError, match="pseudo_acceleration_spectrum"):
+        modes.response_spectrum(vd.laws.Record([0.0, 1.0, -1.0], dt=0.01), (1, 0, 0))

@@ -51,6 +51,9 @@ def spectrum_function(spectrum, what="response spectrum"):
     n × 2; a 2 × 2 list only where one reading has increasing periods), or a record's spectrum (an object with
     ``periods`` and ``pseudo_acceleration``), interpolated linearly in T."""
     error = None
+    if hasattr(spectrum, "pseudo_acceleration_spectrum"):  # a record, not its spectrum
+        raise ModelError(f"{what}: got a record; pass its spectrum, record.pseudo_acceleration_spectrum(periods, "
+                         "damping), on periods from 0 s past the longest mode's")
     if hasattr(spectrum, "periods") and hasattr(spectrum, "pseudo_acceleration"):
         if hasattr(spectrum, "error"):  # a record's spectrum: its own error estimate, interpolated alike
             error = (np.asarray(spectrum.periods, float), np.asarray(spectrum.error, float))
@@ -182,7 +185,12 @@ class SeismicResponse:
     def combine(self, rows: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(peaks, errors) of any outputs linear in the coordinates: ``rows`` (k × nv) maps the coordinates'
         displacements to the outputs; the modal values are combined by this result's rule."""
-        return self._rows(np.atleast_2d(np.asarray(rows, float)))
+        nv = self._rows.linear.nv
+        rows = np.atleast_2d(finite_array(rows, None, "response spectrum combine rows"))
+        if rows.ndim != 2 or rows.shape[1] != nv:
+            raise ModelError(f"response spectrum combine: rows must be k × {nv} (one column per coordinate), got "
+                             f"shape {rows.shape}")
+        return self._rows(rows)
 
     def point_displacement(self, points: list, direction: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(peaks, errors) (m) of the displacements of body points (names or (body, (x, y, z)) pairs) along
