@@ -27,7 +27,7 @@ from ..errors import ConvergenceError, ModelError
 from ..model.fd import tangent_derivative
 from ..solvers.continuation import Arclength, continuation
 from ..solvers.roots import bracketed_root, sign_changes, signs
-from ..solvers.tracking import mac, match
+from ..solvers.tracking import assign, mac
 
 
 @dataclass(frozen=True)
@@ -218,9 +218,12 @@ class Campbell:
                 elif g[i + 1] == 0:
                     s = b
                 else:
-                    s = self._crossing(refs, q0, a, b, f[i], f[i + 1], order,
-                                       max(self.error[i, j], self.error[i + 1, j]))
-                    if not a <= s <= b:  # the continuation left the bracket (|Ω| is even in Ω): Brent inside it
+                    try:
+                        s = self._crossing(refs, q0, a, b, f[i], f[i + 1], order,
+                                           max(self.error[i, j], self.error[i + 1, j]))
+                    except ConvergenceError:  # (a mode line far below the bracket's end: Ω = ω/μ bends sharply)
+                        s = np.nan
+                    if not a <= s <= b:  # the continuation left the bracket (|Ω| is even in Ω) or stalled: Brent
 
                         def h(x, refs=refs, q0=q0, near=0.5 * (f[i] + f[i + 1])):
                             sm = self.at(x, q0)
@@ -334,8 +337,9 @@ def campbell(system: Any, spin: str, speeds: ArrayLike, orders: ArrayLike = (1,)
         rows.append(row)
         q = row.q
     cols = [np.arange(rows[0].frequencies.size)]
-    for a, b in zip(rows[:-1], rows[1:]):
-        cols.append(_match(a, b, cols[-1]))
+    for r in range(1, len(rows)):
+        cols.append(track_columns(rows[r - 1], rows[r], cols[-1], rows[r - 2].frequencies[cols[-2]] if r > 1 else None,
+                           speeds[r - 2:r + 1]))
     freq = np.array([r.frequencies[c] for r, c in zip(rows, cols)])
     zeta = np.array([r.zeta[c] for r, c in zip(rows, cols)])
     whirl = np.array([r.whirl[c] for r, c in zip(rows, cols)])
@@ -353,7 +357,7 @@ def eigen_log_dec(sigma: ArrayLike, omega: ArrayLike, error: ArrayLike) -> tuple
     osc = omega > 0
     w = np.where(osc, omega, 1.0)
     still = np.where(sigma < -error, np.inf, np.where(sigma > error, -np.inf, 0.0))
-    delta = np.where(osc, -2 * np.pi * sigma / w, still)
+    delta = np.where(osc, -2 * np.pi * sigma / w, still) + 0.0  # (+ 0.0: no −0 for an undamped mode)
     delta_error = np.where(osc, 2 * np.pi * error * (1 / w + np.abs(sigma) / w**2), 0.0)
     return delta, delta_error
 
@@ -406,10 +410,20 @@ def motor_law(system, spin: str) -> str | None:
     return None
 
 
-def _match(a: SpeedModes, b: SpeedModes, cols_a: np.ndarray) -> np.ndarray:
-    """Columns of b in the order of a's tracked columns (:func:`vibdyn.solvers.tracking.match`: largest total
-    MAC, frequencies breaking ties between degenerate shapes)."""
-    return match(a.shapes[:, cols_a], b.shapes, a.frequencies[cols_a], b.frequencies)
+def track_columns(a: SpeedModes, b: SpeedModes, cols_a: np.ndarray, before: np.ndarray | None = None,
+           speeds: np.ndarray | None = None) -> np.ndarray:
+    """Columns of b in the order of a's tracked columns: the assignment of largest total MAC
+    (:func:`vibdyn.solvers.tracking.assign`), ties between shapes alike (a rotating frame's forward and backward
+    whirls at high spin have one shape) broken by the squared distance of b's frequencies to each tracked
+    mode's, extrapolated linearly from the two speeds before (``before``: their frequencies at ``speeds[0]``).
+    Two modes moving by the same amount tie in a sum of distances; their squares do not."""
+    fa = np.asarray(a.frequencies[cols_a], float)
+    if before is not None and speeds is not None and speeds.size == 3 and speeds[1] > speeds[0]:
+        fa = fa + (fa - np.asarray(before, float)) * (speeds[2] - speeds[1]) / (speeds[1] - speeds[0])
+    score = np.reshape(mac(a.shapes[:, cols_a], b.shapes), (cols_a.size, b.frequencies.size))
+    scale = max(np.abs(fa).max(initial=0.0), np.abs(b.frequencies).max(initial=0.0), 1e-300)
+    score = score - 1e-3 * ((fa[:, None] - b.frequencies[None, :]) / scale) ** 2
+    return assign(-score)[1]
 
 
 def pick(refs, sm: SpeedModes, oscillating: bool = True, near: float | None = None) -> int:

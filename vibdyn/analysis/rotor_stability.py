@@ -1,4 +1,5 @@
-"""Rotor stability and critical-speed maps from the Campbell machinery: the value of a parameter (a cross-coupled stiffness: API 684 level I) at which a mode's log decrement reaches
+"""Rotor stability and critical-speed maps from the Campbell machinery: the value of a parameter (a cross-coupled
+stiffness: API 684 level I) at which a mode's log decrement reaches
 zero, and the undamped critical speeds against a parameter (a bearing stiffness: API 684's map).
 
 A parameter is given either as a builder ``build(x) -> Scene | System`` (any scene change: a force law's
@@ -21,8 +22,7 @@ from numpy.typing import ArrayLike
 from .._check import finite_array
 from ..errors import ModelError
 from ..solvers.roots import bracketed_root, sign_changes, signs
-from ..solvers.tracking import match
-from .campbell_diagram import campbell, check_spin, coordinate_frame, hold, pick, speed_modes
+from .campbell_diagram import campbell, check_spin, coordinate_frame, hold, pick, speed_modes, track_columns
 
 
 # ------------------------------------------------------------------------------------- parameter studies
@@ -156,10 +156,11 @@ def stability_limit(model: Any, values: ArrayLike, spin: str, speed: float, para
     else:
         raise ModelError(f"{what}: mode must be 'forward', 'backward' or a mode number from 1 to "
                          f"{first.frequencies.size}, got {mode!r}")
-    picks = [k]
-    for a, b in zip(rows[:-1], rows[1:]):
-        cols = match(a.shapes, b.shapes, a.frequencies, b.frequencies)
-        picks.append(int(cols[picks[-1]]))
+    picks, cols = [k], [np.arange(first.frequencies.size)]
+    for r in range(1, len(rows)):
+        cols.append(track_columns(rows[r - 1], rows[r], cols[-1], rows[r - 2].frequencies[cols[-2]] if r > 1 else None,
+                                  values[r - 2:r + 1]))
+        picks.append(int(cols[-1][k]))
     dec = [r.log_dec() for r in rows]
     delta = np.array([d[0][p] for d, p in zip(dec, picks)])
     delta_err = np.array([d[1][p] for d, p in zip(dec, picks)])
@@ -178,8 +179,8 @@ def stability_limit(model: Any, values: ArrayLike, spin: str, speed: float, para
 
         limit, limit_error, _ = bracketed_root(f, float(values[i]), float(values[n]), (delta[i], delta_err[i]),
                                                (delta[n], delta_err[n]), f"{what} of mode {k + 1}")
-    return StabilityLimit(name, unit, spin, speed, values, delta, delta_err, omega, whirl, k + 1, limit, limit_error, frame,
-                          time.perf_counter() - start)
+    return StabilityLimit(name, unit, spin, speed, values, delta, delta_err, omega, whirl, k + 1, limit, limit_error,
+                          frame, time.perf_counter() - start)
 
 
 def _distinct(found: list) -> tuple:
@@ -198,7 +199,8 @@ class CriticalSpeedMap:
     """Undamped critical speeds against a parameter (see :func:`critical_speed_map`).
 
     ``values`` (n,) the parameter's values (SI); ``speeds`` (n × k) the 1st, 2nd, … critical speeds (rad/s)
-    at each value, ascending, each once (modes reaching one speed within their errors count once), a masked array (masked where fewer were found in the speed range); ``errors``
+    at each value, ascending, each once (modes reaching one speed within their errors count once), a masked array
+    (masked where fewer were found in the speed range); ``errors``
     alike (rad/s); ``critical`` the :class:`~vibdyn.analysis.campbell_diagram.CriticalSpeed` items per value;
     ``order`` the engine order; ``speed_range`` (rad/s) searched; ``elapsed`` s."""
 
@@ -224,7 +226,8 @@ class CriticalSpeedMap:
         return campbell_plot.critical_speed_map(self, path=path, units=units, dpi=dpi)
 
     def to_dict(self) -> dict:
-        return {"parameter": self.parameter, "unit": self.unit, "spin": self.spin, "order": self.order, "values": self.values.tolist(),
+        return {"parameter": self.parameter, "unit": self.unit, "spin": self.spin, "order": self.order,
+                "values": self.values.tolist(),
                 "critical_speeds_rad_s": [[c.speed for c in row] for row in self.critical],
                 "errors_rad_s": [[c.error for c in row] for row in self.critical],
                 "mode_numbers": [[c.number for c in row] for row in self.critical],

@@ -31,8 +31,10 @@ class DesignSpectrum:
     parameters: tuple  # ((name, value), ...)
     damping: float
 
-    def __call__(self, T: float) -> float:
-        T = float(T)
+    def __call__(self, T: float | np.ndarray) -> float | np.ndarray:
+        if np.ndim(T):  # periods of any shape: S_a of each, alike
+            return np.vectorize(self, otypes=[float])(np.asarray(T, dtype=object))
+        T = scalar(T, f"{self.code} spectrum: the period (s)")
         if not T >= 0:
             raise ModelError(f"{self.code} spectrum: the period must be ≥ 0 s, got {T!r}")
         p = dict(self.parameters)

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-
 from typing import Any
 
 import numpy as np
@@ -50,9 +49,13 @@ class Record:
         h = dt
         # exact integrals at the samples: v_{k+1} = v_k + h(a_k + a_{k+1})/2,
         # u_{k+1} = u_k + h v_k + h²(2a_k + a_{k+1})/6
-        v = np.concatenate([[0.0], np.cumsum(h * (a[:-1] + a[1:]) / 2)])
-        du = h * v[:-1] + h * h * (2 * a[:-1] + a[1:]) / 6
-        u = np.concatenate([[0.0], np.cumsum(du)])
+        with np.errstate(all="ignore"):
+            v = np.concatenate([[0.0], np.cumsum(h * (a[:-1] + a[1:]) / 2)])
+            du = h * v[:-1] + h * h * (2 * a[:-1] + a[1:]) / 6
+            u = np.concatenate([[0.0], np.cumsum(du)])
+        if not (np.all(np.isfinite(v)) and np.all(np.isfinite(u))):
+            raise ModelError(f"record: the ground's velocity or displacement overflows (dt = {dt:g} s, peak "
+                             f"{float(np.abs(a).max()):g} m/s²): check dt and the unit of the samples")
         for name, value in (("acceleration", a), ("dt", dt), ("direction", tuple(float(x) for x in d)),
                             ("start", start), ("_table", (a, v, u))):  # (_table: not a field, no key)
             object.__setattr__(self, name, value)
@@ -60,6 +63,12 @@ class Record:
     # the support-motion protocol (3-vectors along the direction) ---------------------------------
     def ground(self, t: float) -> tuple[float, float, float]:
         """(displacement m, velocity m/s, acceleration m/s²) of the ground along ``direction`` at t (s)."""
+        try:
+            t = float(t)
+        except (TypeError, ValueError):
+            raise ModelError(f"record: the time must be a number (s), got {t!r}") from None
+        if not math.isfinite(t):
+            raise ModelError(f"record: the time must be finite (s), got {t!r}")
         a, v, u = self._table  # type: ignore[attr-defined]
         n = a.size
         s = (t - self.start) / self.dt
@@ -140,6 +149,8 @@ class Record:
         lines before the numbers are skipped. ``unit``: that of the accelerations, one of "m/s^2", "g", "cm/s^2",
         "mm/s^2". Refused: an empty file, NaN or inf, rows of unequal length, non-uniform time steps (the step
         must be constant to 1e-6 of itself), a ``dt`` that contradicts the time column."""
+        if not isinstance(path, (str, os.PathLike)):
+            raise ModelError(f"record file: expected a path (str or os.PathLike), got {type(path).__name__} {path!r}")
         what = f"record file '{os.fspath(path)}'"
         if unit not in UNITS:
             raise ModelError(f"{what}: unknown unit {unit!r} (one of {', '.join(UNITS)})")

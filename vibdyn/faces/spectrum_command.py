@@ -65,16 +65,18 @@ def design(text, damping):
     from ..description.design_spectra import G, asce7, eurocode8
 
     parts = text.split(":")
-    try:
-        if parts[0].lower() == "ec8" and len(parts) in (3, 4):
-            s = eurocode8(float(parts[1]) * G, parts[2], int(parts[3]) if len(parts) == 4 else 1, damping)
-        elif parts[0].lower() == "asce7" and len(parts) in (3, 4):
-            s = asce7(*(float(x) for x in parts[1:]))
+    code = parts[0].lower()
+    try:  # the text's form here; the values' own refusals (ground type, a_g, damping) from the codes' builders
+        if code == "ec8" and len(parts) in (3, 4):
+            values = (float(parts[1]) * G, parts[2], int(parts[3]) if len(parts) == 4 else 1)
+        elif code == "asce7" and len(parts) in (3, 4):
+            values = tuple(float(x) for x in parts[1:])
         else:
             raise ValueError
     except ValueError:
         raise ModelError(f"--design: expected ec8:AG:GROUND[:TYPE] (e.g. ec8:0.25:C) or asce7:SDS:SD1[:TL] "
                          f"(e.g. asce7:1.0:0.6:8), got '{text}'") from None
+    s = eurocode8(*values, damping) if code == "ec8" else asce7(*values)
     return s, s.describe()
 
 

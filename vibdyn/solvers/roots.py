@@ -14,8 +14,8 @@ def bracketed_root(f: Callable[[float], tuple[tuple[float, float], Any]], a: flo
                    fa: tuple[float, float], fb: tuple[float, float], what: str) -> tuple[float, float, Any]:
     """(x, its error, the extra at x): the root in [a, b] of ``f(x) -> ((value, value error), extra)`` with
     ``fa``, ``fb`` its (value, error) at the ends (of opposite signs), by Brent's method to 1e-12 of the bracket's
-    scale. The error: Brent's tolerance plus the value's error at the root over the slope of the evaluation
-    nearest it (at most the bracket's width)."""
+    scale. The error: Brent's tolerance plus the value's error at the root over the slope to the evaluation
+    nearest it whose value differs from the root's beyond both their errors (at most the bracket's width)."""
     from scipy.optimize import brentq
 
     seen = {a: (fa, None), b: (fb, None)}
@@ -40,8 +40,12 @@ def bracketed_root(f: Callable[[float], tuple[tuple[float, float], Any]], a: flo
         raise ConvergenceError(f"{what}: no continuous crossing in [{a:g}, {b:g}]: the value jumps there "
                                f"({value:.3g} at {x:.10g}, error {error:.1e}); give more points in that interval",
                                residual=abs(value), best=x)
+    # the slope from the nearest evaluation whose difference from the root's value is well outside both their
+    # errors: Brent's last points lie within xtol of the root, where the difference is the values' noise
+    # (a slope 1e3 × too steep there made the root's error 1e3 × too small)
     others = sorted((p for p in seen if p != x), key=lambda p: abs(p - x))
-    slope = abs((seen[others[0]][0][0] - value) / (others[0] - x))
+    clear = [p for p in others if abs(seen[p][0][0] - value) > 10 * (error + seen[p][0][1])] or others[-1:]
+    slope = abs((seen[clear[0]][0][0] - value) / (clear[0] - x))
     bound = error / slope if slope > 0 else abs(b - a)
     return x, float(min(bound, abs(b - a)) + 2 * xtol + 8 * np.finfo(float).eps * abs(x)), extra
 
