@@ -84,10 +84,7 @@ def test_nonlinear_command_on_model(model, argv):
 # or exit 2 with one line naming the cause (a model with rigid modes has no response spectrum, a slider no spin)
 RECORD = "\n".join(str(x) for x in [0.0, 1.0, -2.0, 3.0, -1.0, 0.5, 0.0] * 20)
 # (model, command) -> why it is expected to fail today (strict: the mark goes when the fault is fixed)
-KNOWN = {("andrews_squeezer", "campbell"): "constrained steady motion: numpy 'zero-size array' (vibdyn/analysis/"
-                                           "constrained.py, the loops' owner; reported by the probe)",
-         ("rod_ball", "campbell"): "a ball's held spin rod.rx: the analytic K and C disagree with differences by "
-                                   "9e13 × their estimate (the analytic path's owner; reported by the probe)"}
+KNOWN: dict = {}  # (both the probe's reports are fixed: the one equilibrium search, the analytic guard)
 
 
 def argv_new(command, path, tmp):
