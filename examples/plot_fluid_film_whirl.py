@@ -73,3 +73,9 @@ assert onset.whirl == "forward" and abs(onset.omega / onset.speed - 0.5) < 1e-6
 # %%
 # The picture for a report: speeds in rpm, frequencies in Hz, the unstable stretch marked.
 diagram.plot("fluid_film_campbell.png", units="rpm")
+
+# %%
+# The two whirling modes at 450 rad/s, past the onset (the forward one growing), in the viewer
+modes = rotor.steady_motion({"disk": 450.0}).linearize(hold="disk").modes()
+print(modes)
+vd.export_html(modes, "viewer_fluid_film_whirl.html")

@@ -110,3 +110,23 @@ def test_orbit_and_multipliers_against_scipy_shooting(name, at):
     reference = 1e-12  # (the reference's own error: rtol 1e-13 over a period)
     assert np.all(err <= orbit.multiplier_error + reference)
     assert orbit.multiplier_error.max() <= 20 * max(err.max(), reference)
+
+
+def test_a_unit_at_rest_on_the_orbit_keeps_its_scale():
+    """The shaken pendulum held upright (an exact orbit of the forced scene: the pendulum never moves, the cart
+    does): the flows' scale of the pendulum is its own 1 rad, not the round-off it "moves" by in a run (rtol of
+    1e-17 rad made the Kapitza example's flows take hours), while the moving cart keeps its motion's size."""
+    from types import SimpleNamespace
+
+    from vibdyn.analysis.nonlinear.shooting import flow_scales
+
+    system = vd.load_scene("shaken_pendulum").build()
+    t = np.linspace(0.0, 0.09, 50)
+    cart, pend = system.coordinate_index("cart"), system.coordinate_index("pend")
+    q = np.array([system.configuration([0.01 * np.sin(70 * s), np.pi]) for s in t])
+    q[:, system.body_info("pend").idx_q] += 1e-17 * np.cos(3 * t)  # (round-off)
+    v = np.zeros((t.size, system.nv))
+    v[:, cart] = 0.7 * np.cos(70 * t)
+    scales = flow_scales(system, SimpleNamespace(t=t, q=q, v=v), 70.0, relative=False)
+    assert scales[pend] == system.coordinate_scales[pend]
+    assert scales[cart] == pytest.approx(0.01, rel=1e-3)

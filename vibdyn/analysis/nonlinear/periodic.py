@@ -282,12 +282,12 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
         if first is None or k != 1:
             # the flows' tolerances are rtol of the motion's size, measured first by a loose run
             loose = Flow(system, q_start, v_start, rtol=max(rtol, SCALE_RTOL), max_step=max_step)
-            fs = flow_scales(system, loose(q_start, v_start, t0, t0 + span), omega)
+            fs = flow_scales(system, loose(q_start, v_start, t0, t0 + span), omega, autonomous)
             trial = Shooting(system, t0, span, False, 1, omega, rtol, max_step=max_step, flow_scales=fs)
             first = trial.flows(trial.pack([nodes[0]]), full=True)[0]
             kinetic = float(np.max(first.kinetic))
         else:
-            fs = flow_scales(system, first, omega)
+            fs = flow_scales(system, first, omega, autonomous)
             kinetic = max(system.energy(q, v, t).kinetic for q, v, t in zip(first.q, first.v, first.t)) if cons else 0.0
     except SimulationError as e:
         raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "

@@ -41,6 +41,7 @@ RCOND = 1e-10  # singular values of the scaled Jacobian below this (relative) ar
 MIN_ALPHA = 1.0 / 32  # the line search's shortest step: below it the flows' noise decides, not the model
 STEP_CAP = 1.0  # largest Newton step per scaled unknown (1 rad, one length scale, T/2π)
 ROUNDOFF = 16.0  # ulps of the energy's terms: its round-off
+STILL = 1e-6  # a unit's coordinates moving less than this × their scales (motion_scales) are at rest
 RESOLVED = 1e-3  # the flows resolve a coordinate to rtol of at least this × the largest motion of its unit
 SCALE_RTOL = 1e-6  # the loose run that sizes the motion before the first flow (its steps cost little)
 CHECK_STEP = 3e-5  # the transitions' check: flows from the nodes moved by this (and twice this) of the scales
@@ -461,20 +462,22 @@ def motion_scales(system, run, omega, relative=False):
     return np.maximum(cs * (rho if rho > 0 else 1.0), moves)
 
 
-def flow_scales(system, run, omega) -> np.ndarray:
+def flow_scales(system, run, omega, relative=True) -> np.ndarray:
     """Per tangent coordinate, the size of its motion in ``run`` (m or rad: |Δq| from the start, |v|/ω), at least
     RESOLVED × the largest motion of the coordinates of its unit: what the flows' absolute tolerance is rtol of. The
-    scene's own scales enter only where nothing of that unit moves (ρ times them, ρ the motion's fraction of
-    them, as :func:`motion_scales` takes it)."""
+    scene's own scales enter only where nothing of that unit moves beyond STILL × them (ρ times them with
+    ``relative``, an autonomous orbit: ρ the motion's fraction of them, as :func:`motion_scales` takes it)."""
     q0 = run.q[0]
     dq = np.abs([system.difference(q0, q) for q in run.q]).max(axis=0)
     moves = np.maximum(dq, np.abs(run.v).max(axis=0) / omega)
-    out = motion_scales(system, run, omega, relative=True)
+    out = motion_scales(system, run, omega, relative=relative)
     units = np.asarray(system.units)
     for unit in set(units.tolist()):
         kind = units == unit
         largest = float(moves[kind].max(initial=0.0))
-        if largest > 0:
+        # (a unit at rest on the orbit, the shaken pendulum upright, "moves" by round-off: a tolerance of rtol ×
+        # round-off would never let a step pass)
+        if largest > STILL * float(out[kind].max()):
             out[kind] = np.maximum(moves[kind], RESOLVED * largest)
     return out
 
