@@ -49,8 +49,24 @@ class SpeedModes:
         return eigen_log_dec(self.sigma, self.frequencies, self.error)
 
 
+class _ModeAtSpeed:
+    """What a critical speed and an onset share: the mode's number and the speed in rpm."""
+
+    mode: int
+    speed: float
+
+    @property
+    def number(self) -> int:
+        """The mode's number as tables and pictures give it (from 1): ``mode + 1``."""
+        return self.mode + 1
+
+    @property
+    def speed_rpm(self) -> float:
+        return self.speed * 30.0 / np.pi
+
+
 @dataclass(frozen=True)
-class CriticalSpeed:
+class CriticalSpeed(_ModeAtSpeed):
     """A speed (rad/s) where a mode of the diagram has the frequency ``order`` × speed: mode ``number`` as tables,
     legends and JSON number them (from 1, ascending ω at the first speed), ``mode`` = ``number`` − 1 its column of
     the diagram's arrays (``omega[:, mode]``, 0-based as Python indexes)."""
@@ -63,22 +79,13 @@ class CriticalSpeed:
     error: float  # estimated absolute error of the speed (rad/s)
     frequency = Renamed("omega")
 
-    @property
-    def number(self) -> int:
-        """The mode's number as tables and pictures give it (from 1): ``mode + 1``."""
-        return self.mode + 1
-
-    @property
-    def speed_rpm(self) -> float:
-        return self.speed * 30.0 / np.pi
-
     def __repr__(self) -> str:
         return (f"CriticalSpeed({self.speed:.8g} rad/s = {self.speed_rpm:.6g} rpm, mode {self.number}, "
                 f"{self.whirl or 'no'} whirl, order {self.order:g})")
 
 
 @dataclass(frozen=True)
-class Onset:
+class Onset(_ModeAtSpeed):
     """A speed (rad/s) where mode ``number`` (from 1; ``mode`` its 0-based column) has Re λ = 0: ``kind``
     "instability" (unstable above it) or "stability" (stable above it); ``omega`` its |Im λ| there (rad/s, in
     the diagram's frame), ``whirl`` its whirl there, ``speed_error`` the estimated error of the speed (rad/s)."""
@@ -89,15 +96,6 @@ class Onset:
     whirl: str
     omega: float
     kind: str
-
-    @property
-    def number(self) -> int:
-        """The mode's number as tables and pictures give it (from 1): ``mode + 1``."""
-        return self.mode + 1
-
-    @property
-    def speed_rpm(self) -> float:
-        return self.speed * 30.0 / np.pi
 
     def __repr__(self) -> str:
         return (f"Onset({self.kind} at {self.speed:.8g} ± {self.speed_error:.1e} rad/s = {self.speed_rpm:.6g} rpm, "
