@@ -60,7 +60,8 @@ def _objects():
             "CriticalSpeed": vd.CriticalSpeed(3.0, 1, "forward", 1.0, 3.0, 1e-9), "LinearModel": lin,
             "Modes": modes, "FRF": frf, "HarmonicResponse": lin.harmonic_response(2.0, [1.0], ["m1"], ["m1"]),
             "StateSpace": lin.state_space(["m1"], ["m1"]), "Sensitivity": modes.sensitivity(["k1.stiffness"]),
-            "Peaks": frf.peaks(), "OperatingPoint": op, "System": system}
+            "Peaks": frf.peaks(), "OperatingPoint": op, "System": system,
+            "Reduction": vd.load_scene("four_bar").build().reduction}
 
 
 def _same(a, b):
