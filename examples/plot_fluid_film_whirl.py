@@ -1,6 +1,6 @@
 """
 A rigid rotor on tabulated fluid-film bearing coefficients: the onset of oil whirl
-=================================================================================
+==================================================================================
 
 A disk (m = 2 kg) spins about z on a journal bearing whose eight coefficients come, as a bearing code gives
 them, as a table against the spin speed Ω (rad/s). The table here follows the classic "half-frequency" model of

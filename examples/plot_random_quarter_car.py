@@ -38,7 +38,7 @@ print(f"tyre load {tyre:.1f} N rms: {tyre / (285.0 * 9.81):.1%} of the static lo
 
 # %%
 # An independent check in the road's own variable: the body's acceleration variance
-# ∫ |ω² H_body(ω)|² G_d(n) dn over the spatial band, ω = 2π n V, with H from the matrices by hand and scipy's
+# ∫ \|ω² H_body(ω)\|² G_d(n) dn over the spatial band, ω = 2π n V, with H from the matrices by hand and scipy's
 # quad — no temporal PSD in sight, so the conversion G(f) = G_d(n)/V is checked too.
 ms, mu, ks, kt, cs = 250.0, 35.0, 16000.0, 160000.0, 1000.0
 M = np.diag([mu, ms])

@@ -284,7 +284,7 @@ class Reduction:
 
     def derivative(self, q, ind, N, reduced, tree, h, start: str = "an iterate") -> np.ndarray:
         """∂ρ/∂z at q (n × n, columns: ``ind``) of the reduced forces ρ = N(q)ᵀ r(q) as the independent
-        coordinates move: without loops Nᵀ ``tree``(q) N (N constant: ``tree`` the nv × nv ∂r/∂q); with loops central
+        coordinates move: without loops Nᵀ ``tree(q)`` N (N constant: ``tree`` the nv × nv ∂r/∂q); with loops central
         differences of ``reduced`` (q ↦ ρ, N re-evaluated there, same ``ind``) through :meth:`step`, steps
         ``h`` (nv, per tangent coordinate) at ``ind``."""
         if self._loops is None:
@@ -359,15 +359,15 @@ class Reduction:
         return a0
 
     def linear_model(self, tree, reduced):
-        """The linear model in this reduction's coordinates: ``tree``() where it is the identity (a tree with
-        nothing held: the tree's own model, nv × nv), else ``reduced``(self) (in the independent coordinates)."""
+        """The linear model in this reduction's coordinates: ``tree()`` where it is the identity (a tree with
+        nothing held: the tree's own model, nv × nv), else ``reduced(self)`` (in the independent coordinates)."""
         return tree() if self.is_identity else reduced(self)
 
     def reduce_model(self, ind, N, tree, moving, moving_terms) -> tuple:
         """(M_r, C_r, K_r, K_error, C_error, K_error_terms) of the tree's linear model ``tree`` (nv × nv) in the
         independent coordinates ``ind`` (basis N): without loops its block at ind (N the identity's columns);
         with loops NᵀAN (errors through |N|; M_r symmetrised), or, about a motion (``moving``) where N depends on
-        q, ``moving_terms``() = (K_r, C_r, K_error, C_error) from the reduced equations themselves (and no
+        q, ``moving_terms()`` = (K_r, C_r, K_error, C_error) from the reduced equations themselves (and no
         error terms: None)."""
         if self._loops is None:
             ii = np.ix_(ind, ind)
