@@ -157,10 +157,9 @@ def test_a_change_point_four_bar_is_refused_at_its_singular_nearest_closure(tmp_
     assert system.dof == 1 and system.constraints.closed[1].startswith("the declared start")
 
 
-def test_a_spatial_linkage_with_a_ball_joint_assembles_at_a_local_nearest_closure():
-    """RSSR (crank pivot, coupler on a ball joint: a quaternion, rocker pivot about y, ball loop): the assembly
-    works in the tangent space of the ball joint; its closure is a unit quaternion on the loops, and the
-    closures beside it along ± each motion the loops allow are farther from the described pose."""
+def rssr():
+    """RSSR: a crank pivot, a coupler on a ball joint (a quaternion), a rocker pivot about y, a ball loop:
+    mobility 2 (the coupler spins about its own axis)."""
     s = vd.Scene("rssr", gravity=(0, -9.81, 0))
     s.add_body("crank", joint=vd.Pivot((0, 0, 1)), mass=1.0, com=(0.05, 0, 0), inertia=np.diag([1e-4, 1e-3, 1e-3]))
     s.add_body("coupler", parent="crank", joint=vd.Ball(at=(0.1, 0, 0)), mass=0.5, com=(0.15, 0, 0),
@@ -168,7 +167,14 @@ def test_a_spatial_linkage_with_a_ball_joint_assembles_at_a_local_nearest_closur
     s.add_body("rocker", joint=vd.Pivot((0, 1, 0), at=(0.3, 0, 0.05)), mass=0.8, com=(0.125, 0, 0),
                inertia=np.diag([1e-4, 4e-3, 4e-3]))
     s.add_loop("S", ("coupler", (0.3, 0, 0)), ("rocker", (0.25, 0, 0)), joint=vd.Ball())
-    system = s.build()
+    return s
+
+
+def test_a_spatial_linkage_with_a_ball_joint_assembles_at_a_local_nearest_closure():
+    """RSSR (crank pivot, coupler on a ball joint: a quaternion, rocker pivot about y, ball loop): the assembly
+    works in the tangent space of the ball joint; its closure is a unit quaternion on the loops, and the
+    closures beside it along ± each motion the loops allow are farther from the described pose."""
+    system = rssr().build()
     a = system.constraints.assembly()
     assert a.dof == system.dof == 2 and a.distance > 0.1  # (the coupler's spin about its own axis is free)
     quaternion = a.q[1:5]

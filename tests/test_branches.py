@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from conftest import MODELS
 from scipy.optimize import minimize_scalar
+from test_assembly import rssr  # (the spatial linkage of that file)
 
 import vibdyn as vd
 from vibdyn.defaults import ASSEMBLY_TOL
@@ -166,14 +167,7 @@ def test_a_slider_crank_drawn_open_assembles_at_the_nearest_of_both_branches(alp
 def test_a_closure_of_a_two_mobility_linkage_is_not_called_nearest():
     """With mobility 2 (RSSR: the coupler spins about its own axis) the closures form surfaces, which are not
     traced: the assembly names its closure 'a closure found near the neutral configuration' and says why."""
-    s = vd.Scene("rssr", gravity=(0, -9.81, 0))
-    s.add_body("crank", joint=vd.Pivot((0, 0, 1)), mass=1.0, com=(0.05, 0, 0), inertia=np.diag([1e-4, 1e-3, 1e-3]))
-    s.add_body("coupler", parent="crank", joint=vd.Ball(at=(0.1, 0, 0)), mass=0.5, com=(0.15, 0, 0),
-               inertia=np.diag([1e-4, 4e-3, 4e-3]))
-    s.add_body("rocker", joint=vd.Pivot((0, 1, 0), at=(0.3, 0, 0.05)), mass=0.8, com=(0.125, 0, 0),
-               inertia=np.diag([1e-4, 4e-3, 4e-3]))
-    s.add_loop("S", ("coupler", (0.3, 0, 0)), ("rocker", (0.25, 0, 0)), joint=vd.Ball())
-    system = s.build()
+    system = rssr().build()
     a = system.constraints.assembly()
     assert a.dof == 2 and not a.nearest and "nearest" not in a.where
     assert system.constraints.closed[1] == a.where == "a closure found near the neutral configuration"

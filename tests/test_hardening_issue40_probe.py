@@ -8,13 +8,11 @@ import io
 
 import numpy as np
 import pytest
+from test_rotor_stability import WN, K, M, fixed_rotor, spun_hub  # (the Jeffcott rotors of that file)
 
 import vibdyn as vd
 from vibdyn.errors import ModelError
 from vibdyn.faces.cli import main
-
-M, K = 2.0, 800.0
-WN = np.sqrt(K / M)
 
 
 # ----------------------------------------------------------------------------- record spectra
@@ -105,21 +103,6 @@ def test_record_refuses_non_numbers(call):
 
 
 # ----------------------------------------------------------------------------- Campbell at high spin
-def spun_hub(cr, cn):
-    """Jeffcott on a spun hub (as tests/test_rotor_stability.py): coordinates in the rotating frame, rotating
-    damping c_r, non-rotating c_n; the onset is Ω_th = ω_n (1 + c_n / c_r)."""
-    s = vd.Scene("jeffcott")
-    s.add_body("hub", joint=vd.Pivot(axis=(0, 0, 1)), mass=1.0, inertia=np.diag([.01, .01, .02]))
-    s.add_body("u", parent="hub", joint=vd.Slider(axis=(1, 0, 0)), mass=0.0)
-    s.add_body("disk", parent="u", joint=vd.Slider(axis=(0, 1, 0)), mass=M)
-    for b in ("u", "disk"):
-        s.add_joint_spring(b, K)
-        s.add_joint_damper(b, cr)
-    s.add_damper("cnx", ("world", (1.0, 0, 0)), ("disk", (0, 0, 0)), cn)
-    s.add_damper("cny", ("world", (0, 1.0, 0)), ("disk", (0, 0, 0)), cn)
-    return s
-
-
 def test_campbell_tracks_whirls_of_one_shape_at_high_spin_and_finds_jeffcotts_onset():
     """Above Ω = ω_n a rotating frame's forward and backward modes have one shape (MAC 1) and move by the same
     amount: the sum of frequency distances tied and the columns swapped at every other speed (σ and δ of two
@@ -141,13 +124,7 @@ def test_campbell_tracks_whirls_of_one_shape_at_high_spin_and_finds_jeffcotts_on
 
 
 def test_undamped_log_decrement_is_plus_zero():
-    s = vd.Scene("undamped")
-    s.add_body("x", joint=vd.Slider(axis=(1, 0, 0)), mass=0.0)
-    s.add_body("y", parent="x", joint=vd.Slider(axis=(0, 1, 0)), mass=0.0)
-    s.add_body("disk", parent="y", joint=vd.Pivot(axis=(0, 0, 1)), mass=M, inertia=np.diag([.01, .01, .02]))
-    for b in ("x", "y"):
-        s.add_joint_spring(b, K)
-    d = vd.campbell(s.build(), "disk", [0.0, 100.0])
+    d = vd.campbell(fixed_rotor(c=0.0).build(), "disk", [0.0, 100.0])
     assert np.all(d.log_dec == 0) and not np.any(np.signbit(d.log_dec))  # "-0" in tables and JSON before
 
 
@@ -210,22 +187,12 @@ def test_a_tuple_of_periods_and_accelerations_is_two_rows():
     assert r.spectral_acceleration[0] == pytest.approx(5.0 - 2.0 * T, rel=1e-12)
 
 
-def _isotropic(k):
-    s = vd.Scene("isotropic rotor")
-    s.add_body("x", joint=vd.Slider(axis=(1, 0, 0)), mass=0.0)
-    s.add_body("y", parent="x", joint=vd.Slider(axis=(0, 1, 0)), mass=0.0)
-    s.add_body("disk", parent="y", joint=vd.Pivot(axis=(0, 0, 1)), mass=M, inertia=np.diag([.01, .01, .02]))
-    s.add_joint_spring("x", k)
-    s.add_joint_spring("y", k)
-    return s
-
-
 @pytest.mark.parametrize("values, top", [([100.0, 1e3, 1e4], 200.0), ([1e-2, 1e10], 2e5)])
 def test_critical_speed_map_of_an_isotropic_rotor_is_sqrt_k_over_m(values, top):
     """A critical speed far below its bracket's end (ω_n = 7.07 rad/s in [0, 25]) stalled the continuation in μ
     ('50 steps taken'): the map of the textbook Jeffcott ended in a ConvergenceError; Brent's method inside the
     bracket now takes over."""
-    m = vd.critical_speed_map(_isotropic, values, "disk", np.linspace(0.0, top, 9))
+    m = vd.critical_speed_map(lambda k: fixed_rotor(c=0.0, k=k), values, "disk", np.linspace(0.0, top, 9))
     for k, row, err in zip(values, m.speeds, m.errors):
         exact = np.sqrt(k / M)
         assert row.count() == 1  # the x and y modes reach one speed: counted once

@@ -17,16 +17,17 @@ M, K = 2.0, 800.0
 WN = np.sqrt(K / M)
 
 
-def fixed_rotor(c=4.0, q=0.0, m=M):
+def fixed_rotor(c=4.0, q=0.0, m=M, k=K):
     """A disk on two sliders of the ground (its coordinates in the fixed frame), spinning on a pivot: k, c in x
-    and y, and a cross-coupled stiffness q (F_x = −q y, F_y = +q x) as a force law."""
+    and y (no damper where c = 0), and a cross-coupled stiffness q (F_x = −q y, F_y = +q x) as a force law."""
     s = vd.Scene("fixed jeffcott")
     s.add_body("x", joint=vd.Slider(axis=(1, 0, 0)), mass=0.0)
     s.add_body("y", parent="x", joint=vd.Slider(axis=(0, 1, 0)), mass=0.0)
     s.add_body("disk", parent="y", joint=vd.Pivot(axis=(0, 0, 1)), mass=m, inertia=np.diag([.01, .01, .02]))
     for b in ("x", "y"):
-        s.add_joint_spring(b, K)
-        s.add_joint_damper(b, c)
+        s.add_joint_spring(b, k)
+        if c:
+            s.add_joint_damper(b, c)
     if q:
         s.add_force("cross", "disk", force=lambda t, qq, v: np.array([-q * qq[1], q * qq[0], 0.0]))
     return s
