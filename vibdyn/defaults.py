@@ -18,3 +18,5 @@ RTOL = 1e-8
 RANK_RTOL = 1e-9
 #: assembly tolerance: dimensionless residual (positions / length scale, angles in rad)
 ASSEMBLY_TOL = 1e-12
+#: rpm per rad/s (30/π): speeds shown in rpm
+RPM = 30.0 / np.pi

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike
 from .._check import finite_array
 from .._deprecation import Renamed
 from .._format import number
+from ..defaults import RPM
 from ..errors import ConvergenceError, ModelError
 from ..model.fd import tangent_derivative
 from ..solvers.continuation import Arclength, continuation
@@ -62,7 +63,7 @@ class _ModeAtSpeed:
 
     @property
     def speed_rpm(self) -> float:
-        return self.speed * 30.0 / np.pi
+        return self.speed * RPM
 
 
 @dataclass(frozen=True)

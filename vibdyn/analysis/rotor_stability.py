@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._check import finite_array
+from ..defaults import RPM
 from ..errors import ModelError
 from ..solvers.roots import bracketed_root, sign_changes, signs
 from .campbell_diagram import campbell, check_spin, coordinate_frame, hold, pick, speed_modes, track_columns
@@ -217,7 +218,7 @@ class CriticalSpeedMap:
 
     @property
     def speeds_rpm(self) -> np.ma.MaskedArray:
-        return self.speeds * 30.0 / np.pi
+        return self.speeds * RPM
 
     def plot(self, path: str | None = None, dpi: int = 100, *, units: str = "rad/s") -> Any:
         """The map, log-log: each critical speed (rad/s or rpm: ``units``) against the parameter."""

@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike
 
 from .._check import finite_array
 from .._format import number
+from ..defaults import RPM
 from ..errors import ConvergenceError, ModelError
 from ..model.fd import point_jacobian
 
@@ -71,7 +72,7 @@ class Peak:
 
     @property
     def speed_rpm(self) -> float:
-        return self.speed * 30.0 / np.pi
+        return self.speed * RPM
 
     def __repr__(self) -> str:
         af = "no amplification factor (a half-power point outside the speeds)" if self.amplification is None else \
@@ -141,7 +142,7 @@ class UnbalanceResponse:
 
     @property
     def speeds_rpm(self) -> np.ndarray:
-        return self.speeds * 30.0 / np.pi
+        return self.speeds * RPM
 
     def column(self, output: Any) -> int:
         """The column of an output, by label or index."""

@@ -5,6 +5,7 @@ import sys
 import numpy as np
 
 from .._format import number, table
+from ..defaults import RPM
 from ..errors import ModelError
 
 
@@ -39,7 +40,7 @@ def command(system, args, out=None):
         raise ModelError(f"--orders: expected numbers separated by commas, got '{args.orders}'") from None
     held = False if getattr(args, "free_spin", False) else None
     unit = "rpm" if getattr(args, "rpm", False) else "rad/s"
-    k = 30.0 / np.pi if unit == "rpm" else 1.0  # rad/s -> the unit shown
+    k = RPM if unit == "rpm" else 1.0  # rad/s -> the unit shown
     c = campbell(system, args.spin, speed_list(args.speeds, unit) / k, orders, method=args.method, held=held)
     from .nonlinear_command import write_files  # the picture after the table: a failure to write it keeps the table
 

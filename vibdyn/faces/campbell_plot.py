@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..defaults import RPM
 from ..errors import ModelError
 from .plots import figure, save
 
-SPEED_UNITS = {"rad/s": 1.0, "rpm": 30.0 / np.pi}
+SPEED_UNITS = {"rad/s": 1.0, "rpm": RPM}
 FREQUENCY_UNITS = {"Hz": 1.0 / (2 * np.pi), "rad/s": 1.0}
 WHIRL_STYLES = {"forward": "-", "backward": "--", "": ":"}
 
@@ -123,7 +124,7 @@ def stability_limit(limit, *, path=None, dpi=100):
     ax.set_xlabel(f"{limit.parameter} ({limit.unit})" if limit.unit else limit.parameter)
     frame = "" if limit.frame == "fixed" else f", Im λ in the {limit.frame} frame"
     ax.set_ylabel(f"log decrement δ = −2π Re λ/|Im λ|{frame}")
-    ax.set_title(f"stability at {limit.spin} = {limit.speed:.5g} rad/s ({limit.speed * 30 / np.pi:.5g} rpm)",
+    ax.set_title(f"stability at {limit.spin} = {limit.speed:.5g} rad/s ({limit.speed * RPM:.5g} rpm)",
                  fontsize="medium")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8, loc="best")

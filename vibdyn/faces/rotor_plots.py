@@ -5,22 +5,14 @@ Each function returns the matplotlib ``Figure``, saved as a PNG at ``path`` when
 
 import numpy as np
 
-from ..errors import ModelError
+from .campbell_plot import SPEED_UNITS, unit_factor
 from .plots import figure, save
-
-_SPEED_UNITS = {"rad/s": 1.0, "rpm": 30.0 / np.pi}
-
-
-def _speed_scale(units):
-    if units not in _SPEED_UNITS:
-        raise ModelError(f"speed units must be one of {', '.join(_SPEED_UNITS)}, got {units!r}")
-    return _SPEED_UNITS[units]
 
 
 def bode(response, path=None, outputs=None, *, units="rad/s", peak_to_peak=False, dpi=100):
     """Amplitude (log scale, 0-peak or peak-to-peak, with its error band) and phase (degrees) of each output
     against the spin speed (``units`` "rad/s" or "rpm"); resonance peaks marked on the amplitude."""
-    scale = _speed_scale(units)
+    scale = unit_factor(units, SPEED_UNITS, "UnbalanceResponse.plot units (the speed axis)")
     cols = range(len(response.outputs)) if outputs is None else [response.column(o) for o in (
         [outputs] if isinstance(outputs, (str, int)) else outputs)]
     fig, ax = figure(2, 1, size=(7.0, 6.0), sharex=True)
