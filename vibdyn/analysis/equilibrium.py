@@ -109,8 +109,8 @@ class OperatingPoint:
         return "\n".join([head] + ["  " + line for line in table(cols, rows)])
 
 
-
 Equilibrium = OperatingPoint  # (the former name: a static equilibrium is one kind of operating point)
+
 
 def static_equilibrium(system, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
     """Static equilibrium near ``q0`` (neutral if None; with loops the system's start, and q0 need not close
@@ -130,8 +130,6 @@ def static_configuration(system, equilibrium: Any, what: str) -> np.ndarray:
             raise ModelError(f"{what}: equilibrium must be a static one, got a {equilibrium.regime} operating point")
         return np.array(equilibrium.q, dtype=float)
     return np.array(system.equilibrium(equilibrium).q, dtype=float)
-
-
 
 
 def steady_motion(system, v_cyclic, q0=None, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER, guess=1.0):
@@ -253,8 +251,6 @@ def equilibria(system, starts, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
     if not found:
         raise ConvergenceError("equilibria: no start converged", residual=None, best=None)
     return sorted(found, key=lambda e: system.energy(e.q, e.v).potential)
-
-
 
 
 def held(system, q=None, v=None, t=0.0):
