@@ -92,6 +92,8 @@ def test_a_builder_returning_a_system_is_accepted_as_sweep_accepts_it():
     (lambda: vd.sensitivity(lambda k1: None, {"k1": 1.0}), "it returned NoneType"),
     (lambda: vd.sensitivity(lambda k1: 3.0, {"k1": 1.0}), "must return a Scene or a System, it returned float"),
     (lambda: vd.update(lambda k1: None, {"k1": 1.0}, [17.0]), "it returned NoneType"),
+    (lambda: vd.sensitivity(lambda k1: [][1], {"k1": 1.0}), "the builder <lambda> failed at k1 = 1.0: IndexError"),
+    (lambda: vd.update(lambda k1: {}["m"], {"k1": 1.0}, [17.0]), "failed at k1 = 1.0: KeyError"),
     (lambda: vd.update(_chain, {"k1": "abc"}, [17.0]), "start: parameter 'k1': expected a number"),
     (lambda: vd.update(_chain, {"k1": 900.0}, "abc"), "measured \\(rad/s\\) must be a list of numbers, got 'abc'"),
     (lambda: vd.update(_chain, {"k1": 900.0}, [17.0], max_iter=0), "max_iter .*must be ≥ 1, got 0"),

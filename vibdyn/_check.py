@@ -264,6 +264,18 @@ def call_user(fn, args, what, t):
 
 
 # ---------------------------------------------------------------------------------------------- builders
+def call_builder(build, args, kwargs, what, at):
+    """build(*args, **kwargs), a user's builder: any exception inside it (but vibdyn's own, which already names
+    the element) becomes a ModelError "{what}: the builder failed at {at}: …" with the original chained."""
+    try:
+        return build(*args, **kwargs)
+    except VibdynError:
+        raise
+    except Exception as e:
+        raise ModelError(f"{what}: the builder {getattr(build, '__name__', 'build')} failed at {at}: "
+                         f"{type(e).__name__}: {e}") from e
+
+
 def builder_values(params, what):
     """{keyword: float}: the values given to a builder ``build(**params)``, each a finite number, else a
     ModelError naming the keyword."""
@@ -287,7 +299,7 @@ def scene_builder(build, what):
         except TypeError as e:
             raise ModelError(f"{what}: the builder {getattr(build, '__name__', 'build')}{signature} cannot take the "
                              f"parameters {', '.join(values)}: {e}") from None
-        obj = build(**values)
+        obj = call_builder(build, (), values, what, ", ".join(f"{k} = {v}" for k, v in values.items()))
         if hasattr(obj, "build") and not hasattr(obj, "linearize"):
             return obj
         if hasattr(obj, "linearize") and hasattr(obj, "scene"):  # a System: the scene it was built from

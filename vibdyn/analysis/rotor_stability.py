@@ -19,7 +19,7 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._check import finite_array
+from .._check import call_builder, finite_array
 from ..defaults import RPM
 from ..errors import ModelError
 from ..solvers.roots import bracketed_root, sign_changes, signs
@@ -45,7 +45,7 @@ def _builder(model, parameter, what, unit="") -> tuple[Callable[[float], Any], s
                          f"parameter=NAME; got {type(model).__name__}")
 
     def build(x):
-        s = model(x)
+        s = call_builder(model, (x,), {}, what, f"{x:g}")
         s = s.build() if isinstance(s, Scene) else s
         if not isinstance(s, System):
             raise ModelError(f"{what}: the builder returned {type(s).__name__} for {x:g}, not a Scene or System")
