@@ -211,7 +211,8 @@ def test_campbell_cli_in_rpm_numbers_modes_from_one(tmp_path):
      "values"),
     (lambda: vd.critical_speed_map(lambda k: 1 / 0, [1.0, 2.0], "disk", [1.0, 2.0]),
      "the builder <lambda> failed at 1: ZeroDivisionError"),
-    (lambda: vd.stability_limit(lambda c: fixed_rotor(c=c / 0), [1.0, 2.0], "disk", 10.0), "the builder <lambda> failed at 1: "),
+    (lambda: vd.stability_limit(lambda c: fixed_rotor(c=c / 0), [1.0, 2.0], "disk", 10.0),
+     "the builder <lambda> failed at 1: "),
     (lambda: vd.campbell(fixed_rotor().build(), "disk", [0.0, 1.0]).plot(units="rpms"), "units"),
     (lambda: vd.campbell(fixed_rotor().build(), "disk", [0.0, 1.0]).plot(frequency="kHz"), "frequency"),
 ])

@@ -350,6 +350,28 @@ def test_simulate_steps_are_bounded_by_the_record():
     assert np.diff(tr.t).max() <= 0.01 + 1e-15  # a soft oscillator would otherwise step over many samples
 
 
+def test_steps_past_the_records_end_are_bound_no_more():
+    """Past its last sample a record moves the ground uniformly: the steps are no longer bound by its dt (a 0.4 s
+    record on a 20 s run took every step of dt), and the motion still equals the exact linear forced response
+    within the two estimates."""
+    rec = _record(n=40, dt=0.01, seed=3)
+    s = vd.Scene("oscillator")
+    s.add_body("mass", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_support("ground", rec)
+    s.add_spring("k", ("ground", (-1.0, 0, 0)), "mass", stiffness=100.0, free_length=1.0)
+    s.add_damper("c", ("ground", (-1.0, 0, 0)), "mass", damping=0.5)
+    system = s.build()
+    t = np.linspace(0.0, 20.0, 401)
+    for method in ("dop853", "radau"):
+        steps = system.simulate(t[-1], method=method, rtol=1e-9).t  # (every step recorded)
+        inside = steps <= rec.bounded_until
+        assert np.diff(steps[inside]).max() <= rec.dt + 1e-15
+        assert np.diff(steps[~inside]).max() > 2 * rec.dt, method
+        tr = system.simulate(t[-1], t_eval=t, method=method, rtol=1e-9)
+        r = system.linearize(np.zeros(1)).forced_response(t, support="ground")
+        assert np.abs(tr.q[:, 0] - r.x[:, 0]).max() <= tr.error + r.error, method
+
+
 def test_record_in_a_scene_file(tmp_path):
     s = vd.Scene("filed")
     s.add_body("mass", joint=vd.Slider((1, 0, 0)), mass=1.0)

@@ -101,6 +101,11 @@ class Record:
         return self.dt
 
     @property
+    def bounded_until(self) -> float:
+        """Time (s) of the last sample: past it the ground moves uniformly and :attr:`max_step` bounds no step."""
+        return self.start + self.duration
+
+    @property
     def times(self) -> np.ndarray:
         """Sample times (s)."""
         return self.start + self.dt * np.arange(self.acceleration.size)

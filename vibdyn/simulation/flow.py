@@ -106,8 +106,10 @@ class Flow:
         changes: dict[str, Any] = {}
         if error_method is not None and error_method != cfg.error:
             changes["error"] = checked_error_method(cfg.stepper, error_method, "flow")
-        if max_step is not None:
-            changes["max_step"] = float(max_step)
+        if max_step is not None:  # (a bound more: a sampled law's still holds)
+            changes["max_step"] = min(float(max_step), cfg.max_step)
+            if cfg.relaxed is not None:
+                changes["relaxed"] = (cfg.relaxed[0], min(float(max_step), cfg.relaxed[1]))
         if events is not None:
             changes["events"] = checked_events(cfg.stepper, events, "flow")
         cfg = replace(cfg, q0=np.array(q0, dtype=float), v0=np.array(v0, dtype=float), t0=float(t0),

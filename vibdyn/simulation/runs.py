@@ -152,6 +152,7 @@ class Settings:
     variational: bool = False
     stepper: type | None = None  # the method's stepper class
     transition_rtol: float | None = None  # the variational equations' own rtol (None: rtol)
+    relaxed: tuple | None = None  # (t, max_step): past t (s) the sampled laws bound no step, max_step bounds them
 
 
 def settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_step, progress, t0=0.0,
@@ -232,7 +233,10 @@ def settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_s
     max_step = np.inf if max_step is None else scalar(max_step, f"{what}: max_step (s)", positive=True)
     # a sampled support motion (a ground record, vibdyn.laws.Record) bounds the steps by its own: none crosses
     # two of its kinks, none aliases it
-    law_step = min((getattr(s.motion, "max_step", np.inf) for s in system.supports), default=np.inf)
+    sampled = [s.motion for s in system.supports if hasattr(s.motion, "max_step")]
+    law_step = min((m.max_step for m in sampled), default=np.inf)
+    # past their last samples the laws are smooth (uniform motion): the steps are bound by max_step alone again
+    relaxed = (max(getattr(m, "bounded_until", np.inf) for m in sampled), max_step) if law_step < max_step else None
     max_step = min(max_step, law_step)
     if dt is not None and not stepper.adaptive:
         dt = min(dt, law_step)
@@ -241,7 +245,7 @@ def settings(system, t_end, q0, v0, method, rtol, atol, dt, t_eval, error, max_s
     work = bool(system.supports) or bool(R.driven.size) or any(
         type(g).potential is ForceGroup.potential or g.time_dependent for g in system.force_groups)
     return Settings(t_end, q0, v0, method, rtol, atol_q, atol_v, dt, t_eval, error, max_step, progress, work, t0,
-                     events, variational, stepper)
+                    events, variational, stepper, relaxed=relaxed)
 
 
 def checked_events(stepper, events, what):
@@ -339,7 +343,7 @@ def _record(run, t, q, v, w, local=None):
 
 
 def _adaptive(cfg, run, outputs, progress):
-    stepper, events = run.stepper, run.events
+    stepper, events, relaxed = run.stepper, run.events, cfg.relaxed
     k = 0
     if outputs is None or outputs[0] == cfg.t0:
         _record(run, cfg.t0, *stepper.state, _zero_local(stepper))
@@ -366,6 +370,9 @@ def _adaptive(cfg, run, outputs, progress):
                 _record(run, stop, *stepper.interpolant()(stop), stepper.local_error)
             run.message = f"stopped by a terminal event at t = {stop:.10g} s"
             return
+        if relaxed is not None and t >= relaxed[0]:
+            stepper.bound(relaxed[1])
+            relaxed = None
         progress.update(t)
 
 

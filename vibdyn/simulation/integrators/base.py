@@ -73,6 +73,11 @@ class Stepper:
         self.status = "running" if self.t_end != self.t else "finished"
         self._dense_cache = None  # the last step's Interpolant, once asked for
 
+    def bound(self, max_step: float) -> None:
+        """Bound the steps from now on by ``max_step`` (s) instead (a sampled support motion's bound lifted after
+        its last sample)."""
+        self.max_step = max_step
+
     @property
     def counters(self):
         """(nfev, njev, nlu, accepted, rejected) so far."""

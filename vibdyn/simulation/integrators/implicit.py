@@ -45,6 +45,10 @@ class Implicit(ODEStepper):
                                jac=self.ode.jacobian, first_step=first_step, max_step=self.max_step)
         self.t, self.y = self.solver.t, self.solver.y
 
+    def bound(self, max_step: float) -> None:
+        super().bound(max_step)
+        self.solver.max_step = max_step
+
     @property
     def njev(self):
         return self._done_njev + self.solver.njev
