@@ -272,3 +272,17 @@ def test_seismic_combine_refuses_wrong_rows_and_a_record_itself():
             r.combine(rows)
     with pytest.raises(ModelError, match="pseudo_acceleration_spectrum"):
         modes.response_spectrum(vd.laws.Record([0.0, 1.0, -1.0], dt=0.01), (1, 0, 0))
+
+
+@pytest.mark.parametrize("spin", [1e100, 1e140, 1e200, 1e300])
+def test_gyroscopic_whirl_at_absurd_spins_is_right_or_not_claimed(spin):
+    """A rigid rotor on a gimbal: its forward whirl tends to I_p Ω / I_t (1.5 Ω here). LAPACK's QR algorithm caps
+    the eigenvalue near 1.5e138 (it said 1.49e138 ± 7e125 at 1e140 rad/s); the QZ one, asked when a pair's backward
+    error exceeds the QR's promise, gives 1.5 Ω within the stated error."""
+    system = vd.load_scene("gimbal_rotor").build()
+    c = vd.campbell(system, "rotor", [0.0, spin])
+    fast = c.omega[-1].max()
+    G = 0.12 * spin  # (I_p Ω; I_t = 0.08 kg·m², k = 300 N·m/rad: ω = (G + √(G² + 4 I_t k)) / 2 I_t)
+    closed = G * (1 + np.sqrt(1 + 96.0 / G / G)) / 0.16
+    assert abs(fast - closed) <= c.error[-1].max() + 1e-14 * closed
+    assert c.error[-1].max() <= 1e-10 * closed
