@@ -21,7 +21,7 @@ from ...defaults import FD_STEP
 from ...errors import ModelError
 from ...model import dynamics
 from ...model.derivatives import analytic_derivatives_rows
-from ...model.fd import point_jacobian, steps, tangent_derivative, vector_derivative
+from ...model.fd import derivative, point_jacobian, steps, tangent_derivative, vector_derivative
 
 KEPT_BYTES = 32 * 2**20  # the per-sample derivatives kept for revisits, at most
 
@@ -232,7 +232,7 @@ class Balance:
         JX = self._galerkin((K, self.E), (C, omega * self.E1), (M, omega**2 * self.E2))
         if self.support:  # the support's velocity Ω·Y·sin τ depends on Ω too: a central difference
             d = 1e-6 * omega
-            JW = (self.residual(X, omega + d) - self.residual(X, omega - d)) * self.scale / (2 * d)
+            JW = derivative(lambda w: self.residual(X, w), omega, d) * self.scale
         else:  # ẋ ∝ Ω, ẍ ∝ Ω²
             JW = (self.P @ (np.einsum("jpi,ji->jp", C, xd) + 2 * np.einsum("jpi,ji->jp", M, xdd))).ravel() / omega
         out = np.column_stack([JX, JW]) / self.scale
