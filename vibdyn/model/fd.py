@@ -19,17 +19,29 @@ import numpy as np
 import pinocchio as pin
 
 from ..defaults import EPS
-from ..solvers.differences import CENTRAL as CENTRAL
-from ..solvers.differences import ESTIMATED as ESTIMATED
-from ..solvers.differences import ONE_SIDED as ONE_SIDED
-from ..solvers.differences import derivative as derivative
-from ..solvers.differences import differences as differences
-from ..solvers.differences import displaced_vectors as displaced_vectors
-from ..solvers.differences import divisors, pairs
-from ..solvers.differences import one_sided as one_sided
-from ..solvers.differences import round_off as round_off
-from ..solvers.differences import second_derivative as second_derivative
-from ..solvers.differences import vector_derivative as vector_derivative
+from ..solvers.differences import (
+    CENTRAL,
+    ESTIMATED,
+    ONE_SIDED,
+    derivative,
+    differences,
+    displaced_vectors,
+    divisors,
+    hessian,
+    one_sided,
+    pairs,
+    round_off,
+    secant,
+    second_derivative,
+    vector_derivative,
+)
+
+# the kit's names offered here too (modules on the model take every difference from here; numpy-only ones, and
+# the solvers, from the kit itself)
+__all__ = ["CENTRAL", "ESTIMATED", "ONE_SIDED", "derivative", "differences", "displaced_vectors", "hessian",
+           "one_sided", "round_off", "secant", "second_derivative", "vector_derivative",
+           "steps", "Stencil", "stencil", "step_stencil", "tangent_derivative", "point_jacobian",
+           "world_point_jacobian"]
 
 
 def steps(system, step):

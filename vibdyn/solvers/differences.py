@@ -5,8 +5,8 @@ model and the analyses take them from there; the solvers (below the model) take 
 Central: D(h) = (f(x + h) − f(x − h)) / 2h, truncation h²/6·f‴ + O(h⁴); with an estimate, D(2h) too and
 T = D(h) − D(2h) = −h²/2·f‴ + O(h⁴), three times the truncation to leading order (Richardson). One-sided,
 second order (at a bound): D(h) = (−3f(x) + 4f(x + h) − f(x + 2h)) / 2h, T = D(h) − D(2h) likewise. Second:
-(f(x + h) + f(x − h) − 2f(x)) / h², truncation h²/12·f⁗. Each pair of values is subtracted before it is
-divided (exact for nearby values: no rounding of products).
+(f(x + h) + f(x − h) − 2f(x)) / h², truncation h²/12·f⁗ (and the mixed ones of a Hessian). Each pair of values
+is subtracted before it is divided (exact for nearby values: no rounding of products).
 """
 
 from __future__ import annotations
@@ -62,9 +62,16 @@ def vector_derivative(fun: Callable, x0, h) -> np.ndarray:
     return differences(np.array([np.ravel(fun(x)) for x in displaced_vectors(x0, h)]), h)[0]
 
 
-def derivative(fun: Callable, x: float, h: float, estimate: bool = False):
+def derivative(fun: Callable, x: float, h: float, estimate: bool = False, order: int = 2):
     """d fun/dx at the scalar x by the central difference (fun(x + h) − fun(x − h)) / 2h (a number or an array,
-    as fun gives); with ``estimate``, (D, T) with T = D(h) − D(2h) its truncation estimate (3× the truncation)."""
+    as fun gives); with ``estimate``, (D, T) with T = D(h) − D(2h) its truncation estimate (3× the truncation).
+    ``order`` 4: the five-point difference (8(f(x + h) − f(x − h)) − (f(x + 2h) − f(x − 2h))) / 12h
+    = D(h) + (D(h) − D(2h))/3, truncation h⁴/30·f⁽⁵⁾ (no estimate)."""
+    if order == 4 and not estimate:
+        fp, fm, fp2, fm2 = (fun(x + s * h) for s in (1.0, -1.0, 2.0, -2.0))
+        return (8 * (fp - fm) - (fp2 - fm2)) / (12 * h)
+    if order != 2:
+        raise ValueError(f"derivative: order 2, or 4 without an estimate, not {order!r}")
     if not estimate:
         return (fun(x + h) - fun(x - h)) / (2 * h)
     Y = [fun(x + s * h) for s in ESTIMATED]
@@ -79,6 +86,38 @@ def second_derivative(fun: Callable, x: float, h: float, f0=None):
     if f0 is None:
         f0 = fun(x)
     return (fp - fm) / (2 * h), (fp + fm - 2 * f0) / h**2
+
+
+def secant(fun: Callable, a, b):
+    """(fun(b) − fun(a)) / (b − a): the slope between two points (numbers or arrays), as a central difference
+    cut off at a bound (a = max(x − h, lower), b = x + h)."""
+    return (fun(b) - fun(a)) / (b - a)
+
+
+def hessian(fun: Callable, x0, h, f0=None) -> np.ndarray:
+    """∂²fun/∂x² (outputs × n × n) at x0 for a plain vector x by central second differences with steps h (one
+    per component, or one for all): (f(x + h_i) + f(x − h_i) − 2f(x)) / h_i² on the diagonal and
+    (f(x + h_i + h_j) − f(x + h_i − h_j) − f(x − h_i + h_j) + f(x − h_i − h_j)) / 4h_ih_j off it; ``f0`` =
+    fun(x0) if already known."""
+    x0 = np.asarray(x0, float)
+    n = x0.size
+    h = np.broadcast_to(np.asarray(h, float), (n,))
+    f0 = np.ravel(fun(x0)) if f0 is None else np.ravel(f0)
+
+    def at(i, si, j=None, sj=0.0):
+        x = x0.copy()
+        x[i] += si * h[i]
+        if j is not None:
+            x[j] += sj * h[j]
+        return np.ravel(fun(x))
+
+    H = np.empty((f0.size, n, n))
+    for i in range(n):
+        H[:, i, i] = at(i, 1.0) + at(i, -1.0) - 2 * f0
+        for j in range(i):
+            H[:, i, j] = H[:, j, i] = (at(i, 1.0, j, 1.0) - at(i, 1.0, j, -1.0) - at(i, -1.0, j, 1.0)
+                                       + at(i, -1.0, j, -1.0)) / 4
+    return H / np.multiply.outer(h, h)
 
 
 def one_sided(values, h):
