@@ -214,3 +214,30 @@ def test_fd_reexports_the_kit():
     for name in ("differences", "displaced_vectors", "vector_derivative", "derivative", "second_derivative",
                  "one_sided", "round_off", "CENTRAL", "ESTIMATED", "ONE_SIDED"):
         assert getattr(fd, name) is getattr(kit, name), name
+
+
+def test_fourth_order_derivative_of_sin():
+    for h in (1e-2, 2e-3):
+        d = kit.derivative(math.sin, 0.7, h, order=4)
+        assert abs(d - math.cos(0.7)) == pytest.approx(h**4 / 30 * math.cos(0.7), rel=2e-2)  # h⁴/30·|f⁽⁵⁾|
+        D, T = kit.derivative(math.sin, 0.7, h, estimate=True)
+        assert d == pytest.approx(D + T / 3, abs=1e-14)  # D(h) + (D(h) − D(2h))/3
+    with pytest.raises(ValueError):
+        kit.derivative(math.sin, 0.7, 1e-3, estimate=True, order=4)
+
+
+def test_secant_is_the_central_difference_cut_at_a_bound():
+    assert kit.secant(np.exp, 0.0, 2e-3) == pytest.approx((math.exp(2e-3) - 1) / 2e-3, rel=1e-15)
+    T, h = np.array([0.0, 0.5]), 1e-4
+    s = kit.secant(np.cos, np.maximum(T - h, 0), T + h)
+    assert s == pytest.approx(-np.sin(T), abs=h)  # one-sided at 0 (error h/2·|f″|), central inside
+
+
+def test_hessian_of_a_quadratic_form_and_of_a_product():
+    A = np.array([[2.0, 0.5], [0.5, -1.0]])
+    H = kit.hessian(lambda x: np.array([x @ A @ x, math.sin(x[0]) * math.exp(x[1])]), [0.3, -0.2], [1e-3, 2e-3])
+    assert H.shape == (2, 2, 2)
+    assert H[0] == pytest.approx(2 * A, abs=1e-8)  # exact but for round-off (~ε/h²)
+    s, c, e = math.sin(0.3), math.cos(0.3), math.exp(-0.2)
+    assert H[1] == pytest.approx(np.array([[-s * e, c * e], [c * e, s * e]]), abs=1e-6)
+    assert kit.hessian(lambda x: x[0] ** 2, [1.0], 1e-3, f0=1.0)[0, 0, 0] == pytest.approx(2.0, abs=1e-9)
