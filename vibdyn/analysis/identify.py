@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 from .._check import finite_array
 from ..defaults import EPS
 from ..errors import ModelError
+from ..solvers.differences import second_derivative
 
 QUANTITIES = ("receptance", "mobility", "accelerance")
 
@@ -133,10 +134,10 @@ def _flatness(f, x, width, precision):
     ``precision`` (plus 4ε): √(2 δa / |a''|), a'' by a second difference over width/8; ``width`` where f
     is not curved there or not finite (a pole: there the maximum is the pole, found exactly)."""
     h = width / 8
-    a0, am, ap = f(x), f(x - h), f(x + h)
-    if not all(map(math.isfinite, (a0, am, ap))):
+    a0 = f(x)
+    curvature = abs(second_derivative(f, x, h, a0)[1])
+    if not math.isfinite(curvature):  # (f not finite at one of the three points)
         return 0.0
-    curvature = abs(ap + am - 2 * a0) / h**2
     da = (precision + 4 * EPS) * abs(a0)
     return math.sqrt(2 * da / curvature) if curvature > 0 else width
 

@@ -32,7 +32,7 @@ from .._deprecation import Renamed, former_names
 from ..defaults import EPS
 from ..description import parameters as _parameters
 from ..errors import ConvergenceError, ModelError
-from ..model.fd import differences
+from ..model.fd import differences, one_sided, round_off
 from .linearize import linearize
 from .modal import invariant_pair
 
@@ -231,7 +231,7 @@ def _step(value, unit, length_scale):
     return STEP * (length_scale if unit == "m" else 1.0)
 
 
-def _differences(pipeline, base_values, j, h, one_sided):
+def _differences(pipeline, base_values, j, h, at_bound):
     """(derivatives, their errors) of (M, C, K) along parameter j: central differences (or one-sided, second
     order, at a bound), each error |D(h) − D(2h)| plus the models' own errors carried over the step.
 
@@ -249,18 +249,16 @@ def _differences(pipeline, base_values, j, h, one_sided):
         return (lin.M, lin.C, lin.K), (None, lin.C_error, lin.K_error)
 
     p = base_values[j]
-    if one_sided:
+    if at_bound:
         xs = [p, p + h, p + 2 * h, p + 4 * h]
         X = [at(x) for x in xs]
-        Dh = [(-3 * a + 4 * b - c) / (2 * h) for a, b, c in zip(X[0][0], X[1][0], X[2][0])]
-        D2 = [(-3 * a + 4 * c - d) / (4 * h) for a, c, d in zip(X[0][0], X[2][0], X[3][0])]
-        T = [a - b for a, b in zip(Dh, D2)]
-        weight = 8 / (2 * h)  # (|−3| + 4 + |−1| rounding units over 2h)
+        DT = [one_sided(values, h) for values in zip(*(x[0] for x in X))]  # (M, C, K)
+        Dh, T = [d for d, _ in DT], [t for _, t in DT]
     else:
         xs = [p - 2 * h, p - h, p + h, p + 2 * h]
         X = [at(x) for x in xs]
         Dh, T = _richardson([X[2][0], X[3][0], X[1][0], X[0][0]], h)
-        weight = 2 / (2 * h)
+    weight = round_off(h, at_bound)
     err = []
     for k, (d, t) in enumerate(zip(Dh, T)):
         values = np.array([x[0][k] for x in X])
@@ -594,7 +592,7 @@ def _linear_column(system, lin, p, regime):
               for k in (-2, -1, 1, 2)}
         D, T = _richardson([(at[k].M, at[k].C, at[k].K) for k in (1, 2, -1, -2)], eps)
         for name, d1, t, X1 in zip(("M", "C", "K"), D, T, (at[1].M, at[1].C, at[1].K)):
-            err = np.abs(t) / 3 + (at[1].K_error if name == "K" else 0.0) / eps + EPS * np.abs(X1) / eps
+            err = np.abs(t) / 3 + (at[1].K_error if name == "K" else 0.0) / eps + EPS * np.abs(X1) * round_off(eps)
             if name == "M":
                 dM, eM = d1, err
             elif name == "C":

@@ -33,7 +33,7 @@ from .._check import finite_array
 from .._format import number
 from ..defaults import RPM
 from ..errors import ConvergenceError, ModelError
-from ..model.fd import point_jacobian
+from ..model.fd import derivative, point_jacobian, second_derivative
 
 EPS = np.finfo(float).eps
 
@@ -199,7 +199,7 @@ class UnbalanceResponse:
             Nc = float(res.x)
             A, dA = amp(Nc)
             h = 1e-3 * (s[i + 1] - s[i - 1])
-            curv = abs(amp(Nc + h)[0] - 2 * A + amp(Nc - h)[0]) / h ** 2  # |A''| at the peak
+            curv = abs(second_derivative(lambda w: amp(w)[0], Nc, h, A)[1])  # |A''| at the peak
             Nc_err = float(np.sqrt(2 * dA / curv) if curv > 0 else s[i + 1] - s[i - 1]) + 2 * xtol * abs(Nc)
             target = A / np.sqrt(2)
             found: list[float] = []
@@ -212,7 +212,7 @@ class UnbalanceResponse:
                     break
                 lo, hi = sorted((s[k + side], Nc if k == i else s[k]))
                 r = brentq(lambda w, target=target: amp(w)[0] - target, lo, hi, xtol=xtol * max(abs(lo), 1.0))
-                slope = abs(amp(r + h)[0] - amp(r - h)[0]) / (2 * h)
+                slope = abs(derivative(lambda w: amp(w)[0], r, h))
                 found.append(r)
                 found_err.append((amp(r)[1] + dA / np.sqrt(2)) / max(slope, 1e-300))
             half = tuple(found) if len(found) == 2 else None

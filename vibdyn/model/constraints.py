@@ -8,6 +8,7 @@ import pinocchio as pin
 from ..defaults import ASSEMBLY_TOL, EPS, RANK_RTOL
 from ..description.elements import WORLD
 from ..errors import ConvergenceError, ModelError
+from .fd import derivative, hessian
 
 
 def _cross(a, b):
@@ -448,7 +449,7 @@ class Constraints:
             a, b = self._frames(pin.integrate(model, q, eps * v))[i]
             return pin.Jlog3(a.R.T @ b.R) @ b.R.T @ dw
 
-        return (8 * (L(h) - L(-h)) - (L(2 * h) - L(-2 * h))) / (12 * h)
+        return derivative(L, 0.0, h, order=4)
 
     def accelerations(self, q, v, a_free, M):
         """Accelerations of the constrained motion from the tree's free ones (ABA) and its mass matrix M:
@@ -550,16 +551,9 @@ class Constraints:
         h, k = LOCK_STEP, len(N)
 
         def g(x):
-            return lost.T @ self.scaled_phi(self.phi(pin.integrate(model, q, cs * (N.T @ (h * x)))))
+            return lost.T @ self.scaled_phi(self.phi(pin.integrate(model, q, cs * (N.T @ x))))
 
-        E = np.eye(k)
-        f0 = lost.T @ phi0
-        H = np.empty((lost.shape[1], k, k))
-        for i in range(k):
-            H[:, i, i] = g(E[i]) + g(-E[i]) - 2 * f0
-            for j in range(i):
-                H[:, i, j] = H[:, j, i] = (g(E[i] + E[j]) - g(E[i] - E[j]) - g(E[j] - E[i]) + g(-E[i] - E[j])) / 4
-        w = np.linalg.eigvalsh(H / h**2)  # (per lost equation, ascending)
+        w = np.linalg.eigvalsh(hessian(g, np.zeros(k), h, lost.T @ phi0))  # (per lost equation, ascending)
         for u, definite in zip(lost.T, (w[:, 0] > LOCK_CURVATURE) | (w[:, -1] < -LOCK_CURVATURE)):
             if definite:
                 loop = self.loop_of_row(int(np.argmax(np.abs(u))))

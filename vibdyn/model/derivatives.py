@@ -18,7 +18,7 @@ import pinocchio as pin
 from .._check import all_finite
 from ..defaults import FD_STEP
 from . import dynamics
-from .fd import steps, tangent_derivative, vector_derivative, world_point_jacobian
+from .fd import derivative, steps, tangent_derivative, vector_derivative, world_point_jacobian
 from .points import skew
 
 _skew = pin.skew
@@ -153,18 +153,18 @@ def untrusted(system):
 def _columns(f, X, k, h, estimate):
     """Columns k of X (changed in place) as the central differences (f(e_k h_k) − f(−e_k h_k)) / 2h_k of f
     (a function of a tangent or velocity offset); with ``estimate``, their truncation estimates D(h) − D(2h)."""
-    signs = (1.0, 2.0, -1.0, -2.0) if estimate else (1.0, -1.0)
     e = np.zeros(X.shape[1])
     T = np.empty((X.shape[0], len(k))) if estimate else None
     for i, (kk, hk) in enumerate(zip(k, h)):
-        r = []
-        for sign in signs:
-            e[kk] = sign * hk
-            r.append(f(e))
-        e[kk] = 0.0
-        X[:, kk] = (r[0] - r[len(r) // 2]) / (2 * hk)
+        def along(s, kk=kk):
+            e[kk] = s
+            return f(e)
+
         if estimate:
-            T[:, i] = X[:, kk] - (r[1] - r[3]) / (4 * hk)
+            X[:, kk], T[:, i] = derivative(along, 0.0, hk, estimate=True)
+        else:
+            X[:, kk] = derivative(along, 0.0, hk)
+        e[kk] = 0.0
     return T
 
 

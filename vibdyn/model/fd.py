@@ -8,15 +8,40 @@ truncation error, to leading order). All displaced configurations of a sweep are
 (:class:`Stencil`) so that a caller can evaluate them in one pass
 (:func:`vibdyn.model.dynamics.inverse_dynamics_rows`); a stencil with an estimate starts with the operating
 point itself (the caller's round-off scale).
+
+Every difference quotient of the package is made here or in the kit this module builds on and re-exports,
+:mod:`vibdyn.solvers.differences` (difference quotients of plain functions of a scalar or a vector: it sits
+below the model, so that the solvers use it too): central, one-sided and second differences, their truncation
+estimates and round-off weights (``tests/test_fd_sites.py`` fails on one written elsewhere).
 """
 
 import numpy as np
 import pinocchio as pin
 
 from ..defaults import EPS
+from ..solvers.differences import (
+    CENTRAL,
+    ESTIMATED,
+    ONE_SIDED,
+    derivative,
+    differences,
+    displaced_vectors,
+    divisors,
+    hessian,
+    one_sided,
+    pairs,
+    round_off,
+    secant,
+    second_derivative,
+    vector_derivative,
+)
 
-CENTRAL = (1.0, -1.0)  # the steps of a central difference, in units of h
-ESTIMATED = (1.0, 2.0, -1.0, -2.0)  # and those of the central difference with step 2h (positive ones first)
+# the kit's names offered here too (modules on the model take every difference from here; numpy-only ones, and
+# the solvers, from the kit itself)
+__all__ = ["CENTRAL", "ESTIMATED", "ONE_SIDED", "derivative", "differences", "displaced_vectors", "hessian",
+           "one_sided", "round_off", "secant", "second_derivative", "vector_derivative",
+           "steps", "Stencil", "stencil", "step_stencil", "tangent_derivative", "point_jacobian",
+           "world_point_jacobian"]
 
 
 def steps(system, step):
@@ -43,7 +68,7 @@ class Stencil:
         k, iq = system.additive_coordinates
         if k.size:
             self.offsets[first:].reshape(S, nv, system.nq)[:, k, iq] = np.multiply.outer(self.signs, h[k])
-        self.divisors = _divisors(self.signs, h)
+        self.divisors = divisors(self.signs, h)
         self.round_off = 16 * EPS / h  # (16ε per unit of the terms that cancel, over h: see fd_error)
 
     def configurations(self, system, q0):
@@ -65,7 +90,7 @@ class Stencil:
         """(D, T): the derivative (outputs × nv) from the evaluations Y at the rows of :meth:`configurations`
         (one row each), and its truncation estimate T = D(h) − D(2h) (None without ``estimate``). Each pair
         is subtracted before it is divided (exact for nearby values: no round-off of the products)."""
-        return _pairs(Y[int(self.estimate):], self.divisors, len(self.h))
+        return pairs(Y[int(self.estimate):], self.divisors, len(self.h))
 
 
 def stencil(system, ws, h, estimate=False):
@@ -91,39 +116,12 @@ def step_stencil(system, ws, step, estimate=False):
     return st
 
 
-def differences(Y, h):
-    """(D, T) from evaluations Y at the rows of :func:`displaced_vectors` (outputs along Y's last axis): the
-    central differences (outputs × nv) and, from ``estimate`` rows, their truncation estimates
-    D(h) − D(2h) (else None)."""
-    signs = ESTIMATED if len(Y) == len(ESTIMATED) * len(h) else CENTRAL
-    return _pairs(Y, _divisors(signs, h), len(h))
 
 
-def _divisors(signs, h):
-    """The divisors of the differences f(+s·h) − f(−s·h), one per step and coordinate: 2h (and 4h)."""
-    return (2 * np.multiply.outer(signs[:len(signs) // 2], h)).reshape(-1, 1)
 
 
-def _pairs(Y, divisors, nv):
-    """(D, T) from step-major rows (positive steps, then negative ones): each pair subtracted, then
-    divided; T = D(h) − D(2h) where the rows have a 2h step, else None."""
-    half = len(divisors)
-    pairs = Y[:half] - Y[half:]
-    pairs /= divisors
-    D = pairs[:nv].T
-    return (D, D - pairs[nv:].T) if half > nv else (D, None)
 
 
-def displaced_vectors(x0, h, estimate=False):
-    """x0 + s·h_k e_k as rows, step-major (row i·n + k moves component k by signs[i]·h_k), for a plain
-    vector x (steps ±h, and ±2h if ``estimate``)."""
-    signs = ESTIMATED if estimate else CENTRAL
-    S, n = len(signs), len(x0)
-    X = np.empty((S * n, n))
-    X[:] = x0
-    k = np.arange(n)
-    X.reshape(S, n, n)[:, k, k] += np.multiply.outer(signs, h)
-    return X
 
 
 def tangent_derivative(system, fun, q0, h, estimate=False):
@@ -135,9 +133,6 @@ def tangent_derivative(system, fun, q0, h, estimate=False):
     return (D, T) if estimate else D
 
 
-def vector_derivative(fun, x0, h):
-    """∂fun/∂x at x0 for a plain vector x, by central differences with steps h (one per component)."""
-    return differences(np.array([np.ravel(fun(x)) for x in displaced_vectors(x0, h)]), h)[0]
 
 
 def point_jacobian(system, q, points):

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import ModelError
+from .differences import derivative
 from .newton import fd_jacobian, newton
 
 
@@ -244,7 +245,7 @@ def _fold(F, J, ya, yb, t, w, n, index, tol):
         y, v = z[:n + 1], z[n + 1:]
         Jy, e = J(y), np.append(v, 0.0)
         h = 1e-5 * max(1.0, float(np.linalg.norm(y))) / max(float(np.linalg.norm(v)), 1e-300)
-        Jv = (J(y + h * e) - J(y - h * e)) / (2 * h)
+        Jv = derivative(lambda s: J(y + s * e), 0.0, h)
         m = Jy.shape[0]  # (m ≥ n rows: a redundant consistent system)
         return np.block([[Jy, np.zeros((m, n))], [Jv, Jy[:, :n]], [np.zeros((1, n + 1)), v0[None, :]]])
 

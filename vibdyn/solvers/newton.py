@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError
+from .differences import jacobian
 
 
 @dataclass(frozen=True)
@@ -41,14 +42,9 @@ class NewtonResult:
 
 
 def fd_jacobian(fun: Callable, x: np.ndarray, f0: np.ndarray | None = None, h: float = 1e-7) -> np.ndarray:
-    """∂fun/∂x by central differences (steps h × max(1, |x_k|)), as a fallback where no Jacobian is given."""
-    x = np.asarray(x, float)
-    cols = []
-    for k in range(x.size):
-        e = np.zeros_like(x)
-        e[k] = h * max(1.0, abs(x[k]))
-        cols.append((np.asarray(fun(x + e), float) - np.asarray(fun(x - e), float)) / (2 * e[k]))
-    return np.array(cols).T.reshape(-1, x.size)
+    """∂fun/∂x by central differences (steps h × max(1, |x_k|): :func:`vibdyn.solvers.differences.jacobian`), as a
+    fallback where no Jacobian is given (``f0`` unused)."""
+    return jacobian(fun, x, h)
 
 
 @dataclass(frozen=True)

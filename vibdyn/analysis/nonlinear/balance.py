@@ -21,7 +21,7 @@ from ...defaults import FD_STEP
 from ...errors import ModelError
 from ...model import dynamics
 from ...model.derivatives import analytic_derivatives_rows
-from ...model.fd import point_jacobian, steps, tangent_derivative, vector_derivative
+from ...model.fd import derivative, point_jacobian, steps, tangent_derivative, vector_derivative
 
 KEPT_BYTES = 32 * 2**20  # the per-sample derivatives kept for revisits, at most
 
@@ -176,8 +176,7 @@ class Balance:
         model = self.system.model
         J = pin.dIntegrate(model, self.q_eq, x, pin.ARG1)
         e = 1e-3 / max(float(np.linalg.norm(xd)), 1e-300)
-        Jm, Jp, Jm2, Jp2 = (pin.dIntegrate(model, self.q_eq, x + s * e * xd, pin.ARG1) for s in (-1, 1, -2, 2))
-        dJ = (8 * (Jp - Jm) - (Jp2 - Jm2)) / (12 * e)
+        dJ = derivative(lambda s: pin.dIntegrate(model, self.q_eq, x + s * xd, pin.ARG1), 0.0, e, order=4)
         return pin.integrate(model, self.q_eq, x), J @ xd, J @ xdd + dJ @ xd
 
     def _sample(self, j, x, xd, xdd, omega):
@@ -232,7 +231,7 @@ class Balance:
         JX = self._galerkin((K, self.E), (C, omega * self.E1), (M, omega**2 * self.E2))
         if self.support:  # the support's velocity Ω·Y·sin τ depends on Ω too: a central difference
             d = 1e-6 * omega
-            JW = (self.residual(X, omega + d) - self.residual(X, omega - d)) * self.scale / (2 * d)
+            JW = derivative(lambda w: self.residual(X, w), omega, d) * self.scale
         else:  # ẋ ∝ Ω, ẍ ∝ Ω²
             JW = (self.P @ (np.einsum("jpi,ji->jp", C, xd) + 2 * np.einsum("jpi,ji->jp", M, xdd))).ravel() / omega
         out = np.column_stack([JX, JW]) / self.scale

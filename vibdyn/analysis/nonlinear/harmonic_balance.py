@@ -41,6 +41,7 @@ from ..._format import number
 from ...defaults import EPS
 from ...errors import ConvergenceError, ModelError
 from ...solvers.continuation import Arclength, continuation
+from ...solvers.differences import second_derivative
 from ...solvers.newton import newton
 from ..equilibrium import static_configuration
 from .balance import Balance, Excitation, PointForce, SupportMotion, embed, fourier_basis
@@ -360,8 +361,8 @@ def _peak(bal, run, amp, c):
             # the optimiser's s: within 2 (√ε |s| + xatol/3) of the maximum of what it saw (scipy's bounded
             # Brent), and every s within √(2 δA / |A''|) of it looks alike; A'', dΩ/ds, d²Ω/ds² by differences
             h = (hi_s - lo_s) / 8
-            (Am, wm), (Ap, wp) = ((-solve(opt.x + d), cache[opt.x + d].x[-1]) for d in (-h, h))
-            A2, w1, w2 = (Ap + Am - 2 * A) / h**2, (wp - wm) / (2 * h), (wp + wm - 2 * y[-1]) / h**2
+            (_, w1), (A2, w2) = second_derivative(lambda s: np.array([-solve(s), cache[s].x[-1]]), opt.x, h,
+                                                  np.array([A, y[-1]]))
             curved = A2 < 0 and cache[opt.x - h].converged and cache[opt.x + h].converged
             ds = 2 * (math.sqrt(EPS) * abs(opt.x) + xatol / 3)
             ds += math.sqrt(2 * dA / -A2) if curved else hi_s - lo_s  # (else: the bracket)

@@ -32,6 +32,7 @@ from ...model.dynamics import energy_gradient
 from ...model.groups import ForceGroup
 from ...simulation.flow import Flow
 from ...simulation.trajectory import SimulationError
+from ...solvers.differences import derivative
 from ...solvers.newton import Steps, newton
 
 ARG0, ARG1 = pin.ArgumentPosition.ARG0, pin.ArgumentPosition.ARG1
@@ -338,12 +339,14 @@ class Shooting:
             for _ in range(directions):
                 d = rng.standard_normal(2 * n)
                 d *= self.node_scale / np.linalg.norm(d)
-                fd = self.differenced(q, v, a, a + T / self.m, run.q[-1], run.v[-1], d * CHECK_STEP) / CHECK_STEP
+                def moved(s):  # (used within this iteration only)
+                    return self.moved_end(q, v, a, a + T / self.m, run.q[-1], run.v[-1], s * d)
+
+                fd = derivative(moved, 0.0, CHECK_STEP)
                 gap = np.abs(P @ d - fd)
                 err = float(run.state_transition_error) * np.abs(d).sum() + np.asarray(flow_error) / CHECK_STEP
                 if np.any(gap > err):  # the differences' truncation error, from ±2h, only where it could matter
-                    fd2 = self.differenced(q, v, a, a + T / self.m, run.q[-1], run.v[-1], d * (2 * CHECK_STEP))
-                    err = err + np.abs(fd - fd2 / (2 * CHECK_STEP))
+                    err = err + np.abs(fd - derivative(moved, 0.0, 2 * CHECK_STEP))
                 ratios = gap / (err + 1e-300 * self.node_scale)
                 k = int(np.argmax(ratios))
                 worst = max(worst, float(ratios[k]))
@@ -358,20 +361,17 @@ class Shooting:
                         residual=gap[k] / self.node_scale[k])
         return worst
 
-    def differenced(self, q, v, t0, t1, q_end, v_end, delta):
-        """(x(t1; x0 ⊕ δ) − x(t1; x0 ⊖ δ)) / 2 over the free coordinates (tangent at q_end, unscaled): plain
-        flows at the shooting's tolerances."""
-        n, ends = self.n, []
-        for sign in (1.0, -1.0):
-            dq = np.zeros(self.nv)
-            dq[self.free] = sign * delta[:n]
-            v1 = np.array(v, dtype=float)
-            v1[self.free] += sign * delta[n:]
-            q1 = pin.integrate(self.model, q, dq)
-            run = self.flow(q1, v1, False)(q1, v1, t0, t1, max_step=self.max_step / 2, t_eval=[t1])
-            ends.append(np.concatenate([pin.difference(self.model, q_end, run.q[-1])[self.free],
-                                        (run.v[-1] - v_end)[self.free]]))
-        return (ends[0] - ends[1]) / 2
+    def moved_end(self, q, v, t0, t1, q_end, v_end, delta):
+        """x(t1; x0 ⊕ δ) − x_end over the free coordinates (tangent at q_end, unscaled): a plain flow at the
+        shooting's tolerances from (q, v) moved by δ (free coordinates, then their speeds)."""
+        n = self.n
+        dq = np.zeros(self.nv)
+        dq[self.free] = delta[:n]
+        v1 = np.array(v, dtype=float)
+        v1[self.free] += delta[n:]
+        q1 = pin.integrate(self.model, q, dq)
+        run = self.flow(q1, v1, False)(q1, v1, t0, t1, max_step=self.max_step / 2, t_eval=[t1])
+        return np.concatenate([pin.difference(self.model, q_end, run.q[-1])[self.free], (run.v[-1] - v_end)[self.free]])
 
     # ------------------------------------------------------------------ solution
     def solve(self, x0, tol, max_iter):

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike
 from ..._check import finite_array, integer, scalar, unit_axis
 from ...defaults import EPS
 from ...errors import ModelError
+from ...solvers.differences import secant
 
 COMBINATIONS = ("srss", "cqc", "abs")
 
@@ -73,7 +74,7 @@ def spectrum_function(spectrum, what="response spectrum"):
 
         def slope(T):
             h = 1e-6 * np.maximum(T, 1e-3)
-            return (S(T + h) - S(np.maximum(T - h, 0))) / (T + h - np.maximum(T - h, 0))
+            return secant(S, np.maximum(T - h, 0), T + h)  # (central; one-sided at T = 0)
 
         try:
             zero = float(S(0.0)[0])

@@ -25,6 +25,7 @@ import scipy.linalg as sla
 from ..._check import count, finite_array, scalar, unit_axis
 from ...errors import ModelError
 from ...results import TimeResult, check_quantity
+from ...solvers.differences import derivative
 from .base import reduced, support_input_of
 from .channels import channels
 from .damping import damped_model
@@ -448,7 +449,7 @@ def _prescribed_motion(motion, name, t0):
         ydd = scalar_of(motion.acceleration, "acceleration")
     else:
         def ydd(s, h=1e-4):  # fourth-order central differences of the velocity
-            return (8 * (yd(s + h) - yd(s - h)) - (yd(s + 2 * h) - yd(s - 2 * h))) / (12 * h)
+            return derivative(yd, s, h, order=4)
     return y, yd, ydd
 
 
