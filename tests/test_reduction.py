@@ -97,6 +97,29 @@ def test_every_held_coordinate_leaves_nothing_to_vibrate():
         system.linearize(system.neutral(), hold=["hub", "slider"])
 
 
+def test_a_held_configuration_is_a_reduction_holding_every_coordinate():
+    """Servo-held robots are a reduction (issue 41): every coordinate held at (q, v), nothing independent, the
+    holders' forces the inverse dynamics there; the one search finds the held point in zero iterations."""
+    from vibdyn.analysis.equilibrium import search
+
+    system = rotor_with_slider()
+    q, v = system.configuration([0.3, 0.05]), np.array([2.0, 0.0])
+    R = system.reduction.holding_all(q, v)
+    assert R.regime(False) == "held" and R.has() == ("held configuration",) and R.free.size == 0
+    ind, N = R.independent(q)
+    assert ind.size == 0 and N.shape == (2, 0)
+    q1, v1 = R.impose(system.neutral(), np.zeros(2), 0.0)
+    assert np.array_equal(q1, q) and np.array_equal(v1, v)
+    tau = system.inverse_dynamics(q, v, np.zeros(2))
+    op = system.held(q, v)
+    assert op.regime == "held" and op.iterations == 0 and op.residual == 0.0 and op.speeds == {"hub": 2.0}
+    assert op.drive == R.held_forces(tau) == {"hub": tau[0], "slider": tau[1]}
+    found = search(system, q, 0.0, {}, 1e-10, 50, caller="held", reduction=R)
+    assert found.drive == op.drive and found.tol == op.tol and found.stability == op.stability
+    lin = op.linearize(method="analytic")  # the free tree's model about it, a = 0
+    assert lin.nv == 2 and not np.any(lin.a)
+
+
 def test_a_built_tree_is_freed_without_the_garbage_collector():
     """The System holds its reduction, which holds no reference back: a System nobody refers to is freed at once
     (with a cycle, every System built, Pinocchio Data included, waited for the collector: a 100-body build took

@@ -41,6 +41,7 @@ class Reduction:
         # runs (a 100-body build took twice as long); methods that compute take the system, as Drives' do
         self.nv, self.coordinates, self.model = system.nv, tuple(system.coordinates), system.model
         self._loops, self._drives = loops, drives
+        self._pose: np.ndarray | None = None  # q of a configuration held whole (:meth:`holding_all`)
         self._hold(held_speeds or {})
 
     def _hold(self, held_speeds: dict) -> None:
@@ -88,7 +89,9 @@ class Reduction:
             out.append(f"loops {', '.join(lp.name for lp in self._loops.loops)}")
         if self._drives is not None:
             out.append(f"drives {', '.join(self._drives.names)}")
-        if self.held_speeds:
+        if self._pose is not None:
+            out.append("every coordinate held (a configuration held whole)")
+        elif self.held_speeds:
             out.append(f"held speeds of {', '.join(self.coordinates[i] for i in self.held_speeds)}")
         return "; ".join(out) or "nothing (a tree)"
 
@@ -109,9 +112,11 @@ class Reduction:
     }
 
     def has(self) -> tuple[str, ...]:
-        """What reduces the coordinates, by name: "loops", "drives", "held speeds" (empty for a tree)."""
-        return tuple(name for name, x in (("loops", self._loops), ("drives", self._drives),
-                                          ("held speeds", self.held_speeds or None)) if x is not None)
+        """What reduces the coordinates, by name: "loops", "drives", "held speeds", "held configuration" (empty
+        for a tree)."""
+        held = ("held configuration", self._pose) if self._pose is not None else ("held speeds",
+                                                                                    self.held_speeds or None)
+        return tuple(name for name, x in (("loops", self._loops), ("drives", self._drives), held) if x is not None)
 
     def require(self, analysis: str, what: str | None = None, **refusals: str) -> None:
         """Nothing, if ``analysis`` (a key of :attr:`REFUSALS`, or any name with its own ``refusals``: {"loops",
@@ -141,10 +146,34 @@ class Reduction:
         out._hold({**self.held_speeds, **speeds})
         return out
 
+    def holding_all(self, q, v) -> Reduction:
+        """This reduction with every coordinate held: the configuration ``q`` moving at the constant velocity ``v``
+        (nv; m/s or rad/s), each coordinate by a holder of its own (a servo-held robot, :meth:`System.held`):
+        nothing is left independent, and :meth:`held_forces` are what the holders exert. Only for a reduction
+        that holds nothing by loops or drives (:meth:`require` "held configurations" says so first)."""
+        out = object.__new__(Reduction)
+        out.__dict__.update(self.__dict__)
+        out._pose = np.array(q, dtype=float)
+        out.held_speeds = dict(enumerate(np.asarray(v, dtype=float).tolist()))
+        out.held, out.free = np.arange(self.nv), np.zeros(0, dtype=int)
+        out._basis, out._law_memo, out.kind = np.zeros((self.nv, 0)), None, "held"
+        for a in (out._pose, out.held, out.free, out._basis):
+            a.flags.writeable = False
+        return out
+
+    def regime(self, moving: bool) -> str:
+        """The regime of an operating point found in this reduction: "held" (every coordinate held,
+        :meth:`holding_all`), "steady" (``moving``: coordinates turning at their speeds; or held ones) or
+        "static"."""
+        if self._pose is not None:
+            return "held"
+        return "steady" if moving or self.held.size else "static"
+
     # ------------------------------------------------------------------ states on the reduction
     def impose(self, q, v, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Copies of (q, v) with the held coordinates set: the drives' laws at t (s), the held speeds."""
-        q, v = np.array(q, dtype=float), np.array(v, dtype=float)
+        """Copies of (q, v) with the held coordinates set: the drives' laws at t (s), the held speeds (and
+        configuration)."""
+        q, v = np.array(self._pose if self._pose is not None else q, dtype=float), np.array(v, dtype=float)
         if self._drives is not None:
             q, v = self._drives.impose(q, v, t)
         for i, s in self.held_speeds.items():
