@@ -167,6 +167,14 @@ def test_the_reduction_answers_refusals_by_name():
     with pytest.raises(vd.ModelError, match=r"^x: scenes with drives are not handled by harmonic balance yet$"):
         driven.reduction.require("harmonic balance", "x")
     assert loops.reduction.has() == ("loops",) and driven.reduction.has() == ("drives",) and tree.reduction.has() == ()
+    # the paths an analysis takes where it can, asked by name (allows: require without the error)
+    assert tree.reduction.allows("derivatives on the tree's elements")
+    assert not driven.reduction.allows("derivatives on the tree's elements")
+    assert not tree.reduction.holding({0: 1.0}).allows("derivatives on the tree's elements")
+    assert loops.reduction.allows("operating points found from a state")
+    assert not driven.reduction.allows("operating points found from a state")
+    assert tree.reduction.allows("steady motions followed from rest")
+    assert not loops.reduction.allows("steady motions followed from rest")
     # an analysis's own refusal, only for what the scene has
     assert driven.reduction.require("a stepper", "y", loops="no loops here") is None
     with pytest.raises(vd.ModelError, match=r"^y: held \(drives .*\)$"):

@@ -161,8 +161,8 @@ def _steady(system, v_cyclic, q0, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER,
         i = system.coordinate_index(name)
         cyclic[i] = None if speed is None else scalar(speed, f"steady_motion: speed of '{name}'")
     given = all(s is not None for s in cyclic.values()) and max_iter > 0
-    # (followed from rest in the tree's own coordinates: a scene that nothing else reduces)
-    given = given and not system.reduction.has()
+    # (followed from rest in the tree's own coordinates: where the reduction allows it)
+    given = given and system.reduction.allows("steady motions followed from rest")
     try:
         found = search(system, q0, t, cyclic, tol, max_iter, guess, caller="steady_motion")
     except ConvergenceError as failed:

@@ -35,13 +35,15 @@ class Reduction:
     and those held at a speed), ``free``: the others; ``held_speeds``: {index: speed (rad/s or m/s)} of the
     coordinates held at a constant speed (not by a drive's law)."""
 
+    _pose: np.ndarray | None
+
     def __init__(self, system: Any, loops: Any = None, drives: Any = None, held_speeds: dict | None = None):
         # what it needs of the system, not the system: the System holds its reduction, and a reference back
         # would be a cycle keeping every System built (and its Pinocchio Data) alive until the garbage collector
         # runs (a 100-body build took twice as long); methods that compute take the system, as Drives' do
         self.nv, self.coordinates, self.model = system.nv, tuple(system.coordinates), system.model
         self._loops, self._drives = loops, drives
-        self._pose: np.ndarray | None = None  # q of a configuration held whole (:meth:`holding_all`)
+        self._pose = None  # q of a configuration held whole (:meth:`holding_all`)
         self._hold(held_speeds or {})
 
     def _hold(self, held_speeds: dict) -> None:
@@ -109,6 +111,13 @@ class Reduction:
                                            "(the projection onto the loops has no variational counterpart here)"},
         "held configurations": {"loops": "not available for a mechanism with closed loops ({describe}); use "
                                          "equilibrium()"},
+        # asked with :meth:`allows` (a path an analysis takes where it can, another where it cannot)
+        "operating points found from a state": {"drives": "a driven scene's operating point is its declared one (the "
+                                                          "drives' motion), not one found again from a state"},
+        "steady motions followed from rest": {"loops": "followed in the tree's own coordinates: not with loops",
+                                              "drives": "followed in the tree's own coordinates: not with drives"},
+        "derivatives on the tree's elements": {part: "the tree's own model only: not with {describe}" for part in
+                                               ("loops", "drives", "held speeds", "held configuration")},
     }
 
     def has(self) -> tuple[str, ...]:
@@ -128,6 +137,12 @@ class Reduction:
             if part in table:
                 drives = ", ".join(self._drives.names) if self._drives is not None else ""
                 raise ModelError(f"{what or analysis}: {table[part].format(describe=self.describe(), drives=drives)}")
+
+    def allows(self, analysis: str) -> bool:
+        """True if ``analysis`` (a key of :attr:`REFUSALS`) handles everything this reduction has: where
+        :meth:`require` would raise nothing."""
+        table = self.REFUSALS.get(analysis, {})
+        return not any(part in table for part in self.has())
 
     def held_at_speed(self) -> tuple[str, ...]:
         """Names of the coordinates held at a speed (``holding``: a Campbell diagram's spin; not the drives')."""
