@@ -146,6 +146,35 @@ def test_a_built_tree_is_freed_without_the_garbage_collector():
             gc.enable()
 
 
+def test_nothing_compiled_refers_back_to_the_system():
+    """No back-references from the compiled drives or the reduction to the System (issue 41): neither holds it,
+    strongly or weakly; ``system.drives`` is the table bound on access, and a driven System pickles."""
+    import gc
+    import pickle
+    import weakref
+
+    system = vd.load_scene("shaken_pendulum").build()
+    table, R = system.compiled_drives, system.reduction
+    for obj in (table, R, *vars(table).values(), *vars(R).values()):
+        assert not any(x is system or isinstance(x, weakref.ref) for x in (obj, *gc.get_referents(obj))), obj
+    bound = system.drives
+    assert bound is not table and bound.names == table.names and np.array_equal(bound.index, table.index)
+    tau = bound.forces(system.neutral(), np.zeros(system.nv), 0.0)
+    with pytest.raises(vd.ModelError, match="bound to no System"):
+        table.forces(system.neutral(), np.zeros(system.nv), 0.0)
+    copy = pickle.loads(pickle.dumps(system))
+    assert copy.drives.forces(copy.neutral(), np.zeros(copy.nv), 0.0) == tau
+    enabled = gc.isenabled()
+    gc.disable()
+    try:  # freed by its last reference alone, its bound drives dropped first
+        ref = weakref.ref(system)
+        del system, bound, copy
+        assert ref() is None
+    finally:
+        if enabled:
+            gc.enable()
+
+
 def test_held_speed_accelerations_are_the_rotating_frame_closed_form():
     """Hub held at Ω, slider at rest at r = 0.4 m with its spring at rest: the hub does not accelerate and the
     slider's acceleration is the centripetal term Ω² r (m/s²); the held path shares the drives' solve."""
