@@ -55,7 +55,7 @@ ENTRY_POINTS = {
     # independent coordinates
     ("vibdyn.analysis.linearize", "linearize.reduced"): {"vibdyn.analysis.reduced"},
     # and the one equilibrium search gives a mechanism's result its loop forces (LoopEquilibrium builds on it)
-    ("vibdyn.analysis.equilibrium", "search"): {"vibdyn.analysis.constrained"},
+    ("vibdyn.analysis.equilibrium", "search.found"): {"vibdyn.analysis.constrained"},
     ("vibdyn.model.system", "System.simulate"): {"vibdyn.simulation.simulate"},
     ("vibdyn.analysis.modal", "Modes.plot"): {"vibdyn.faces.viewer.pictures"},
     ("vibdyn.analysis.modal", "Modes.response_spectrum"): {"vibdyn.analysis.response.seismic"},
@@ -348,19 +348,18 @@ REDUCTION_READERS = ("vibdyn.model", "vibdyn.simulation.integrators", "vibdyn.fa
 # (impose, close, independent, chart, reference_acceleration, require, ...) instead of reading these
 REDUCTION_FLAGS = {"curved", "looped", "time_laws", "is_identity", "held_names", "held_speeds", "driven_names",
                    "driven_units", "driven_q", "law_values"}
-# ``kind`` is a common name (dtype.kind, Onset.kind): a flag only where read off a reduction
+# ``kind`` is a common name (dtype.kind, Onset.kind), and so is ``has``: a flag only where read off a reduction (what a
+# scene has is asked by what the analysis does: ``require`` / ``allows``)
 REDUCTION_NAMES = {"reduction", "R"}
 # modules that still read a flag, each with what remains to be done (issue 41 item 1, in progress): empty at the end
-FLAG_READERS_LEFT: dict[str, str] = {
-    "vibdyn.analysis.sensitivity": "the regime of a driven scene, the analytic path of a tree (sens owns the file)",
-}
+FLAG_READERS_LEFT: dict[str, str] = {}
 
 
 def reads_of_loops_or_drives(source):
     """Lines that read an attribute ``constraints``, ``drives`` or ``has_loops`` (``x.drives``, ``getattr(x,
     "drives", ...)``), or one of the reduction's flags (:data:`REDUCTION_FLAGS`, ``R.kind``)."""
     tree = ast.parse(source)
-    names = {"constraints", "drives", "has_loops"} | REDUCTION_FLAGS
+    names = {"constraints", "drives", "compiled_drives", "has_loops"} | REDUCTION_FLAGS
 
     def receiver(n):
         v = n.value
@@ -368,7 +367,8 @@ def reads_of_loops_or_drives(source):
 
     return sorted({n.lineno for n in ast.walk(tree)
                    if (isinstance(n, ast.Attribute) and (n.attr in names
-                                                         or n.attr == "kind" and receiver(n) in REDUCTION_NAMES))
+                                                         or n.attr in ("kind", "has")
+                                                         and receiver(n) in REDUCTION_NAMES))
                    or (isinstance(n, ast.Call) and getattr(n.func, "id", None) in ("getattr", "hasattr")
                        and len(n.args) > 1 and isinstance(n.args[1], ast.Constant) and n.args[1].value in names)})
 
@@ -398,8 +398,9 @@ def test_the_reduction_checkers_see_one():
     # the reduction's flags, by every spelling, and its kind (not any other object's)
     source = ("if system.reduction.curved:\n    pass\nx = R.time_laws or R.is_identity\ny = R.held_names\n"
               "z = reduction.held_speeds\nk = system.reduction.kind\nd = a.dtype.kind\nw = R.driven_names\n"
-              "u = hasattr(R, 'curved')\nR.impose(q, v, t)\nR.require('backbones')")
-    assert reads_of_loops_or_drives(source) == [1, 3, 4, 5, 6, 8, 9]
+              "u = hasattr(R, 'curved')\nR.impose(q, v, t)\nR.require('backbones')\nh = not system.reduction.has()\n"
+              "g = R.allows('backbones')")
+    assert reads_of_loops_or_drives(source) == [1, 3, 4, 5, 6, 8, 9, 12]
     assert forwarding_classes("class V:\n    def __getattr__(self, n):\n        return 1\n") == ["V"]
 
 

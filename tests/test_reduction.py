@@ -97,6 +97,29 @@ def test_every_held_coordinate_leaves_nothing_to_vibrate():
         system.linearize(system.neutral(), hold=["hub", "slider"])
 
 
+def test_a_held_configuration_is_a_reduction_holding_every_coordinate():
+    """Servo-held robots are a reduction (issue 41): every coordinate held at (q, v), nothing independent, the
+    holders' forces the inverse dynamics there; the one search finds the held point in zero iterations."""
+    from vibdyn.analysis.equilibrium import search
+
+    system = rotor_with_slider()
+    q, v = system.configuration([0.3, 0.05]), np.array([2.0, 0.0])
+    R = system.reduction.holding_all(q, v)
+    assert R.regime(False) == "held" and R.has() == ("held configuration",) and R.free.size == 0
+    ind, N = R.independent(q)
+    assert ind.size == 0 and N.shape == (2, 0)
+    q1, v1 = R.impose(system.neutral(), np.zeros(2), 0.0)
+    assert np.array_equal(q1, q) and np.array_equal(v1, v)
+    tau = system.inverse_dynamics(q, v, np.zeros(2))
+    op = system.held(q, v)
+    assert op.regime == "held" and op.iterations == 0 and op.residual == 0.0 and op.speeds == {"hub": 2.0}
+    assert op.drive == R.held_forces(tau) == {"hub": tau[0], "slider": tau[1]}
+    found = search(system, q, 0.0, {}, 1e-10, 50, caller="held", reduction=R)
+    assert found.drive == op.drive and found.tol == op.tol and found.stability == op.stability
+    lin = op.linearize(method="analytic")  # the free tree's model about it, a = 0
+    assert lin.nv == 2 and not np.any(lin.a)
+
+
 def test_a_built_tree_is_freed_without_the_garbage_collector():
     """The System holds its reduction, which holds no reference back: a System nobody refers to is freed at once
     (with a cycle, every System built, Pinocchio Data included, waited for the collector: a 100-body build took
@@ -117,6 +140,35 @@ def test_a_built_tree_is_freed_without_the_garbage_collector():
         assert len(driven.drives.forces(driven.neutral(), np.zeros(driven.nv), 0.0)) == 1
         ref = weakref.ref(driven)
         del driven
+        assert ref() is None
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def test_nothing_compiled_refers_back_to_the_system():
+    """No back-references from the compiled drives or the reduction to the System (issue 41): neither holds it,
+    strongly or weakly; ``system.drives`` is the table bound on access, and a driven System pickles."""
+    import gc
+    import pickle
+    import weakref
+
+    system = vd.load_scene("shaken_pendulum").build()
+    table, R = system.compiled_drives, system.reduction
+    for obj in (table, R, *vars(table).values(), *vars(R).values()):
+        assert not any(x is system or isinstance(x, weakref.ref) for x in (obj, *gc.get_referents(obj))), obj
+    bound = system.drives
+    assert bound is not table and bound.names == table.names and np.array_equal(bound.index, table.index)
+    tau = bound.forces(system.neutral(), np.zeros(system.nv), 0.0)
+    with pytest.raises(vd.ModelError, match="bound to no System"):
+        table.forces(system.neutral(), np.zeros(system.nv), 0.0)
+    copy = pickle.loads(pickle.dumps(system))
+    assert copy.drives.forces(copy.neutral(), np.zeros(copy.nv), 0.0) == tau
+    enabled = gc.isenabled()
+    gc.disable()
+    try:  # freed by its last reference alone, its bound drives dropped first
+        ref = weakref.ref(system)
+        del system, bound, copy
         assert ref() is None
     finally:
         if enabled:
@@ -144,6 +196,14 @@ def test_the_reduction_answers_refusals_by_name():
     with pytest.raises(vd.ModelError, match=r"^x: scenes with drives are not handled by harmonic balance yet$"):
         driven.reduction.require("harmonic balance", "x")
     assert loops.reduction.has() == ("loops",) and driven.reduction.has() == ("drives",) and tree.reduction.has() == ()
+    # the paths an analysis takes where it can, asked by name (allows: require without the error)
+    assert tree.reduction.allows("derivatives on the tree's elements")
+    assert not driven.reduction.allows("derivatives on the tree's elements")
+    assert not tree.reduction.holding({0: 1.0}).allows("derivatives on the tree's elements")
+    assert loops.reduction.allows("operating points found from a state")
+    assert not driven.reduction.allows("operating points found from a state")
+    assert tree.reduction.allows("steady motions followed from rest")
+    assert not loops.reduction.allows("steady motions followed from rest")
     # an analysis's own refusal, only for what the scene has
     assert driven.reduction.require("a stepper", "y", loops="no loops here") is None
     with pytest.raises(vd.ModelError, match=r"^y: held \(drives .*\)$"):

@@ -1,7 +1,8 @@
 """Equilibria: static (Q − g = 0 at v = 0) and steady motions (some coordinates turning at constant speed,
 the others at rest relative to them), found by one Newton search in the independent coordinates of the system's
 reduction whatever the scene (tree, drives, loops: :func:`search`), and their stability; and configurations
-held by drives (robots under gravity, which have no free equilibrium).
+held by drives (robots under gravity, which have no free equilibrium): the same search in a reduction that holds
+every coordinate (:meth:`~vibdyn.model.reduction.Reduction.holding_all`).
 """
 
 from __future__ import annotations
@@ -16,11 +17,11 @@ import pinocchio as pin
 from .._check import has_coordinates, integer, scalar, start_hint, turns_hint
 from .._deprecation import Renamed
 from .._format import number, table
-from ..defaults import EQUILIBRIUM_TOL, MAX_ITER
+from ..defaults import EPS, EQUILIBRIUM_TOL, MAX_ITER
 from ..errors import ConvergenceError, ModelError
 from ..model import dynamics
 from ..model.fd import steps
-from ..solvers.newton import Steps, newton
+from ..solvers.newton import NewtonResult, Steps, newton
 from .linearize import LinearModel, jacobian_q, jacobian_v, linearize
 
 if TYPE_CHECKING:
@@ -160,8 +161,8 @@ def _steady(system, v_cyclic, q0, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER,
         i = system.coordinate_index(name)
         cyclic[i] = None if speed is None else scalar(speed, f"steady_motion: speed of '{name}'")
     given = all(s is not None for s in cyclic.values()) and max_iter > 0
-    # (followed from rest in the tree's own coordinates: a scene that nothing else reduces)
-    given = given and not system.reduction.has()
+    # (followed from rest in the tree's own coordinates: where the reduction allows it)
+    given = given and system.reduction.allows("steady motions followed from rest")
     try:
         found = search(system, q0, t, cyclic, tol, max_iter, guess, caller="steady_motion")
     except ConvergenceError as failed:
@@ -257,8 +258,9 @@ def held(system, q=None, v=None, t=0.0):
     """The configuration ``q`` (neutral if None) moving at the constant velocity ``v`` (0 if None), held by
     drives on every coordinate: ``drive`` is the generalized force (N or N·m) they add to balance gravity,
     the elastic and the other forces, M·0 + b(q, v) − Q(q, v, t) (not for a mechanism with loops, whose
-    drives could not all act). Linearised with a = 0, its K is
-    ∂(g − Q)/∂q at q: the drives are taken as constant forces (no stiffness of their own)."""
+    drives could not all act): :func:`search` in the reduction holding every coordinate, nothing left to solve.
+    Linearised with a = 0, its K is ∂(g − Q)/∂q at q: the drives are taken as constant forces (no stiffness of
+    their own)."""
     _given_start(system, q, "held: q")
     return _held(system, q, v, t)
 
@@ -268,20 +270,12 @@ def _held(system, q, v, t):
         f"scene '{system.name}' has drives ({{drives}}) whose coordinates move with time: not supported yet; "
         "linearise it about a state of its motion (system.linearize(q, v=v, t=t), free coordinates) or simulate "
         "it"))
-    start = time.perf_counter()
     has_coordinates(system, "held", "to hold")
     q = system.neutral() if q is None else system.check_configuration(np.array(q, dtype=float), "held q").copy()
     v = np.zeros(system.nv) if v is None else system.check_velocity(np.array(v, dtype=float), "held v").copy()
     system.check_limits(q, "held configuration")
-    r = dynamics.inverse_dynamics(system, system.workspace(), q, v, np.zeros(system.nv), t)
-    names = system.coordinates
-    speeds = {names[i]: float(v[i]) for i in np.flatnonzero(v)}
-    drive = {n: float(x) for n, x in zip(names, r)}
-    # round-off of RNEA: a multiple of eps × nv × the forces' scale (largest drive, or weight × length scale)
-    weight = sum(I.mass for I in system.model.inertias) * np.linalg.norm(system.scene.gravity) * system.length_scale
-    tolerance = 100 * system.nv * np.finfo(float).eps * max(np.abs(r).max(initial=0.0), weight, 1e-300)
-    point = OperatingPoint(system, q, v, float(t), "held", 0.0, tolerance, 0, "", speeds, drive, 0.0)
-    return _finish(point, None, 0, start)
+    R = system.reduction.holding_all(q, v)  # (nothing left to solve: the holders' forces, the inverse dynamics')
+    return search(system, q, t, {}, EQUILIBRIUM_TOL, MAX_ITER, caller="held", reduction=R)
 
 
 def operating_point(system: System, tol: float = EQUILIBRIUM_TOL, max_iter: int = MAX_ITER) -> OperatingPoint:
@@ -315,16 +309,19 @@ class Declared:
     mechanism's names it if its loops cannot close there)."""
 
 
-def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"):
+def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium", reduction=None):
     """The one equilibrium search, for every scene: Newton in the independent coordinates z of the system's
-    reduction R (:mod:`vibdyn.model.reduction`), q moved by :meth:`~Reduction.step` (the loops closed again),
+    reduction R (:mod:`vibdyn.model.reduction`; ``reduction``: another, e.g. every coordinate held,
+    :meth:`~Reduction.holding_all`), q moved by :meth:`~Reduction.step` (the loops closed again),
     on the reduced forces ρ = N(q)ᵀ r(q, v, a_ref) of the coordinates at (relative) rest and of those whose
     speed is unknown, r the inverse dynamics and a_ref :meth:`~Reduction.reference_acceleration`.
     ``cyclic``: {index in v: speed (rad/s or m/s), or None to find it from ``guess``}; the held coordinates
-    (drives) move at their laws' position and speed at t (:meth:`~Reduction.impose`)."""
+    (drives) move at their laws' position and speed at t (:meth:`~Reduction.impose`). With nothing independent
+    (every coordinate held) there is nothing to solve: the forces are the holders', to the inverse dynamics'
+    round-off (``tol``)."""
     start = time.perf_counter()
     has_coordinates(system, "steady motion" if cyclic else "equilibrium", "to balance")
-    R, names, nv, nq = system.reduction, system.coordinates, system.nv, system.nq
+    R, names, nv, nq = reduction or system.reduction, system.coordinates, system.nv, system.nq
     t, tol = system.check_time(t), scalar(tol, "equilibrium tol", positive=True)
     max_iter, guess = integer(max_iter, "equilibrium max_iter", minimum=0), scalar(guess, "steady_motion guess")
     R.require_uniform(caller, t, system.coordinate_scales)
@@ -362,9 +359,9 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
     rest = [k for k, i in enumerate(ind) if int(i) not in cyclic]  # positions in ind: unknown positions
     unknown = [i for i, s in cyclic.items() if s is None]  # indices in v: unknown speeds
     rows = rest + [position[i] for i in unknown]  # equations: no acceleration of these
-    block = np.ix_(rows, rest)
-    h, unit = steps(system, 1e-6), system.coordinate_scales
-    what = "steady motion" if cyclic or R.held.size else "static equilibrium"
+    unit = system.coordinate_scales
+    regime = R.regime(bool(cyclic))
+    what = {"static": "static equilibrium", "steady": "steady motion", "held": "held configuration"}[regime]
     moved = f"an iterate of the {what} search"
 
     def acceleration(q, v, ind):
@@ -411,8 +408,36 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
         dz[rest] = step[: len(rest)]
         return np.concatenate([R.step(b["q"], b["N"], dz, moved), x[nq:] + step[len(rest):]])
 
+    def found(out, target):
+        """The operating point the search ``out`` reached, with the holders' forces and the loops'."""
+        b = at(out.x)
+        q, v, N, r, f = b["q"], b["v"], b["N"], b["r"], b["f"]
+        given = [i for i, s in cyclic.items() if s is not None]
+        turning = [position[i] for i in cyclic]
+        drive = {names[i]: float(f[position[i]]) for i in given}
+        drive.update({names[i]: float(r[i]) for i in R.held})
+        held = regime == "held"  # (a held configuration lists the coordinates that move)
+        speeds = {names[i]: float(v[i]) for i in [*cyclic, *R.held] if v[i] or not held}
+        lam = R.multipliers(q, r - N[:, turning] @ f[turning] if turning else r)
+        loops = {"multipliers": lam, "loop_forces": R.split(lam), "constraint_residual": R.closure(q)} if lam.size \
+            else {}
+        if loops:  # a mechanism's equilibrium also carries its loop forces
+            from .constrained import LoopEquilibrium as kind
+        else:
+            kind = OperatingPoint
+        point = kind(system, q, v, float(t), regime, float(np.abs(f[rows]).max(initial=0.0)), float(target),
+                     out.iterations, "", speeds, drive, 0.0, **loops)
+        if held:  # its linear model is the free tree's (the holders constant forces), its offsets the given ones
+            return _finish(point, None, 0, start)
+        return _finish(point, N, len(speeds), start, float(np.abs(system.difference(x0[:nq], q)).max(initial=0.0)))
+
     x0 = np.concatenate([q, v[unknown]])
     b = at(x0)
+    if not rows:  # nothing to solve for: RNEA's round-off, eps × nv × the forces' scale (largest, or weight × length)
+        weight = sum(I.mass for I in system.model.inertias) * np.linalg.norm(system.scene.gravity) * system.length_scale
+        target = 100 * nv * EPS * max(np.abs(b["r"]).max(initial=0.0), weight, 1e-300)
+        return found(NewtonResult(x0, 0.0, 0, True, "nothing to solve for", 0.0), target)
+    block, h = np.ix_(rows, rest), steps(system, 1e-6)
     J = jacobian(x0)
     r_rest = np.diag(J)[: len(rest)] * unit[ind[rest]]
     force_scale = max(np.abs(b["r"]).max(initial=0.0), np.abs(r_rest).max(initial=0.0), 1e-300)
@@ -447,24 +472,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
         raise ConvergenceError(_not_converged(system, what, max_iter, out.residual, b["q"], tree_forces(out.x),
                                               target, b["ind"][rest], turns_hint(system, q_given)),
                                residual=out.residual, best=b["q"])
-    b = at(out.x)
-    q, v, ind, N, r, f = b["q"], b["v"], b["ind"], b["N"], b["r"], b["f"]
-    travel = float(np.abs(system.difference(x0[:nq], q)).max(initial=0.0))
-    given = [i for i, s in cyclic.items() if s is not None]
-    turning = [position[i] for i in cyclic]
-    drive = {names[i]: float(f[position[i]]) for i in given}
-    drive.update({names[i]: float(r[i]) for i in R.held})
-    speeds = {names[i]: float(v[i]) for i in [*cyclic, *R.held]}
-    lam = R.multipliers(q, r - N[:, turning] @ f[turning] if turning else r)
-    loops = {"multipliers": lam, "loop_forces": R.split(lam), "constraint_residual": R.closure(q)} if lam.size else {}
-    if loops:  # a mechanism's equilibrium also carries its loop forces
-        from .constrained import LoopEquilibrium as kind
-    else:
-        kind = OperatingPoint
-    regime = "steady" if what == "steady motion" else "static"
-    point = kind(system, q, v, float(t), regime, float(np.abs(f[rows]).max(initial=0.0)), float(target),
-                 out.iterations, "", speeds, drive, 0.0, **loops)
-    return _finish(point, N, len(speeds), start, travel)
+    return found(out, target)
 
 
 def _finish(point, N, ignore_zeros, start, travel=0.0):
@@ -477,8 +485,12 @@ def _finish(point, N, ignore_zeros, start, travel=0.0):
     lin = linearize(system, point)
     m = lin.modes()
     stability = m.verdict(ignore_zeros=ignore_zeros)
-    Kinv, M = np.abs(np.linalg.pinv(lin.K, rcond=1e-10)), m.linear.M
-    q_error = Kinv @ np.full(Kinv.shape[1], point.residual) if Kinv.size else np.zeros(Kinv.shape[0])
+    M, n = m.linear.M, lin.K.shape[0]
+    if point.residual and n:  # (none left: no offset to carry, K not inverted)
+        Kinv = np.abs(np.linalg.pinv(lin.K, rcond=1e-10))
+        q_error = Kinv @ np.full(n, point.residual)
+    else:
+        q_error = np.zeros(n)
     if N is not None and N.shape[1] < N.shape[0]:  # on the tree's coordinates through N (held offsets: exact)
         q_error = np.abs(N) @ q_error
         # and the loops closed to their assembly's tolerance: |Φ| (dimensionless) over the Jacobian's

@@ -202,7 +202,7 @@ class _Pipeline:
 def _regime(system, lin):
     """How the base linear model's point is found again: "steady" (held speeds), "held", "static" or "pose"."""
     op = system.scene.operating_point or {}
-    if system.reduction.time_laws:  # a driven scene: its declared operating point (the drives' motion)
+    if not system.reduction.allows("operating points found from a state"):  # its declared one (drives' motion)
         return "declared", {}
     if op.get("held"):
         return "held", {}
@@ -537,8 +537,8 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
     from ..model.derivatives import untrusted
 
     # (the element path takes Pinocchio's joint velocity derivatives, wrong for some joint types: not there)
-    if system.reduction.is_identity and not hold and regime in ("static", "pose", "held") \
-            and not untrusted(system)[0].size:
+    if system.reduction.allows("derivatives on the tree's elements") and not hold \
+            and regime in ("static", "pose", "held") and not untrusted(system)[0].size:
         # a tree about a point it holds or finds again: the analytic model is the base, and a parameter a force
         # is proportional to (a stiffness, a damping) is differentiated on its element alone, no rebuild
         if lin.method != "analytic":

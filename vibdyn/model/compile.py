@@ -82,6 +82,15 @@ class Compiled:
     point_joints: tuple  # Pinocchio joints the point groups apply forces to
     uses_point_velocities: bool
     depends_on_velocity: bool
+    compiled_drives: Any  # the drives' table (vibdyn.model.drives.Drives, None without drives): refers to no System
+
+    @property
+    def drives(self) -> Any:
+        """The scene's drives (:class:`vibdyn.model.drives.Drives`; None without drives): the compiled table bound
+        to this system on each access (``system.drives.forces(q, v, t)``), so that nothing compiled refers back to
+        the System."""
+        table = self.compiled_drives
+        return None if table is None else table.bound(self)
 
     def _compile_tree(self, scene: Any) -> Workspace:
         """Compile a scene's tree into this object's tables; return the first workspace (made at build: a
@@ -149,7 +158,7 @@ class Compiled:
         scene.elements = {name: e for name, e in scene.elements.items() if name not in gone}
         view.__dict__.update(_group_tables(groups), _per_thread=PerThread(), scene=scene)
         view.__dict__["depends_on_time"] = any(g.time_dependent for g in groups) or bool(
-            self.supports or getattr(self, "drives", None))
+            self.supports or self.compiled_drives)
         return view
 
 

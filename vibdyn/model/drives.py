@@ -1,5 +1,6 @@
-"""Drives compiled (``system.drives``): which tangent coordinates are prescribed in time (rheonomic joints,
-:mod:`vibdyn.description.elements.drive`), their values at t, the free accelerations and the drives' forces.
+"""Drives compiled (``system.compiled_drives``; bound to the system as ``system.drives``): which tangent
+coordinates are prescribed in time (rheonomic joints, :mod:`vibdyn.description.elements.drive`), their values at
+t, the free accelerations and the drives' forces.
 
 With drives, the coordinates split into driven ones d (q_d, v_d, a_d: the laws' at t) and free ones f. The
 free accelerations solve the free rows of the equations of motion, M_ff a_f = Q_f − g_f − b_f − M_fd a_d,
@@ -11,7 +12,7 @@ inverse dynamics at the motion's accelerations. ``nq``, ``nv`` and ``coordinates
 from __future__ import annotations
 
 import math
-import weakref
+from typing import Any
 
 import numpy as np
 
@@ -25,7 +26,13 @@ PARTS = ("position", "velocity", "acceleration")
 class Drives:
     """The drives of a system: ``names``, ``bodies``, ``coordinates`` (driven, in scene order), ``index``
     (their indices in v, and in q: ``q_index``), ``free`` (indices in v of the free coordinates) and
-    ``free_coordinates`` (their names); ``units`` ("m" or "rad") of the driven coordinates."""
+    ``free_coordinates`` (their names); ``units`` ("m" or "rad") of the driven coordinates.
+
+    The table a System compiles (``system.compiled_drives``) refers to no System: its methods that compute take the
+    system. ``system.drives`` is that table bound to the system on each access (:meth:`bound`), whose
+    :meth:`forces` computes on it."""
+
+    _system: Any  # the System of a bound table (held by the caller only, never by a compiled object), else None
 
     def __init__(self, system, elements):
         self.elements = tuple(elements)
@@ -40,7 +47,16 @@ class Drives:
         self.coordinates = tuple(system.coordinates[i] for i in self.index)
         self.free_coordinates = tuple(system.coordinates[i] for i in self.free)
         self.units = tuple(system.units[i] for i in self.index)
-        self._system = weakref.ref(system)  # (no reference cycle: a System is freed without the collector)
+        self._system = None  # (compiled: bound to no System, :meth:`bound`)
+
+    def bound(self, system: Any) -> Drives:
+        """This table bound to ``system`` (what ``system.drives`` is): a copy that :meth:`forces` computes on. Made
+        on each access and kept by no compiled object, so nothing refers back to the System (a System is freed by
+        its last reference, without the garbage collector) and the System pickles."""
+        out = object.__new__(Drives)
+        out.__dict__.update(self.__dict__)
+        out._system = system
+        return out
 
     def __len__(self):
         return len(self.elements)
@@ -90,7 +106,9 @@ class Drives:
         """{drive name: τ_d}: the generalized force (N for a slider, N·m for a pivot or helical joint) each
         drive exerts along its coordinate at (q, v) moving with accelerations a (None: the motion's,
         :meth:`accelerations`), τ_d = (M a + b + g − Q)_d. The driven entries of q and v are taken as given."""
-        system = self._system()
+        system = self._system
+        if system is None:
+            raise ModelError("Drives.forces: this table is bound to no System (use system.drives.forces)")
         q, v, t = system.check_configuration(q), system.check_velocity(v), system.check_time(t)
         ws = system.workspace()
         if a is None:

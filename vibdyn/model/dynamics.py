@@ -185,8 +185,8 @@ def accelerations(system, ws, q, v, t, applied=None):
     constrained accelerations; with drives, a_d from the laws at t and a_f from the free rows, q and v as
     given: :meth:`vibdyn.model.drives.Drives.accelerations`). May share memory with the workspace.
     ``applied``: the elements' forces at (q, v, t) as :func:`forces` gives them, if already evaluated."""
-    if system.drives is not None:
-        return system.drives.accelerations(system, ws, q, v, t)
+    if system.compiled_drives is not None:
+        return system.compiled_drives.accelerations(system, ws, q, v, t)
     Q, fext = forces(system, ws, q, v, t) if applied is None else applied
     model, data = system.model, ws.data
     a = pin.aba(model, data, q, v, Q) if fext is None else pin.aba(model, data, q, v, Q, fext)
@@ -220,7 +220,7 @@ def accelerations_function(system, ws, keep=None):
     forces alone, and on none without joint-space elements; any other scene, :func:`accelerations` itself.
     ``keep``: a one-item list in which a scene with point elements (and neither drives nor loops) leaves the
     forces of each evaluation, as :func:`forces` gives them (a Jacobian at the same state reuses them)."""
-    if system.drives is not None or system.constraints is not None or (system.point_groups and keep is None):
+    if system.compiled_drives is not None or system.constraints is not None or (system.point_groups and keep is None):
         return lambda q, v, t: accelerations(system, ws, q, v, t)
     if system.point_groups:
         def kept(q, v, t):
@@ -350,4 +350,4 @@ def reactions(system, ws, q, v, a, t, loop_forces=None):
         jf[b.name] = np.asarray(S).reshape(6, -1).T @ f.vector
     return Reactions(tuple(names), np.array(fw).reshape(-1, 3), np.array(mw).reshape(-1, 3),
                      np.array(fl).reshape(-1, 3), np.array(ml).reshape(-1, 3), jf,
-                     {} if system.drives is None else system.drives.of(tau - Q))
+                     {} if system.compiled_drives is None else system.compiled_drives.of(tau - Q))

@@ -35,12 +35,15 @@ class Reduction:
     and those held at a speed), ``free``: the others; ``held_speeds``: {index: speed (rad/s or m/s)} of the
     coordinates held at a constant speed (not by a drive's law)."""
 
+    _pose: np.ndarray | None
+
     def __init__(self, system: Any, loops: Any = None, drives: Any = None, held_speeds: dict | None = None):
         # what it needs of the system, not the system: the System holds its reduction, and a reference back
         # would be a cycle keeping every System built (and its Pinocchio Data) alive until the garbage collector
         # runs (a 100-body build took twice as long); methods that compute take the system, as Drives' do
         self.nv, self.coordinates, self.model = system.nv, tuple(system.coordinates), system.model
         self._loops, self._drives = loops, drives
+        self._pose = None  # q of a configuration held whole (:meth:`holding_all`)
         self._hold(held_speeds or {})
 
     def _hold(self, held_speeds: dict) -> None:
@@ -88,7 +91,9 @@ class Reduction:
             out.append(f"loops {', '.join(lp.name for lp in self._loops.loops)}")
         if self._drives is not None:
             out.append(f"drives {', '.join(self._drives.names)}")
-        if self.held_speeds:
+        if self._pose is not None:
+            out.append("every coordinate held (a configuration held whole)")
+        elif self.held_speeds:
             out.append(f"held speeds of {', '.join(self.coordinates[i] for i in self.held_speeds)}")
         return "; ".join(out) or "nothing (a tree)"
 
@@ -106,12 +111,21 @@ class Reduction:
                                            "(the projection onto the loops has no variational counterpart here)"},
         "held configurations": {"loops": "not available for a mechanism with closed loops ({describe}); use "
                                          "equilibrium()"},
+        # asked with :meth:`allows` (a path an analysis takes where it can, another where it cannot)
+        "operating points found from a state": {"drives": "a driven scene's operating point is its declared one (the "
+                                                          "drives' motion), not one found again from a state"},
+        "steady motions followed from rest": {"loops": "followed in the tree's own coordinates: not with loops",
+                                              "drives": "followed in the tree's own coordinates: not with drives"},
+        "derivatives on the tree's elements": {part: "the tree's own model only: not with {describe}" for part in
+                                               ("loops", "drives", "held speeds", "held configuration")},
     }
 
     def has(self) -> tuple[str, ...]:
-        """What reduces the coordinates, by name: "loops", "drives", "held speeds" (empty for a tree)."""
-        return tuple(name for name, x in (("loops", self._loops), ("drives", self._drives),
-                                          ("held speeds", self.held_speeds or None)) if x is not None)
+        """What reduces the coordinates, by name: "loops", "drives", "held speeds", "held configuration" (empty
+        for a tree)."""
+        held = ("held configuration", self._pose) if self._pose is not None else ("held speeds",
+                                                                                    self.held_speeds or None)
+        return tuple(name for name, x in (("loops", self._loops), ("drives", self._drives), held) if x is not None)
 
     def require(self, analysis: str, what: str | None = None, **refusals: str) -> None:
         """Nothing, if ``analysis`` (a key of :attr:`REFUSALS`, or any name with its own ``refusals``: {"loops",
@@ -123,6 +137,12 @@ class Reduction:
             if part in table:
                 drives = ", ".join(self._drives.names) if self._drives is not None else ""
                 raise ModelError(f"{what or analysis}: {table[part].format(describe=self.describe(), drives=drives)}")
+
+    def allows(self, analysis: str) -> bool:
+        """True if ``analysis`` (a key of :attr:`REFUSALS`) handles everything this reduction has: where
+        :meth:`require` would raise nothing."""
+        table = self.REFUSALS.get(analysis, {})
+        return not any(part in table for part in self.has())
 
     def held_at_speed(self) -> tuple[str, ...]:
         """Names of the coordinates held at a speed (``holding``: a Campbell diagram's spin; not the drives')."""
@@ -141,10 +161,34 @@ class Reduction:
         out._hold({**self.held_speeds, **speeds})
         return out
 
+    def holding_all(self, q, v) -> Reduction:
+        """This reduction with every coordinate held: the configuration ``q`` moving at the constant velocity ``v``
+        (nv; m/s or rad/s), each coordinate by a holder of its own (a servo-held robot, :meth:`System.held`):
+        nothing is left independent, and :meth:`held_forces` are what the holders exert. Only for a reduction
+        that holds nothing by loops or drives (:meth:`require` "held configurations" says so first)."""
+        out = object.__new__(Reduction)
+        out.__dict__.update(self.__dict__)
+        out._pose = np.array(q, dtype=float)
+        out.held_speeds = dict(enumerate(np.asarray(v, dtype=float).tolist()))
+        out.held, out.free = np.arange(self.nv), np.zeros(0, dtype=int)
+        out._basis, out._law_memo, out.kind = np.zeros((self.nv, 0)), None, "held"
+        for a in (out._pose, out.held, out.free, out._basis):
+            a.flags.writeable = False
+        return out
+
+    def regime(self, moving: bool) -> str:
+        """The regime of an operating point found in this reduction: "held" (every coordinate held,
+        :meth:`holding_all`), "steady" (``moving``: coordinates turning at their speeds; or held ones) or
+        "static"."""
+        if self._pose is not None:
+            return "held"
+        return "steady" if moving or self.held.size else "static"
+
     # ------------------------------------------------------------------ states on the reduction
     def impose(self, q, v, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Copies of (q, v) with the held coordinates set: the drives' laws at t (s), the held speeds."""
-        q, v = np.array(q, dtype=float), np.array(v, dtype=float)
+        """Copies of (q, v) with the held coordinates set: the drives' laws at t (s), the held speeds (and
+        configuration)."""
+        q, v = np.array(self._pose if self._pose is not None else q, dtype=float), np.array(v, dtype=float)
         if self._drives is not None:
             q, v = self._drives.impose(q, v, t)
         for i, s in self.held_speeds.items():
@@ -428,5 +472,5 @@ class Reduction:
 
 def compile_reduction(system) -> Reduction:
     """The system's own reduction (its drives and loops; nothing held at a speed)."""
-    return Reduction(system, system.constraints, system.drives)
+    return Reduction(system, system.constraints, system.compiled_drives)  # (the table: it refers to no System)
 

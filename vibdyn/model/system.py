@@ -57,7 +57,7 @@ class System(Compiled):
         self._per_thread = PerThread()
         self._per_thread.workspace = self._compile_tree(scene)
         self._compile_elements()
-        self.drives = compile_drives(self)
+        self.compiled_drives = compile_drives(self)  # (``drives``: bound to this system on access, Compiled.drives)
         self.depends_on_time = any(g.time_dependent for g in self.force_groups) or bool(self.supports or self.drives)
         if self.nv:
             inertia_check.check_inertia(self)

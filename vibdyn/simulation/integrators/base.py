@@ -140,7 +140,7 @@ def work_of(ode, y):
     """The work integral w of a state y of ``ode`` (J, 0 if not integrated); with drives, (w, W_d): the
     drives' work W_d is the component before w (:mod:`.driven`)."""
     w = y[-1] if ode.work else 0.0
-    if ode.system.drives is None:
+    if ode.system.compiled_drives is None:
         return w
     return np.array([w, y[-2] if ode.work else y[-1]])
 
@@ -155,8 +155,8 @@ class Interpolant:
         y, chart = self.sol(t), self.chart
         nv = chart.nv
         q, v = chart.configuration(y), y[nv:2 * nv].copy()
-        if chart.system.drives is not None:  # the driven entries: the laws' at t, exactly
-            q, v = chart.system.drives.impose(q, v, t)
+        if chart.system.compiled_drives is not None:  # the driven entries: the laws' at t, exactly
+            q, v = chart.system.compiled_drives.impose(q, v, t)
         return q, v, work_of(chart, y)
 
 
@@ -185,8 +185,8 @@ class ODEStepper(Stepper):
     def state(self):
         ode, y = self.ode, self.y
         q, v = ode.configuration(y), y[ode.nv:2 * ode.nv].copy()
-        if self.system.drives is not None:  # the driven entries: the laws' at t, exactly
-            q, v = self.system.drives.impose(q, v, self.t)
+        if self.system.compiled_drives is not None:  # the driven entries: the laws' at t, exactly
+            q, v = self.system.compiled_drives.impose(q, v, self.t)
         return q, v, work_of(ode, y)
 
     def atol_vector(self):

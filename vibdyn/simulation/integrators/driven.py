@@ -22,7 +22,7 @@ def driven_ode(base):
         def __init__(self, system, work=False):
             super().__init__(system, work)
             self.n += 1  # W_d, last but the work w
-            drives, ws, kept = system.drives, self.ws, [None]
+            drives, ws, kept = system.compiled_drives, self.ws, [None]
             self._drive_forces = kept  # the drives' forces of the last evaluation (their power), this ODE's own
 
             def accelerations(q, v, t):
@@ -32,7 +32,7 @@ def driven_ode(base):
             self.accelerations = accelerations
 
         def _impose(self, t, y):
-            d, nv = self.system.drives, self.nv
+            d, nv = self.system.compiled_drives, self.nv
             qd, vd, _ = d.values(t)
             y = y.copy()
             y[d.index] = qd - self.centre[d.q_index] if self.curved else qd
@@ -42,13 +42,13 @@ def driven_ode(base):
         def into(self, t, y, out):
             y = self._impose(t, y)
             super().into(t, y, out)
-            d = self.system.drives
+            d = self.system.compiled_drives
             out[self.n - 2 if self.work else self.n - 1] = y[self.nv + d.index] @ self._drive_forces[0]
             out[d.index] = 0.0
             out[self.nv + d.index] = 0.0
 
         def _minv_kc(self, q, v, t, a=None):  # (``a`` not used: the driven rows of the ODE's are zero)
-            f, nv = self.system.drives.free, self.nv
+            f, nv = self.system.compiled_drives.free, self.nv
             MinvK, MinvC = np.zeros((nv, nv)), np.zeros((nv, nv))
             if f.size:
                 M, K, C = linear_terms(self.system, q, v, t)
@@ -59,7 +59,7 @@ def driven_ode(base):
 
         def jacobian(self, t, y, a=None):
             J = super().jacobian(t, self._impose(t, y))
-            d = self.system.drives
+            d = self.system.compiled_drives
             rows = np.concatenate([d.index, self.nv + d.index])
             J[rows, :] = 0.0
             J[:, rows] = 0.0
@@ -72,8 +72,8 @@ def driven_ode(base):
 def free_block(system, transition):
     """The state transition (2nv × 2nv, tangent space) restricted to the free coordinates: 2nf × 2nf,
     ordered (δq_f, δv_f) in the order of ``system.drives.free``; unchanged without drives."""
-    if transition is None or system.drives is None:
+    if transition is None or system.compiled_drives is None:
         return transition
-    f = system.drives.free
+    f = system.compiled_drives.free
     idx = np.concatenate([f, system.nv + f])
     return transition[np.ix_(idx, idx)]
