@@ -31,10 +31,12 @@ from .._check import builder_values, scene_builder
 from .._deprecation import Renamed, former_names
 from ..defaults import EPS
 from ..description import parameters as _parameters
+from ..description.scene import Scene
 from ..errors import ConvergenceError, ModelError
 from ..model.fd import differences, one_sided, round_off
-from .linearize import linearize
-from .modal import invariant_pair
+from ..model.system import System
+from .linearize import LinearModel, linearize
+from .modal import Modes, invariant_pair
 
 #: relative step of the pipeline's differences (h = STEP·|p|, or STEP × the parameter's scale at p = 0)
 STEP = 1e-4
@@ -165,6 +167,16 @@ class Sensitivity:
 
 
 # ------------------------------------------------------------------------------------------ the pipeline
+#: how each regime's point is found again in a rebuilt system (q0, v0: the base point's; speeds: the held ones)
+FOUND_AGAIN: dict[str, Callable] = {
+    "declared": lambda system, q0, v0, speeds: system.operating_point(),
+    "steady": lambda system, q0, v0, speeds: system.steady_motion(speeds, q0=q0),
+    "static": lambda system, q0, v0, speeds: system.equilibrium(q0=q0),
+    "held": lambda system, q0, v0, speeds: system.held(q0, v0),
+    "pose": lambda system, q0, v0, speeds: q0,
+}
+
+
 class _Pipeline:
     """p -> (M, C, K with their errors) of the scene at p: rebuilt, its operating point found again as the
     base one was (static equilibrium from the base pose, the same held speeds, or the base pose held),
@@ -179,16 +191,7 @@ class _Pipeline:
     def __call__(self, values):
         scene, speeds = self.make_scene(values)
         system = scene.build()
-        if self.regime == "declared":
-            op = system.operating_point()
-        elif self.regime == "steady":
-            op = system.steady_motion(speeds, q0=self.q0)
-        elif self.regime == "static":
-            op = system.equilibrium(q0=self.q0)
-        elif self.regime == "held":
-            op = system.held(self.q0, self.v0)
-        else:
-            op = self.q0
+        op = FOUND_AGAIN[self.regime](system, self.q0, self.v0, speeds)
         at = {"v": self.v0} if self.regime == "pose" else {}  # (an operating point carries its own velocity)
         # reduced as the base model is: the same coordinates held at their (new) speeds, the same independent ones
         at.update(hold=self.hold, independent=self.independent)
@@ -480,17 +483,16 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
     if unused not in ("raise", "drop"):
         raise ModelError(f"sensitivity: unused must be 'raise' or 'drop', got {unused!r}")
     start = time.perf_counter()
-    is_modes = hasattr(source, "eigenproblem")  # (Modes: named by what it has, modal.py imports this module)
-    if callable(source) and not hasattr(source, "build") and not is_modes and not hasattr(source, "linearize"):
-        return _of_builder(source, params, start, unused)
-    if hasattr(source, "build") and not hasattr(source, "linearize"):  # a Scene
+    if isinstance(source, Scene):
         source = source.build()
-    if is_modes:
+    if isinstance(source, Modes):
         base_modes = source
-    elif hasattr(source, "modes") and hasattr(source, "K"):  # a LinearModel
+    elif isinstance(source, LinearModel):
         base_modes = source.modes()
-    elif hasattr(source, "operating_point"):  # a System
+    elif isinstance(source, System):
         base_modes = source.operating_point().linearize(method="analytic").modes()
+    elif callable(source):
+        return _of_builder(source, params, start, unused)
     else:
         raise ModelError(f"sensitivity: expected modes, a linear model, a system, a scene or a builder, got "
                          f"{type(source).__name__}")
