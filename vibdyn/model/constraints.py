@@ -125,6 +125,8 @@ class Constraints:
         per loop the coefficient matrices (C_a, C_b) (rows × 6) with Φ_q = C_a J_a + C_b J_b, J the
         LOCAL_WORLD_ALIGNED Jacobians (linear; angular) of the loop frames: the wrench (force N; torque N·m,
         world axes, at the loop point) that multipliers λ exert on end a is C_aᵀ λ, on end b C_bᵀ λ."""
+        if not wrenches:
+            return self._equations(q, jacobian)
         phis, jacs, coeffs = [], [], []
         for lp, (normals, pairs), (a, b) in zip(self.loops, self._axes, self._frames(q, jacobian)):
             kinds = lp.joint.loop_rows
@@ -160,6 +162,65 @@ class Constraints:
         phi = np.concatenate(phis) if phis else np.zeros(0)
         J = (np.vstack(jacs) if jacs else np.zeros((0, nv))) if jacobian else None
         return (phi, J, coeffs) if wrenches else (phi, J)
+
+    def _equations(self, q, jacobian):
+        """(Φ, Φ_q or None) of :meth:`evaluate`, each row written out from the ends' frames (no coefficient
+        matrices: the hot path of every closure, search and step)."""
+        model, data = self.system.model, self.system.data
+        if jacobian:
+            pin.computeJointJacobians(model, data, q)
+        else:
+            pin.forwardKinematics(model, data, q)
+        nv, local = model.nv, pin.LOCAL
+        phis, jacs = [], []
+        for lp, (normals, pairs), ends in zip(self.loops, self._axes, self._ends):
+            frames = []
+            for jid, r, Rl in ends:
+                if jid == 0:
+                    frames.append((r, Rl, None, None))
+                    continue
+                oMi = data.oMi[jid]
+                R = oMi.rotation
+                if jacobian:
+                    J = pin.getJointJacobian(model, data, jid, local)
+                    frames.append((oMi.act(r), R @ Rl, R @ (J[:3] - pin.skew(r) @ J[3:]), R @ J[3:]))
+                else:
+                    frames.append((oMi.act(r), R @ Rl, None, None))
+            (pa, Ra, Jva, Jwa), (pb, Rb, Jvb, Jwb) = frames
+            kinds = lp.joint.loop_rows
+            e = pb - pa
+            rows, J = [], []
+            if jacobian:
+                zero = np.zeros((3, nv))
+                Jva, Jwa = (zero, zero) if Jva is None else (Jva, Jwa)
+                Jvb, Jwb = (zero, zero) if Jvb is None else (Jvb, Jwb)
+                de = Jvb - Jva
+            if "position" in kinds:
+                rows.append(e)
+                if jacobian:
+                    J.append(de)
+            for n in normals:
+                w = Ra @ n
+                rows.append([w @ e])
+                if jacobian:
+                    J.append((w @ de + _cross(w, e) @ Jwa)[None, :])
+            for n, u in pairs:
+                wa, wb = Ra @ n, Rb @ u
+                rows.append([wa @ wb])
+                if jacobian:
+                    J.append((_cross(wa, wb) @ (Jwa - Jwb))[None, :])
+            if "locked" in kinds:
+                Rab = Ra.T @ Rb
+                rows.append(pin.log3(Rab))
+                if jacobian:
+                    J.append(pin.Jlog3(Rab) @ Rb.T @ (Jwb - Jwa))
+            phis.append(np.concatenate(rows) if len(rows) > 1 else np.ravel(rows[0]))
+            if jacobian:
+                jacs.append(np.vstack(J) if len(J) > 1 else J[0])
+        phi = np.concatenate(phis) if len(phis) > 1 else (phis[0] if phis else np.zeros(0))
+        if not jacobian:
+            return phi, None
+        return phi, (np.vstack(jacs) if len(jacs) > 1 else jacs[0]) if jacs else np.zeros((0, nv))
 
     def phi(self, q):
         return self.evaluate(q, jacobian=False)[0]
