@@ -164,63 +164,60 @@ class Constraints:
         return (phi, J, coeffs) if wrenches else (phi, J)
 
     def _equations(self, q, jacobian):
-        """(Φ, Φ_q or None) of :meth:`evaluate`, each row written out from the ends' frames (no coefficient
-        matrices: the hot path of every closure, search and step)."""
+        """(Φ, Φ_q or None) of :meth:`evaluate`, each row written out from the ends' frames into one array (no
+        coefficient matrices: the hot path of every closure, search and step)."""
         model, data = self.system.model, self.system.data
         if jacobian:
             pin.computeJointJacobians(model, data, q)
         else:
             pin.forwardKinematics(model, data, q)
         nv, local = model.nv, pin.LOCAL
-        phis, jacs = [], []
+        phi = np.empty(self.m)
+        J = np.empty((self.m, nv)) if jacobian else None
+        zero, k = None, 0
         for lp, (normals, pairs), ends in zip(self.loops, self._axes, self._ends):
             frames = []
             for jid, r, Rl in ends:
                 if jid == 0:
-                    frames.append((r, Rl, None, None))
+                    if jacobian and zero is None:
+                        zero = np.zeros((3, nv))
+                    frames.append((r, Rl, zero, zero))
                     continue
                 oMi = data.oMi[jid]
                 R = oMi.rotation
                 if jacobian:
-                    J = pin.getJointJacobian(model, data, jid, local)
-                    frames.append((oMi.act(r), R @ Rl, R @ (J[:3] - pin.skew(r) @ J[3:]), R @ J[3:]))
+                    Jl = pin.getJointJacobian(model, data, jid, local)
+                    frames.append((oMi.act(r), R @ Rl, R @ (Jl[:3] - pin.skew(r) @ Jl[3:]), R @ Jl[3:]))
                 else:
                     frames.append((oMi.act(r), R @ Rl, None, None))
             (pa, Ra, Jva, Jwa), (pb, Rb, Jvb, Jwb) = frames
             kinds = lp.joint.loop_rows
             e = pb - pa
-            rows, J = [], []
-            if jacobian:
-                zero = np.zeros((3, nv))
-                Jva, Jwa = (zero, zero) if Jva is None else (Jva, Jwa)
-                Jvb, Jwb = (zero, zero) if Jvb is None else (Jvb, Jwb)
-                de = Jvb - Jva
+            de = Jvb - Jva if jacobian else None
             if "position" in kinds:
-                rows.append(e)
+                phi[k:k + 3] = e
                 if jacobian:
-                    J.append(de)
+                    J[k:k + 3] = de
+                k += 3
             for n in normals:
                 w = Ra @ n
-                rows.append([w @ e])
+                phi[k] = w @ e
                 if jacobian:
-                    J.append((w @ de + _cross(w, e) @ Jwa)[None, :])
+                    J[k] = w @ de + (pin.skew(w) @ e) @ Jwa
+                k += 1
             for n, u in pairs:
                 wa, wb = Ra @ n, Rb @ u
-                rows.append([wa @ wb])
+                phi[k] = wa @ wb
                 if jacobian:
-                    J.append((_cross(wa, wb) @ (Jwa - Jwb))[None, :])
+                    J[k] = (pin.skew(wa) @ wb) @ (Jwa - Jwb)
+                k += 1
             if "locked" in kinds:
                 Rab = Ra.T @ Rb
-                rows.append(pin.log3(Rab))
+                phi[k:k + 3] = pin.log3(Rab)
                 if jacobian:
-                    J.append(pin.Jlog3(Rab) @ Rb.T @ (Jwb - Jwa))
-            phis.append(np.concatenate(rows) if len(rows) > 1 else np.ravel(rows[0]))
-            if jacobian:
-                jacs.append(np.vstack(J) if len(J) > 1 else J[0])
-        phi = np.concatenate(phis) if len(phis) > 1 else (phis[0] if phis else np.zeros(0))
-        if not jacobian:
-            return phi, None
-        return phi, (np.vstack(jacs) if len(jacs) > 1 else jacs[0]) if jacs else np.zeros((0, nv))
+                    J[k:k + 3] = pin.Jlog3(Rab) @ Rb.T @ (Jwb - Jwa)
+                k += 3
+        return phi, J
 
     def phi(self, q):
         return self.evaluate(q, jacobian=False)[0]
