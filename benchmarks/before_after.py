@@ -71,6 +71,40 @@ CASES = {
         "s = ball_chain(5); q = s.integrate(s.neutral(), 0.2 * np.ones(s.nv))", "s.simulate(1.0, q)", 2),
 }
 
+# described looped scenes with no start: their assembly (issue 40 item 4's branch enumeration) runs at build
+_RZ = "def rz(t):\n    return np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1.0]])\n"
+_WATT = ("import numpy as np\n" + _RZ +
+         "def watt(rotation):\n"
+         "    s, I = vd.Scene('watt', gravity=(0, -9.81, 0)), np.diag([1e-5, 1e-3, 1e-3])\n"
+         "    s.add_body('crank', joint=vd.Pivot((0, 0, 1), rotation=rz(rotation)), mass=1.0, com=(0.05, 0, 0),"
+         " inertia=I)\n"
+         "    s.add_body('coupler', parent='crank', joint=vd.Pivot((0, 0, 1), at=(0.1, 0, 0)), mass=0.5,"
+         " com=(0.15, 0, 0), inertia=I)\n"
+         "    s.add_body('link5', parent='coupler', joint=vd.Pivot((0, 0, 1), at=(0.15, 0.05, 0)), mass=0.3,"
+         " com=(0.1, 0, 0), inertia=I)\n"
+         "    s.add_body('rocker', joint=vd.Pivot((0, 0, 1), at=(0.3, 0, 0)), mass=0.8, com=(0.125, 0, 0), inertia=I)\n"
+         "    s.add_body('link6', parent='rocker', joint=vd.Pivot((0, 0, 1), at=(0.125, -0.05, 0)), mass=0.3,"
+         " com=(0.1, 0, 0), inertia=I)\n"
+         "    s.add_loop('C', ('coupler', (0.3, 0, 0)), ('rocker', (0.25, 0, 0)), joint=vd.Pivot((0, 0, 1)))\n"
+         "    s.add_loop('G', ('link5', (0.2, 0, 0)), ('link6', (0.2, 0, 0)), joint=vd.Pivot((0, 0, 1)))\n"
+         "    return s\n")
+_SLIDER_CRANK = ("import numpy as np\n" + _RZ +
+                 "s = vd.Scene('slider_crank_drawn', gravity=(0, -9.81, 0))\n"
+                 "s.add_body('crank', joint=vd.Pivot((0, 0, 1), rotation=rz(1.8)), mass=1.0, com=(0.05, 0, 0),"
+                 " inertia=np.diag([1e-5, 1e-3, 1e-3]))\n"
+                 "s.add_body('rod', parent='crank', joint=vd.Pivot((0, 0, 1), at=(0.1, 0, 0)), mass=0.5,"
+                 " com=(0.15, 0, 0), inertia=np.diag([1e-5, 4e-3, 4e-3]))\n"
+                 "s.add_body('piston', joint=vd.Slider((1, 0, 0), at=(0.3, 0, 0)), mass=2.0)\n"
+                 "s.add_loop('pin', ('rod', (0.3, 0, 0)), ('piston', (0, 0, 0)), joint=vd.Pivot((0, 0, 1)))\n")
+CASES.update({
+    "four_bar assembly, no start (loops)": (
+        "sc = vd.load_scene('four_bar'); sc.operating_point = None", "sc.build()", 3),
+    "trammel assembly, no start (loops)": (
+        "sc = vd.load_scene('trammel'); sc.operating_point = None", "sc.build()", 3),
+    "slider-crank drawn at 1.8 rad assembly (loops)": (_SLIDER_CRANK, "s.build()", 3),
+    "Watt six-bar assembly (loops)": (_WATT + "sc = watt(0.0)", "sc.build()", 3),
+})
+
 RUNNER = """
 import json, sys, time, warnings
 warnings.simplefilter("ignore")

@@ -313,3 +313,59 @@ def test_a_watt_six_bar_drawn_open_is_not_called_nearest_unless_it_is(rotation):
     assert min(gaps) <= 1e-9  # on a hand assembly mode
     assert a.distance >= best - 1e-8
     assert a.distance == pytest.approx(best, abs=1e-8)
+
+
+@pytest.mark.parametrize("ground", [0.649, 0.6499])
+def test_a_near_flat_four_bar_drawn_turned_slides_to_the_nearest_of_its_small_branches(tmp_path, ground):
+    """Near flat (1 or 0.1 mm short) and drawn with its crank turned 0.4 rad, the four-bar closes only over a
+    small range of crank angles, on two small branches curved more than a plain slide step: the assembly was
+    taken at 3.0949 (3.1432) where the hand closure over both branches (a fine grid of that range refined by
+    a bounded search) gives 3.0909 (3.1428). The slide's halved steps reach it."""
+    phi_max = math.acos((A**2 + ground**2 - (B + C) ** 2) / (2 * A * ground))
+    system = four_bar(tmp_path, 0.4, ground=ground).build()
+    a = system.constraints.assembly()
+    assert a.nearest and a.dof == 1
+    best = np.inf
+    for k in (0, 1):
+        def distance(t):
+            return float(np.linalg.norm(wrap(four_bar_branches(t, 0.4, d=ground)[k])))
+
+        grid = np.linspace(-0.4 - phi_max * (1 - 1e-9), -0.4 + phi_max * (1 - 1e-9), 20001)
+        i = int(np.argmin([distance(t) for t in grid]))
+        r = minimize_scalar(distance, bounds=(grid[max(i - 1, 0)], grid[min(i + 1, 20000)]), method="bounded",
+                            options={"xatol": 1e-13})
+        best = min(best, float(r.fun))
+    assert a.distance == pytest.approx(best, abs=1e-8)
+    x = system.difference(system.neutral(), a.q)
+    assert_on_a_branch(x, lambda t: four_bar_branches(t, 0.4, d=ground), np.ones(3), ALL, 1e-9)
+
+
+@pytest.mark.parametrize("ground,rotation,was", [(0.12, 0.3, 0.98411), (0.62, 2.0, 3.18928), (0.62, 4.0, 3.33223)])
+def test_four_bars_whose_slide_stopped_short_reach_the_hand_nearest(tmp_path, ground, rotation, was):
+    """Ground 0.12 m (a crank longer than the ground: both links turn) or 0.62 m (just short of flat), drawn turned:
+    the slide along the nearest branch stopped where a whole step went farther (at 0.98411, 3.18928, 3.33223)
+    and called that the nearest; halving the step it reaches the hand nearest over both branches (a fine grid of
+    the crank's turn refined by a bounded search)."""
+    system = four_bar(tmp_path, rotation, ground=ground).build()
+    a = system.constraints.assembly()
+    assert a.nearest and a.dof == 1
+
+    def branches(t):
+        return four_bar_branches(t, rotation, d=ground)
+
+    best = np.inf
+    grid = np.linspace(-np.pi, np.pi, 40001)
+    for k in (0, 1):
+        def distance(t):
+            b = branches(t)
+            return np.inf if b is None else float(np.linalg.norm(wrap(b[k])))
+
+        i = int(np.argmin([distance(t) for t in grid]))
+        with np.errstate(invalid="ignore"):
+            r = minimize_scalar(distance, bounds=(grid[max(i - 1, 0)], grid[min(i + 1, 40000)]), method="bounded",
+                                options={"xatol": 1e-13})
+        best = min(best, float(r.fun))
+    assert best < was - 5e-5
+    assert a.distance == pytest.approx(best, abs=1e-8)
+    x = system.difference(system.neutral(), a.q)
+    assert_on_a_branch(x, branches, np.ones(3), ALL, 1e-9)

@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from ..defaults import ASSEMBLY_TOL, RANK_RTOL
 from ..errors import ConvergenceError, ModelError
 
 #: radii (rad, or × the length scale) of the restarts along ± each coordinate, one round each
@@ -50,16 +51,20 @@ RESTART_RADII = (0.25, 1.0, np.pi / 2)
 RANDOM_RESTARTS = 8  # the last round: seeded random poses, half with std 1, half with std 2 (dimensionless)
 OPEN_TOL = 1e-6  # a least-squares result with dimensionless |Φ| below this is polished by Gauss–Newton
 SLIDE_TOL, SLIDE_ITER = 1e-10, 300  # the slide to the nearest closure: last projected step (dimensionless)
+SLIDE_HALVINGS = 6  # a slide's step halved this many times where the closure reached is farther or not found
 SAME = 1e-6  # closures nearer each other than this (dimensionless) are one
 TIE_RTOL = 1e-7  # distances within this (relative) are a tie
 BESIDE = 1e-3  # step to the closures beside one, for the rank there (dimensionless)
 LEAVE = (1e-3, 1e-2, 1e-1)  # steps along the motion off a closure where the forces are undefined
-TRACE_STEP, TRACE_MIN_STEP = 0.2, 1e-3  # arclength steps (dimensionless) of the trace along a branch
+TRACE_STEP, TRACE_MAX_STEP, TRACE_MIN_STEP = 0.2, 0.8, 1e-3  # arclength steps (dimensionless) of the trace
+CORRECT_ITER = 8  # Gauss–Newton iterations of one corrector (a trace step, a slide step)
 TRACE_MAX = 2000  # samples of one branch before its trace is given up (the nearest is then not proven)
 PARTNER_POINTS = 2  # points along each traced branch where the other assembly modes are sought
 PARTNER_MAX = 26  # restarts of the dependent coordinates per point: the whole grid of up to 3 (see _partners)
-PARTNER_ITER, PARTNER_OPEN = (4, 6), 1e-2  # Newton iterations of a restart, in two runs, the second only for
-# a restart whose dimensionless residual is below PARTNER_OPEN after the first
+PARTNER_ITER, PARTNER_OPEN = (4, 6), 1e-2  # Newton iterations of a restart, the last 6 only for a restart whose
+# dimensionless residual is below PARTNER_OPEN after the first 4
+KNOWN_STEP, KNOWN_GAP = 1e-2, 1e-3  # a restart's Newton step and gap below which it is taken to converge to the
+# closure it is beside (quadratic convergence: it ends within about the step² of where it is)
 MAX_BRANCHES = 16  # branches traced before the search gives up proving the nearest
 WHERE = "the closure nearest the neutral configuration"
 WHERE_FOUND = "a closure found near the neutral configuration"  # (the nearest of those found, not proven)
@@ -152,49 +157,118 @@ def _gaps(c, q, samples):
     return np.linalg.norm(d / c.col_scale, axis=1)
 
 
-def _tangent(c, q, previous):
-    """The unit (dimensionless) direction of the one motion the loops allow at q, turned to go on along
-    ``previous``; None where the mobility there is not 1."""
-    rank, _, _, Vt = c.decompose(c.jacobian(q))
+def _tangent(c, J, previous):
+    """The unit (dimensionless) direction of the one motion the loops allow where Φ_q is J, turned to go on
+    along ``previous``; None where the mobility there is not 1."""
+    rank, _, _, Vt = c.decompose(J)
     if c.system.nv - rank != 1:
         return None
     t = Vt[-1]
     return -t if previous is not None and t @ previous < 0 else t
 
 
+def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), known=None):
+    """(q, Φ_q, corrections) of the closure reached from q by Gauss–Newton (minimum-norm dimensionless steps of
+    all coordinates, or of ``dep`` only, each halved until |Φ| decreases), Φ and Φ_q from one evaluation per
+    point; ``corrections`` the sizes of the steps taken. None where |Φ| stays above ASSEMBLY_TOL after
+    ``iterations``, stops decreasing, or is above give_up[1] after give_up[0] iterations; None too where a step
+    below KNOWN_STEP lands within KNOWN_GAP of one of the closures ``known`` (an array, one a row: it converges to
+    that one, already known)."""
+    model, cs, rs = c.system.model, c.col_scale, c.row_scale
+    cols = slice(None) if dep is None else dep
+    phi, J = c.evaluate(q)
+    r = rs * phi
+    steps = []
+    for k in range(iterations + 1):
+        res = float(np.abs(r).max(initial=0.0))
+        if res <= ASSEMBLY_TOL:
+            return q, J, steps
+        if k == iterations or not np.isfinite(res) or (k >= give_up[0] and res > give_up[1]):
+            return None
+        dx = np.zeros(c.system.nv)
+        dx[cols] = np.linalg.lstsq(rs[:, None] * J[:, cols] * cs[None, cols], -r, rcond=RANK_RTOL)[0]
+        norm0, alpha = float(r @ r), 1.0
+        while True:
+            q1 = pin.integrate(model, q, cs * (alpha * dx))
+            with np.errstate(over="ignore", invalid="ignore"):
+                phi1, J1 = c.evaluate(q1)
+            r1 = rs * phi1
+            if float(r1 @ r1) <= (1 - 1e-4 * alpha) * norm0:
+                break
+            alpha *= 0.5
+            if alpha < 1e-4:
+                return None
+        steps.append(alpha * float(np.linalg.norm(dx)))
+        q, J, r = q1, J1, r1
+        if known is not None and steps[-1] <= KNOWN_STEP and _gaps(c, q, known).min() <= KNOWN_GAP:
+            return None
+    return None
+
+
 def _trace(c, q0, qd):
-    """(samples, whole) of the branch through the closure q0 of a one-mobility mechanism: arclength steps of
-    TRACE_STEP (dimensionless) along the motion, each closed again by Gauss–Newton (halved down to
-    TRACE_MIN_STEP where the corrector fails, jumps or turns back); ``whole`` when the trace comes back to q0
-    (the branch is a closed curve, traced whole), False where it stops (a singular position, a step that
-    cannot be closed, TRACE_MAX samples)."""
+    """(samples, tangents, whole) of the branch through the closure q0 of a one-mobility mechanism: arclength
+    steps along the motion from TRACE_STEP up to TRACE_MAX_STEP (dimensionless), each closed again by
+    Gauss–Newton (:func:`_correct`; halved down to TRACE_MIN_STEP where the corrector fails, moves more than half
+    the step, contracts slowly, jumps or turns back); ``whole`` when the trace comes back to q0 (the branch is a
+    closed curve, traced whole), False where it stops (a singular position, a step that cannot be closed on it,
+    TRACE_MAX samples)."""
     model, cs = c.system.model, c.col_scale
-    t = _tangent(c, q0, None)
-    samples, q, h = [q0], q0, TRACE_STEP
+    t = _tangent(c, c.jacobian(q0), None)
+    samples, tangents, q, h = [q0], [t], q0, TRACE_STEP
     while t is not None and len(samples) < TRACE_MAX:
-        q1 = _close(c, pin.integrate(model, q, cs * (h * t)), qd)
-        t1 = None if q1 is None else _tangent(c, q1, t)
-        if t1 is None or _gap(c, q, q1) > 2 * h or t1 @ t < 0.5:
+        out = _correct(c, pin.integrate(model, q, cs * (h * t)))
+        t1 = None if out is None else _tangent(c, out[1], t)
+        if t1 is not None:
+            q1, _, steps = out
+            q1 = c.within_pi(q1, qd)
+        if (t1 is None or (steps and steps[0] > 0.5 * h) or (len(steps) > 1 and steps[1] > 0.5 * steps[0])
+                or _gap(c, q, q1) > 2 * h or t1 @ t < 0.5):
             if h / 2 < TRACE_MIN_STEP:
-                return samples, False
+                return samples, tangents, False
             h /= 2
             continue
         ahead = _offsets(c, q1, c.within_pi(q0.copy(), q1))  # (q0 ahead along the motion: the loop is closing)
         if len(samples) > 1 and np.linalg.norm(ahead) <= h and ahead @ t1 > 0:
-            return samples, True
+            return samples, tangents, True
         samples.append(q1)
-        q, t, h = q1, t1, min(TRACE_STEP, 1.5 * h)
-    return samples, False
+        tangents.append(t1)
+        grow = len(steps) <= 4 and t1 @ t >= 0.9
+        q, t, h = q1, t1, min(TRACE_MAX_STEP, 1.5 * h) if grow else h
+    return samples, tangents, False
+
+
+def _on_branch(c, p, S, steps):
+    """Whether the closure p lies on the traced branch of samples S (``steps``: the chord from each sample to
+    the next): near a sample (within 0.6 of its longer chord), and reached from it along the motion by steps of
+    p's offset projected on the tangent, each closed again (:func:`_correct`), until the offset is below SAME or
+    its projection is (p is then beside the branch, not on it)."""
+    d = _gaps(c, p, S)
+    i = int(np.argmin(d))
+    if d[i] > 0.6 * max(steps[i], steps[i - 1]):
+        return False
+    q, J = S[i], c.jacobian(S[i])
+    for _ in range(CORRECT_ITER):
+        x = _offsets(c, q, c.within_pi(p.copy(), q))
+        if np.linalg.norm(x) <= SAME:
+            return True
+        t = _tangent(c, J, None)
+        if t is None or abs(x @ t) <= SAME:
+            return False
+        out = _correct(c, pin.integrate(c.system.model, q, c.col_scale * ((x @ t) * t)))
+        if out is None:
+            return False
+        q, J, _ = out
+    return False
 
 
 def _partners(c, q, qd):
     """(closures, complete): the other closures with q's independent coordinates (the other assembly modes
     there: the mirror image of a four-bar's coupler and rocker about the line they span): Gauss–Newton on the
-    dependent coordinates (:meth:`Constraints.close`) from q's moved by 0, ±2π/3 (angles) or 0, ±1 × the
+    dependent coordinates (:func:`_correct`) from q's moved by 0, ±2π/3 (angles) or 0, ±1 × the
     length scale (others) each: every combination but q's own where there are at most PARTNER_MAX, else each
     coordinate moved alone and a seeded sample of the other combinations up to PARTNER_MAX (``complete``
-    False: sampled, not the whole grid). A restart still open by PARTNER_OPEN after PARTNER_ITER iterations
-    is dropped (it is not converging)."""
+    False: sampled, not the whole grid). A restart still open by PARTNER_OPEN after PARTNER_ITER[0] iterations
+    is dropped (it is not converging), as is one beside q or a closure it found already."""
     model, cs, nv = c.system.model, c.col_scale, c.system.nv
     ind, _ = c.partition(c.jacobian(q))
     dep = np.setdiff1d(np.arange(nv), ind)
@@ -212,21 +286,12 @@ def _partners(c, q, qd):
     for combo in combos:
         x = np.zeros(nv)
         x[dep] = combo
-        q1 = pin.integrate(model, q, cs * x)
-        for iterations in PARTNER_ITER:  # (a few iterations first: most restarts that fail are far off by then)
-            try:
-                with np.errstate(over="ignore", invalid="ignore"):
-                    q1 = c.close(q1, dep, max_iter=iterations)
-                break
-            except ConvergenceError as e:
-                q1 = e.best if e.residual <= PARTNER_OPEN else None
-                if q1 is None:
-                    break
-        else:
-            q1 = None
-        if q1 is None:
+        # (a few iterations first: most restarts that fail are far off by then)
+        closed = _correct(c, pin.integrate(model, q, cs * x), dep, sum(PARTNER_ITER), (PARTNER_ITER[0], PARTNER_OPEN),
+                          np.array([q] + out))
+        if closed is None:
             continue
-        q1 = c.within_pi(q1, qd)
+        q1 = c.within_pi(closed[0], qd)
         if _gap(c, q, q1) > SAME and all(_gap(c, o, q1) > SAME for o in out):
             out.append(q1)
     return out, complete
@@ -247,23 +312,28 @@ def _branches(c, qd, seeds):
     (to be slid to the nearest); at PARTNER_POINTS points along it and at its minima the other assembly modes
     are sought (:func:`_partners`), and each not on a traced branch is traced in turn. ``whole``: every
     branch met was traced whole (closed curves) within MAX_BRANCHES; ``complete``: every search for the other
-    modes tried its whole grid of restarts (:func:`_partners`). (A branch reached as a partner is not
-    searched again at its first point, where the search that found it was.)"""
+    modes tried its whole grid of restarts (:func:`_partners`). (A branch reached as a partner is not searched
+    again at its first point; where the searches that found it, or the other partners found on it, are
+    PARTNER_POINTS, only at its minima.)"""
     queue, branches, candidates, whole, complete = [(q, False) for q in seeds], [], [], True, True
     while queue:
         q, partner = queue.pop(0)
-        if any(_gaps(c, q, S).min() <= 0.6 * step for S, step in branches):  # (on a traced branch)
+        if any(_on_branch(c, q, *b) for b in branches):  # (on a traced branch)
             continue
         if len(branches) == MAX_BRANCHES:
             return candidates, len(branches), False, complete
-        samples, closed = _trace(c, q, qd)
+        samples, tangents, closed = _trace(c, q, qd)
         whole = whole and closed
         S = np.array(samples)
-        ends = samples[1:] + (samples[:1] if closed else [])
-        branches.append((S, max((_gap(c, p, r) for p, r in zip(samples, ends)), default=0.0)))
+        ends = samples[1:] + (samples[:1] if closed else [samples[-1]])
+        branches.append((S, [_gap(c, p, r) for p, r in zip(samples, ends)]))
         mins = _local_minima(_gaps(c, qd, S), closed)
         candidates += [samples[i] for i in mins]
-        points = set(mins) | set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS)
+        met = [p for p, _ in queue if _on_branch(c, p, *branches[-1])]  # (searched there: not queued again)
+        queue = [(p, f) for p, f in queue if not any(p is m for m in met)]
+        points = set(mins)
+        if partner + len(met) < PARTNER_POINTS:
+            points |= set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS)
         for i in sorted(points - ({0} if partner else set())):
             found, grid = _partners(c, samples[i], qd)
             complete = complete and grid
@@ -273,21 +343,39 @@ def _branches(c, qd, seeds):
 
 def _nearest(c, qd, q):
     """The closure nearest qd reached from the closure q along the loops: the step towards qd projected on
-    the null space of Φ_q (dimensionless metric), closed again, until it vanishes or stops shortening."""
+    the null space of Φ_q (dimensionless metric), closed again, until it vanishes or stops shortening. With
+    mobility 1 the step is scaled by the secant of the projected offset along the motion (the distance's
+    curvature there: superlinear where the plain step converges linearly), the plain step where that fails,
+    halved up to SLIDE_HALVINGS times (a small branch, curved more than the step)."""
     model, cs = c.system.model, c.col_scale
-    dist = np.linalg.norm(_offsets(c, qd, q))
+    dist, J, last = np.linalg.norm(_offsets(c, qd, q)), c.jacobian(q), None
     for _ in range(SLIDE_ITER):
-        rank, _, _, Vt = c.decompose(c.jacobian(q))
+        rank, _, _, Vt = c.decompose(J)
         V0 = Vt[rank:]
-        step = V0.T @ (V0 @ (pin.difference(model, q, qd) / cs))
+        v = pin.difference(model, q, qd) / cs
+        step = V0.T @ (V0 @ v)
         if np.abs(step).max(initial=0.0) <= SLIDE_TOL:
             break
-        q1 = _close(c, pin.integrate(model, q, cs * step), qd)
-        if q1 is None:
+        tries, t = [step * 0.5**k for k in range(SLIDE_HALVINGS + 1)], None
+        if len(V0) == 1:
+            t = V0[0] if last is None or V0[0] @ last[2] >= 0 else -V0[0]
+            g = float(t @ v)
+            if last is not None and last[0] != 0:
+                H = (last[1] - g) / last[0]
+                if 0.02 <= H <= 50 and abs(H - 1) > 1e-3:
+                    tries.insert(0, (g / H) * t)
+        for st in tries:
+            out = _correct(c, pin.integrate(model, q, cs * st))
+            q1 = _close(c, pin.integrate(model, q, cs * st), qd) if out is None else c.within_pi(out[0], qd)
+            if q1 is None:
+                continue
+            d1 = np.linalg.norm(_offsets(c, qd, q1))
+            if d1 <= dist * (1 + 1e-9):  # (near the nearest the distance changes by step², below its round-off)
+                break
+        else:
             break
-        d1 = np.linalg.norm(_offsets(c, qd, q1))
-        if d1 > dist * (1 + 1e-9):  # (near the nearest the distance changes by step², below its round-off)
-            break
+        J = c.jacobian(q1) if out is None else out[1]
+        last = None if t is None else (float(t @ st), g, t)
         q, dist = q1, d1
     return q
 

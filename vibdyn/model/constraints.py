@@ -126,6 +126,8 @@ class Constraints:
         per loop the coefficient matrices (C_a, C_b) (rows × 6) with Φ_q = C_a J_a + C_b J_b, J the
         LOCAL_WORLD_ALIGNED Jacobians (linear; angular) of the loop frames: the wrench (force N; torque N·m,
         world axes, at the loop point) that multipliers λ exert on end a is C_aᵀ λ, on end b C_bᵀ λ."""
+        if not wrenches:
+            return self._equations(q, jacobian)
         phis, jacs, coeffs = [], [], []
         for lp, (normals, pairs), (a, b) in zip(self.loops, self._axes, self._frames(q, jacobian)):
             kinds = lp.joint.loop_rows
@@ -161,6 +163,62 @@ class Constraints:
         phi = np.concatenate(phis) if phis else np.zeros(0)
         J = (np.vstack(jacs) if jacs else np.zeros((0, nv))) if jacobian else None
         return (phi, J, coeffs) if wrenches else (phi, J)
+
+    def _equations(self, q, jacobian):
+        """(Φ, Φ_q or None) of :meth:`evaluate`, each row written out from the ends' frames into one array (no
+        coefficient matrices: the hot path of every closure, search and step)."""
+        model, data = self.system.model, self.system.data
+        if jacobian:
+            pin.computeJointJacobians(model, data, q)
+        else:
+            pin.forwardKinematics(model, data, q)
+        nv, local = model.nv, pin.LOCAL
+        phi = np.empty(self.m)
+        J = np.empty((self.m, nv)) if jacobian else None
+        zero, k = None, 0
+        for lp, (normals, pairs), ends in zip(self.loops, self._axes, self._ends):
+            frames = []
+            for jid, r, Rl in ends:
+                if jid == 0:
+                    if jacobian and zero is None:
+                        zero = np.zeros((3, nv))
+                    frames.append((r, Rl, zero, zero))
+                    continue
+                oMi = data.oMi[jid]
+                R = oMi.rotation
+                if jacobian:
+                    Jl = pin.getJointJacobian(model, data, jid, local)
+                    frames.append((oMi.act(r), R @ Rl, R @ (Jl[:3] - pin.skew(r) @ Jl[3:]), R @ Jl[3:]))
+                else:
+                    frames.append((oMi.act(r), R @ Rl, None, None))
+            (pa, Ra, Jva, Jwa), (pb, Rb, Jvb, Jwb) = frames
+            kinds = lp.joint.loop_rows
+            e = pb - pa
+            de = Jvb - Jva if jacobian else None
+            if "position" in kinds:
+                phi[k:k + 3] = e
+                if jacobian:
+                    J[k:k + 3] = de
+                k += 3
+            for n in normals:
+                w = Ra @ n
+                phi[k] = w @ e
+                if jacobian:
+                    J[k] = w @ de + (pin.skew(w) @ e) @ Jwa
+                k += 1
+            for n, u in pairs:
+                wa, wb = Ra @ n, Rb @ u
+                phi[k] = wa @ wb
+                if jacobian:
+                    J[k] = (pin.skew(wa) @ wb) @ (Jwa - Jwb)
+                k += 1
+            if "locked" in kinds:
+                Rab = Ra.T @ Rb
+                phi[k:k + 3] = pin.log3(Rab)
+                if jacobian:
+                    J[k:k + 3] = pin.Jlog3(Rab) @ Rb.T @ (Jwb - Jwa)
+                k += 3
+        return phi, J
 
     def phi(self, q):
         return self.evaluate(q, jacobian=False)[0]
