@@ -193,8 +193,9 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
     force = R.constraint_force(lam)
     if force is not None:  # the loops' forces Φ_qᵀλ turn with q: their curvature joins K
         terms = dynamics.cancelling_terms(system, ws, q0, v0, a0, t0)
-        G, G_error = curvature(system, force, q0)
-        tree = replace(tree, K=tree.K - G, K_error=tree.K_error + G_error)
+        G, change, rounding = curvature(system, force, q0)
+        tree_error = tree.K_error
+        tree = replace(tree, K=tree.K - G, K_error=tree_error + rounding + np.abs(change))
         evaluations += 6 * system.nv + 2
 
     def differenced():
@@ -202,7 +203,17 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
         evaluations += 8 * ind.size
         return moving_terms(system, R, q0, v0, t0, ind, h, np.abs(N).T @ terms)
 
-    M_r, C_r, K_r, K_err, C_err, terms_r = R.reduce_model(ind, N, tree, moving, differenced)
+    if force is None or moving:
+        M_r, C_r, K_r, K_err, C_err, terms_r = R.reduce_model(ind, N, tree, moving, differenced)
+    else:
+        # G's error in the reduced model: its Richardson change as N projects it, signed (the change of NᵀGN
+        # between the steps, as it is of G's own entries), and its round-off, independent from evaluation to
+        # evaluation, as a root sum of squares through N (|N|ᵀ R |N| adds up what cancels at random)
+        M_r, C_r, K_r, K_err, C_err, terms_r = R.reduce_model(ind, N, replace(tree, K_error=tree_error), moving,
+                                                              differenced)
+        N2 = N * N
+        K_err += np.abs(N.T @ change @ N)
+        K_err += np.sqrt(N2.T @ (rounding * rounding) @ N2)
     rank = R.free.size - ind.size  # (what the loops tie; 0 without them)
     cls = ConstrainedLinearModel if rank else DrivenLinearModel
     return cls(system, q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err, tree.method, time.perf_counter() - start,
@@ -214,13 +225,12 @@ CURVATURE_STEP = 1e-3  # rad, or × the length scale: the step of the loops' cur
 
 
 def curvature(system, force, q0):
-    """(G, its error estimate): G = ∂f/∂q of the loops' forces f(q) = Φ_q(q)ᵀλ at fixed λ (nv × nv), by central
-    differences D(h), D(2h), D(4h) extrapolated, G = D(h) + (D(h) − D(2h))/3 (fourth order), steps h of
-    ``CURVATURE_STEP``. f is a sum of rotations times lengths and λ, smooth at every q (the tree is not closed
-    here), so a step of 1e-3 leaves round-off ε|f|/h a hundredth of that of the linearisation's step. Its error:
-    a third of G(h) − G(2h) (fifteen times G(h)'s truncation, to leading order; the evaluations' random part shows
-    in it too) plus the round-off of f's rows (ε |f| over h, the largest row's reaching every row through the
-    tree's transforms) and of G itself."""
+    """(G, C, R): G = ∂f/∂q of the loops' forces f(q) = Φ_q(q)ᵀλ at fixed λ (nv × nv), by central differences
+    D(h), D(2h), D(4h) extrapolated, G = D(h) + (D(h) − D(2h))/3 (fourth order), steps h of ``CURVATURE_STEP``; its
+    error estimate C + R: C a third of G(h) − G(2h), signed (fifteen times G(h)'s truncation, to leading order; the
+    evaluations' random part shows in it too), R ≥ 0 the round-off of f's rows (ε |f| over h, the largest row's
+    reaching every row through the tree's transforms) and of G itself. f is a sum of rotations times lengths and λ,
+    smooth at every q (the tree is not closed here): a step of 1e-3 keeps its round-off small."""
     s = system.coordinate_scales
     h = steps(system, CURVATURE_STEP)
     D, T = tangent_derivative(system, force, q0, h, estimate=True)
@@ -230,13 +240,12 @@ def curvature(system, force, q0):
     G += D  # G(h) = D(h) + (D(h) − D(2h))/3
     change = G - D2
     change -= (D2 - D4) / 3  # G(h) − G(2h)
+    change /= 3
     f = np.abs(np.ravel(force(q0)))
     f += float((f * s).max(initial=0.0)) / s
-    error = np.abs(change)
-    error /= 3
-    error += np.multiply.outer(f, EPS / h)
-    error += 4 * EPS * np.abs(G)
-    return G, error
+    rounding = np.multiply.outer(f, EPS / h)
+    rounding += 4 * EPS * np.abs(G)
+    return G, change, rounding
 
 
 def moving_terms(system, R, q0, v0, t0, ind, h, terms):

@@ -60,7 +60,10 @@ class Springs(TwoPoint):
                 ratio = self.l0[i] / L[i]
                 Fb = -k * (L[i] - self.l0[i]) * u
                 dF = (-k * (1 - ratio)) * Jrel - (k * ratio) * np.outer(u, u @ Jrel)
-            size = self.k[i] * np.abs(Jrel) if d.dFq_abs is not None else None  # (|Ks| ≤ k: its round-off)
+            # (|Ks| ≤ k, times the ends' own Jacobians, in every axis: their difference Jrel cancels where the spring
+            # turns about its own line, and its direction u rounds in every axis, leaving ε k |J| in each)
+            size = None if d.dFq_abs is None else np.broadcast_to(self.k[i] * (
+                np.abs(d.point(jb, self.pb[i])).sum(axis=0) + np.abs(d.point(ja, self.pa[i])).sum(axis=0)), dF.shape)
             d.add_force(jb, self.pb[i], Fb, dF, None, size)
             d.add_force(ja, self.pa[i], -Fb, -dF, None, size)
 
