@@ -510,6 +510,20 @@ def fd_error(D, T, terms, h, round_off=None):
     return err
 
 
+def measured_terms(R, terms, nv):
+    """The terms whose round-off the differences carry, as the evaluations show it: R the residuals at a stencil's
+    rows (:class:`vibdyn.model.fd.Stencil` with estimate: q0, then ±h, ±2h per coordinate), ``terms`` the size of
+    what cancels in them (N or N·m per row). Each row's round-off is sampled by the fourth difference
+    r(2h) − 4r(h) + 6r(0) − 4r(−h) + r(−2h) of every column (h⁴ r⁗ beside it is nothing at these steps; random
+    round-off of size e gives it √70 e): three times their root mean square over √70, as terms of the 16ε round-off
+    of :func:`fd_error`, kept between 1/16 of ``terms`` and ``terms`` (the bound where they cancel exactly)."""
+    rows = R[1:].reshape(4, nv, -1)  # steps +h, +2h, −h, −2h (rows: columns k; last axis: rows i)
+    fourth = rows[1] - 4 * rows[0] + 6 * R[0] - 4 * rows[2] + rows[3]
+    noise = np.sqrt(np.einsum("ki,ki->i", fourth, fourth) / (70 * nv))
+    noise *= 3 / (16 * EPS)
+    return np.clip(noise, terms / 16, terms)
+
+
 def _finite_differences(system, ws, q0, v0, a0, t0, step):
     """K, C and their error estimates (:func:`fd_error`): every displaced configuration evaluated in one
     pass (:func:`vibdyn.model.dynamics.inverse_dynamics_rows`), the operating point's own evaluation first
@@ -522,7 +536,7 @@ def _finite_differences(system, ws, q0, v0, a0, t0, step):
     terms += tau0 if dynamics.is_gravity(system, v0, a0) else np.abs(dynamics.gravity_term(system, ws, q0))
     tau -= F
     K, T = st.derivatives(tau)
-    K_err = fd_error(K, T, terms, h, st.round_off)
+    K_err = fd_error(K, T, measured_terms(tau, terms, system.nv), h, st.round_off)
     rounding = force_rounding(system, ws, q0, t0, h)
     if rounding is not None:
         K_err += np.abs(rounding[0]).T @ rounding[1]
