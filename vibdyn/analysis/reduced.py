@@ -207,13 +207,15 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
         M_r, C_r, K_r, K_err, C_err, terms_r = R.reduce_model(ind, N, tree, moving, differenced)
     else:
         # G's error in the reduced model: its Richardson change as N projects it, signed (the change of NᵀGN
-        # between the steps, as it is of G's own entries), and its round-off, independent from evaluation to
-        # evaluation, as a root sum of squares through N (|N|ᵀ R |N| adds up what cancels at random)
+        # between the steps, as it is of G's own entries), and its round-off through |N| on the rows (one
+        # evaluation's rows may round alike) and as a root sum of squares over the columns (each column its own
+        # evaluations, rounding independently: |N|ᵀ R |N| adds up what cancels at random)
         M_r, C_r, K_r, K_err, C_err, terms_r = R.reduce_model(ind, N, replace(tree, K_error=tree_error), moving,
                                                               differenced)
-        N2 = N * N
         K_err += np.abs(N.T @ change @ N)
-        K_err += np.sqrt(N2.T @ (rounding * rounding) @ N2)
+        rows = np.abs(N).T @ rounding
+        rows *= rows
+        K_err += np.sqrt(rows @ (N * N))
     rank = R.free.size - ind.size  # (what the loops tie; 0 without them)
     cls = ConstrainedLinearModel if rank else DrivenLinearModel
     return cls(system, q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err, tree.method, time.perf_counter() - start,
