@@ -49,8 +49,8 @@ class Springs(TwoPoint):
         dx, L = self.geometry(d.fkin)
         for i in range(len(self.k)):
             ja, jb = int(self.ja[i]), int(self.jb[i])
-            Jrel = (d.point(jb, self.pb[i]) if ja == 0 else -d.point(ja, self.pa[i]) if jb == 0
-                    else d.point(jb, self.pb[i]) - d.point(ja, self.pa[i]))  # (an end on the world: no term)
+            Pb, Pa = d.point(jb, self.pb[i]), d.point(ja, self.pa[i])  # (zeros for an end on the world)
+            Jrel = Pb - Pa
             k = self.k[i]
             if self.zero_l0[i]:
                 Fb, dF = -k * dx[i], -k * Jrel
@@ -62,8 +62,8 @@ class Springs(TwoPoint):
                 dF = (-k * (1 - ratio)) * Jrel - (k * ratio) * np.outer(u, u @ Jrel)
             # (|Ks| ≤ k, times the ends' own Jacobians, in every axis: their difference Jrel cancels where the spring
             # turns about its own line, and its direction u rounds in every axis, leaving ε k |J| in each)
-            size = None if d.dFq_abs is None else np.broadcast_to(self.k[i] * (
-                np.abs(d.point(jb, self.pb[i])).sum(axis=0) + np.abs(d.point(ja, self.pa[i])).sum(axis=0)), dF.shape)
+            size = None if d.dFq_abs is None else np.broadcast_to(
+                self.k[i] * (np.abs(Pb).sum(axis=0) + np.abs(Pa).sum(axis=0)), dF.shape)
             d.add_force(jb, self.pb[i], Fb, dF, None, size)
             d.add_force(ja, self.pa[i], -Fb, -dF, None, size)
 
