@@ -549,8 +549,8 @@ def _finite_differences(system, ws, q0, v0, a0, t0, step):
     bound = 16 * EPS * terms
     if rounding is not None:
         bound += np.abs(rounding[0]).T @ (rounding[1][:, 0] * h[0])
-    share = measured_share(tau, bound, system.nv)
-    K_err = fd_error(K, T, share * terms, h, st.round_off)
+    share = measured_share(tau, bound, system.nv) if rounding is not None or terms.any() else None
+    K_err = fd_error(K, T, terms if share is None else share * terms, h, st.round_off)
     if rounding is not None:  # (one share for every spring: a spring's rounding reaches every row it moves)
         U = rounding[0]
         rounding = (U * float(share[np.abs(U).max(axis=0, initial=0.0) > 0].max(initial=1 / 16)), rounding[1])
