@@ -180,7 +180,9 @@ class LinearModel:
             shift[i] = x
             return dynamics.inverse_dynamics(system, system.workspace(), self.q, self.v, self.a, self.t, shift)
 
-        out = -vector_derivative(residual, np.zeros(6), np.full(6, step * system.length_scale))  # Q = −r
+        # (a power of two: the support moves by exactly it, see :func:`vibdyn.model.fd.steps`)
+        h = float(np.exp2(np.round(np.log2(step * system.length_scale))))
+        out = -vector_derivative(residual, np.zeros(6), np.full(6, h))  # Q = −r
         return out[:, :3], out[:, 3:]
 
     # responses (vibdyn.analysis.response): thin entry points
@@ -510,6 +512,25 @@ def fd_error(D, T, terms, h, round_off=None):
     return err
 
 
+def measured_share(R, bound, nv):
+    """Per row, the share of ``bound`` (the row's bound of each evaluation's round-off, N or N·m) that the
+    evaluations show: R the residuals at a stencil's rows (:class:`vibdyn.model.fd.Stencil` with estimate: q0, then
+    ±h, ±2h per coordinate). Each row's round-off is sampled by the fourth difference r(2h) − 4r(h) + 6r(0) − 4r(−h)
+    + r(−2h) of every column (h⁴ r⁗ beside it is nothing at these steps; random round-off of size e gives it √70 e):
+    three times their root mean square over √70, over the bound, kept between 1/16 and 1 (the bound where the
+    round-off cancels exactly, at every step alike)."""
+    fourth = (_FOURTH @ R[1:].reshape(4, -1)).reshape(nv, -1)  # (stencil rows: steps +h, +2h, −h, −2h)
+    fourth += 6 * R[0]
+    noise = np.hypot.reduce(fourth, axis=0)  # (no overflow of the squares)
+    noise *= 3 / np.sqrt(70 * nv)
+    share = np.minimum(noise, bound, out=noise)
+    share /= bound + 1e-300
+    return np.maximum(share, 1 / 16, out=share)
+
+
+_FOURTH = np.array([-4.0, 1.0, -4.0, 1.0])  # the fourth difference's weights of r(h), r(2h), r(−h), r(−2h)
+
+
 def _finite_differences(system, ws, q0, v0, a0, t0, step):
     """K, C and their error estimates (:func:`fd_error`): every displaced configuration evaluated in one
     pass (:func:`vibdyn.model.dynamics.inverse_dynamics_rows`), the operating point's own evaluation first
@@ -522,9 +543,17 @@ def _finite_differences(system, ws, q0, v0, a0, t0, step):
     terms += tau0 if dynamics.is_gravity(system, v0, a0) else np.abs(dynamics.gravity_term(system, ws, q0))
     tau -= F
     K, T = st.derivatives(tau)
-    K_err = fd_error(K, T, terms, h, st.round_off)
+    # the round-off bound of each row's evaluations (the terms that cancel, the point springs' forces), and the
+    # share of it the evaluations show
     rounding = force_rounding(system, ws, q0, t0, h)
+    bound = 16 * EPS * terms
     if rounding is not None:
+        bound += np.abs(rounding[0]).T @ (rounding[1][:, 0] * h[0])
+    share = measured_share(tau, bound, system.nv) if rounding is not None or terms.any() else None
+    K_err = fd_error(K, T, terms if share is None else share * terms, h, st.round_off)
+    if rounding is not None:  # (one share for every spring: a spring's rounding reaches every row it moves)
+        U = rounding[0]
+        rounding = (U * float(share[np.abs(U).max(axis=0, initial=0.0) > 0].max(initial=1 / 16)), rounding[1])
         K_err += np.abs(rounding[0]).T @ rounding[1]
     evaluations = 4 * system.nv + 1
     if system.depends_on_velocity or np.count_nonzero(v0):

@@ -49,8 +49,8 @@ class Springs(TwoPoint):
         dx, L = self.geometry(d.fkin)
         for i in range(len(self.k)):
             ja, jb = int(self.ja[i]), int(self.jb[i])
-            Jrel = (d.point(jb, self.pb[i]) if ja == 0 else -d.point(ja, self.pa[i]) if jb == 0
-                    else d.point(jb, self.pb[i]) - d.point(ja, self.pa[i]))  # (an end on the world: no term)
+            Pb, Pa = d.point(jb, self.pb[i]), d.point(ja, self.pa[i])  # (zeros for an end on the world)
+            Jrel = Pb - Pa
             k = self.k[i]
             if self.zero_l0[i]:
                 Fb, dF = -k * dx[i], -k * Jrel
@@ -60,7 +60,10 @@ class Springs(TwoPoint):
                 ratio = self.l0[i] / L[i]
                 Fb = -k * (L[i] - self.l0[i]) * u
                 dF = (-k * (1 - ratio)) * Jrel - (k * ratio) * np.outer(u, u @ Jrel)
-            size = self.k[i] * np.abs(Jrel) if d.dFq_abs is not None else None  # (|Ks| ≤ k: its round-off)
+            # (|Ks| ≤ k, times the ends' own Jacobians, in every axis: their difference Jrel cancels where the spring
+            # turns about its own line, and its direction u rounds in every axis, leaving ε k |J| in each)
+            size = None if d.dFq_abs is None else np.broadcast_to(
+                self.k[i] * (np.abs(Pb).sum(axis=0) + np.abs(Pa).sum(axis=0)), dF.shape)
             d.add_force(jb, self.pb[i], Fb, dF, None, size)
             d.add_force(ja, self.pa[i], -Fb, -dF, None, size)
 
