@@ -291,18 +291,24 @@ def test_record_integrals_are_exact():
     assert rec.max_step == 0.5 and rec.peak_acceleration == 3.0
 
 
+def _on_record(rec, m, k, c):
+    """A mass on a slider, a spring k and a damper c (none at 0) to a support moved by the record ``rec``."""
+    s = vd.Scene("oscillator")
+    s.add_body("mass", joint=vd.Slider((1, 0, 0)), mass=m)
+    s.add_support("ground", rec)
+    s.add_spring("k", ("ground", (-1.0, 0, 0)), "mass", stiffness=k, free_length=1.0)
+    if c:
+        s.add_damper("c", ("ground", (-1.0, 0, 0)), "mass", damping=c)
+    return s.build()
+
+
 def test_record_drives_forced_response_and_simulate():
     """An oscillator on a support moved by a record: the linear forced response, the nonlinear simulation and
     the record's spectrum (three methods) agree on the peak relative displacement."""
     rec = _record(n=150, dt=0.02, seed=2)
     m, k, z = 10.0, 1000.0, 0.05
     w = np.sqrt(k / m)
-    s = vd.Scene("oscillator")
-    s.add_body("mass", joint=vd.Slider((1, 0, 0)), mass=m)
-    s.add_support("ground", rec)
-    s.add_spring("k", ("ground", (-1.0, 0, 0)), "mass", stiffness=k, free_length=1.0)
-    s.add_damper("c", ("ground", (-1.0, 0, 0)), "mass", damping=2 * z * w * m)
-    system = s.build()
+    system = _on_record(rec, m, k, 2 * z * w * m)
     lin = system.linearize(np.zeros(1))
     t = np.linspace(0.0, rec.times[-1] + 1.0, 997)  # not on the record's samples: integrated through them
     r = lin.forced_response(t, support="ground")
@@ -327,12 +333,7 @@ def test_forced_response_integrates_through_the_records_samples():
     """Output times that are not the record's samples: the exact discretisation still steps on every sample (no
     quadrature across a kink), against solve_ivp; without it the estimate was 1e-4 and the error 2e-7 here."""
     rec = _record(n=150, dt=0.02, seed=2)
-    s = vd.Scene("oscillator")
-    s.add_body("mass", joint=vd.Slider((1, 0, 0)), mass=10.0)
-    s.add_support("ground", rec)
-    s.add_spring("k", ("ground", (-1.0, 0, 0)), "mass", stiffness=1000.0, free_length=1.0)
-    s.add_damper("c", ("ground", (-1.0, 0, 0)), "mass", damping=10.0)
-    lin = s.build().linearize(np.zeros(1))
+    lin = _on_record(rec, 10.0, 1000.0, 10.0).linearize(np.zeros(1))
     t = np.linspace(0.0, rec.times[-1] + 1.0, 61)
     r = lin.forced_response(t, support="ground", method="state")
     ref = lin.forced_response(t, support="ground", method="ivp")
@@ -342,11 +343,7 @@ def test_forced_response_integrates_through_the_records_samples():
 
 def test_simulate_steps_are_bounded_by_the_record():
     rec = vd.laws.Record(np.sin(np.arange(40) * 0.7), dt=0.01)
-    s = vd.Scene("soft")
-    s.add_body("mass", joint=vd.Slider((1, 0, 0)), mass=1.0)
-    s.add_support("ground", rec)
-    s.add_spring("k", ("ground", (-1.0, 0, 0)), "mass", stiffness=1.0, free_length=1.0)
-    tr = s.build().simulate(0.35)
+    tr = _on_record(rec, 1.0, 1.0, 0.0).simulate(0.35)
     assert np.diff(tr.t).max() <= 0.01 + 1e-15  # a soft oscillator would otherwise step over many samples
 
 
@@ -355,12 +352,7 @@ def test_steps_past_the_records_end_are_bound_no_more():
     record on a 20 s run took every step of dt), and the motion still equals the exact linear forced response
     within the two estimates."""
     rec = _record(n=40, dt=0.01, seed=3)
-    s = vd.Scene("oscillator")
-    s.add_body("mass", joint=vd.Slider((1, 0, 0)), mass=1.0)
-    s.add_support("ground", rec)
-    s.add_spring("k", ("ground", (-1.0, 0, 0)), "mass", stiffness=100.0, free_length=1.0)
-    s.add_damper("c", ("ground", (-1.0, 0, 0)), "mass", damping=0.5)
-    system = s.build()
+    system = _on_record(rec, 1.0, 100.0, 0.5)
     t = np.linspace(0.0, 20.0, 401)
     for method in ("dop853", "radau"):
         steps = system.simulate(t[-1], method=method, rtol=1e-9).t  # (every step recorded)
