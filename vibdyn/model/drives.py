@@ -88,17 +88,17 @@ class Drives:
         q[self.q_index], v[self.index] = qd, vd
         return q, v
 
-    def accelerations(self, system, ws, q, v, t):
+    def accelerations(self, system, ws, q, v, t, ad=None):
         """dv/dt (nv): a_d from the laws at t, a_f from the free rows of the equations of motion at (q, v)
         as given (their driven entries are not replaced: :meth:`impose` does that). Unchecked (the hot path)."""
-        return self.accelerations_and_forces(system, ws, q, v, t)[0]
+        return self.accelerations_and_forces(system, ws, q, v, t, ad)[0]
 
-    def accelerations_and_forces(self, system, ws, q, v, t):
+    def accelerations_and_forces(self, system, ws, q, v, t, ad=None):
         """(dv/dt, τ_d): :meth:`accelerations` and the drives' forces there (N or N·m, in the order of
-        ``index``). Unchecked (the hot path)."""
+        ``index``). Unchecked (the hot path). ``ad``: the laws' a_d at t where the caller has them (None: asked)."""
         d, f = self.index, self.free
         a = np.zeros(system.nv)
-        a[d] = self.values(t)[2]
+        a[d] = self.values(t)[2] if ad is None else ad
         a, h, M = dynamics.held_accelerations(system, ws, q, v, t, a, f)
         return a, (h[d] if M is None else h[d] + M[np.ix_(d, f)] @ a[f])
 

@@ -190,7 +190,8 @@ class Reduction:
         configuration)."""
         q, v = np.array(self._pose if self._pose is not None else q, dtype=float), np.array(v, dtype=float)
         if self._drives is not None:
-            q, v = self._drives.impose(q, v, t)
+            qd, vd, _ = self._laws(t)
+            q[self._drives.q_index], v[self._drives.index] = qd, vd
         for i, s in self.held_speeds.items():
             v[i] = s
         return q, v
@@ -368,10 +369,10 @@ class Reduction:
         if self._drives is None and not self.held_speeds:
             return dynamics.accelerations(system, ws, q, v, t).copy()
         if self._drives is not None and not self.held_speeds:
-            return self._drives.accelerations(system, ws, q, v, t)
+            return self._drives.accelerations(system, ws, q, v, t, self._laws(t)[2])
         a = np.zeros(self.nv)
         if self._drives is not None:
-            a[self._drives.index] = self._drives.values(t)[2]
+            a[self._drives.index] = self._laws(t)[2]
         return dynamics.held_accelerations(system, ws, q, v, t, a, self.free)[0]
 
     def motion_acceleration(self, system, ws, q, v, t: float, ind, a=None, steady: bool = False) -> np.ndarray:
