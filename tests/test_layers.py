@@ -359,7 +359,7 @@ def reads_of_loops_or_drives(source):
     """Lines that read an attribute ``constraints``, ``drives`` or ``has_loops`` (``x.drives``, ``getattr(x,
     "drives", ...)``), or one of the reduction's flags (:data:`REDUCTION_FLAGS`, ``R.kind``)."""
     tree = ast.parse(source)
-    names = {"constraints", "drives", "compiled_drives", "has_loops"} | REDUCTION_FLAGS
+    names = {"constraints", "drives", "compiled_drives", "compiled_loops", "has_loops"} | REDUCTION_FLAGS
 
     def receiver(n):
         v = n.value

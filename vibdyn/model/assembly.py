@@ -106,7 +106,7 @@ class Assembly:
 def _chart(c, qd):
     """(q(x), Φ̃(x), Φ̃_x(x)): the chart at qd in dimensionless tangent coordinates and the dimensionless
     loop residual and its Jacobian there."""
-    model, cs = c.system.model, c.col_scale
+    model, cs = c.model, c.col_scale
 
     def at(x):
         return pin.integrate(model, qd, cs * x)
@@ -139,7 +139,7 @@ def _close(c, q, qd):
 
 
 def _offsets(c, qd, q):
-    return pin.difference(c.system.model, qd, q) / c.col_scale
+    return pin.difference(c.model, qd, q) / c.col_scale
 
 
 def _gap(c, a, b):
@@ -149,7 +149,7 @@ def _gap(c, a, b):
 
 def _gaps(c, q, samples):
     """:func:`_gap` from q to each of ``samples`` (an array of configurations, one a row)."""
-    model, iq = c.system.model, c.system.periodic_coordinates
+    model, iq = c.model, c.periodic_coordinates
     if model.nq != model.nv:  # (a Lie group other than ℝⁿ: one by one)
         return np.array([_gap(c, q, s) for s in samples])
     d = samples - q
@@ -161,7 +161,7 @@ def _tangent(c, J, previous):
     """The unit (dimensionless) direction of the one motion the loops allow where Φ_q is J, turned to go on
     along ``previous``; None where the mobility there is not 1."""
     rank, _, _, Vt = c.decompose(J)
-    if c.system.nv - rank != 1:
+    if c.nv - rank != 1:
         return None
     t = Vt[-1]
     return -t if previous is not None and t @ previous < 0 else t
@@ -174,7 +174,7 @@ def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), 
     ``iterations``, stops decreasing, or is above give_up[1] after give_up[0] iterations; None too where a step
     below KNOWN_STEP lands within KNOWN_GAP of one of the closures ``known`` (an array, one a row: it converges to
     that one, already known)."""
-    model, cs, rs = c.system.model, c.col_scale, c.row_scale
+    model, cs, rs = c.model, c.col_scale, c.row_scale
     cols = slice(None) if dep is None else dep
     phi, J = c.evaluate(q)
     r = rs * phi
@@ -185,7 +185,7 @@ def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), 
             return q, J, steps
         if k == iterations or not np.isfinite(res) or (k >= give_up[0] and res > give_up[1]):
             return None
-        dx = np.zeros(c.system.nv)
+        dx = np.zeros(c.nv)
         dx[cols] = np.linalg.lstsq(rs[:, None] * J[:, cols] * cs[None, cols], -r, rcond=RANK_RTOL)[0]
         norm0, alpha = float(r @ r), 1.0
         while True:
@@ -212,7 +212,7 @@ def _trace(c, q0, qd):
     the step, contracts slowly, jumps or turns back); ``whole`` when the trace comes back to q0 (the branch is a
     closed curve, traced whole), False where it stops (a singular position, a step that cannot be closed on it,
     TRACE_MAX samples)."""
-    model, cs = c.system.model, c.col_scale
+    model, cs = c.model, c.col_scale
     t = _tangent(c, c.jacobian(q0), None)
     samples, tangents, q, h = [q0], [t], q0, TRACE_STEP
     while t is not None and len(samples) < TRACE_MAX:
@@ -254,7 +254,7 @@ def _on_branch(c, p, S, steps):
         t = _tangent(c, J, None)
         if t is None or abs(x @ t) <= SAME:
             return False
-        out = _correct(c, pin.integrate(c.system.model, q, c.col_scale * ((x @ t) * t)))
+        out = _correct(c, pin.integrate(c.model, q, c.col_scale * ((x @ t) * t)))
         if out is None:
             return False
         q, J, _ = out
@@ -269,10 +269,10 @@ def _partners(c, q, qd):
     coordinate moved alone and a seeded sample of the other combinations up to PARTNER_MAX (``complete``
     False: sampled, not the whole grid). A restart still open by PARTNER_OPEN after PARTNER_ITER[0] iterations
     is dropped (it is not converging), as is one beside q or a closure it found already."""
-    model, cs, nv = c.system.model, c.col_scale, c.system.nv
+    model, cs, nv = c.model, c.col_scale, c.nv
     ind, _ = c.partition(c.jacobian(q))
     dep = np.setdiff1d(np.arange(nv), ind)
-    choices = [(0.0, 2 * np.pi / 3, -2 * np.pi / 3) if c.system.units[i] == "rad" else (0.0, 1.0, -1.0)
+    choices = [(0.0, 2 * np.pi / 3, -2 * np.pi / 3) if c.units[i] == "rad" else (0.0, 1.0, -1.0)
                for i in dep]
     combos = list(itertools.islice(itertools.product(*choices), 1, None))
     complete = len(combos) <= PARTNER_MAX
@@ -347,7 +347,7 @@ def _nearest(c, qd, q):
     mobility 1 the step is scaled by the secant of the projected offset along the motion (the distance's
     curvature there: superlinear where the plain step converges linearly), the plain step where that fails,
     halved up to SLIDE_HALVINGS times (a small branch, curved more than the step)."""
-    model, cs = c.system.model, c.col_scale
+    model, cs = c.model, c.col_scale
     dist, J, last = np.linalg.norm(_offsets(c, qd, q)), c.jacobian(q), None
     for _ in range(SLIDE_ITER):
         rank, _, _, Vt = c.decompose(J)
@@ -389,14 +389,14 @@ def _beyond(system, q):
     return ""
 
 
-def _compared(c, qd, closures):
+def _compared(c, qd, closures, system):
     """([(distance, offsets, q)] of the distinct closures reached from ``closures`` by :func:`_nearest`, each
     kept where it ends within the position limits (else the closure it started from), held): ``held`` when
     some slide ended beyond the limits. Distances dimensionless, periodic angles within π of qd's."""
     out, held = [], False
     for q in closures:
         q1 = _nearest(c, qd, q)
-        if _beyond(c.system, q1):
+        if _beyond(system, q1):
             q1, held = q, True
         x = _offsets(c, qd, q1)
         if all(np.abs(x - y).max() > SAME for _, y, _ in out):
@@ -404,7 +404,7 @@ def _compared(c, qd, closures):
     return out, held
 
 
-def _closures(c, qd):
+def _closures(c, qd, system):
     """(closures found within the limits, starts tried, (best open residual, its q), why the first closure
     beyond the limits is): least squares from the described pose, then from each round of perturbed poses
     until one closes the loops within the limits."""
@@ -412,7 +412,7 @@ def _closures(c, qd):
 
     at, fun, jac = _chart(c, qd)
     found, tried, best, beyond = [], 0, (np.inf, qd), ""
-    for starts in _rounds(c.system.nv):
+    for starts in _rounds(c.nv):
         for x0 in starts:
             tried += 1
             try:
@@ -425,7 +425,7 @@ def _closures(c, qd):
                 best = (res, at(r.x))
             q = _close(c, at(r.x), qd) if res <= OPEN_TOL else None
             if q is not None:
-                why = _beyond(c.system, q)
+                why = _beyond(system, q)
                 if not why:
                     found.append(q)
                 beyond = beyond or why
@@ -437,7 +437,7 @@ def _closures(c, qd):
 def _beside_ranks(c, q, qd):
     """Ranks of Φ_q (the first k rows, for each loop's last row k) at the closures BESIDE q along ± each
     null-space direction: their largest, per loop."""
-    model, cs = c.system.model, c.col_scale
+    model, cs = c.model, c.col_scale
     rank, _, _, Vt = c.decompose(c.jacobian(q))
     ends = np.cumsum(c.sizes)
     out = np.zeros(len(ends), dtype=int)
@@ -455,10 +455,10 @@ def _coordinate_text(system, q):
     return ", ".join(f"{n} = {v:.6g} {u}" for n, v, u in zip(system.coordinates, x, system.units))
 
 
-def _leave(c, q, qd):
+def _leave(c, q, qd, system):
     """(q, note): q itself where the scene's forces are defined; else the first closure, LEAVE steps along
     the motion, where they are (the first coordinate that moves increasing), with why."""
-    system, model, cs = c.system, c.system.model, c.col_scale
+    model, cs = c.model, c.col_scale
     zero = np.zeros(system.nv)
     try:
         system.generalized_forces(q, zero)
@@ -487,13 +487,12 @@ def _leave(c, q, qd):
     return q, ""
 
 
-def assemble_described(c):
-    """The :class:`Assembly` of the described pose of the loops ``c`` (a :class:`Constraints`); see the
-    module. A ConvergenceError naming the loop left most open, and by how much, if no start closes them."""
+def assemble_described(c, system):
+    """The :class:`Assembly` of the described pose of the loops ``c`` (a :class:`Constraints`) of ``system``; see
+    the module. A ConvergenceError naming the loop left most open, and by how much, if no start closes them."""
     start = time.perf_counter()
-    system = c.system
     qd = system.neutral()
-    found, tried, (res, q_open), beyond = _closures(c, qd)
+    found, tried, (res, q_open), beyond = _closures(c, qd, system)
     if not found and beyond:
         raise ConvergenceError(f"assembly from the neutral configuration: the loops close only beyond the scene's "
                                f"position limits ({tried} starts tried): {beyond}; widen the limits or declare a "
@@ -509,7 +508,7 @@ def assemble_described(c):
             ": its bodies cannot reach each other as described (check the loop's points and the links' lengths), "
             "or declare a start near a closed configuration (Scene.set_operating_point(start=...))",
             residual=res, best=q_open)
-    unique, held = _compared(c, qd, found)
+    unique, held = _compared(c, qd, found, system)
     d_min, notes, why = min(d for d, _, _ in unique), [], ""
     if d_min > SAME:  # (the described pose closes: nothing is nearer)
         dof = system.nv - c.rank(min(unique, key=lambda u: u[0])[2])
@@ -525,7 +524,7 @@ def assemble_described(c):
             more = [p for q in seeds for p in _partners(c, q, qd)[0]]
             why = (f"the mechanism has mobility {dof} there: its closures form surfaces, which are not traced (the "
                    f"closures of {tried} starts and their other assembly modes were compared)")
-        unique, held = _compared(c, qd, seeds + more)
+        unique, held = _compared(c, qd, seeds + more, system)
         d_min = min(d for d, _, _ in unique)
         if held and not why:
             why = ("the nearest closure on some branch is beyond the position limits: the one taken is the nearest "
@@ -564,7 +563,7 @@ def assemble_described(c):
                      f"beside it (mobility {system.nv - rank} there, {system.nv - generic} elsewhere: branches of the "
                      "motion cross there); declare a start off it (Scene.set_operating_point(start=...), or q0=)")
     else:
-        q, moved = _leave(c, q, qd)
+        q, moved = _leave(c, q, qd, system)
         if moved:
             notes.append(moved)
         q = c.assemble(q, start=where)  # (recorded: the mobility is taken here; a locking loop is named)

@@ -83,6 +83,7 @@ class Compiled:
     uses_point_velocities: bool
     depends_on_velocity: bool
     compiled_drives: Any  # the drives' table (vibdyn.model.drives.Drives, None without drives): refers to no System
+    compiled_loops: Any  # the loops' table (vibdyn.model.constraints.Constraints, None without loops): the same
 
     @property
     def drives(self) -> Any:
@@ -90,6 +91,13 @@ class Compiled:
         to this system on each access (``system.drives.forces(q, v, t)``), so that nothing compiled refers back to
         the System."""
         table = self.compiled_drives
+        return None if table is None else table.bound(self)
+
+    @property
+    def constraints(self) -> Any:
+        """The scene's closed loops (:class:`vibdyn.model.constraints.Constraints`; None without loops): the compiled
+        table bound to this system on each access (``system.constraints.assembly()``), as :attr:`drives`."""
+        table = self.compiled_loops
         return None if table is None else table.bound(self)
 
     def _compile_tree(self, scene: Any) -> Workspace:

@@ -23,9 +23,9 @@ def start_configuration(system: System) -> tuple[np.ndarray, str]:
     neutral: with loops, their closure nearest it) and its name."""
     start = (system.scene.operating_point or {}).get("start")
     if start is None:  # (with loops: vibdyn.model.assembly)
-        if system.constraints is None:
+        if system.compiled_loops is None:
             return system.neutral(), "the neutral configuration"
-        return system.constraints.start()
+        return system.compiled_loops.start(system)
     try:
         q = configuration(system, start)
     except ModelError as e:

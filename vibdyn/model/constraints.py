@@ -2,6 +2,11 @@
 :mod:`vibdyn.description.loops` for the kinds and their equations).
 """
 
+from __future__ import annotations
+
+import threading
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 
@@ -9,6 +14,7 @@ from ..defaults import ASSEMBLY_TOL, EPS, RANK_RTOL
 from ..description.elements import WORLD
 from ..errors import ConvergenceError, ModelError
 from .fd import derivative, hessian
+from .workspace import create_data
 
 
 def _cross(a, b):
@@ -43,13 +49,25 @@ LOCK_MAX_MOTIONS = 6  # more first-order motions than this at a closure: the iso
 
 class Constraints:
     """The compiled loop equations of a system: Φ(q), Φ_q(q) (tangent space), rank, null space, assembly.
-    ``closed``: (q, where) of the first closed configuration met, None before; ``dof`` the mobility there."""
+    ``closed``: (q, where) of the first closed configuration met, None before; ``dof`` the mobility there.
+
+    The table a System compiles (``system.compiled_loops``) keeps what it needs of the System, not the System;
+    those of its methods that need it take it (:meth:`assembly`, :meth:`start`). ``system.constraints`` is the
+    table bound to the system on each access (:meth:`bound`), sharing what the table found."""
+
+    _system: Any  # the System of a bound table (held by the caller only, never by a compiled object), else None
 
     def __init__(self, system, loops):
-        self.system = system
-        self.closed = None
-        self._assembly = None  # the described pose's Assembly (or its ConvergenceError), once searched
-        self.dof_closed = None
+        # what it needs of the system, not the system: a reference back would be a cycle keeping every System
+        # built with loops (and its Pinocchio Data) alive until the garbage collector runs (as Reduction's)
+        self.model, self.nv, self.units = system.model, system.nv, tuple(system.units)
+        self.length_scale, self.periodic_coordinates = system.length_scale, system.periodic_coordinates
+        self._system = None  # (compiled: bound to no System, :meth:`bound`)
+        # what the searches found, shared with the bound copies: "closed" (q, where) of the first closed
+        # configuration met, "dof" the mobility there, "assembly" the described pose's (or its ConvergenceError)
+        self._found: dict = {"closed": None, "dof": None, "assembly": None}
+        self._local = threading.local()  # (Pinocchio Data per thread: the building thread's is the System's own)
+        self._local.data = system.data
         self.loops = tuple(loops)
         self._ends = []
         self._axes = []  # per loop: (normals n_i of "normal" rows, (n, u) pairs of "aligned" ones)
@@ -75,6 +93,42 @@ class Constraints:
         self.row_scale = np.where(units == 1, 1.0 / L, 1.0)
         self.col_scale = system.coordinate_scales
 
+    def bound(self, system: Any) -> Constraints:
+        """This table bound to ``system`` (what ``system.constraints`` is): a copy sharing what the table found
+        (:attr:`closed`, the assembly), made on each access and kept by no compiled object, so nothing refers
+        back to the System (a System is freed by its last reference, without the garbage collector)."""
+        out = object.__new__(Constraints)
+        out.__dict__.update(self.__dict__)
+        out._system = system
+        return out
+
+    def _owner(self, system: Any, what: str) -> Any:
+        """``system``, else the System this table is bound to; a ModelError if neither."""
+        system = self._system if system is None else system
+        if system is None:
+            raise ModelError(f"Constraints.{what}: this table is bound to no System (pass the system, or use "
+                             f"system.constraints.{what})")
+        return system
+
+    def __getstate__(self):
+        """What a pickle keeps: everything but the per-thread Data (scratch: a copy makes its own)."""
+        state = dict(self.__dict__)
+        del state["_local"]
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state, _local=threading.local())
+
+    @property
+    def data(self) -> pin.Data:
+        """The calling thread's Pinocchio Data of the loops' kinematics (scratch, made on first use)."""
+        if getattr(self._local, "data", None) is None:
+            self._local.data = create_data(self.model)
+        return self._local.data
+
+    closed = property(lambda self: self._found["closed"])
+    dof_closed = property(lambda self: self._found["dof"])
+
     @staticmethod
     def _row_units(lp, equations, normals):
         """1 for a position equation (m), 0 for an orientation one (rad), of a loop of ``equations`` rows with
@@ -85,7 +139,7 @@ class Constraints:
     # ----------------------------------------------------------------- equations
     def _frames(self, q, jacobians=False, v=None):
         """[[_End a, _End b] per loop] at q; Jacobians if asked; with v, the motion at zero acceleration."""
-        model, data = self.system.model, self.system.data
+        model, data = self.model, self.data
         if v is not None:
             pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
         if jacobians:
@@ -159,7 +213,7 @@ class Constraints:
                 Ca, Cb = np.vstack(Ca), np.vstack(Cb)
                 jacs.append(Ca @ np.vstack([a.Jv, a.Jw]) + Cb @ np.vstack([b.Jv, b.Jw]))
                 coeffs.append((Ca, Cb))
-        nv = self.system.nv
+        nv = self.nv
         phi = np.concatenate(phis) if phis else np.zeros(0)
         J = (np.vstack(jacs) if jacs else np.zeros((0, nv))) if jacobian else None
         return (phi, J, coeffs) if wrenches else (phi, J)
@@ -167,7 +221,7 @@ class Constraints:
     def _equations(self, q, jacobian):
         """(Φ, Φ_q or None) of :meth:`evaluate`, each row written out from the ends' frames into one array (no
         coefficient matrices: the hot path of every closure, search and step)."""
-        model, data = self.system.model, self.system.data
+        model, data = self.model, self.data
         if jacobian:
             pin.computeJointJacobians(model, data, q)
         else:
@@ -318,7 +372,7 @@ class Constraints:
         in the dimensionless metric, configurations moved by ``integrate``)."""
         from ..solvers.newton import newton
 
-        model, nv, scale = self.system.model, self.system.nv, self.col_scale[dep]
+        model, nv, scale = self.model, self.nv, self.col_scale[dep]
 
         def retract(qq, dx):
             step = np.zeros(nv)
@@ -346,7 +400,7 @@ class Constraints:
 
     def add_to(self, q, lam, fext=None):
         """A new external-force vector for RNEA: ``fext`` (None: none) plus the loop forces λ."""
-        model = self.system.model
+        model = self.model
         out = pin.StdVec_Force()
         for j in range(model.njoints):
             out.append(pin.Force.Zero() if fext is None else pin.Force(fext[j].vector.copy()))
@@ -358,7 +412,7 @@ class Constraints:
         """{joint id: (force, moment) in the joint's local axes, moment about its origin} of the loop forces
         λ on the bodies they join (world ends dropped)."""
         _, _, coeffs = self.evaluate(q, wrenches=True)
-        data = self.system.data
+        data = self.data
         out, k = {}, 0
         for ends, n, (Ca, Cb) in zip(self._ends, self.sizes, coeffs):
             for (jid, r, _), C in zip(ends, (Ca, Cb)):
@@ -387,7 +441,7 @@ class Constraints:
         least-squares steps on the rank of Φ_q, each at most MAX_STEP, moved by ``pin.integrate``."""
         from ..solvers.newton import Steps, newton
 
-        model, cs = self.system.model, self.col_scale
+        model, cs = self.model, self.col_scale
         q0 = np.array(q0, dtype=float)
         last = {}
 
@@ -415,7 +469,7 @@ class Constraints:
         worst = self.loop_of_row(int(np.argmax(np.abs(phi))))
         raise ConvergenceError(f"assembly from {start}: the loops cannot be closed near it: loop '{worst}' "
                                f"stays open by {np.abs(phi).max():.3e} (dimensionless: m / length scale "
-                               f"{self.system.length_scale:g} m, or rad); start nearer a closed configuration "
+                               f"{self.length_scale:g} m, or rad); start nearer a closed configuration "
                                "(q0=, or Scene.set_operating_point(start=...))",
                                residual=float(np.abs(phi).max()), best=best[1])
 
@@ -424,50 +478,54 @@ class Constraints:
         (:attr:`closed`, where the mobility is taken; not with ``record`` False) after the check that no loop
         locks the mechanism. ``phi``, ``J``: Φ and Φ_q at q where the caller has them (None: evaluated)."""
         q = self.within_pi(q, q0)
-        if self.closed is None and record:
+        found = self._found
+        if found["closed"] is None and record:
             J = self.jacobian(q) if J is None else J
-            self.dof_closed = self.system.nv - self.check_mobility(q, J, phi)
-            self.closed = (q.copy(), start)
+            found["dof"] = self.nv - self.check_mobility(q, J, phi)
+            found["closed"] = (q.copy(), start)
         return q
 
     def within_pi(self, q, q0):
         """q (changed in place) with its periodic angles (pivots, ...) within π of q0's: the same pose."""
-        iq = self.system.periodic_coordinates
+        iq = self.periodic_coordinates
         if iq.size:
             d = q[iq] - q0[iq]
             q[iq] = q0[iq] + (d - 2 * np.pi * np.round(d / (2 * np.pi)))
         return q
 
-    def assembly(self):
+    def assembly(self, system: Any = None) -> Any:
         """The :class:`~vibdyn.model.assembly.Assembly` of the described pose: the closure of the loops nearest
         the neutral configuration (searched once, then kept; a ConvergenceError naming the loop that stays
-        open and its residual if there is none)."""
+        open and its residual if there is none). ``system``: the System (None: the one this table is bound to)."""
         from .assembly import assemble_described
 
-        if self._assembly is None:
+        found = self._found
+        if found["assembly"] is None:
             try:
-                self._assembly = assemble_described(self)
+                found["assembly"] = assemble_described(self, self._owner(system, "assembly"))
             except ConvergenceError as e:
-                self._assembly = e
-        a = self._assembly
+                found["assembly"] = e
+        a = found["assembly"]
         if isinstance(a, ConvergenceError):
             raise ConvergenceError(str(a), residual=a.residual, best=a.best)
         return a
 
-    def start(self):
+    def start(self, system: Any = None) -> tuple[np.ndarray, str]:
         """(q, what) where a scene without a declared start begins: its :meth:`assembly`; a ModelError naming
-        the loop if that closure is a singular position of the mechanism (refused where it is met)."""
-        a = self.assembly()
+        the loop if that closure is a singular position of the mechanism (refused where it is met). ``system``:
+        the System (None: the one this table is bound to)."""
+        a = self.assembly(system)
         if a.singular:
             raise ModelError(a.note)
         return a.q.copy(), a.where
 
     @property
-    def dof(self):
+    def dof(self) -> int | None:
         """Mobility at :attr:`closed` (assembled from the system's start first if no closed configuration
-        is known yet: a ConvergenceError naming that start if the loops cannot be closed from it)."""
+        is known yet: a ConvergenceError naming that start if the loops cannot be closed from it; that needs
+        the table bound to its System, ``system.constraints``)."""
         if self.closed is None:
-            q, label = self.system.start_configuration()
+            q, label = self._owner(None, "dof").start_configuration()
             self.assemble(q, start=label)
         return self.dof_closed
 
@@ -496,7 +554,7 @@ class Constraints:
 
     def _log_rate(self, lp, q, v, dw):
         """(d/dt of Jlog3(R_aᵀR_b) R_bᵀ) (ω_b − ω_a) for loop lp, by a fourth-order central difference."""
-        model = self.system.model
+        model = self.model
         speed = np.abs(v / self.col_scale).max(initial=0.0)
         if speed == 0.0:
             return np.zeros(3)
@@ -539,7 +597,7 @@ class Constraints:
             phi, J = self.evaluate(q)
         # one more Gauss–Newton step, always: near a singular position a residual below the assembly
         # tolerance still allows a drift across to the other branch (Φ ≈ x·y there), which the step removes
-        q = pin.integrate(self.system.model, q, self.correction(phi, J))
+        q = pin.integrate(self.model, q, self.correction(phi, J))
         dec = self.decompose(self.jacobian(q))
         N = self._null(dec)
         if N.shape[1] == 0:
@@ -571,7 +629,7 @@ class Constraints:
         (:meth:`isolated`). ``J``, ``phi``: Φ_q and Φ at q where the caller has them."""
         J = self.jacobian(q) if J is None else J
         rank = self.decompose(J)[0]
-        if rank < self.system.nv:
+        if rank < self.nv:
             why = self.isolated(q, J, phi)
             if why:
                 raise ModelError(why)
@@ -579,10 +637,10 @@ class Constraints:
         k = 0
         for lp, n in zip(self.loops, self.sizes):
             k += n
-            if self.decompose(J[:k])[0] == self.system.nv:
+            if self.decompose(J[:k])[0] == self.nv:
                 before = "" if k == n else " (with the loops before it)"
                 raise ModelError(f"loop '{lp.name}' locks the mechanism{before}: with it the loops leave no motion "
-                                 f"at all (mobility 0: rank {self.system.nv} of the constraint Jacobian = nv)")
+                                 f"at all (mobility 0: rank {self.nv} of the constraint Jacobian = nv)")
 
     def isolated(self, q, J=None, phi=None):
         """Why the closure q is isolated ('' if it is not shown to be): a rank test at q whose tolerance comes
@@ -593,7 +651,7 @@ class Constraints:
         first order allows opens the loop at the second (the Lyapunov–Schmidt reduction), so no closure lies
         beside q: mobility 0 (a four-bar whose lengths add up, closed only stretched flat). An indefinite
         form is a change point (branches cross), a zero one a redundant equation: both keep their motion."""
-        model, cs = self.system.model, self.col_scale
+        model, cs = self.model, self.col_scale
         J = self.jacobian(q) if J is None else J
         phi0 = self.scaled_phi(self.phi(q) if phi is None else phi)
         res = float(np.abs(phi0).max(initial=0.0))
@@ -633,7 +691,7 @@ def compile_loops(system):
     c = Constraints(system, system.scene.loops.values())
     try:
         if (system.scene.operating_point or {}).get("start") is None:
-            c.assembly()
+            c.assembly(system)
         else:
             q, label = system.start_configuration()
             c.assemble(q, start=label)

@@ -190,9 +190,9 @@ def accelerations(system, ws, q, v, t, applied=None):
     Q, fext = forces(system, ws, q, v, t) if applied is None else applied
     model, data = system.model, ws.data
     a = pin.aba(model, data, q, v, Q) if fext is None else pin.aba(model, data, q, v, Q, fext)
-    if system.constraints is not None:
+    if system.compiled_loops is not None:
         a = a.copy()
-        return system.constraints.accelerations(q, v, a, mass_matrix(model, data, q))
+        return system.compiled_loops.accelerations(q, v, a, mass_matrix(model, data, q))
     return a
 
 
@@ -220,7 +220,8 @@ def accelerations_function(system, ws, keep=None):
     forces alone, and on none without joint-space elements; any other scene, :func:`accelerations` itself.
     ``keep``: a one-item list in which a scene with point elements (and neither drives nor loops) leaves the
     forces of each evaluation, as :func:`forces` gives them (a Jacobian at the same state reuses them)."""
-    if system.compiled_drives is not None or system.constraints is not None or (system.point_groups and keep is None):
+    if system.compiled_drives is not None or system.compiled_loops is not None or (
+            system.point_groups and keep is None):
         return lambda q, v, t: accelerations(system, ws, q, v, t)
     if system.point_groups:
         def kept(q, v, t):
@@ -330,8 +331,8 @@ def reactions(system, ws, q, v, a, t, loop_forces=None):
     """Link wrenches (:class:`Reactions`) at (q, v) moving with accelerations a at t, by RNEA; ``loop_forces``
     the loops' multipliers λ, applied to the bodies they join."""
     Q, fext = forces(system, ws, q, v, t)
-    if loop_forces is not None and system.constraints is not None:
-        fext = system.constraints.add_to(q, np.asarray(loop_forces, dtype=float), fext)
+    if loop_forces is not None and system.compiled_loops is not None:
+        fext = system.compiled_loops.add_to(q, np.asarray(loop_forces, dtype=float), fext)
     model, data = system.model, ws.data
     tau = pin.rnea(model, data, q, v, a) if fext is None else pin.rnea(model, data, q, v, a, fext)
     pin.updateGlobalPlacements(model, data)  # RNEA leaves oMi as the last call set it

@@ -473,5 +473,5 @@ class Reduction:
 
 def compile_reduction(system) -> Reduction:
     """The system's own reduction (its drives and loops; nothing held at a speed)."""
-    return Reduction(system, system.constraints, system.compiled_drives)  # (the table: it refers to no System)
+    return Reduction(system, system.compiled_loops, system.compiled_drives)  # (the tables: they refer to no System)
 

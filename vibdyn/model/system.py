@@ -61,7 +61,7 @@ class System(Compiled):
         self.depends_on_time = any(g.time_dependent for g in self.force_groups) or bool(self.supports or self.drives)
         if self.nv:
             inertia_check.check_inertia(self)
-        self.constraints = compile_loops(self) if self.scene.loops else None
+        self.compiled_loops = compile_loops(self) if self.scene.loops else None  # (bound on access: constraints)
         self.reduction = compile_reduction(self)
         self._built = True
 
@@ -145,7 +145,7 @@ class System(Compiled):
     # ------------------------------------------------------------- closed loops (vibdyn.description.loops)
     @property
     def has_loops(self) -> bool:
-        return self.constraints is not None
+        return self.compiled_loops is not None
 
     @property
     def dof(self) -> int:
