@@ -155,7 +155,7 @@ def test_four_bar_frf_at_its_undamped_resonance_is_unbounded_not_finite():
 
 
 def test_receptance_at_a_resonance_says_so_within_the_error():
-    """A mass on a spring (k = 100 N/m, m = 1 kg) asked 1e-12 off ω = 10 rad/s: the FD K is 100 to its
+    """A mass on a spring (k = 100 N/m, m = 1 kg) asked 1e-13 off ω = 10 rad/s: the FD K is 100 to its
     error, so |K − ω²M| = 2e-11 N/m is within K's own error of zero — at a resonance, within the error, not a
     finite 5e10 with a confident 1e-12. Near it the estimate carries the amplification 1/|K − ω²M|."""
     s = vd.Scene("mass")
@@ -164,7 +164,7 @@ def test_receptance_at_a_resonance_says_so_within_the_error():
     lin = s.build().linearize(np.zeros(1))
     assert lin.K_error[0, 0] > 2e-11
     with pytest.raises(vd.ModelError, match="within its own error.*at a resonance, within the error"):
-        lin.receptance([10.0 * (1 + 1e-12)])
+        lin.receptance([10.0 * (1 + 1e-13)])
     for w in (10.0 * (1 + 1e-6), 10.0 * (1 + 1e-3), 9.0):
         f = lin.receptance([w])
         exact = 1.0 / (100.0 - w * w)
