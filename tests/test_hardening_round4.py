@@ -30,3 +30,50 @@ def test_update_fits_whatever_the_scale_of_sigma(sigma):
     reference = vd.update(_chain, {"k1": 130.0, "k2": 45.0}, _chain_omega(120.0, 50.0), sigma=1.0)
     for k in ("k1", "k2"):
         assert fit.std[k] == pytest.approx(reference.std[k] * sigma, rel=1e-6)
+
+
+def _duffing_omega(a, k=1.0, k3=0.1):
+    """ω of the undamped Duffing orbit x'' + k x + k3 x³ = 0 of amplitude a: 2π over 4∫ dx/v (x = a sin θ)."""
+    from scipy.integrate import quad
+
+    energy = 0.5 * k * a**2 + 0.25 * k3 * a**4
+
+    def dt(theta):
+        x = a * np.sin(theta)
+        return a * np.cos(theta) / np.sqrt(2 * (energy - 0.5 * k * x**2 - 0.25 * k3 * x**4))
+
+    return 2 * np.pi / (4 * quad(dt, 0, np.pi / 2, epsabs=1e-14, epsrel=1e-13)[0])
+
+
+def test_a_backbone_at_large_amplitude_reports_the_least_period():
+    # the Duffing backbone at 100 m gave ω = 13.405 ± 1.4e-11 rad/s, half the truth 26.811: the continuation had
+    # landed on the orbit followed twice over (period 2T), which shooting closes as well as the orbit itself
+    b = vd.backbone(vd.load_scene("duffing").build(), 0, amplitudes=[100.0])
+    truth = np.array([_duffing_omega(a) for a in b.amplitude])
+    assert np.all(np.abs(b.omega - truth) <= b.error)
+
+
+@pytest.mark.parametrize("multiple", [2.0, 3.0, 7.0])
+def test_a_periodic_orbit_guessed_at_a_multiple_of_its_period_is_the_least_one(multiple):
+    # a period guess near kT converged to kT (ω reported k times too small, with an error of 1e-12 s)
+    from scipy.special import ellipk
+
+    rod = vd.load_scene("rod_pivot").build()  # uniform rod, 1 m: ω₀² = 3g/(2L); T = 4K(sin²(θ₀/2))/ω₀
+    period = 4 * ellipk(np.sin(1.0) ** 2) / np.sqrt(1.5 * 9.81)
+    orbit = vd.periodic_orbit(rod, [2.0], [0.0], period=multiple * period, phase="rod")
+    amplitude = abs(float(orbit.q0[0]))
+    truth = 4 * ellipk(np.sin(amplitude / 2) ** 2) / np.sqrt(1.5 * 9.81)
+    assert abs(orbit.period - truth) <= orbit.period_error
+
+
+@pytest.mark.parametrize("speeds", [[0.0, 1e9], [-1e9, 1e9], [0.0, 1e12], np.linspace(0.0, 1e9, 5)])
+def test_campbell_finds_the_critical_speed_on_a_wide_speed_list(speeds):
+    # [0, 1e9] rad/s: at 1e9 the backward whirl (300/(0.12·1e9) rad/s) is lost in the round-off beside the forward
+    # one (1.5e9) and given as 0 ± 0.0015, and the crossing between was skipped (no critical speed); found, Brent's
+    # tolerance over the bracket (1e-3 rad/s) gave 38.729845 ± 3.9e-11, and [-1e9, 1e9] -38.729764 ± 3.9e-11
+    c = vd.campbell(vd.load_scene("gimbal_rotor").build(), "rotor", speeds)
+    truth = np.sqrt(300.0 / (0.08 + 0.12))  # √(k/(It + Ip)): the disk's backward critical speed
+    found = [cs for cs in c.critical_speeds(1) if cs.speed > 0]
+    assert len(found) == 1 and abs(found[0].speed - truth) <= found[0].error
+    for cs in c.critical_speeds(1):
+        assert abs(abs(cs.speed) - truth) <= cs.error
