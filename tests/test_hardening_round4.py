@@ -1,6 +1,8 @@
 """Issue 40 acceptance, round four of adversarial probes: each test is a probe that returned a wrong number with a
 confident estimate, a raw traceback or a hang, checked against an independent oracle."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -77,3 +79,36 @@ def test_campbell_finds_the_critical_speed_on_a_wide_speed_list(speeds):
     assert len(found) == 1 and abs(found[0].speed - truth) <= found[0].error
     for cs in c.critical_speeds(1):
         assert abs(abs(cs.speed) - truth) <= cs.error
+
+
+@pytest.mark.parametrize("angle", [1e7, 1e9, 1e300])
+def test_a_periodic_orbit_from_an_angle_beyond_round_off_is_refused_at_once(angle):
+    # rod_pivot from 1e7 rad (or 1e9) hung in the shooting's polish (> 60 s; 1e6 took 26 s): a double's round-off
+    # there (2.2e-9 rad) exceeds the closing tolerance of the motion (1e-10 of about 1 rad)
+    import time
+
+    start = time.perf_counter()
+    with pytest.raises(vd.ModelError, match="round-off"):
+        vd.periodic_orbit(vd.load_scene("rod_pivot").build(), [angle], [0.0], phase="rod")
+    assert time.perf_counter() - start < 10.0
+
+
+def test_a_periodic_orbit_a_few_thousand_turns_out_is_still_right():
+    from scipy.special import ellipk
+
+    with pytest.warns(UserWarning, match="degrees by mistake"):
+        orbit = vd.periodic_orbit(vd.load_scene("rod_pivot").build(), [1000.0], [0.0], phase="rod")
+    amplitude = abs(math.remainder(float(orbit.q0[0]), 2 * math.pi))
+    assert abs(orbit.period - 4 * ellipk(np.sin(amplitude / 2) ** 2) / np.sqrt(1.5 * 9.81)) <= orbit.period_error
+
+
+def test_a_forced_response_curve_with_more_harmonics_than_can_be_computed_is_refused_at_once():
+    # `vibdyn frc duffing --force mass:0.1 --omega 0.5:2 --harmonics 1000` ran for hours (H = 128 took 27 s, the
+    # cost grows as H³: Hill's matrices (2H + 1)·2n square at each point); the accepted maximum was 1000
+    import time
+
+    duffing = vd.load_scene("duffing").build()
+    start = time.perf_counter()
+    with pytest.raises(vd.ModelError, match="harmonics = 1000.*at most 99"):
+        vd.forced_response_curve(duffing, ("mass", 0.1), (0.5, 2.0), "mass", harmonics=1000)
+    assert time.perf_counter() - start < 5.0

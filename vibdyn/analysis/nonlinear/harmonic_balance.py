@@ -54,6 +54,7 @@ if TYPE_CHECKING:
 
 START_HARMONICS = 3  # adaptive runs start here
 MAX_HARMONICS = 48  # and stop growing here (said so in the result's message)
+MAX_HILL = 400  # a fixed H is refused where Hill's matrices pass this size (H = 99 for one coordinate: 10 s)
 CHORD = 0.1  # the corrector keeps a Jacobian while each step cuts the residual 10 times
 CONTINUATION_TOL = 1e-11  # ‖R‖_∞ of the corrector, relative to the excitation's generalized force
 
@@ -197,6 +198,13 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
     c = system.coordinate_index(coordinate) if isinstance(coordinate, str) else _bad_coordinate(coordinate)
     if harmonics is not None:
         harmonics = integer(harmonics, "forced_response_curve: harmonics", minimum=1, maximum=1000)
+        top = max(MAX_HARMONICS, (MAX_HILL // (2 * max(system.nv, 1)) - 1) // 2)
+        if harmonics > top:  # (Hill's eigenproblem, (2H + 1)·2n square at every point, costs H³: hours at H = 1000)
+            raise ModelError(f"forced_response_curve: harmonics = {harmonics} makes Hill's matrices "
+                             f"{(2 * harmonics + 1) * 2 * system.nv} square at every point of the curve (their cost "
+                             f"grows as H³); at most {top} for this scene of {system.nv} coordinate"
+                             f"{'s' if system.nv > 1 else ''} (harmonics=None chooses H for tol, up to "
+                             f"{MAX_HARMONICS})")
     tol = scalar(tol, "forced_response_curve: tol", positive=True)
     step = scalar(step, "forced_response_curve: step", positive=True)
     max_steps = integer(max_steps, "forced_response_curve: max_steps", minimum=1)

@@ -267,6 +267,8 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
         if len(nodes) not in (1, segments):
             raise ModelError(f"{what}: {len(nodes)} starting nodes given for segments = {segments}")
     q_start, v_start = nodes[0]
+    # (before any flow, against 2 of the coordinates' own scales: a pendulum's orbit moves by about that)
+    _resolvable(system, q_start, 2 * np.asarray(system.coordinate_scales, dtype=float), free, tol, what)
     omega = 2 * math.pi / period if period is not None else _omega_guess(system, q_start, v_start, t0, free)
     if autonomous and period is None:
         period = first_return(system, q_start, v_start, t0, omega, rtol)
@@ -324,6 +326,22 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
                                    "the orbit, or give phase (a coordinate whose velocity is zero at the start)",
                                    residual=orbit.residual, best=[(orbit.q0, orbit.v0)])
     return orbit
+
+
+def _resolvable(system, q, scales, free, tol, what) -> None:
+    """Refuse a start so far from neutral (an angle of 1e7 rad) that a double's round-off there exceeds half the
+    closing tolerance of the motion: the shooting can then neither close nor stop (each flow's steps shrink to the
+    round-off)."""
+    size = np.abs(system.difference(system.neutral(), q))
+    roundoff = size * np.finfo(float).eps
+    bad = [i for i in free if roundoff[i] > 0.5 * tol * scales[i]]
+    if bad:
+        i = bad[0]
+        unit = system.units[i]
+        raise ModelError(f"{what}: {system.coordinates[i]} = {size[i]:.3g} {unit} from neutral: at that size a "
+                         f"number's round-off ({roundoff[i]:.1e} {unit}) exceeds the closing tolerance (tol = {tol:.0e} of "
+                         f"{scales[i]:.3g} {unit}); start within a few turns of neutral (an angle less 2π·k, "
+                         "the same pose where nothing depends on the turns), or give a looser tol")
 
 
 def _cover(system, shoot, x, rtol, most: int = 32) -> int:
