@@ -339,9 +339,9 @@ def _resolvable(system, q, scales, free, tol, what) -> None:
         i = bad[0]
         unit = system.units[i]
         raise ModelError(f"{what}: {system.coordinates[i]} = {size[i]:.3g} {unit} from neutral: at that size a "
-                         f"number's round-off ({roundoff[i]:.1e} {unit}) exceeds the closing tolerance (tol = {tol:.0e} of "
-                         f"{scales[i]:.3g} {unit}); start within a few turns of neutral (an angle less 2π·k, "
-                         "the same pose where nothing depends on the turns), or give a looser tol")
+                         f"number's round-off ({roundoff[i]:.1e} {unit}) exceeds the closing tolerance "
+                         f"(tol = {tol:.0e} of {scales[i]:.3g} {unit}); start within a few turns of neutral (an angle "
+                         "less 2π·k, the same pose where nothing depends on the turns), or give a looser tol")
 
 
 def _cover(system, shoot, x, rtol, most: int = 32) -> int:
