@@ -112,3 +112,37 @@ def test_a_forced_response_curve_with_more_harmonics_than_can_be_computed_is_ref
     with pytest.raises(vd.ModelError, match="harmonics = 1000.*at most 99"):
         vd.forced_response_curve(duffing, ("mass", 0.1), (0.5, 2.0), "mass", harmonics=1000)
     assert time.perf_counter() - start < 5.0
+
+
+_AT2 = """PEER NGA STRONG MOTION DATABASE RECORD
+Synthetic test, 1 January 2000, Nowhere, 090
+ACCELERATION TIME SERIES IN UNITS OF G
+NPTS=   12, DT=   .0050 SEC
+  .1000000E-02  .2000000E-02 -.3000000E-02  .4000000E-02  .5000000E-02
+ -.6000000E-02  .7000000E-02  .8000000E-02 -.9000000E-02  .1000000E-01
+  .1100000E-01 -.1200000E-01
+"""
+
+
+def test_a_peer_at2_record_is_read_in_g_with_its_header_step(tmp_path):
+    path = tmp_path / "RSN1_TEST_090.AT2"
+    path.write_text(_AT2)
+    record = vd.laws.Record.from_file(path)
+    samples = np.array([1, 2, -3, 4, 5, -6, 7, 8, -9, 10, 11, -12]) * 1e-3
+    assert record.dt == 0.005 and np.allclose(record.acceleration, samples * 9.80665, rtol=1e-15)
+    assert np.allclose(vd.laws.Record.from_file(path, unit="m/s^2").acceleration, samples, rtol=1e-15)
+    # the older NGA header ("12  0.0050  NPTS, DT") too
+    older = tmp_path / "older.AT2"
+    older.write_text(_AT2.replace("NPTS=   12, DT=   .0050 SEC", "   12    0.0050    NPTS, DT"))
+    assert vd.laws.Record.from_file(older).dt == 0.005
+    with pytest.raises(vd.ModelError, match="contradicts the header"):
+        vd.laws.Record.from_file(path, dt=0.01)
+    short = tmp_path / "short.AT2"
+    short.write_text(_AT2.replace("NPTS=   12", "NPTS=   13"))
+    with pytest.raises(vd.ModelError, match="NPTS = 13 samples, the file has 12"):
+        vd.laws.Record.from_file(short)
+    # the other formats are as before: one column with dt, two columns in m/s^2 by default
+    plain = tmp_path / "two.txt"
+    plain.write_text("0 0.1\n0.01 0.2\n0.02 -0.1\n")
+    two = vd.laws.Record.from_file(plain)
+    assert two.dt == pytest.approx(0.01) and np.allclose(two.acceleration, [0.1, 0.2, -0.1])
