@@ -146,3 +146,10 @@ def test_a_peer_at2_record_is_read_in_g_with_its_header_step(tmp_path):
     plain.write_text("0 0.1\n0.01 0.2\n0.02 -0.1\n")
     two = vd.laws.Record.from_file(plain)
     assert two.dt == pytest.approx(0.01) and np.allclose(two.acceleration, [0.1, 0.2, -0.1])
+
+
+@pytest.mark.parametrize("call", [lambda b: vd.update(b, {"k": 1.0}, [1.0]), lambda b: vd.sensitivity(b, {"k": 1.0})])
+def test_a_builder_returning_the_scene_class_itself_is_named(call):
+    # `return vd.Scene` (the class, a forgotten call) ended in a raw TypeError "Scene.build() missing 'self'"
+    with pytest.raises(vd.ModelError, match="returned the class Scene itself"):
+        call(lambda k: vd.Scene)
