@@ -153,3 +153,10 @@ def test_a_builder_returning_the_scene_class_itself_is_named(call):
     # `return vd.Scene` (the class, a forgotten call) ended in a raw TypeError "Scene.build() missing 'self'"
     with pytest.raises(vd.ModelError, match="returned the class Scene itself"):
         call(lambda k: vd.Scene)
+
+
+def test_update_names_a_zero_measuring_direction():
+    # direction=(0, 0, 0) ended in "mac: second shapes: contains NaN or inf"
+    with pytest.raises(vd.ModelError, match="direction .*zero length"):
+        vd.update(_chain, {"k1": 130.0, "k2": 45.0}, _chain_omega(120.0, 50.0), shapes=np.eye(2), points=["a", "b"],
+                  direction=(0, 0, 0))

@@ -171,6 +171,9 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
         raise ModelError("update: no measured frequency given (measured: rad/s, one per measured mode)")
     if direction is not None:
         direction = vector3(direction, "update: direction")
+        if not np.any(direction):
+            raise ModelError("update: direction (of the measured displacements) has zero length: give the axis the "
+                             "sensors measure along, e.g. (1, 0, 0)")
     if np.any(w_meas <= 0):
         raise ModelError(f"update: measured natural frequencies must be positive (rad/s), got {w_meas.tolist()}")
     m = len(w_meas)
