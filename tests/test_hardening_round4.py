@@ -160,3 +160,13 @@ def test_update_names_a_zero_measuring_direction():
     with pytest.raises(vd.ModelError, match="direction .*zero length"):
         vd.update(_chain, {"k1": 130.0, "k2": 45.0}, _chain_omega(120.0, 50.0), shapes=np.eye(2), points=["a", "b"],
                   direction=(0, 0, 0))
+
+
+def test_a_forced_response_curve_stopped_on_its_way_up_claims_no_peak():
+    # a linear oscillator with c = 1e-6 (true peak F/c = 1e5 m at Ω ≈ 1): the curve stops after its steps at 387 m
+    # while still rising, and called that the peak, 386.56 ± 5e-10 m
+    system = vd.with_values(vd.load_scene("duffing"), {"k3.k3": 0.0, "c.damping": 1e-6}).build()
+    curve = vd.forced_response_curve(system, ("mass", 0.1), (0.5, 2.0), "mass", max_steps=200)
+    assert curve.status == "stopped"
+    truth = 0.1 / 1e-6 / np.sqrt(1 - 0.25e-12)
+    assert abs(curve.peak.amplitude - truth) <= curve.peak.error and "still growing" in curve.message

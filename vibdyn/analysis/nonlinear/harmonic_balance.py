@@ -79,7 +79,7 @@ class ResponseFold:
 @dataclass(frozen=True)
 class ResponsePeak:
     """The largest amplitude along the curve: ``omega`` (rad/s), ``amplitude`` (m or rad), ``error`` and
-    ``omega_error`` (their truncation estimates)."""
+    ``omega_error`` (their truncation estimates; infinite where the curve stopped while the amplitude still grew)."""
 
     omega: float
     amplitude: float
@@ -237,6 +237,11 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
         e = bal.truncation(f.x, f.lam, c)
         folds.append(ResponseFold(f.lam, bal.amplitude(f.x, c), e[0], f.index, e[1]))
     peak = _peak(bal, run, amp, c)
+    if status != "finished" and int(np.argmax(amp)) == len(amp) - 1:
+        # (the curve stopped while its amplitude still grew: the largest reached is no peak, and how far the true
+        # one lies above it, or at what Ω, is not known)
+        peak = ResponsePeak(peak.omega, peak.amplitude, math.inf, math.inf)
+        message += " (still growing where the curve stopped: the peak is beyond it, its error infinite)"
     # each |μ|'s error: its exponent again on Hill's problem of the 2H + 1 balance (at the truncation step's
     # coefficients), followed from the H one by inverse iteration
     mult, mult_error = np.empty((len(run.lam), 2 * system.nv), complex), np.empty(len(run.lam))
