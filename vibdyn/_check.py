@@ -300,6 +300,9 @@ def scene_builder(build, what):
             raise ModelError(f"{what}: the builder {getattr(build, '__name__', 'build')}{signature} cannot take the "
                              f"parameters {', '.join(values)}: {e}") from None
         obj = call_builder(build, (), values, what, ", ".join(f"{k} = {v}" for k, v in values.items()))
+        if isinstance(obj, type):  # (the class Scene itself, not a scene: its build is unbound)
+            raise ModelError(f"{what}: build(**params) must return a Scene or a System, it returned the class "
+                             f"{obj.__name__} itself (return {obj.__name__}(...), an instance)")
         if hasattr(obj, "build") and not hasattr(obj, "linearize"):
             return obj
         if hasattr(obj, "linearize") and hasattr(obj, "scene"):  # a System: the scene it was built from

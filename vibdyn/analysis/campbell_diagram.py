@@ -206,12 +206,23 @@ class Campbell:
             f = self.omega[:, j]
             g = f - order * np.abs(self.speeds)
             for i in range(len(self.speeds) - 1):
-                if f[i] <= 0 or f[i + 1] <= 0 or g[i] * g[i + 1] > 0 or (g[i] == 0 and i > 0):
+                # (a mode of frequency 0 at one end only, an eigenvalue pair lost in round-off beside a fast one, or a
+                # mode turning overdamped, still meets the order line: zero at both ends, or at a crossing, it does not)
+                if (f[i] <= 0 and (f[i + 1] <= 0 or g[i] == 0)) or (f[i + 1] <= 0 and g[i + 1] == 0) \
+                        or g[i] * g[i + 1] > 0 or (g[i] == 0 and i > 0):
                     continue
                 a, b = self.speeds[i], self.speeds[i + 1]
                 refs = (self._shapes[i][:, j], self._shapes[i + 1][:, j])
                 q0 = self._q[i]
 
+                what = f"campbell: the crossing of mode {j + 1} with order {order:g}"
+
+                def h(x, refs=refs, q0=q0, near=0.5 * (f[i] + f[i + 1])):
+                    sm = self.at(x, q0)
+                    k = pick(refs, sm, near=near)
+                    return (sm.frequencies[k] - order * abs(x), sm.error[k]), None
+
+                root_error = 0.0
                 if g[i] == 0:
                     s = a
                 elif g[i + 1] == 0:
@@ -223,19 +234,19 @@ class Campbell:
                     except ConvergenceError:  # (a mode line far below the bracket's end: Ω = ω/μ bends sharply)
                         s = np.nan
                     if not a <= s <= b:  # the continuation left the bracket (|Ω| is even in Ω) or stalled: Brent
-
-                        def h(x, refs=refs, q0=q0, near=0.5 * (f[i] + f[i + 1])):
-                            sm = self.at(x, q0)
-                            k = pick(refs, sm, near=near)
-                            return (sm.frequencies[k] - order * abs(x), sm.error[k]), None
-
-                        s = bracketed_root(h, a, b, (g[i], self.error[i, j]), (g[i + 1], self.error[i + 1, j]),
-                                           f"campbell: the crossing of mode {j + 1} with order {order:g}")[0]
+                        s, root_error = _root(h, a, b, (g[i], self.error[i, j]), (g[i + 1], self.error[i + 1, j]),
+                                              what)
                 sm = self.at(s, q0)
                 k = pick(refs, sm, near=0.5 * (f[i] + f[i + 1]))
                 slope = abs(order - (f[i + 1] - f[i]) / (b - a) * np.sign(s)) or 1.0
-                found.append(CriticalSpeed(float(s), j, str(sm.whirl[k]), order, float(order * abs(s)),
-                                           float(sm.error[k] / slope + 1e-12 * abs(s))))
+                error = float(max(sm.error[k] / slope + 1e-12 * abs(s), root_error))
+                if g[i] != 0 and g[i + 1] != 0 and not _brackets(h, s, error, a, b):
+                    # (the continuation's tolerance, or a secant slope across a wide bracket, does not hold the root
+                    # within the stated error: Brent on the bracket, narrowed)
+                    s, error = _root(h, a, b, (g[i], self.error[i, j]), (g[i + 1], self.error[i + 1, j]), what)
+                    sm = self.at(s, q0)
+                    k = pick(refs, sm, near=0.5 * (f[i] + f[i + 1]))
+                found.append(CriticalSpeed(float(s), j, str(sm.whirl[k]), order, float(order * abs(s)), error))
         return sorted(found, key=lambda c: c.speed)
 
     def _crossing(self, refs, q0, a, b, fa, fb, order, error) -> float:
@@ -255,7 +266,9 @@ class Campbell:
                 seen.append((speed, w))
             return w
 
-        s0, f0 = (a, fa) if a != 0 else (b, fb)
+        s0, f0 = (a, fa) if a != 0 and fa > 0 else (b, fb)
+        if s0 == 0 or f0 <= 0:  # (no end to start μ = ω/|Ω| from: Brent on the bracket instead)
+            raise ConvergenceError("campbell: no end of the bracket to continue the crossing from", best=None)
         mu0 = f0 / abs(s0)
         scale = np.array([abs(b - a), max(abs(order - mu0), 1e-12 * order)])
         tol = max(1e-13, 1e-3 * error / f0)
@@ -347,6 +360,28 @@ def campbell(system: Any, spin: str, speeds: ArrayLike, orders: ArrayLike = (1,)
     shapes = [r.shapes[:, c] for r, c in zip(rows, cols)]
     return Campbell(system, spin, speeds, freq, zeta, whirl, err, orders, method, time.perf_counter() - start,
                     shapes, [r.q for r in rows], sigma, held, coordinate_frame(system, spin, held), undamped)
+
+
+def _root(h, a, b, fa, fb, what) -> tuple[float, float]:
+    """(root, its error) of h in [a, b] by Brent's method, whose tolerance (1e-12 of the bracket) is narrowed by
+    new brackets of 4 errors' width around the root while they still bracket it (a speed list to 1e9 rad/s)."""
+    s, err = bracketed_root(h, a, b, fa, fb, what)[:2]
+    for _ in range(4):
+        lo, hi = max(a, s - 2 * err), min(b, s + 2 * err)
+        if err <= 1e-11 * abs(s) or (lo, hi) == (a, b):
+            break
+        ends = h(lo)[0], h(hi)[0]
+        if ends[0][0] * ends[1][0] > 0:
+            break
+        s, err = bracketed_root(h, lo, hi, *ends, what)[:2]
+    return s, err
+
+
+def _brackets(h, s, error, a, b) -> bool:
+    """Whether h changes sign across [s − 2·error, s + 2·error] (within [a, b]), or is there zero within its own
+    error at an end: the root's stated error holds it."""
+    ends = [h(x)[0] for x in (max(a, s - 2 * error), min(b, s + 2 * error))]
+    return ends[0][0] * ends[1][0] <= 0 or any(abs(v) <= e for v, e in ends)
 
 
 def eigen_log_dec(sigma: ArrayLike, omega: ArrayLike, error: ArrayLike) -> tuple[np.ndarray, np.ndarray]:

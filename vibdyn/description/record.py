@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -148,22 +149,32 @@ class Record:
 
     @classmethod
     def from_file(cls, path: str | os.PathLike, dt: float | None = None, direction=(1.0, 0.0, 0.0),
-                  unit: str = "m/s^2") -> Record:
+                  unit: str | None = None) -> Record:
         """A record read from a text file of one column (accelerations: give ``dt``) or two (time s,
         acceleration), blank-, comma- or semicolon-separated; lines starting with ``#`` or ``%`` and header
-        lines before the numbers are skipped. ``unit``: that of the accelerations, one of "m/s^2", "g", "cm/s^2",
-        "mm/s^2". Refused: an empty file, NaN or inf, rows of unequal length, non-uniform time steps (the step
-        must be constant to 1e-6 of itself), a ``dt`` that contradicts the time column."""
+        lines before the numbers are skipped. ``unit``: that of the accelerations, one of "m/s^2" (the default),
+        "g", "cm/s^2", "mm/s^2". A PEER NGA record (``.AT2``: four header lines, the fourth "NPTS= 5000, DT= .0050
+        SEC" or "5000 0.0050 NPTS, DT", then the samples in g, several per row) is read as such, its unit g
+        unless ``unit`` says otherwise and its step the header's. Refused: an empty file, NaN or inf, rows of
+        unequal length, non-uniform time steps (the step must be constant to 1e-6 of itself), a ``dt`` that
+        contradicts the time column or the header, an AT2 file whose samples are not NPTS."""
         if not isinstance(path, (str, os.PathLike)):
             raise ModelError(f"record file: expected a path (str or os.PathLike), got {type(path).__name__} {path!r}")
         what = f"record file '{os.fspath(path)}'"
-        if unit not in UNITS:
+        if unit is not None and unit not in UNITS:
             raise ModelError(f"{what}: unknown unit {unit!r} (one of {', '.join(UNITS)})")
         try:
             with open(path, encoding="utf-8", errors="replace") as f:
                 lines = f.read().splitlines()
         except OSError as e:
             raise ModelError(f"{what}: cannot be read ({e.strerror or e})") from None
+        peer = _peer_at2(lines, what)
+        if peer is not None:
+            samples, step = peer
+            if dt is not None and abs(scalar(dt, f"{what}: dt (s)", positive=True) - step) > 1e-6 * step:
+                raise ModelError(f"{what}: dt = {dt:g} s contradicts the header's DT = {step:g} s")
+            return cls(samples * UNITS[unit or "g"], step, direction)
+        unit = unit or "m/s^2"
         rows: list = []
         first = None
         for number, line in enumerate(lines, 1):
@@ -211,3 +222,32 @@ class Record:
                 raise ModelError(f"{what}: dt = {dt:g} s contradicts the time column's step {step:.6g} s")
             dt, start = step, float(t[0])
         return cls(data[:, -1] * UNITS[unit], dt, direction, start)
+
+
+_NPTS = (re.compile(r"NPTS\s*=\s*(\d+)\s*,?\s*DT\s*=\s*([-+0-9.eE]+)", re.IGNORECASE),
+         re.compile(r"^\s*(\d+)\s+([-+0-9.eE]+)\s+NPTS\s*,\s*DT", re.IGNORECASE))
+
+
+def _peer_at2(lines: list, what: str) -> tuple[np.ndarray, float] | None:
+    """(samples, dt) of a PEER NGA .AT2 file (its NPTS/DT line among the first six, the samples after it), else
+    None."""
+    for number, line in enumerate(lines[:6]):
+        match = next((m for m in (rx.search(line) for rx in _NPTS) if m), None)
+        if match is None:
+            continue
+        npts = int(match.group(1))
+        try:
+            step = float(match.group(2))
+            values = [float(x) for text in lines[number + 1:] for x in text.replace(",", " ").split()]
+        except ValueError as e:
+            raise ModelError(f"{what}: a PEER AT2 file (header line {number + 1}: {line.strip()!r}) with "
+                             f"something not a number after it ({e})") from None
+        if not (math.isfinite(step) and step > 0):
+            raise ModelError(f"{what}: the header's DT = {match.group(2)} s is not a positive time step")
+        if len(values) != npts or not npts:
+            raise ModelError(f"{what}: the header says NPTS = {npts} samples, the file has {len(values)}")
+        samples = np.array(values)
+        if not np.all(np.isfinite(samples)):
+            raise ModelError(f"{what}: NaN or inf among the samples")
+        return samples, step
+    return None

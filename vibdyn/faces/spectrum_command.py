@@ -17,11 +17,11 @@ def add(sub, scene_help):
                    "pseudo-acceleration (in --unit), increasing periods")
     s.add_argument("--design", metavar="CODE", help="a code's spectrum: ec8:AG:GROUND[:TYPE] (EN 1998-1, a_g in g, "
                    "ground A-E, type 1 or 2) or asce7:SDS:SD1[:TL] (ASCE 7, in g; T_L s)")
-    s.add_argument("--record", metavar="FILE", help="ground-acceleration record: one column (give --dt) or two "
-                   "(time s, acceleration in --unit); its pseudo-acceleration spectrum is used")
+    s.add_argument("--record", metavar="FILE", help="ground-acceleration record: one column (give --dt), two "
+                   "(time s, acceleration in --unit) or a PEER .AT2 file; its pseudo-acceleration spectrum is used")
     s.add_argument("--dt", type=float, help="the record's time step (s), for a one-column file")
-    s.add_argument("--unit", default="m/s^2", choices=("m/s^2", "g", "cm/s^2", "mm/s^2"),
-                   help="unit of the accelerations in the file (default m/s^2)")
+    s.add_argument("--unit", default=None, choices=("m/s^2", "g", "cm/s^2", "mm/s^2"),
+                   help="unit of the accelerations in the file (default m/s^2; g for a PEER .AT2 file)")
     s.add_argument("--direction", nargs=3, type=float, required=True, metavar=("X", "Y", "Z"),
                    help="direction of the ground motion (world axes)")
     s.add_argument("--combination", choices=("srss", "cqc", "abs"), default="srss", help="modal combination rule")
@@ -57,7 +57,7 @@ def spectrum_of(args, modes):
                          f"and at least two rows, got shape {data.shape}")
     if not np.all(np.isfinite(data)):
         raise ModelError(f"spectrum file '{args.spectrum}': NaN or inf in the table")
-    return (data[:, 0], data[:, 1] * UNITS[args.unit]), f"spectrum {args.spectrum}"
+    return (data[:, 0], data[:, 1] * UNITS[args.unit or "m/s^2"]), f"spectrum {args.spectrum}"
 
 
 def design(text, damping):

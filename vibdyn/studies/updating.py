@@ -171,12 +171,19 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
         raise ModelError("update: no measured frequency given (measured: rad/s, one per measured mode)")
     if direction is not None:
         direction = vector3(direction, "update: direction")
+        if not np.any(direction):
+            raise ModelError("update: direction (of the measured displacements) has zero length: give the axis the "
+                             "sensors measure along, e.g. (1, 0, 0)")
     if np.any(w_meas <= 0):
         raise ModelError(f"update: measured natural frequencies must be positive (rad/s), got {w_meas.tolist()}")
     m = len(w_meas)
     sig = (_vector(sigma, m, "sigma (rad/s)") if sigma is not None else relative_sigma * w_meas)
     if np.any(sig <= 0):
         raise ModelError(f"update: sigma must be positive (rad/s), got {sig.tolist()}")
+    # the fit weighs the modes by σ/σ_ref (σ_ref their geometric mean): the same minimum as weighing by 1/σ, the
+    # residuals in rad/s, so that no σ (1e-100 rad/s or 1e100) overflows the solver's squares; cov scales by σ_ref²
+    sig_ref = np.exp(np.mean(np.log(sig)))
+    weight = sig / sig_ref
     lo, hi = _bounds(bounds, names, p0)
     meas_shapes = _measured_shapes(shapes, points, w_meas)
     build(**start)  # (a builder returning no scene is refused here, not along the fit)
@@ -212,12 +219,12 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
     def residual(x):
         sens = model(x)
         idx, _ = paired(sens)
-        return (sens.omega0[idx] - w_meas) / sig
+        return (sens.omega0[idx] - w_meas) / weight
 
     def jacobian(x):
         sens = model(x)
         idx, _ = paired(sens)
-        return sens.d_omega[idx] * scale[None, :] / sig[:, None]
+        return sens.d_omega[idx] * scale[None, :] / weight[:, None]
 
     from scipy.optimize import least_squares
 
@@ -229,7 +236,7 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
     x = fit.x
     sens = model(x)
     idx, mac_table = paired(sens)
-    J = sens.d_omega[idx] / sig[:, None]  # ∂r/∂p in the builder's units
+    J = sens.d_omega[idx] / weight[:, None]  # σ_ref ∂r/∂p in the builder's units
     u, s, vt = np.linalg.svd(J, full_matrices=True)
     rank = int(np.sum(s > 1e-8 * max(s.max(initial=0.0), 1e-300)))
     if rank < len(names):
@@ -239,12 +246,15 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
                          f"{m} measured frequenc{'y' if m == 1 else 'ies'}: they change the paired frequencies only "
                          "together (the Jacobian has rank "
                          f"{rank} < {len(names)}); fix some of them, or measure more modes")
-    cov = vt.T @ np.diag(1.0 / s[:len(names)] ** 2) @ vt
-    std = np.sqrt(np.diag(cov))
+    root = vt.T / s[:len(names)]  # cov = σ_ref² root rootᵀ (σ_ref kept out of the squares: std of any σ)
+    with np.errstate(over="ignore", under="ignore"):  # (σ beyond 1e±154: cov and cost as inf and 0, std kept)
+        cov = sig_ref ** 2 * (root @ root.T)
+        cost = float(0.5 * np.sum(((sens.omega0[idx] - w_meas) / sig) ** 2))
+    std = sig_ref * np.sqrt(np.einsum("ij,ij->i", root, root))
     if fit.status <= 0:
         raise ConvergenceError(f"update: the fit did not converge in {max_iter} evaluations ({fit.message})",
                                best=dict(zip(names, (x * scale).tolist())))
     omega = sens.omega0[idx]
     return Update(dict(zip(names, (x * scale).tolist())), dict(zip(names, std.tolist())), cov, omega, w_meas, sig,
-                  omega - w_meas, idx, mac_table, int(fit.njev or 0), float(fit.cost), time.perf_counter() - t0,
+                  omega - w_meas, idx, mac_table, int(fit.njev or 0), cost, time.perf_counter() - t0,
                   str(fit.message))

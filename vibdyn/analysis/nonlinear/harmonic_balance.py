@@ -54,6 +54,7 @@ if TYPE_CHECKING:
 
 START_HARMONICS = 3  # adaptive runs start here
 MAX_HARMONICS = 48  # and stop growing here (said so in the result's message)
+MAX_HILL = 400  # a fixed H is refused where Hill's matrices pass this size (H = 99 for one coordinate: 10 s)
 CHORD = 0.1  # the corrector keeps a Jacobian while each step cuts the residual 10 times
 CONTINUATION_TOL = 1e-11  # ‖R‖_∞ of the corrector, relative to the excitation's generalized force
 
@@ -78,7 +79,7 @@ class ResponseFold:
 @dataclass(frozen=True)
 class ResponsePeak:
     """The largest amplitude along the curve: ``omega`` (rad/s), ``amplitude`` (m or rad), ``error`` and
-    ``omega_error`` (their truncation estimates)."""
+    ``omega_error`` (their truncation estimates; infinite where the curve stopped while the amplitude still grew)."""
 
     omega: float
     amplitude: float
@@ -197,6 +198,13 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
     c = system.coordinate_index(coordinate) if isinstance(coordinate, str) else _bad_coordinate(coordinate)
     if harmonics is not None:
         harmonics = integer(harmonics, "forced_response_curve: harmonics", minimum=1, maximum=1000)
+        top = max(MAX_HARMONICS, (MAX_HILL // (2 * max(system.nv, 1)) - 1) // 2)
+        if harmonics > top:  # (Hill's eigenproblem, (2H + 1)·2n square at every point, costs H³: hours at H = 1000)
+            raise ModelError(f"forced_response_curve: harmonics = {harmonics} makes Hill's matrices "
+                             f"{(2 * harmonics + 1) * 2 * system.nv} square at every point of the curve (their cost "
+                             f"grows as H³); at most {top} for this scene of {system.nv} coordinate"
+                             f"{'s' if system.nv > 1 else ''} (harmonics=None chooses H for tol, up to "
+                             f"{MAX_HARMONICS})")
     tol = scalar(tol, "forced_response_curve: tol", positive=True)
     step = scalar(step, "forced_response_curve: step", positive=True)
     max_steps = integer(max_steps, "forced_response_curve: max_steps", minimum=1)
@@ -229,6 +237,11 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
         e = bal.truncation(f.x, f.lam, c)
         folds.append(ResponseFold(f.lam, bal.amplitude(f.x, c), e[0], f.index, e[1]))
     peak = _peak(bal, run, amp, c)
+    if status != "finished" and int(np.argmax(amp)) == len(amp) - 1:
+        # (the curve stopped while its amplitude still grew: the largest reached is no peak, and how far the true
+        # one lies above it, or at what Ω, is not known)
+        peak = ResponsePeak(peak.omega, peak.amplitude, math.inf, math.inf)
+        message += " (still growing where the curve stopped: the peak is beyond it, its error infinite)"
     # each |μ|'s error: its exponent again on Hill's problem of the 2H + 1 balance (at the truncation step's
     # coefficients), followed from the H one by inverse iteration
     mult, mult_error = np.empty((len(run.lam), 2 * system.nv), complex), np.empty(len(run.lam))

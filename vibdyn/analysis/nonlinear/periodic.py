@@ -41,6 +41,7 @@ from .shooting import (
     free_indices,
     growth_segments,
     motion_scales,
+    wrapped,
 )
 
 __all__ = ["PeriodicOrbit", "Liouville", "periodic_orbit", "floquet"]
@@ -52,6 +53,7 @@ STEP_RESOLUTION = 0.5  # steps of the flows at most this / ω (ω: the start's f
 SAMPLES = 8  # perturbations of Φ that measure the spread of clustered multipliers
 SPREAD_FACTOR = 3.0  # the spread's safety factor
 MIN_ENERGY_RATIO = 10.0  # a conservative orbit's motion energy must exceed this × the energy's round-off
+COVER_GAP = 1e-6  # a return to the start at T/k closer than this (scaled) makes T/k the orbit's period
 UNDETERMINED = 1e-6  # the period's share of a singular direction of the shooting Jacobian that leaves it open
 
 
@@ -265,6 +267,8 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
         if len(nodes) not in (1, segments):
             raise ModelError(f"{what}: {len(nodes)} starting nodes given for segments = {segments}")
     q_start, v_start = nodes[0]
+    # (before any flow, against 2 of the coordinates' own scales: a pendulum's orbit moves by about that)
+    _resolvable(system, q_start, 2 * np.asarray(system.coordinate_scales, dtype=float), free, tol, what)
     omega = 2 * math.pi / period if period is not None else _omega_guess(system, q_start, v_start, t0, free)
     if autonomous and period is None:
         period = first_return(system, q_start, v_start, t0, omega, rtol)
@@ -307,6 +311,12 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
     if m == 1 and k == 1:
         shoot.seed(x0, [first])
     x, residual, iterations = shoot.solve(x0, tol, max_iter)
+    if autonomous:
+        k = _cover(system, shoot, x, rtol)
+        if k > 1:  # the orbit found is its least one followed k times over: that one, with its frequency
+            (q_k, v_k), T = shoot.unpack(x)[0][0], shoot.unpack(x)[1]
+            return orbit_from(system, q_k, v_k, T / k, t0, phase=phase, tol=tol, rtol=rtol, max_iter=max_iter,
+                              points=points)
     orbit = _result(system, shoot, x, residual, iterations, points, cons, start, tol)
     if autonomous:
         _moves(system, shoot, orbit, tol, damping is not None, what)
@@ -316,6 +326,42 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
                                    "the orbit, or give phase (a coordinate whose velocity is zero at the start)",
                                    residual=orbit.residual, best=[(orbit.q0, orbit.v0)])
     return orbit
+
+
+def _resolvable(system, q, scales, free, tol, what) -> None:
+    """Refuse a start so far from neutral (an angle of 1e7 rad) that a double's round-off there exceeds half the
+    closing tolerance of the motion: the shooting can then neither close nor stop (each flow's steps shrink to the
+    round-off)."""
+    size = np.abs(system.difference(system.neutral(), q))
+    roundoff = size * np.finfo(float).eps
+    bad = [i for i in free if roundoff[i] > 0.5 * tol * scales[i]]
+    if bad:
+        i = bad[0]
+        unit = system.units[i]
+        raise ModelError(f"{what}: {system.coordinates[i]} = {size[i]:.3g} {unit} from neutral: at that size a "
+                         f"number's round-off ({roundoff[i]:.1e} {unit}) exceeds the closing tolerance "
+                         f"(tol = {tol:.0e} of {scales[i]:.3g} {unit}); start within a few turns of neutral (an angle "
+                         "less 2π·k, the same pose where nothing depends on the turns), or give a looser tol")
+
+
+def _cover(system, shoot, x, rtol, most: int = 32) -> int:
+    """How many times over the autonomous orbit x follows its least one: the largest k ≤ ``most`` for which the flow
+    from the start returns to it at T/k (within COVER_GAP of the motion's scales), else 1. Shooting closes a
+    k-fold orbit as well as the least one (a continuation's step or a period guess near kT lands on it)."""
+    nodes, T = shoot.unpack(x)
+    q0, v0 = nodes[0]
+    times = [shoot.t0 + T / k for k in range(most, 1, -1)]
+    try:
+        run = Flow(system, q0, v0, rtol=rtol, max_step=STEP_RESOLUTION / (2 * math.pi / T))(
+            q0, v0, shoot.t0, times[-1], t_eval=times)
+    except SimulationError:
+        return 1
+    gaps = [float(np.abs(np.concatenate([wrapped(system.difference(q0, q)[shoot.free], shoot.wrap),
+                                         (v - v0)[shoot.free]]) / shoot.node_scale).max())
+            for q, v in zip(run.q, run.v)]
+    if max(gaps) <= 1e3 * COVER_GAP:  # (no motion to speak of: an orbit settled onto rest, said by the caller)
+        return 1
+    return next((k for k, gap in zip(range(most, 1, -1), gaps) if gap <= COVER_GAP), 1)
 
 
 def floquet(system: Any, period: float, q0: Any = None, v0: ArrayLike | None = None, t0: float = 0.0,
