@@ -170,3 +170,17 @@ def test_a_forced_response_curve_stopped_on_its_way_up_claims_no_peak():
     assert curve.status == "stopped"
     truth = 0.1 / 1e-6 / np.sqrt(1 - 0.25e-12)
     assert abs(curve.peak.amplitude - truth) <= curve.peak.error and "still growing" in curve.message
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda S: S.equilibrium(q0="abc"), "q0: expected a configuration of 2 numbers, got 'abc'"),
+    (lambda S: S.equilibrium(q0={"crank": 0.3}), "q0: expected a configuration of 2 numbers"),
+    (lambda S: S.steady_motion({"mass1": 1.0}, q0="x"), "q0: expected a configuration"),
+    (lambda S: S.held("abc"), "held q: expected a configuration"),
+    (lambda S: S.held(None, v="x"), "held v: expected 2 numbers"),
+])
+def test_a_start_that_is_no_configuration_is_named(call, words):
+    """They ended in numpy's raw ValueError/TypeError (the start was made an array before it was checked)."""
+    with pytest.raises(vd.ModelError) as e:
+        call(vd.load_scene("double_pendulum").build())
+    assert words in str(e.value)

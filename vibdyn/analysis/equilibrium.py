@@ -193,7 +193,7 @@ def _along_speed(system, q0, t, cyclic, failed):
     from ..solvers.continuation import Arclength, continuation
 
     nv, model = system.nv, system.model
-    base = system.neutral() if q0 is None else system.check_configuration(np.array(q0, dtype=float), "q0").copy()
+    base = system.neutral() if q0 is None else system.check_configuration(q0, "q0").copy()
     rest = [i for i in range(nv) if i not in cyclic]
     speeds = np.zeros(nv)
     speeds[list(cyclic)] = list(cyclic.values())
@@ -271,8 +271,8 @@ def _held(system, q, v, t):
         "linearise it about a state of its motion (system.linearize(q, v=v, t=t), free coordinates) or simulate "
         "it"))
     has_coordinates(system, "held", "to hold")
-    q = system.neutral() if q is None else system.check_configuration(np.array(q, dtype=float), "held q").copy()
-    v = np.zeros(system.nv) if v is None else system.check_velocity(np.array(v, dtype=float), "held v").copy()
+    q = system.neutral() if q is None else system.check_configuration(q, "held q").copy()
+    v = np.zeros(system.nv) if v is None else system.check_velocity(v, "held v").copy()
     system.check_limits(q, "held configuration")
     R = system.reduction.holding_all(q, v)  # (nothing left to solve: the holders' forces, the inverse dynamics')
     return search(system, q, t, {}, EQUILIBRIUM_TOL, MAX_ITER, caller="held", reduction=R)
@@ -331,7 +331,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
     if q0 is None or q0 is Declared:
         q, origin = system.start_configuration() if q0 is Declared else R.default_start(system)
     else:
-        q, origin = system.check_configuration(np.array(q0, dtype=float), "q0").copy(), "q0"
+        q, origin = system.check_configuration(q0, "q0").copy(), "q0"
     q_given = q  # (a start in degrees is far from everything: said if the search fails)
     v = np.zeros(nv)
     for i, s in cyclic.items():
