@@ -236,6 +236,14 @@ def test_bad_requests_are_model_errors(tmp_path, capsys):
         vd.export_html(42, tmp_path / "x.html")
     assert cli.main(["view", str(MODELS / "trailer.toml"), "--html", str(tmp_path / "no" / "x.html")]) == 2
     assert "cannot write" in capsys.readouterr().err
+    # --mode with --html: the page starts there (it was accepted and ignored, 99 of 2 modes too)
+    assert cli.main(["view", "double_pendulum", "--html", str(tmp_path / "m.html"), "--mode", "99"]) == 2
+    assert "mode 99: choose a motion from 1 to 2" in capsys.readouterr().err
+    for bad in (0, 2.0, True, "1"):
+        with pytest.raises(vd.ModelError, match="choose a motion from 1 to 2"):
+            vd.export_html(vd.load_scene("double_pendulum"), tmp_path / "m.html", mode=bad)
+    vd.export_html(vd.load_scene("double_pendulum"), tmp_path / "m.html", mode=2)
+    assert '"current":1' in (tmp_path / "m.html").read_text()
 
 
 # ---------------------------------------------------------------- live server hygiene

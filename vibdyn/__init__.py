@@ -187,7 +187,7 @@ def view(obj: Any, *, amplitude: float | None = None, trajectory: Any = None, sp
 
 
 def export_html(obj: Any, path: str | os.PathLike, *, amplitude: float | None = None, trajectory: Any = None,
-                speed: float = 1.0) -> Any:
+                speed: float = 1.0, mode: int = 1) -> Any:
     """Write one self-contained HTML page showing ``obj`` and return its path (a ``pathlib.Path``). The page
     works offline (meshcat's viewer is inlined: no request to any host); its address takes ``#mode=2&t=0.25``
     (the motion shown, from 1, and the time in s).
@@ -198,11 +198,12 @@ def export_html(obj: Any, path: str | os.PathLike, *, amplitude: float | None = 
     ``amplitude``: the largest point displacement of a mode's animation (m; default 10 % of the scene's size).
     ``trajectory``: a motion to replay with a System, Scene or Modes: a Trajectory, or the ``.npz`` file that
     ``vibdyn simulate --out`` writes. ``speed``: the replay's speed, × real time (default 1: a trajectory or
-    an orbit plays at its own pace).
+    an orbit plays at its own pace). ``mode``: the motion the page shows first (from 1; its address's ``#mode=``
+    overrides it).
     """
     from .faces.viewer import export_html as _export
 
-    return _export(obj, path, amplitude=amplitude, trajectory=trajectory, speed=speed)
+    return _export(obj, path, amplitude=amplitude, trajectory=trajectory, speed=speed, mode=mode)
 
 
 __all__ = ["Scene", "System", "Body", "BodyInfo", "Energy", "Reactions", "Pivot", "Slider", "Helical", "Ball",

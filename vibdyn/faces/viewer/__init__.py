@@ -159,18 +159,20 @@ def content(obj, trajectory=None, speed=1.0):
     return Content(system, d, q0, lin, views, data, float(speed), f"vibdyn: {system.name}", sub)
 
 
-def export_html(obj, path, *, amplitude=None, trajectory=None, speed=1.0):
+def export_html(obj, path, *, amplitude=None, trajectory=None, speed=1.0, mode=1):
     """Write a self-contained HTML page showing ``obj`` (every mode, the trajectory, or one period of a periodic
     orbit or of a forced-response point, looped) and return its path.
 
     ``amplitude``: the largest point displacement shown (m; default 10 % of the scene's size); ``trajectory``: a
     motion to replay (a Trajectory or a ``.npz`` of ``vibdyn simulate --out``); ``speed``: the replay's speed
-    (× real time). The file makes no request to any host: meshcat's viewer is inlined (:func:`vibdyn.export_html`
-    says more).
+    (× real time); ``mode``: the motion shown first (1-based, as the page lists them). The file makes no request to
+    any host: meshcat's viewer is inlined (:func:`vibdyn.export_html` says more).
     """
     c = content(obj, trajectory, speed)
+    if isinstance(mode, bool) or not isinstance(mode, (int, np.integer)) or not 1 <= mode <= c.n:
+        raise ModelError(f"mode {mode!r}: choose a motion from 1 to {c.n} (as the page lists them)")
     anims = [c.animation(k, amplitude) for k in range(c.n)]
-    text = offline_page(c.title, c.subtitle, c.motions(amplitude), c.scene_commands(), anims)
+    text = offline_page(c.title, c.subtitle, c.motions(amplitude), c.scene_commands(), anims, int(mode) - 1)
     path = Path(path)
     try:
         path.write_text(text, encoding="utf-8")

@@ -15,7 +15,7 @@ def command(scene, args, out=None):
     if args.html:
         start = time.perf_counter()
         path = export_html(system, args.html, amplitude=args.amplitude, trajectory=args.trajectory,
-                           speed=args.speed)
+                           speed=args.speed, mode=args.mode)
         print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB, {time.perf_counter() - start:.2f} s); "
               "open it in any browser (no network needed)", file=out)
         return

@@ -174,7 +174,7 @@ function vdTick() {
 }
 function vdFromHash() {
   const p = vdParams();
-  const k = Math.max(0, Math.min(VD.motions.length - 1, (parseInt(p.mode || "1") || 1) - 1));
+  const k = Math.max(0, Math.min(VD.motions.length - 1, (parseInt(p.mode || String(VD.current + 1)) || 1) - 1));
   vdShow(k, p.t === undefined ? undefined : parseFloat(p.t));
 }
 window.addEventListener("hashchange", vdFromHash);
@@ -219,10 +219,11 @@ def _panel(title, subtitle, motions, live):
 </div>"""
 
 
-def offline_page(title, subtitle, motions, scene_cmds, animations):
-    """The self-contained page: meshcat's viewer inlined, the scene, and one animation per motion."""
+def offline_page(title, subtitle, motions, scene_cmds, animations, current=0):
+    """The self-contained page: meshcat's viewer inlined, the scene, and one animation per motion (``current``, 0-based,
+    shown first unless the address's #mode= says otherwise)."""
     js = (meshcat_dist() / "main.min.js").read_text(encoding="utf-8")
-    meta = {"motions": motions, "current": 0}
+    meta = {"motions": motions, "current": current}
     return f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{html.escape(title)}</title><style>{PANEL_CSS}</style></head>
 <body>
