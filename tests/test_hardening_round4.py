@@ -184,3 +184,14 @@ def test_a_start_that_is_no_configuration_is_named(call, words):
     with pytest.raises(vd.ModelError) as e:
         call(vd.load_scene("double_pendulum").build())
     assert words in str(e.value)
+
+
+def test_an_empty_declared_start_of_a_mechanism_says_how_to_have_its_closures_searched():
+    """set_operating_point(start={}) declares neutral, where the four-bar cannot close: the message said only
+    "neutral", while the same scene with no start assembles (its closures searched)."""
+    scene = vd.load_scene("four_bar")
+    scene.set_operating_point(start={})
+    with pytest.raises(vd.ConvergenceError, match="declare none to have the closures searched"):
+        scene.build().operating_point()
+    scene.set_operating_point()
+    assert scene.build().operating_point().constraint_residual < 1e-12

@@ -35,7 +35,10 @@ def start_configuration(system: System) -> tuple[np.ndarray, str]:
         text = ", ".join(f"{k} = {float(x):.6g}" for k, x in start.items())
     else:
         text = ", ".join(f"{k} = {float(x):.6g}" for k, x in zip(system.coordinates, np.ravel(start)))
-    return q, f"the declared start ({text or 'neutral'})"
+    if not text:  # (an empty start declares neutral: the closures of loops are searched only without one)
+        text = "neutral" if system.compiled_loops is None else \
+            "neutral: empty; declare none to have the closures searched"
+    return q, f"the declared start ({text})"
 
 
 def configuration(system: System, offsets: Any) -> np.ndarray:
