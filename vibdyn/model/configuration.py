@@ -36,7 +36,7 @@ def start_configuration(system: System) -> tuple[np.ndarray, str]:
     else:
         text = ", ".join(f"{k} = {float(x):.6g}" for k, x in zip(system.coordinates, np.ravel(start)))
     if not text:  # (an empty start declares neutral: the closures of loops are searched only without one)
-        text = "neutral" if system.compiled_loops is None else \
+        text = "neutral" if not system.scene.loops else \
             "neutral: empty; declare none to have the closures searched"
     return q, f"the declared start ({text})"
 
