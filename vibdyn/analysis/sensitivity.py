@@ -234,6 +234,12 @@ def _step(value, unit, length_scale):
     return STEP * (length_scale if unit == "m" else 1.0)
 
 
+#: the share of one rounding per evaluation (ε|X| over the step) kept beside |D(h) − D(2h)|, which shows the
+#: evaluations' rounding itself (their combination f(2h) − 2f(h) + 2f(−h) − f(−2h)); the share covers a draw where
+#: it cancels (as linearize's measured share of its round-off bound, never below 1/16 of it)
+UNSEEN_ROUNDING = 1 / 16
+
+
 def _differences(pipeline, base_values, j, h, at_bound):
     """(derivatives, their errors) of (M, C, K) along parameter j: central differences (or one-sided, second
     order, at a bound), each error |D(h) − D(2h)| plus the models' own errors carried over the step.
@@ -267,7 +273,7 @@ def _differences(pipeline, base_values, j, h, at_bound):
         values = np.array([x[0][k] for x in X])
         size = np.abs(values).max(axis=0)
         moved = np.any(values != values[0], axis=0)
-        e = np.abs(t) + np.where(moved, EPS * size * weight, 0.0)
+        e = np.abs(t) + np.where(moved, UNSEEN_ROUNDING * EPS * size * weight, 0.0)
         errors = [x[1][k] for x in X if x[1][k] is not None]
         if errors:  # a model's own estimate, relative to its matrix, times the derivative
             rel = max(float(np.abs(x).max(initial=0.0)) for x in errors) / max(float(size.max(initial=0.0)), 1e-300)
