@@ -126,3 +126,12 @@ def test_the_kits_left_and_right_slopes():
     assert abs(left - np.exp(0.3)) < h**2 and abs(right - left) < 10 * h**3
     left, right = sides([200 * abs(s * h) for s in (-2, -1, 0, 1, 2)], h)
     assert np.isclose(left, -200) and np.isclose(right, 200)
+
+
+def test_a_builder_at_the_top_of_its_domain_takes_differences_from_the_left():
+    """k3 = 1 − k at k = 1 (the builder refuses k > 1): ∂ω/∂k = −∂ω/∂k1 of the pencil."""
+    s = vd.sensitivity(lambda k: chain(k3=1.0 - k), {"k": 1.0})
+    dw = -pencil(1.0, 1.0, 1.0, 1.0)[1]
+    assert np.all(np.abs(s.d_omega[:, 0] - dw) <= s.d_omega_error[:, 0])
+    assert np.all(s.d_omega_error[:, 0] < 1e-5 * np.abs(dw))
+    assert "from the left" in s.note

@@ -100,21 +100,22 @@ def differences_along(pipeline, base_values, j, h, at_bound, base=None):
     p, note = base_values[j], ""
     name = pipeline.names[j] if j < len(pipeline.names) else f"parameter {j + 1}"
     X = []
+    side = 1.0  # (−1: one-sided from the left, where the builder refuses p + h)
     if not at_bound:
         try:
             X = [at(x) for x in (p - 2 * h, p - h)]
+            X += [at(x) for x in (p + h, p + 2 * h)]
         except CoordinatesChanged:
             raise
-        except ModelError as e:  # the edge of the builder's domain: differences from the right only
-            at_bound, note = True, f"'{name}': one-sided differences at {p:g}, as {e}"
+        except ModelError as e:  # the edge of the builder's domain: differences from the other side only
+            side = -1.0 if len(X) == 2 else 1.0
+            at_bound = True
+            note = f"'{name}': one-sided differences at {p:g} (from the {'left' if side < 0 else 'right'}), as {e}"
     if at_bound:
-        xs = [p, p + h, p + 2 * h, p + 4 * h]
-        X = [at(x) for x in xs]
-        DT = [one_sided(values, h) for values in zip(*(x[0] for x in X))]  # (M, C, K)
+        X = [at(p + s * side * h) for s in (0, 1, 2, 4)]
+        DT = [one_sided(values, side * h) for values in zip(*(x[0] for x in X))]  # (M, C, K)
         Dh, T = [d for d, _ in DT], [t for _, t in DT]
     else:
-        xs = [p - 2 * h, p - h, p + h, p + 2 * h]
-        X += [at(x) for x in xs[2:]]
         Dh, T = richardson([X[2][0], X[3][0], X[1][0], X[0][0]], h)
     weight = round_off(h, at_bound)
     err, rels = [], []
