@@ -210,10 +210,10 @@ def pipeline_oracle(model, name, what, rel=2e-3):
 
 @pytest.mark.parametrize("model, name, what, factor", [
     # (the factors leave room for the machine, about 3× what is measured here: 10.7× the four-bar's error, whose
-    # differences of rebuilt scenes sit near their rounding floor; 3.4–3.7× the slider-crank's; 1.6–4.8× the
+    # differences of rebuilt scenes sit near their rounding floor; 3.4–3.7× the slider-crank's; 6.5–19× the
     # trailer's, near 1e-13, where a whole rounding of ∂M's evaluations over the step, ε|M|/h, made it 26–75×)
     ("four_bar", "rocker.joint.at.x", "omega", 30),  # stated was 9764× the error
-    ("trailer", "rod.inertia.yy", "zeta", 15),  # 1789×
+    ("trailer", "rod.inertia.yy", "zeta", 60),  # 1789×
     # 2.2e6×, then 776×: the loops' curvature's round-off bound (16ε × the whole dynamics' forces over a step of
     # 1e-5), carried through ω² into −ω² ∂M
     ("slider_crank", "piston.mass", "omega", 12),

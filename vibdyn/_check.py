@@ -287,6 +287,9 @@ def scene_builder(build, what):
     as a function returning the Scene; anything else it returns is a ModelError saying what came back."""
     if not callable(build):
         raise ModelError(f"{what}: build must be a function build(**params) returning a Scene, got {build!r}")
+    if isinstance(build, type):  # (callable, but its instances are no scenes: Scene(**params) has no bodies)
+        raise ModelError(f"{what}: build must be a function build(**params) returning a Scene, got the class "
+                         f"{build.__name__} itself")
     try:
         signature = inspect.signature(build)
     except (TypeError, ValueError):

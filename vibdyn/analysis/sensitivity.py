@@ -22,7 +22,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
@@ -33,13 +33,11 @@ from ..defaults import EPS
 from ..description import parameters as _parameters
 from ..description.scene import Scene
 from ..errors import ConvergenceError, ModelError
-from ..model.fd import differences, one_sided, round_off
+from ..model.fd import round_off
 from ..model.system import System
-from .linearize import LinearModel, linearize
+from .linearize import LinearModel
 from .modal import Modes, invariant_pair
-
-#: relative step of the pipeline's differences (h = STEP·|p|, or STEP × the parameter's scale at p = 0)
-STEP = 1e-4
+from .parameter_differences import STEP, Pipeline, differences_along, richardson, step
 
 
 @former_names(**{name: f"d_{name}" for name in ("omega", "omega_error", "omega2", "omega2_error", "eigenvalues",
@@ -167,41 +165,6 @@ class Sensitivity:
 
 
 # ------------------------------------------------------------------------------------------ the pipeline
-#: how each regime's point is found again in a rebuilt system (q0, v0: the base point's; speeds: the held ones)
-FOUND_AGAIN: dict[str, Callable] = {
-    "declared": lambda system, q0, v0, speeds: system.operating_point(),
-    "steady": lambda system, q0, v0, speeds: system.steady_motion(speeds, q0=q0),
-    "static": lambda system, q0, v0, speeds: system.equilibrium(q0=q0),
-    "held": lambda system, q0, v0, speeds: system.held(q0, v0),
-    "pose": lambda system, q0, v0, speeds: q0,
-}
-
-
-class _Pipeline:
-    """p -> (M, C, K with their errors) of the scene at p: rebuilt, its operating point found again as the
-    base one was (static equilibrium from the base pose, the same held speeds, or the base pose held),
-    linearised analytically (finite differences where the analytic path refuses)."""
-
-    def __init__(self, make_scene: Callable, q0, v0, regime, hold=(), independent=None):
-        self.make_scene, self.q0, self.v0, self.regime, self.hold = make_scene, q0, v0, regime, tuple(hold)
-        # a reduced model's independent coordinates, kept at every p (a choice flipping between p ± h, at a
-        # symmetric pose, would difference models in different coordinates)
-        self.independent = None if independent is None else np.asarray(independent, dtype=int)
-
-    def __call__(self, values):
-        scene, speeds = self.make_scene(values)
-        system = scene.build()
-        op = FOUND_AGAIN[self.regime](system, self.q0, self.v0, speeds)
-        at = {"v": self.v0} if self.regime == "pose" else {}  # (an operating point carries its own velocity)
-        # reduced as the base model is: the same coordinates held at their (new) speeds, the same independent ones
-        at.update(hold=self.hold, independent=self.independent)
-        try:
-            lin = linearize(system, op, method="analytic", **at)
-        except ModelError:
-            lin = linearize(system, op, method="fd", **at)
-        return getattr(lin, "reduced", lin)  # a mechanism's: in its independent motions
-
-
 def _regime(system, lin):
     """How the base linear model's point is found again: "steady" (held speeds), "held", "static" or "pose"."""
     op = system.scene.operating_point or {}
@@ -225,61 +188,6 @@ def _regime(system, lin):
         return "pose", {}
     d = np.abs(system.difference(eq.q, lin.q))
     return ("static" if np.all(d <= 1e-6 * system.coordinate_scales) else "pose"), {}
-
-
-def _step(value, unit, length_scale):
-    """The difference step of a parameter of ``value`` in ``unit``: STEP of it, or of its unit's scale at 0."""
-    if value != 0:
-        return STEP * abs(value)
-    return STEP * (length_scale if unit == "m" else 1.0)
-
-
-#: the share of one rounding per evaluation (ε|X| over the step) kept beside |D(h) − D(2h)|, which shows the
-#: evaluations' rounding itself (their combination f(2h) − 2f(h) + 2f(−h) − f(−2h)); the share covers a draw where
-#: it cancels (as linearize's measured share of its round-off bound, never below 1/16 of it)
-UNSEEN_ROUNDING = 1 / 16
-
-
-def _differences(pipeline, base_values, j, h, at_bound):
-    """(derivatives, their errors) of (M, C, K) along parameter j: central differences (or one-sided, second
-    order, at a bound), each error |D(h) − D(2h)| plus the models' own errors carried over the step.
-
-    |D(h) − D(2h)| is three times the h step's truncation, and about the size of the evaluations' random part
-    (the rounding of a model's finite differences, of its operating point found again, whatever its source: the
-    four evaluations show it, where a bound of it over the step was 1e2–1e4 times what the differences carry).
-    The models' error estimates (finite-difference truncation, the bounds of their rounding) are systematic:
-    smooth in p, they cancel in a difference but for their own variation, their relative size times the
-    derivative. An entry that moves with p carries at least one rounding of its value each side (ε |X| over the
-    step); one equal at every point moves with nothing (its difference is exact)."""
-    def at(x):
-        vals = np.array(base_values, float)
-        vals[j] = x
-        lin = pipeline(vals)
-        return (lin.M, lin.C, lin.K), (None, lin.C_error, lin.K_error)
-
-    p = base_values[j]
-    if at_bound:
-        xs = [p, p + h, p + 2 * h, p + 4 * h]
-        X = [at(x) for x in xs]
-        DT = [one_sided(values, h) for values in zip(*(x[0] for x in X))]  # (M, C, K)
-        Dh, T = [d for d, _ in DT], [t for _, t in DT]
-    else:
-        xs = [p - 2 * h, p - h, p + h, p + 2 * h]
-        X = [at(x) for x in xs]
-        Dh, T = _richardson([X[2][0], X[3][0], X[1][0], X[0][0]], h)
-    weight = round_off(h, at_bound)
-    err = []
-    for k, (d, t) in enumerate(zip(Dh, T)):
-        values = np.array([x[0][k] for x in X])
-        size = np.abs(values).max(axis=0)
-        moved = np.any(values != values[0], axis=0)
-        e = np.abs(t) + np.where(moved, UNSEEN_ROUNDING * EPS * size * weight, 0.0)
-        errors = [x[1][k] for x in X if x[1][k] is not None]
-        if errors:  # a model's own estimate, relative to its matrix, times the derivative
-            rel = max(float(np.abs(x).max(initial=0.0)) for x in errors) / max(float(size.max(initial=0.0)), 1e-300)
-            e += rel * np.abs(d)
-        err.append(e)
-    return Dh, err
 
 
 # ------------------------------------------------------------------------------------------ modes' derivatives
@@ -489,6 +397,9 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
     if unused not in ("raise", "drop"):
         raise ModelError(f"sensitivity: unused must be 'raise' or 'drop', got {unused!r}")
     start = time.perf_counter()
+    if isinstance(source, type):  # (a class is callable, but no builder: its instances are not scenes)
+        raise ModelError(f"sensitivity: got the class {source.__name__} itself; pass an instance (a scene: "
+                         f"{source.__name__}(...), its system, modes or linear model) or a builder function")
     if isinstance(source, Scene):
         source = source.build()
     if isinstance(source, Modes):
@@ -539,8 +450,9 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
                 sc_vals.append(x)
         return _parameters.with_values(scene, plist, sc_vals), sp
 
-    pipeline = _Pipeline(make_scene, lin.q, lin.v, regime, hold, getattr(lin, "independent", None))
-    steps = np.array([_step(values[j], units[j], system.length_scale) for j in range(len(names))])
+    pipeline = Pipeline(make_scene, lin.q, lin.v, regime, hold, getattr(lin, "independent", None), names,
+                        system.coordinates)
+    steps = np.array([step(values[j], units[j], system.length_scale) for j in range(len(names))])
     direct: dict[int, tuple] = {}
     from ..model.derivatives import untrusted
 
@@ -561,6 +473,7 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
         if pipeline.independent is None and getattr(lin, "independent", None) is not None:
             pipeline.independent = np.asarray(lin.independent, dtype=int)
         base_modes = lin.modes()
+        pipeline.base = lin
     return _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, start, unused, direct)
 
 
@@ -598,7 +511,7 @@ def _linear_column(system, lin, p, regime):
         zero = np.zeros(n)
         at = {k: system.linearize(system.integrate(lin.q, k * eps * dq), a=zero, method="analytic")
               for k in (-2, -1, 1, 2)}
-        D, T = _richardson([(at[k].M, at[k].C, at[k].K) for k in (1, 2, -1, -2)], eps)
+        D, T = richardson([(at[k].M, at[k].C, at[k].K) for k in (1, 2, -1, -2)], eps)
         for name, d1, t, X1 in zip(("M", "C", "K"), D, T, (at[1].M, at[1].C, at[1].K)):
             err = np.abs(t) / 3 + (at[1].K_error if name == "K" else 0.0) / eps + EPS * np.abs(X1) * round_off(eps)
             if name == "M":
@@ -608,15 +521,6 @@ def _linear_column(system, lin, p, regime):
             else:
                 dK, eK = dK + d1, eK + err
     return dM, dC, dK, eM, eC, eK
-
-
-def _richardson(values, h):
-    """Central differences of (M, C, K) along a parameter or direction from their values at +h, +2h, −h and −2h
-    (:func:`vibdyn.model.fd.differences`): the derivatives and their truncation estimates D(h) − D(2h)."""
-    n = values[0][0].shape
-    D, T = differences(np.array([np.concatenate([m.ravel() for m in mats]) for mats in values]), np.array([h]))
-    size = n[0] * n[1]
-    return ([A[i * size:(i + 1) * size, 0].reshape(n) for i in range(3)] for A in (D, T))
 
 
 def _of_builder(build, params, start, unused):
@@ -636,7 +540,8 @@ def _of_builder(build, params, start, unused):
         return build(**{k: float(x) for k, x in zip(names, vals)}), speeds
 
     lin = getattr(tree, "reduced", tree)  # (a mechanism's: in its independent motions, as the pipeline's)
-    pipeline = _Pipeline(make_scene, tree.q, tree.v, regime, independent=getattr(lin, "independent", None))
+    pipeline = Pipeline(make_scene, tree.q, tree.v, regime, independent=getattr(lin, "independent", None),
+                        names=names, coordinates=system.coordinates)
     steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
     return _assemble(pipeline, lin.modes(), lin, names, ["(the builder's)"] * len(names), values, steps,
                      [False] * len(names), start, unused)
@@ -646,13 +551,18 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
     n_p, nv = len(names), lin.nv
     direct = direct or {}
     columns = []  # per parameter: (∂M, ∂C, ∂K, and their errors), None for a zero one
+    notes = []
+    pipeline.base_values = values
     for j in range(n_p):
         if j in direct:
             columns.append(direct[j])
         else:
             one_sided = nonneg[j] and values[j] - 2 * steps[j] < 0
-            d, e = _differences(pipeline, values, j, steps[j], one_sided)
+            if pipeline.base is None and not one_sided:  # (the model at p: its left and right slopes compared)
+                pipeline.base = pipeline(values)
+            d, e, side = differences_along(pipeline, values, j, steps[j], one_sided, pipeline.base)
             columns.append((*d, *e))
+            notes += [side] if side else []
     zero = np.zeros((nv, nv))
     # each of the six as one n_p × nv × nv stack; where every parameter's is zero, a view of one zero matrix
     dM, dC, dK, eM, eC, eK = (
@@ -661,9 +571,15 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
     method = ("element" if len(direct) == n_p else "pipeline" if not direct else
               f"element ({len(direct)} parameters), pipeline ({n_p - len(direct)})")
     # a parameter nothing depends on cannot be designed with nor fitted: refused, or left out and named
+    # (one that moves an entry over the parameter's size by more than the model's own error of that entry, with
+    # a derivative beyond its error or a change beyond 1e-12 of the matrix: a stiffness of 1e-12 N/m beside one of
+    # 1 moves ω₁ by its whole size)
     moved = np.zeros(n_p, bool)
-    for d, X in ((dM, lin.M), (dC, lin.C), (dK, lin.K)):
-        moved |= np.abs(d).max(axis=(1, 2)) * np.maximum(np.abs(values), steps) > 1e-12 * np.abs(X).max(initial=0.0)
+    span = np.maximum(np.abs(values), steps)[:, None, None]
+    for d, e, X, own in ((dM, eM, lin.M, 0.0), (dC, eC, lin.C, lin.C_error), (dK, eK, lin.K, lin.K_error)):
+        change = np.abs(d) * span
+        moved |= ((change > own + 10 * EPS * np.abs(X))
+                  & ((np.abs(d) > e) | (change > 1e-12 * np.abs(X).max(initial=0.0)))).any(axis=(1, 2))
     unchanged = np.flatnonzero(~moved).tolist()
     dropped = ""
     if unchanged:
@@ -681,7 +597,7 @@ def _assemble(pipeline, base_modes, lin, names, units, values, steps, nonneg, st
     d_w2, e_w2, d_w, e_w, repeated, nelson = _undamped(base_modes, dM, dK, eM, eK)
     d_l, e_l, d_wn, e_wn, d_z, e_z, defective = _damped(base_modes, lin, dM, dC, dK, eM, eC, eK)
     unstable = np.asarray(base_modes.unstable, bool).copy()
-    notes = [dropped] if dropped else []
+    notes = ([dropped] if dropped else []) + notes
     for mask, text in (
             (repeated, "modes {} have repeated frequencies: their derivatives are those of the subspace's eigenvalues "
                        "(ascending), their shape derivatives are not unique (given as 0)"),

@@ -128,6 +128,15 @@ def one_sided(values, h):
     return D, D - (-3 * a + 4 * c - d) / (4 * h)
 
 
+def sides(values, h):
+    """(D_left, D_right) from the values at x − 2h, x − h, x, x + h, x + 2h (numbers or arrays): the one-sided
+    second-order differences from each side, (3f(x) − 4f(x − h) + f(x − 2h)) / 2h and
+    (−3f(x) + 4f(x + h) − f(x + 2h)) / 2h. Of a smooth function they agree to O(h³) (their h² terms are equal); a
+    kink or a jump at x sets them apart by its change of slope, or by the jump / h."""
+    m2, m1, c, p1, p2 = values
+    return (3 * c - 4 * m1 + m2) / (2 * h), (-3 * c + 4 * p1 - p2) / (2 * h)
+
+
 def round_off(h, one_sided: bool = False):
     """A difference's rounding per unit rounding of its values (ε|f| each): Σ|coefficients| / divisor, 2/2h for
     a central difference, (3 + 4 + 1)/2h for the one-sided one (h a number or an array)."""
