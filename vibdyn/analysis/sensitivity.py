@@ -542,6 +542,7 @@ def _of_builder(build, params, start, unused):
     lin = getattr(tree, "reduced", tree)  # (a mechanism's: in its independent motions, as the pipeline's)
     pipeline = Pipeline(make_scene, tree.q, tree.v, regime, independent=getattr(lin, "independent", None),
                         names=names, coordinates=system.coordinates)
+    pipeline.base = lin  # (the model at p, found as the pipeline finds it: not made again for the kink test)
     steps = np.array([STEP * (abs(x) if x else 1.0) for x in values])
     return _assemble(pipeline, lin.modes(), lin, names, ["(the builder's)"] * len(names), values, steps,
                      [False] * len(names), start, unused)
