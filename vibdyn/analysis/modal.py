@@ -340,6 +340,10 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     LR = lapack.dtrtrs(L, R, lower=1)[0] if n else R
     A = np.abs(Phi)
     abs_Ks = np.abs(Ks)
+    # M's own round-off (n·ε|M|: CRBA sums the bodies' inertias) moves ω² by |ω²| |φ|ᵀ(n·ε|M|)|φ|: on an
+    # ill-conditioned M (masses 1e-6 and 1e6 in series) |φ|ᵀ|M||φ| ≫ φᵀMφ = 1
+    mass_part = np.add.reduce(A * (np.abs(M) @ A)) * np.abs(w2) if n else np.zeros(0)
+    mass_part *= n * EPS
     terms = getattr(lin, "K_error_terms", None)
     if terms is None:
         quadratic = np.add.reduce(A * (((n * EPS) * abs_Ks + Ke) @ A))
@@ -351,10 +355,11 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     # (einsum's sum of squares overflows to inf without a warning: caught below and scaled)
     uncertainty = np.sqrt(np.einsum("ij,ij->j", LR, LR))
     uncertainty += quadratic
+    uncertainty += mass_part
     if not all_finite(uncertainty):  # the squares overflowed (huge ω²)? the same, column by column scaled
         r = np.abs(R).max(axis=0, initial=0.0)
         LR = lapack.dtrtrs(L, R / np.maximum(r, 1e-300), lower=1)[0]
-        uncertainty = r * np.sqrt(np.add.reduce(LR * LR)) + quadratic
+        uncertainty = r * np.sqrt(np.add.reduce(LR * LR)) + quadratic + mass_part
         if not all_finite(uncertainty):
             raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
                              f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
