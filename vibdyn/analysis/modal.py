@@ -419,7 +419,8 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         floor = 1e-12 * lam_scale
         zero = np.abs(lam) <= np.maximum(10 * lam_abs, floor)
         zero_modes = mag <= np.maximum(10 * modes_abs, floor)
-        zero_threshold = float(mag[zero_modes].max(initial=floor))
+        # (the floor is known as the largest |λ| is: M's round-off at masses 1e-6 and 1e6 moved it by 4e-6)
+        zero_threshold = float(mag[zero_modes].max(initial=floor)) + floor * float(lam_error[np.argmax(mag)])
         lam_error = np.where(zero_modes, np.minimum(lam_error, zero_threshold / lam_scale), lam_error)
         zeta = np.where(mag > 0, -lam_modes.real / np.where(mag > 0, mag, 1.0), 0.0)
         classical = _is_classical(lin)
@@ -490,6 +491,7 @@ def _state_modes(lin):
     E = np.zeros_like(A)
     E[n:, :n], E[n:, n:] = Minv @ lin.K_error, Minv @ lin.C_error
     E += 2 * n * EPS * np.abs(A)
+    E[n:] += (n * EPS) * (Minv @ (np.abs(lin.M) @ np.abs(A[n:])))  # M's round-off: δ(M⁻¹X) = −M⁻¹ δM M⁻¹X
     size = np.abs(A).sum(axis=0).max()
     for qz in (False, True):
         lam, W, V = sla.eig(A, np.eye(len(A)) if qz else None, left=True, right=True)
