@@ -383,6 +383,8 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         return rigid
     any_rigid = n_rigid > 0
     if any_rigid:
+        # (a rigid mode's error covers the ω² set to zero as well: the truth is near what was computed)
+        cleaned = uncertainty + np.where(rigid, abs_w2, 0.0)
         w2 = np.where(rigid, 0.0, w2)
         abs_w2 = np.abs(w2)
     unstable = w2 < 0
@@ -392,7 +394,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     # split by ±√δω² in the state form (a Jordan block): that is still zero
     if any_rigid:
         rigid_scale = max(scale, 10 * uncertainty.max(initial=0.0))
-        rel = np.where(rigid, uncertainty / rigid_scale, 0.5 * uncertainty / np.where(rigid, 1.0, abs_w2))
+        rel = np.where(rigid, cleaned / rigid_scale, 0.5 * uncertainty / np.where(rigid, 1.0, abs_w2))
         zero_threshold = float(np.sqrt(10 * uncertainty[rigid].max(initial=0.0))) + 1e-12 * np.sqrt(scale)
     else:
         rel = 0.5 * uncertainty / abs_w2
@@ -451,7 +453,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
                  lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start, note,
                  eigenproblem=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes,
                  eigenvalue_uncertainty=lam_abs,
-                 omega_error=np.where(rigid, np.sqrt(uncertainty), rel * omega) if any_rigid else rel * omega,
+                 omega_error=np.where(rigid, np.sqrt(cleaned), rel * omega) if any_rigid else rel * omega,
                  # (a zero eigenvalue's relative error is relative to the largest |λ|)
                  eigenvalue_error=lam_error * np.where(zero_modes, lam_scale, mag),
                  defective=defective)
