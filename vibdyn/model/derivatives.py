@@ -216,7 +216,7 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
         # (+ |g|: RNEA's τ itself where it is the gravity term alone)
         terms += terms if dynamics.is_gravity(system, v, a) else np.abs(dynamics.gravity_term(system, ws, q))
         terms += np.abs(Q)
-        K_parts, C_parts = rnea_part_sizes(system, ws, q, v, a, fext, K), np.abs(C)
+        K_parts = rnea_part_sizes(system, ws, q, v, a, fext, K, float((terms * system.coordinate_scales).max()))
     differenced = untrusted(system)[0].size != 0
     if differenced:  # (after data.tau is read: the differences overwrite it)
         in_v = untrusted_columns(system, ws, q, v, a, t, shift, None, C, fext, with_terms)
@@ -225,32 +225,38 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
     K_size = K_parts if with_terms else None
     if system.point_groups:
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t, shift)
-    C_rnea = C.copy() if with_terms else None
+    # (C is zero unless the state moves or an element depends on velocity)
+    C_rnea = C.copy() if with_terms and (system.depends_on_velocity or np.count_nonzero(v)) else None
     subtract_group_derivatives(system, d, system.point_groups, system.joint_groups, K, C, K_size)
-    if with_terms:  # the elements' dampings beside RNEA's gyroscopic terms (they may cancel)
+    C_size = None
+    if C_rnea is not None and C.any():  # the elements' dampings beside RNEA's gyroscopic terms (they may cancel)
+        C_size = np.abs(C_rnea)
         C_rnea -= C
-        C_parts += np.abs(C_rnea)
+        C_size += np.abs(C_rnea, out=C_rnea)
     if differenced:
         in_q = untrusted_columns(system, ws, q, v, a, t, shift, K, None, None, with_terms)
         if with_terms:
             differenced = in_q[:3] + in_v[3:]
     if flags is not None:
         flags["differenced"] = d.differenced or bool(differenced)
-    return (K, C, terms, K_size, C_parts, differenced or None) if with_terms else (K, C, terms, K_size)
+    return (K, C, terms, K_size, C_size, differenced or None) if with_terms else (K, C, terms, K_size)
 
 
-def rnea_part_sizes(system, ws, q, v, a, fext, K):
+def rnea_part_sizes(system, ws, q, v, a, fext, K, floor=0.0):
     """|∂g/∂q| + |∂(C(q, v)v)/∂q| + |∂(M(q)a)/∂q| + |∂(−Jᵀf)/∂q| (nv × nv, N·m per rad or N per m): the sizes of
     RNEA's stiffness terms (gravity, centrifugal and gyroscopic, inertial, the point forces' turning with their
     frames), ``K`` their sum at (q, v, a, fext). They may cancel in K (a pendulum on a spun hub at the speed
     where gravity and the centrifugal stiffness balance): K's round-off is ε times their sizes, not ε|K|. Each
     entry also takes the larger of its row's and column's diagonal sizes (through the coordinates' scales): RNEA
     sums a joint's terms over its subtree, and an entry may cancel inside one kind (a spun hub's row, 0 by
-    symmetry, read −1e-17 beside terms of 0.1)."""
+    symmetry, read −1e-17 beside terms of 0.1), and at least ``floor`` (N·m: the largest force that cancels in r,
+    reaching every entry through the tree's transforms)."""
     sizes = _part_sizes(system, ws, q, v, a, fext, K)
     s = system.coordinate_scales
     d = np.diagonal(sizes) * s * s
-    sizes += np.maximum.outer(d, d) * system.inverse_scale_products
+    floors = np.maximum.outer(np.maximum(d, floor, out=d), d)
+    floors *= system.inverse_scale_products
+    sizes += floors
     return sizes
 
 
