@@ -104,24 +104,51 @@ def test_extreme_mass_ratio_modes_and_sensitivities(masses):
             assert se.d_omega_error[i, 0] <= 1e-2 * abs(d_omega)
 
 
-@pytest.mark.parametrize("masses", [(1e-6, 1e6, 1e6, 1e-6, 1e-3, 1e-6), (1e-6, 1e6, 1e6, 1e-6, 0.1, 0.0),
-                                    (1.27e-6, 1e6, 1e6, 2.2e-6, 0.1, 2.2e-6), (2.3e-6, 1e6, 1e6, 1e-4, 1e-3, 1e-4)])
-def test_extreme_mass_ratio_damped_eigenvalues(masses):
-    """Dampers c1, c2 on the sliders: the state eigenvalues against those of the same scene in absolute
-    coordinates (M = diag(m1, m2): no rounding in M, a well-conditioned eigenproblem)."""
-    m1, m2, k1, k2, c1, c2 = masses
+def damped_sliders(m1, m2, k1, k2, c1, c2):
     s = vd.Scene("two", gravity=(0, 0, 0))
     s.add_body("b1", joint=vd.Slider(axis=(1, 0, 0)), mass=m1)
     s.add_body("b2", parent="b1", joint=vd.Slider(axis=(1, 0, 0)), mass=m2)
-    s.add_joint_spring("b1", stiffness=k1)
+    s.add_joint_spring("b1", stiffness=k1, name="s1")
     s.add_joint_spring("b2", stiffness=k2)
     s.add_joint_damper("b1", damping=c1)
     s.add_joint_damper("b2", damping=c2)
-    m = s.build().linearize(method="analytic").modes()
+    return s.build()
+
+
+def absolute_eigenvalues(m1, m2, k1, k2, c1, c2):
+    """State eigenvalues of the damped sliders in absolute coordinates (M = diag(m1, m2): no rounding in M, a
+    well-conditioned eigenproblem)."""
     K = np.array([[k1 + k2, -k2], [-k2, k2]])
     C = np.array([[c1 + c2, -c2], [-c2, c2]])
     A = np.block([[np.zeros((2, 2)), np.eye(2)], [-K / [[m1], [m2]], -C / [[m1], [m2]]]])
-    truth = np.linalg.eigvals(A)
-    # before: λ = −49999.6 + 998745.4i ± 2.9e-9 (3.8 off); the slow pair 0 ± 9e-9 (1e-6 off)
+    return np.linalg.eigvals(A)
+
+
+@pytest.mark.parametrize("masses", [(1e-6, 1e6, 1e6, 1e-6, 1e-3, 1e-6), (1e-6, 1e6, 1e6, 1e-6, 0.1, 0.0),
+                                    (1.27e-6, 1e6, 1e6, 2.2e-6, 0.1, 2.2e-6), (2.3e-6, 1e6, 1e6, 1e-4, 1e-3, 1e-4),
+                                    (1.1818181818181818e-06, 1e6, 1e6, 1e-6, 0.1, 0.0),
+                                    (1e-6, 1e6, 1e6, 1e-4, 0.1, 1e-4), (1, 1e12, 1, 1, 0.01, 0.01)])
+def test_extreme_mass_ratio_damped_eigenvalues(masses):
+    """Dampers c1, c2 on the sliders: the state eigenvalues against :func:`absolute_eigenvalues`."""
+    m = damped_sliders(*masses).linearize(method="analytic").modes()
+    truth = absolute_eigenvalues(*masses)
+    # before: λ = −49999.6 + 998745.4i ± 2.9e-9 (3.8 off); the slow pair 0 ± 9e-9 (1e-6 off), or 1.0114e-6i ± 7e-9
+    # (1.1e-8 off: the eigensolver on A, whose rows reach k1/m1 = 1e12)
     for lam, err in zip(m.eigenvalues, m.eigenvalue_error):
         assert np.min(np.abs(truth - lam)) <= err
+
+
+def test_extreme_mass_ratio_damped_sensitivities():
+    """∂λ/∂k1 of the damped sliders (1, 1e12, 1, 1) against central differences of :func:`absolute_eigenvalues`:
+    the slow pair (7e-7 rad/s) stays resolved, its slope stated (not 0 ± 0 as a mode called zero)."""
+    m = damped_sliders(1.0, 1e12, 1.0, 1.0, 0.01, 0.01).linearize(method="analytic").modes()
+    se = m.sensitivity(["s1.stiffness"])
+    h = 1e-4
+    up = absolute_eigenvalues(1.0, 1e12, 1 + h, 1.0, 0.01, 0.01)
+    down = absolute_eigenvalues(1.0, 1e12, 1 - h, 1.0, 0.01, 0.01)
+    upper = [lam for lam in m.eigenvalues if lam.imag >= 0]
+    assert len(upper) == se.d_eigenvalues.shape[0] == 2
+    for i, lam in enumerate(upper):
+        slope = (up[np.argmin(np.abs(up - lam))] - down[np.argmin(np.abs(down - lam))]) / (2 * h)
+        assert abs(se.d_eigenvalues[i, 0] - slope) <= se.d_eigenvalues_error[i, 0]
+        assert se.d_eigenvalues_error[i, 0] < 0.1 * abs(slope)

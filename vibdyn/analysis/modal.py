@@ -493,13 +493,28 @@ def _state_modes(lin):
     E = np.zeros_like(A)
     E[n:, :n], E[n:, n:] = Minv @ lin.K_error, Minv @ lin.C_error
     E += 2 * n * EPS * np.abs(A)
-    E[n:] += (n * EPS) * (Minv @ (np.abs(lin.M) @ np.abs(A[n:])))  # M's round-off: δ(M⁻¹X) = −M⁻¹ δM M⁻¹X
     size = np.abs(A).sum(axis=0).max()
     for qz in (False, True):
         lam, W, V = sla.eig(A, np.eye(len(A)) if qz else None, left=True, right=True)
         eta = np.einsum("ij,ij->j", np.abs(W), E @ np.abs(V))
+        # M's own round-off δM (n·ε|M|, and that of solving M⁻¹[K C] for A) moves A's rows by M⁻¹δM M⁻¹[K C], and
+        # wᴴδA v = −λ² yᴴ δM v₁ with y = M⁻¹w₂ (the left vector of λ²M + λC + K): on an ill-conditioned M
+        # (masses 1e-6 and 1e6 in series) far more than ε|A|, yet not on the slow modes
+        Y = np.linalg.solve(lin.M, W[n:]) if n else W[n:]
+        X = V[:n]
+        mag = np.abs(lam)
+        with np.errstate(over="ignore", invalid="ignore"):  # (|λ|² beyond the floats: no such term is measurable)
+            eta += np.nan_to_num((n * EPS * mag) * (mag * np.einsum("ij,ij->j", np.abs(Y), np.abs(lin.M) @ np.abs(X))))
+            # and the eigensolver's own error on a badly scaled A, measured: the Newton step yᴴr / yᴴ(2λM + C)x of
+            # the residual r = (λ²M + λC + K)x (the slow pair of those sliders was 1 % off, ± 0.3 %)
+            MX = lin.M @ X
+            CX = lin.C @ X
+            r = np.einsum("ij,ij->j", Y.conj(), (MX * lam + CX) * lam + lin.K @ X)
+            slope = np.abs(np.einsum("ij,ij->j", Y.conj(), 2 * lam * MX + CX))
+            newton = np.nan_to_num(np.where(slope > 0, 2 * np.abs(r) / np.where(slope > 0, slope, 1.0), 0.0),
+                                   posinf=0.0)
         wv = np.maximum(np.abs(np.einsum("ij,ij->j", W.conj(), V)), 1e-300)
-        dlam = eta / wv
+        dlam = eta / wv + newton
         # the pairs' own backward errors ‖Av − λv‖ / (‖A‖ ‖v‖): the QR algorithm is not always as accurate as
         # it promises (LAPACK's caps a gyroscopic λ near 1.5e138 at higher spins), the QZ one then is; a pair
         # neither resolves says so through its residual (‖w‖ / |wᴴv| × it)
@@ -514,8 +529,10 @@ def _state_modes(lin):
             dlam = np.where(failed, np.maximum(dlam, np.where(np.isfinite(bound), bound, np.inf)), dlam)
     defective = _defective_pairs(A, E, lam, dlam, eta)
     scale = max(np.abs(lam).max(initial=0.0), 1e-300)
+    computed = lam
     lam = np.where(np.abs(lam.imag) <= 1e-12 * scale, lam.real + 0j, lam)
     lam = np.where(np.abs(lam) <= 1e-12 * scale, 0j, lam)
+    dlam += np.abs(computed - lam)  # (what was cleaned away: the truth is near what was computed)
     order = np.lexsort((lam.real, np.abs(lam.imag)))
     lam, V, dlam, defective = lam[order], V[:, order], dlam[order], defective[order]
     keep = lam.imag >= 0  # one of each conjugate pair, and the real eigenvalues
