@@ -489,38 +489,38 @@ def _state_modes(lin):
     and v the left and right eigenvectors."""
     A = lin.A
     n = lin.nv
-    Minv = np.abs(np.linalg.inv(lin.M))
+    M, Mi = lin.M, np.linalg.inv(lin.M)
+    Minv = np.abs(Mi)
     E = np.zeros_like(A)
     E[n:, :n], E[n:, n:] = Minv @ lin.K_error, Minv @ lin.C_error
     E += 2 * n * EPS * np.abs(A)
     size = np.abs(A).sum(axis=0).max()
+    abs_M = np.abs(M)
     for qz in (False, True):
         lam, W, V = sla.eig(A, np.eye(len(A)) if qz else None, left=True, right=True)
         eta = np.einsum("ij,ij->j", np.abs(W), E @ np.abs(V))
+        wv = np.maximum(np.abs(np.einsum("ij,ij->j", W.conj(), V)), 1e-300)
         # M's own round-off δM (n·ε|M|, and that of solving M⁻¹[K C] for A) moves A's rows by M⁻¹δM M⁻¹[K C], and
         # wᴴδA v = −λ² yᴴ δM v₁ with y = M⁻¹w₂ (the left vector of λ²M + λC + K): on an ill-conditioned M
         # (masses 1e-6 and 1e6 in series) far more than ε|A|, yet not on the slow modes
-        Y = np.linalg.solve(lin.M, W[n:]) if n else W[n:]
-        X = V[:n]
         mag = np.abs(lam)
-        with np.errstate(over="ignore", invalid="ignore"):  # (|λ|² beyond the floats: no such term is measurable)
-            eta += np.nan_to_num((n * EPS * mag) * (mag * np.einsum("ij,ij->j", np.abs(Y), np.abs(lin.M) @ np.abs(X))))
-            # and the eigensolver's own error on a badly scaled A, measured: the Newton step yᴴr / yᴴ(2λM + C)x of
-            # the residual r = (λ²M + λC + K)x (the slow pair of those sliders was 1 % off, ± 0.3 %)
-            MX = lin.M @ X
-            CX = lin.C @ X
-            r = np.einsum("ij,ij->j", Y.conj(), (MX * lam + CX) * lam + lin.K @ X)
-            slope = np.abs(np.einsum("ij,ij->j", Y.conj(), 2 * lam * MX + CX))
-            newton = np.nan_to_num(np.where(slope > 0, 2 * np.abs(r) / np.where(slope > 0, slope, 1.0), 0.0),
-                                   posinf=0.0)
-        wv = np.maximum(np.abs(np.einsum("ij,ij->j", W.conj(), V)), 1e-300)
-        dlam = eta / wv + newton
-        # the pairs' own backward errors ‖Av − λv‖ / (‖A‖ ‖v‖): the QR algorithm is not always as accurate as
-        # it promises (LAPACK's caps a gyroscopic λ near 1.5e138 at higher spins), the QZ one then is; a pair
-        # neither resolves says so through its residual (‖w‖ / |wᴴv| × it)
+        # (|λ|² beyond the floats: no such term is measurable, left to the backward error below)
         with np.errstate(over="ignore", invalid="ignore"):
-            residual = np.abs(A @ V - V * lam).sum(axis=0)
+            mass = (n * EPS * mag) * (mag * np.einsum("ij,ij->j", np.abs(Mi @ W[n:]), abs_M @ np.abs(V[:n])))
+            # the pairs' own backward errors ‖Av − λv‖ / (‖A‖ ‖v‖): the QR algorithm is not always as accurate as
+            # it promises (LAPACK's caps a gyroscopic λ near 1.5e138 at higher spins), the QZ one then is; a pair
+            # neither resolves says so through its residual (‖w‖ / |wᴴv| × it); and its Newton step
+            # wᴴ(Av − λv) / wᴴv, the eigensolver's error on a badly scaled A (rows of k1/m1 = 1e12 beside 1e-12:
+            # a slow pair of those sliders 1 % off, ± 0.3 % from ε|A|)
+            R = A @ V - V * lam
+            residual = np.abs(R).sum(axis=0)
             failed = ~(residual <= BACKWARD_FACTOR * len(A) * EPS * size * np.abs(V).sum(axis=0))
+            newton = 2 * np.abs(np.einsum("ij,ij->j", W.conj(), R)) / wv
+        if not all_finite(mass):
+            mass[~np.isfinite(mass)] = 0.0
+        eta += mass
+        dlam = eta / wv
+        dlam += np.where(np.isfinite(newton), newton, 0.0)
         if not failed.any():
             break
         if qz:
