@@ -65,6 +65,22 @@ def test_held_frequency_is_covered(g, method):
         assert not m.rigid[0] and m.omega_relative_error[0] < (1e-4 if method == "analytic" else 0.1)
 
 
+@pytest.mark.parametrize("method", ["analytic", "fd"])
+@pytest.mark.parametrize("g", [9.81, 3.3])
+def test_spring_balancing_gravity_is_covered(g, method):
+    """An upright bar whose joint spring k = m g l cancels gravity's stiffness: K = k − m g l is 0 in floating point
+    (before: 0 ± 0 analytic, truth −7.7e-17 N·m/rad of the inputs as given)."""
+    s = vd.Scene("upright", gravity=(0, 0, -g))
+    s.add_body("rod", joint=vd.Pivot(axis=(1, 0, 0)), mass=0.7, com=(0, 0, 0.3), inertia=np.diag([1e-3, 1e-3, 1e-4]))
+    k = 0.7 * g * 0.3
+    s.add_joint_spring("rod", stiffness=k)
+    lin = s.build().linearize(method=method)
+    truth = Fraction(k) - Fraction(0.7) * Fraction(g) * Fraction(0.3)
+    assert abs(Fraction(float(lin.K[0, 0])) - truth) <= lin.K_error[0, 0]
+    m = lin.modes()
+    assert m.rigid[0] and abs(float(truth / Fraction(0.7 * 0.09 + 1e-3))) <= m.omega_error[0] ** 2
+
+
 def sliders(m1, m2, k1, k2):
     s = vd.Scene("two", gravity=(0, 0, 0))
     s.add_body("b1", joint=vd.Slider(axis=(1, 0, 0)), mass=m1)
