@@ -216,7 +216,8 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
         # (+ |g|: RNEA's τ itself where it is the gravity term alone)
         terms += terms if dynamics.is_gravity(system, v, a) else np.abs(dynamics.gravity_term(system, ws, q))
         terms += np.abs(Q)
-        K_parts = rnea_part_sizes(system, ws, q, v, a, fext, K, float((terms * system.coordinate_scales).max()))
+        largest = float(np.maximum.reduce(terms * system.coordinate_scales, initial=0.0))
+        K_parts = rnea_part_sizes(system, ws, q, v, a, fext, K, largest)
     differenced = untrusted(system)[0].size != 0
     if differenced:  # (after data.tau is read: the differences overwrite it)
         in_v = untrusted_columns(system, ws, q, v, a, t, shift, None, C, fext, with_terms)
