@@ -363,22 +363,18 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
     if method == "fd":
         K, C, K_err, C_err, n, rounding = _finite_differences(system, ws, q0, v0, a0, t0, step)
     else:
-        K, C, terms, K_size, differenced = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True,
-                                                                applied=applied)
+        K, C, terms, K_size, C_size, differenced = analytic_derivatives(system, q0, v0, a0, t0, with_terms=True,
+                                                                        applied=applied)
         # round-off of the terms that cancel in r, per unit coordinate (1 m: length scale, 1 rad), and of
-        # those summed into K by the point elements
-        s, per_unit = system.coordinate_scales, system.inverse_scale_products
-        scaled_terms = terms[:, None] / s
-        # and a floor common to every entry: the largest of those terms (N·m: per unit rad, or m × the length
-        # scale) reaches each entry through the tree's transforms (a joint that gravity does not load still
-        # has derivatives made of its neighbours' torques; a held robot's wrist read −4e-10 rad²/s² for 0)
-        K_err = np.abs(K)
-        K_err += scaled_terms
-        K_err += float(np.maximum.reduce(terms * s, initial=0.0)) * per_unit
-        if system.point_groups:
-            K_err += K_size
+        # those summed into K (gravity's, the centrifugal, inertial and elements' stiffnesses: K_size ≥ |K|),
+        # with a floor: the largest of the cancelling terms (N·m: per unit rad, or m × the length scale) reaches
+        # each entry through the tree's transforms (a joint that gravity does not load still has derivatives
+        # made of its neighbours' torques; a held robot's wrist read −4e-10 rad²/s² for 0)
+        scaled_terms = terms[:, None] / system.coordinate_scales
+        K_err = K_size + scaled_terms
         K_err *= 16 * EPS
-        C_err = 16 * EPS * (np.abs(C) + scaled_terms) if np.count_nonzero(C) else np.zeros(C.shape)
+        C_err = (16 * EPS * ((np.abs(C) if C_size is None else C_size) + scaled_terms) if np.count_nonzero(C)
+                 else np.zeros(C.shape))
         n = 1
         if differenced is not None:  # columns differenced (joints Pinocchio gets wrong): their FD error
             k, h, T_q, hv, T_v = differenced

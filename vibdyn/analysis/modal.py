@@ -340,6 +340,10 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     LR = lapack.dtrtrs(L, R, lower=1)[0] if n else R
     A = np.abs(Phi)
     abs_Ks = np.abs(Ks)
+    # M's own round-off (n·ε|M|: CRBA sums the bodies' inertias) moves ω² by |ω²| |φ|ᵀ(n·ε|M|)|φ|: on an
+    # ill-conditioned M (masses 1e-6 and 1e6 in series) |φ|ᵀ|M||φ| ≫ φᵀMφ = 1
+    mass_part = np.add.reduce(A * (np.abs(M) @ A)) * np.abs(w2) if n else np.zeros(0)
+    mass_part *= n * EPS
     terms = getattr(lin, "K_error_terms", None)
     if terms is None:
         quadratic = np.add.reduce(A * (((n * EPS) * abs_Ks + Ke) @ A))
@@ -351,10 +355,11 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     # (einsum's sum of squares overflows to inf without a warning: caught below and scaled)
     uncertainty = np.sqrt(np.einsum("ij,ij->j", LR, LR))
     uncertainty += quadratic
+    uncertainty += mass_part
     if not all_finite(uncertainty):  # the squares overflowed (huge ω²)? the same, column by column scaled
         r = np.abs(R).max(axis=0, initial=0.0)
         LR = lapack.dtrtrs(L, R / np.maximum(r, 1e-300), lower=1)[0]
-        uncertainty = r * np.sqrt(np.add.reduce(LR * LR)) + quadratic
+        uncertainty = r * np.sqrt(np.add.reduce(LR * LR)) + quadratic + mass_part
         if not all_finite(uncertainty):
             raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
                              f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
@@ -378,6 +383,8 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         return rigid
     any_rigid = n_rigid > 0
     if any_rigid:
+        # (a rigid mode's error covers the ω² set to zero as well: the truth is near what was computed)
+        cleaned = uncertainty + np.where(rigid, abs_w2, 0.0)
         w2 = np.where(rigid, 0.0, w2)
         abs_w2 = np.abs(w2)
     unstable = w2 < 0
@@ -387,7 +394,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     # split by ±√δω² in the state form (a Jordan block): that is still zero
     if any_rigid:
         rigid_scale = max(scale, 10 * uncertainty.max(initial=0.0))
-        rel = np.where(rigid, uncertainty / rigid_scale, 0.5 * uncertainty / np.where(rigid, 1.0, abs_w2))
+        rel = np.where(rigid, cleaned / rigid_scale, 0.5 * uncertainty / np.where(rigid, 1.0, abs_w2))
         zero_threshold = float(np.sqrt(10 * uncertainty[rigid].max(initial=0.0))) + 1e-12 * np.sqrt(scale)
     else:
         rel = 0.5 * uncertainty / abs_w2
@@ -414,7 +421,8 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         floor = 1e-12 * lam_scale
         zero = np.abs(lam) <= np.maximum(10 * lam_abs, floor)
         zero_modes = mag <= np.maximum(10 * modes_abs, floor)
-        zero_threshold = float(mag[zero_modes].max(initial=floor))
+        # (the floor is known as the largest |λ| is: M's round-off at masses 1e-6 and 1e6 moved it by 4e-6)
+        zero_threshold = float(mag[zero_modes].max(initial=floor)) + floor * float(lam_error[np.argmax(mag)])
         lam_error = np.where(zero_modes, np.minimum(lam_error, zero_threshold / lam_scale), lam_error)
         zeta = np.where(mag > 0, -lam_modes.real / np.where(mag > 0, mag, 1.0), 0.0)
         classical = _is_classical(lin)
@@ -445,7 +453,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
                  lam_error, shapes_c, bool(classical), stability, time.perf_counter() - start, note,
                  eigenproblem=(M, Ks, Phi, w2, scale), zero=zero, damped_zero=zero_modes,
                  eigenvalue_uncertainty=lam_abs,
-                 omega_error=np.where(rigid, np.sqrt(uncertainty), rel * omega) if any_rigid else rel * omega,
+                 omega_error=np.where(rigid, np.sqrt(cleaned), rel * omega) if any_rigid else rel * omega,
                  # (a zero eigenvalue's relative error is relative to the largest |λ|)
                  eigenvalue_error=lam_error * np.where(zero_modes, lam_scale, mag),
                  defective=defective)
@@ -481,22 +489,38 @@ def _state_modes(lin):
     and v the left and right eigenvectors."""
     A = lin.A
     n = lin.nv
-    Minv = np.abs(np.linalg.inv(lin.M))
+    M, Mi = lin.M, np.linalg.inv(lin.M)
+    Minv = np.abs(Mi)
     E = np.zeros_like(A)
     E[n:, :n], E[n:, n:] = Minv @ lin.K_error, Minv @ lin.C_error
     E += 2 * n * EPS * np.abs(A)
     size = np.abs(A).sum(axis=0).max()
+    abs_M = np.abs(M)
     for qz in (False, True):
         lam, W, V = sla.eig(A, np.eye(len(A)) if qz else None, left=True, right=True)
         eta = np.einsum("ij,ij->j", np.abs(W), E @ np.abs(V))
         wv = np.maximum(np.abs(np.einsum("ij,ij->j", W.conj(), V)), 1e-300)
-        dlam = eta / wv
-        # the pairs' own backward errors ‖Av − λv‖ / (‖A‖ ‖v‖): the QR algorithm is not always as accurate as
-        # it promises (LAPACK's caps a gyroscopic λ near 1.5e138 at higher spins), the QZ one then is; a pair
-        # neither resolves says so through its residual (‖w‖ / |wᴴv| × it)
+        # M's own round-off δM (n·ε|M|, and that of solving M⁻¹[K C] for A) moves A's rows by M⁻¹δM M⁻¹[K C], and
+        # wᴴδA v = −λ² yᴴ δM v₁ with y = M⁻¹w₂ (the left vector of λ²M + λC + K): on an ill-conditioned M
+        # (masses 1e-6 and 1e6 in series) far more than ε|A|, yet not on the slow modes
+        mag = np.abs(lam)
+        # (|λ|² beyond the floats: no such term is measurable, left to the backward error below)
         with np.errstate(over="ignore", invalid="ignore"):
-            residual = np.abs(A @ V - V * lam).sum(axis=0)
+            mass = (n * EPS * mag) * (mag * np.einsum("ij,ij->j", np.abs(Mi @ W[n:]), abs_M @ np.abs(V[:n])))
+            # the pairs' own backward errors ‖Av − λv‖ / (‖A‖ ‖v‖): the QR algorithm is not always as accurate as
+            # it promises (LAPACK's caps a gyroscopic λ near 1.5e138 at higher spins), the QZ one then is; a pair
+            # neither resolves says so through its residual (‖w‖ / |wᴴv| × it); and its Newton step
+            # wᴴ(Av − λv) / wᴴv, the eigensolver's error on a badly scaled A (rows of k1/m1 = 1e12 beside 1e-12:
+            # a slow pair of those sliders 1 % off, ± 0.3 % from ε|A|)
+            R = A @ V - V * lam
+            residual = np.abs(R).sum(axis=0)
             failed = ~(residual <= BACKWARD_FACTOR * len(A) * EPS * size * np.abs(V).sum(axis=0))
+            newton = 2 * np.abs(np.einsum("ij,ij->j", W.conj(), R)) / wv
+        if not all_finite(mass):
+            mass[~np.isfinite(mass)] = 0.0
+        eta += mass
+        dlam = eta / wv
+        dlam += np.where(np.isfinite(newton), newton, 0.0)
         if not failed.any():
             break
         if qz:
@@ -505,8 +529,10 @@ def _state_modes(lin):
             dlam = np.where(failed, np.maximum(dlam, np.where(np.isfinite(bound), bound, np.inf)), dlam)
     defective = _defective_pairs(A, E, lam, dlam, eta)
     scale = max(np.abs(lam).max(initial=0.0), 1e-300)
+    computed = lam
     lam = np.where(np.abs(lam.imag) <= 1e-12 * scale, lam.real + 0j, lam)
     lam = np.where(np.abs(lam) <= 1e-12 * scale, 0j, lam)
+    dlam += np.abs(computed - lam)  # (what was cleaned away: the truth is near what was computed)
     order = np.lexsort((lam.real, np.abs(lam.imag)))
     lam, V, dlam, defective = lam[order], V[:, order], dlam[order], defective[order]
     keep = lam.imag >= 0  # one of each conjugate pair, and the real eigenvalues

@@ -248,13 +248,14 @@ def _undamped(modes, dM, dK, eM, eK):
     gap = gaps.min(axis=1, initial=np.inf)
     coupling = np.where(same[None, :, :], 0.0, np.abs(T)).max(axis=1, initial=0.0).T  # n_m × n_p
     cond = np.where(np.isfinite(gap), 2 * dw2_base / np.where(np.isfinite(gap), gap, 1.0), 0.0)[:, None] * coupling
+    rel_w2 = np.where(modes.rigid, 0.0, 2 * modes.omega_relative_error)[:, None]  # (shapes normalised on M as known)
     e_w2 = (quad + dw2_base[:, None] * np.abs(np.diagonal(H, axis1=1, axis2=2).T) + cond
-            + 8 * EPS * np.abs(d_w2))
+            + (8 * EPS + rel_w2) * np.abs(d_w2))
     d_w, e_w = np.zeros((n_m, n_p)), np.zeros((n_m, n_p))
     pos = omega > 0
     # ω = √|ω²|: an unstable mode's (ω² < 0, ω its growth rate) moves as −∂ω²/(2ω)
     d_w[pos] = np.where(w2[pos] < 0, -1.0, 1.0)[:, None] * d_w2[pos] / (2 * omega[pos, None])
-    e_w[pos] = e_w2[pos] / (2 * omega[pos, None])
+    e_w[pos] = e_w2[pos] / (2 * omega[pos, None]) + np.abs(d_w[pos]) * rel_w2[pos] / 2  # (ω's own error)
     zero = ~pos
     leaves = zero[:, None] & (np.abs(d_w2) > e_w2)
     e_w[zero] = np.where(leaves[zero], np.inf, 0.0)

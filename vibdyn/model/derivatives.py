@@ -195,12 +195,13 @@ def untrusted_columns(system, ws, q, v, a, t, shift, K, C, fext, estimate=False)
 
 
 def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, applied=None, flags=None):
-    """(K, C, terms, K_size) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|, Σ |J|ᵀ |∂f|) at (q, v, a, t), analytically;
-    ``terms`` (N or N·m per coordinate) is the size of what cancels in r, ``K_size`` (nv × nv) that of the
-    point elements' terms summed into K: the scales of their round-off (None unless ``with_terms``; 0.0
-    without point elements). ``shift``: offsets of the supports' motion, as :func:`vibdyn.model.dynamics.forces`
+    """(K, C, terms, K_size) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|, sizes of K's terms) at (q, v, a, t), analytically;
+    ``terms`` (N or N·m per coordinate) is the size of what cancels in r, ``K_size`` (nv × nv) that of the terms
+    summed into K (:func:`rnea_part_sizes`, Σ |J|ᵀ |∂f| of the point elements, |∂Q/∂q| of the joint elements): the
+    scales of their round-off (None unless ``with_terms``; then also ``C_size``, |C|'s of RNEA and the elements,
+    after ``K_size``). ``shift``: offsets of the supports' motion, as :func:`vibdyn.model.dynamics.forces`
     takes them; ``applied``: the forces at (q, v, t) as that function gives them, if already evaluated.
-    With ``with_terms``, a fifth item: None, or (k, h, T_q, hv, T_v) of :func:`untrusted_columns` (the columns of
+    With ``with_terms``, a last item: None, or (k, h, T_q, hv, T_v) of :func:`untrusted_columns` (the columns of
     joints Pinocchio gets wrong, differenced: their steps and truncation estimates). ``flags``: a dict in which
     ``"differenced"`` is set (whether a user callable or a joint's columns were differenced: exact to ~1e-10 only)."""
     ws = system.workspace()
@@ -215,22 +216,70 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
         # (+ |g|: RNEA's τ itself where it is the gravity term alone)
         terms += terms if dynamics.is_gravity(system, v, a) else np.abs(dynamics.gravity_term(system, ws, q))
         terms += np.abs(Q)
+        largest = float(np.maximum.reduce(terms * system.coordinate_scales, initial=0.0))
+        K_parts = rnea_part_sizes(system, ws, q, v, a, fext, K, largest)
     differenced = untrusted(system)[0].size != 0
     if differenced:  # (after data.tau is read: the differences overwrite it)
         in_v = untrusted_columns(system, ws, q, v, a, t, shift, None, C, fext, with_terms)
     d = Derivatives(system, ws, q, v, a, t, bool(system.point_groups) and any(
         g.needs_velocity_derivatives for g in system.point_groups), magnitudes=with_terms)
-    K_size = None if not with_terms else np.zeros(K.shape) if system.point_groups else 0.0
+    K_size = K_parts if with_terms else None
     if system.point_groups:
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t, shift)
+    # (C is zero unless the state moves or an element depends on velocity)
+    C_rnea = C.copy() if with_terms and (system.depends_on_velocity or np.count_nonzero(v)) else None
     subtract_group_derivatives(system, d, system.point_groups, system.joint_groups, K, C, K_size)
+    C_size = None
+    if C_rnea is not None and C.any():  # the elements' dampings beside RNEA's gyroscopic terms (they may cancel)
+        C_size = np.abs(C_rnea)
+        C_rnea -= C
+        C_size += np.abs(C_rnea, out=C_rnea)
     if differenced:
         in_q = untrusted_columns(system, ws, q, v, a, t, shift, K, None, None, with_terms)
         if with_terms:
             differenced = in_q[:3] + in_v[3:]
     if flags is not None:
         flags["differenced"] = d.differenced or bool(differenced)
-    return (K, C, terms, K_size, differenced or None) if with_terms else (K, C, terms, K_size)
+    return (K, C, terms, K_size, C_size, differenced or None) if with_terms else (K, C, terms, K_size)
+
+
+def rnea_part_sizes(system, ws, q, v, a, fext, K, floor=0.0):
+    """|∂g/∂q| + |∂(C(q, v)v)/∂q| + |∂(M(q)a)/∂q| + |∂(−Jᵀf)/∂q| (nv × nv, N·m per rad or N per m): the sizes of
+    RNEA's stiffness terms (gravity, centrifugal and gyroscopic, inertial, the point forces' turning with their
+    frames), ``K`` their sum at (q, v, a, fext). They may cancel in K (a pendulum on a spun hub at the speed
+    where gravity and the centrifugal stiffness balance): K's round-off is ε times their sizes, not ε|K|. Each
+    entry also takes the larger of its row's and column's diagonal sizes (through the coordinates' scales): RNEA
+    sums a joint's terms over its subtree, and an entry may cancel inside one kind (a spun hub's row, 0 by
+    symmetry, read −1e-17 beside terms of 0.1), and at least ``floor`` (N·m: the largest force that cancels in r,
+    reaching every entry through the tree's transforms)."""
+    sizes = _part_sizes(system, ws, q, v, a, fext, K)
+    s = system.coordinate_scales
+    d = np.diagonal(sizes) * s * s
+    floors = np.maximum.outer(np.maximum(d, floor, out=d), d)
+    floors *= system.inverse_scale_products
+    sizes += floors
+    return sizes
+
+
+def _part_sizes(system, ws, q, v, a, fext, K):
+    """The elementwise sum of :func:`rnea_part_sizes`, without its floor."""
+    model, data = system.model, ws.data
+    moving, accelerating = bool(np.count_nonzero(v)), bool(np.count_nonzero(a))
+    if fext is None and not (moving and accelerating) and not (system.has_gravity and (moving or accelerating)):
+        return np.abs(K)  # (one kind of term alone)
+    zero = np.zeros(system.nv)
+    gravity = pin.computeGeneralizedGravityDerivatives(model, data, q).copy() if system.has_gravity else None
+    free = K if fext is None else pin.computeRNEADerivatives(model, data, q, v, a)[0].copy()
+    sizes = np.abs(K - free)  # the point forces' turning
+    if moving and accelerating:
+        velocity = pin.computeRNEADerivatives(model, data, q, v, zero)[0].copy()
+        sizes += np.abs(free - velocity)
+        free = velocity
+    if gravity is not None:
+        sizes += np.abs(gravity)
+        free = free - gravity
+    sizes += np.abs(free)
+    return sizes
 
 
 class RowDerivatives:
@@ -393,11 +442,13 @@ def subtract_group_derivatives(system, d, point, joint, K, C, K_size=None):
             K -= d.J[j].T @ d.dFq[j]
             if velocity:
                 C -= d.J[j].T @ d.dFv[j]
-            if K_size is not None and not np.isscalar(K_size):
+            if K_size is not None:
                 K_size += np.abs(d.J[j].T) @ d.dFq_abs[j]
     for g in joint:
         dq, dv = g.derivatives(d)
         if dq is not None:
             K -= dq
+            if K_size is not None:
+                K_size += np.abs(dq)
         if dv is not None:
             C -= dv
