@@ -487,26 +487,30 @@ def _state_modes(lin):
     the absolute uncertainties (1/s) of all eigenvalues and of the modes': first-order perturbation
     |wᴴ δA v| / |wᴴ v| with δA from the error estimates of K and C (and the round-off of the eigensolver), w
     and v the left and right eigenvectors."""
-    A = lin.A
     n = lin.nv
     M, Mi = lin.M, np.linalg.inv(lin.M)
+    A = np.zeros((2 * n, 2 * n))  # (lin.A, without np.block's cost: this runs at every speed of a Campbell diagram)
+    A[:n, n:] = np.eye(n)
+    A[n:, :n], A[n:, n:] = -lin.solve_mass(lin.K), -lin.solve_mass(lin.C)
     Minv = np.abs(Mi)
     E = np.zeros_like(A)
     E[n:, :n], E[n:, n:] = Minv @ lin.K_error, Minv @ lin.C_error
-    E += 2 * n * EPS * np.abs(A)
-    size = np.abs(A).sum(axis=0).max()
+    abs_A = np.abs(A)
+    E += 2 * n * EPS * abs_A
+    size = abs_A.sum(axis=0).max()
     abs_M = np.abs(M)
     for qz in (False, True):
         lam, W, V = sla.eig(A, np.eye(len(A)) if qz else None, left=True, right=True)
-        eta = np.einsum("ij,ij->j", np.abs(W), E @ np.abs(V))
-        wv = np.maximum(np.abs(np.einsum("ij,ij->j", W.conj(), V)), 1e-300)
+        aW, aV, Wc = np.abs(W), np.abs(V), W.conj()
+        eta = np.einsum("ij,ij->j", aW, E @ aV)
+        wv = np.maximum(np.abs(np.einsum("ij,ij->j", Wc, V)), 1e-300)
         # M's own round-off δM (n·ε|M|, and that of solving M⁻¹[K C] for A) moves A's rows by M⁻¹δM M⁻¹[K C], and
         # wᴴδA v = −λ² yᴴ δM v₁ with y = M⁻¹w₂ (the left vector of λ²M + λC + K): on an ill-conditioned M
         # (masses 1e-6 and 1e6 in series) far more than ε|A|, yet not on the slow modes
         mag = np.abs(lam)
         # (|λ|² beyond the floats: no such term is measurable, left to the backward error below)
         with np.errstate(over="ignore", invalid="ignore"):
-            mass = (n * EPS * mag) * (mag * np.einsum("ij,ij->j", np.abs(Mi @ W[n:]), abs_M @ np.abs(V[:n])))
+            mass = (n * EPS * mag) * (mag * np.einsum("ij,ij->j", np.abs(Mi @ W[n:]), abs_M @ aV[:n]))
             # the pairs' own backward errors ‖Av − λv‖ / (‖A‖ ‖v‖): the QR algorithm is not always as accurate as
             # it promises (LAPACK's caps a gyroscopic λ near 1.5e138 at higher spins), the QZ one then is; a pair
             # neither resolves says so through its residual (‖w‖ / |wᴴv| × it); and its Newton step
@@ -514,8 +518,8 @@ def _state_modes(lin):
             # a slow pair of those sliders 1 % off, ± 0.3 % from ε|A|)
             R = A @ V - V * lam
             residual = np.abs(R).sum(axis=0)
-            failed = ~(residual <= BACKWARD_FACTOR * len(A) * EPS * size * np.abs(V).sum(axis=0))
-            newton = 2 * np.abs(np.einsum("ij,ij->j", W.conj(), R)) / wv
+            failed = ~(residual <= BACKWARD_FACTOR * len(A) * EPS * size * aV.sum(axis=0))
+            newton = 2 * np.abs(np.einsum("ij,ij->j", Wc, R)) / wv
         if not all_finite(mass):
             mass[~np.isfinite(mass)] = 0.0
         eta += mass
@@ -525,7 +529,7 @@ def _state_modes(lin):
             break
         if qz:
             with np.errstate(over="ignore", invalid="ignore"):
-                bound = residual * np.abs(W).sum(axis=0) / wv
+                bound = residual * aW.sum(axis=0) / wv
             dlam = np.where(failed, np.maximum(dlam, np.where(np.isfinite(bound), bound, np.inf)), dlam)
     defective = _defective_pairs(A, E, lam, dlam, eta)
     scale = max(np.abs(lam).max(initial=0.0), 1e-300)
