@@ -17,7 +17,7 @@ import pinocchio as pin
 
 from ..._check import finite_array, scalar
 from ..._format import number
-from ...defaults import FD_STEP
+from ...defaults import EPS, FD_STEP
 from ...errors import ModelError
 from ...model import dynamics
 from ...model.derivatives import analytic_derivatives_rows
@@ -327,6 +327,37 @@ class Balance:
             tau -= d1 / d2
         val = abs(a[0] + np.sum(ac * np.cos(k * tau) + as_ * np.sin(k * tau)))
         return float(max(val, best))
+
+    def precision(self, X, omega, c):
+        """The amplitude's precision at this point and Ω (m or rad): the balance's residual (the corrector's, ≤ its
+        tolerance) plus its round-off — ε × the size of the terms in each sample's residual, |K x| + |C ẋ| + |M ẍ|
+        + the excitation's and the static loads', projected — carried to the amplitude at fixed Ω through ∂R/∂X
+        (Σ |gᵀ (∂R/∂X)⁻¹| (|R| + round-off), g the amplitude's gradient), plus the amplitude's own rounding.
+        Infinite where ∂R/∂X is singular (a fold: the amplitude at that Ω is not a function of the residual)."""
+        xd, xdd, r, K, C, M = self.derivatives(X, omega)
+        m = 2 * self.H + 1
+        x = self.E @ X.reshape(m, self.n)
+        static = self.__dict__.get("_static")
+        if static is None:
+            sys_ = self.system
+            static = self._static = dynamics.cancelling_terms(sys_, sys_.workspace(), self.q_eq,
+                                                              np.zeros(self.n), np.zeros(self.n), 0.0)
+        size = (np.einsum("jpi,ji->jp", np.abs(K), np.abs(x)) + np.einsum("jpi,ji->jp", np.abs(C), np.abs(xd))
+                + np.einsum("jpi,ji->jp", np.abs(M), np.abs(xdd)) + np.abs(r) + static + self.scale)
+        rounding = EPS * (np.abs(self.P) @ size).ravel() / self.scale
+        R = np.abs(self.residual(X, omega))
+        grid = np.linspace(0, 2 * np.pi, max(64, 16 * m), endpoint=False)
+        E = fourier_basis(grid, self.H)[0]
+        x_c = E @ X.reshape(m, self.n)[:, c]
+        j = int(np.argmax(np.abs(x_c)))
+        g = np.zeros(X.size)
+        g.reshape(m, self.n)[:, c] = np.sign(x_c[j]) * E[j]
+        try:
+            z = np.linalg.solve(self.jacobian(X, omega)[:, :X.size].T, g)
+        except np.linalg.LinAlgError:
+            return math.inf
+        A = float(np.abs(x_c[j]))
+        return float(np.abs(z) @ (R + rounding)) + EPS * m * A if np.all(np.isfinite(z)) else math.inf
 
     def refined(self):
         """The balance with 2H + 1 harmonics (the next odd one too, which odd forces excite), made once."""

@@ -14,7 +14,8 @@ support, whose velocity Ω·Y·sin τ also depends on Ω, a central difference).
 solver kit's pseudo-arclength continuation (:mod:`vibdyn.solvers.continuation`), which locates folds exactly.
 
 Truncation: each point's error is estimated by one Newton step of the 2H + 1 balance from the H solution (its
-largest displacement of the reported coordinate over a period); with ``harmonics=None`` H grows (doubled, then
+largest displacement of the reported coordinate over a period), plus the balance's own residual and round-off
+carried to the amplitude at that Ω (:meth:`Balance.precision`); with ``harmonics=None`` H grows (doubled, then
 where the estimates' geometric decay says) until that estimate is below ``tol`` × the peak amplitude.
 
 Stability: Hill's method, the quadratic eigenproblem (Δ₀ + λΔ₁ + λ²Δ₂) Y = 0 of the HB Jacobian, keeping the
@@ -97,7 +98,8 @@ class ForcedResponseCurve:
     """A forced-response curve (:func:`forced_response_curve`).
 
     Per point: ``omega`` (Ω, rad/s), ``amplitude`` (max over a period of |q_c − q_c,eq|, m or rad),
-    ``error`` (its harmonic-truncation estimate, same unit), ``coefficients`` (points × (2H + 1) × nv: each tangent
+    ``error`` (its truncation estimate plus the balance's residual and round-off carried to it, same unit),
+    ``coefficients`` (points × (2H + 1) × nv: each tangent
     coordinate's displacement from ``q_eq``, x(τ) = c₀ + Σ_k a_k cos kτ + b_k sin kτ with τ = Ωt, its rows
     interleaved c₀, a₁, b₁, a₂, b₂, …, a_H, b_H; :meth:`harmonic` picks one harmonic), ``multipliers``
     (points × 2nv complex Floquet multipliers by Hill's method, by decreasing modulus), ``multiplier_error`` (the
@@ -163,7 +165,7 @@ class ForcedResponseCurve:
                  f"{number(self.omega[-1])} rad/s, {self.status} ({self.message}), {self.elapsed:.2f} s",
                  f"  peak: amplitude {number(self.peak.amplitude, u, digits=10)} ± {self.peak.error:.1e} at "
                  f"Ω = {number(self.peak.omega, digits=10)} rad/s ({number(self.peak.frequency_hz, digits=8)} Hz)",
-                 f"  truncation error ≤ {float(np.max(self.error)):.1e} {u}; "
+                 f"  points' error ≤ {float(np.max(self.error)):.1e} {u}; "
                  f"{self.stability.count('unstable')} unstable points, {self.stability.count('within the error')} "
                  f"neutral within the error of |μ| (Hill's method, |μ|'s error up to "
                  f"{float(np.max(self.multiplier_error)):.0e})"]
@@ -218,7 +220,7 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
         bal = Balance(system, excitation, q_eq, H)
         run = _follow(bal, lo, hi, X0, step, max_steps)
         trunc = [bal.truncation(x, w, c) for x, w in zip(run.x, run.lam)]
-        err = np.array([e[0] for e in trunc])
+        err = np.array([e[0] + bal.precision(x, w, c) for e, x, w in zip(trunc, run.x, run.lam)])
         amp = np.array([bal.amplitude(x, c) for x in run.x])
         worst = float(np.max(err / max(float(np.max(amp)), 1e-300)))
         history.append((H, worst))
