@@ -374,11 +374,13 @@ class Balance:
             big.P, big._memo, big._kept, big._refined = w[:, None] * big.E.T, None, OrderedDict(), None
         return big
 
-    def truncation(self, X, omega, c):
+    def truncation(self, X, omega, c, at_omega=False):
         """(error, omega_error, X2, omega2): the estimated truncation errors of this point of the branch — one
         Newton step of the 2H + 1 balance from it, normal to the branch (the continuation's corrector: regular
         at folds too), its largest displacement of coordinate c over a period and its change of Ω — and the
-        coefficients and Ω that step reaches."""
+        coefficients and Ω that step reaches. ``at_omega``: the step from the residual's harmonics above H alone
+        (the rest is this balance's residual, :meth:`precision`), its error the larger of that and the same step at
+        fixed Ω (the amplitude's error at this Ω: larger where the branch is steep, as just past a fold)."""
         t = np.linalg.svd(self.jacobian(X, omega))[2][-1]  # the branch's tangent (X, Ω)
         big = self.refined()
         X2 = embed(X, self.H, big.H, self.n)
@@ -389,11 +391,24 @@ class Balance:
         xd, xdd, r = big._samples(X2, omega)[1:]
         K, C, M = (doubled(a) for a in self.derivatives(X, omega)[3:])
         A = np.vstack([big.jacobian(X2, omega, (xd, xdd, r, K, C, M)), t2])
-        dY = np.linalg.lstsq(A, np.append(-big.residual(X2, omega), 0.0), rcond=None)[0]
+        R2 = big.residual(X2, omega)
+        dY = np.linalg.lstsq(A, np.append(-R2, 0.0), rcond=None)[0]
         dX = dY[:-1]
         grid = np.linspace(0, 2 * np.pi, max(64, 8 * (2 * big.H + 1)), endpoint=False)
-        d = fourier_basis(grid, big.H)[0] @ dX.reshape(2 * big.H + 1, self.n)[:, c]
-        return float(np.max(np.abs(d))), float(abs(dY[-1])), X2 + dX, omega + float(dY[-1])
+        E = fourier_basis(grid, big.H)[0]
+
+        def largest(d):  # largest displacement of coordinate c over a period (m or rad)
+            return float(np.max(np.abs(E @ d.reshape(2 * big.H + 1, self.n)[:, c])))
+
+        error = largest(dX)
+        if at_omega:  # (the harmonics up to H carry this balance's own residual: the precision's, not truncation)
+            R2[:X.size] = 0.0
+            error = largest(np.linalg.lstsq(A, np.append(-R2, 0.0), rcond=None)[0][:-1])
+            try:
+                error = max(error, largest(np.linalg.solve(A[:-1, :-1], -R2)))
+            except np.linalg.LinAlgError:
+                error = math.inf
+        return error, float(abs(dY[-1])), X2 + dX, omega + float(dY[-1])
 
 
 def fourier_basis(tau, H):
