@@ -639,3 +639,17 @@ def test_linear_points_cover_the_closed_form_through_resonance(c):
         assert crv.status == "finished" and len(w) < 2500
         assert abs(crv.peak.amplitude - F / (c * wn * math.sqrt(1 - zeta**2))) <= crv.peak.error
         assert abs(crv.peak.omega - wn * math.sqrt(1 - 2 * zeta**2)) <= crv.peak.omega_error
+
+
+def test_adaptive_duffing_points_cover_a_high_harmonic_reference(duffing, curve):
+    """Each point of the adaptive Duffing curve against the 25-harmonic balance solved at its Ω (Newton to 1e-14 of
+    the force, from the point): the difference of amplitudes is within the point's error."""
+    from vibdyn.analysis.nonlinear.balance import Balance, Excitation, embed
+    from vibdyn.solvers.newton import newton
+
+    big = Balance(duffing, Excitation(duffing, ("cart", P)), curve.q_eq, 25)
+    for i, w in enumerate(curve.omega):
+        x0 = embed(curve.coefficients[i].ravel(), curve.harmonics, 25, 1)
+        res = newton(lambda x: big.residual(x, w), x0, lambda x: big.jacobian(x, w)[:, :-1], tol=1e-14, max_iter=30)
+        assert res.converged
+        assert abs(curve.amplitude[i] - big.amplitude(res.x, 0)) <= curve.error[i]
