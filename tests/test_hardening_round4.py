@@ -165,11 +165,37 @@ def test_update_names_a_zero_measuring_direction():
 def test_a_forced_response_curve_stopped_on_its_way_up_claims_no_peak():
     # a linear oscillator with c = 1e-6 (true peak F/c = 1e5 m at Ω ≈ 1): the curve stops after its steps at 387 m
     # while still rising, and called that the peak, 386.56 ± 5e-10 m
+    # (the branch now ends a leg at the natural frequency: 200 steps reach the peak, 5 still stop below it)
     system = vd.with_values(vd.load_scene("duffing"), {"k3.k3": 0.0, "c.damping": 1e-6}).build()
-    curve = vd.forced_response_curve(system, ("mass", 0.1), (0.5, 2.0), "mass", max_steps=200)
-    assert curve.status == "stopped"
     truth = 0.1 / 1e-6 / np.sqrt(1 - 0.25e-12)
-    assert abs(curve.peak.amplitude - truth) <= curve.peak.error and "still growing" in curve.message
+    for steps, growing in ((5, True), (200, False)):
+        curve = vd.forced_response_curve(system, ("mass", 0.1), (0.5, 2.0), "mass", max_steps=steps)
+        assert curve.status == "stopped" and f"{steps} steps taken" in curve.message
+        assert abs(curve.peak.amplitude - truth) <= curve.peak.error
+        assert ("still growing" in curve.message) == growing and math.isfinite(curve.peak.error) != growing
+
+
+@pytest.mark.parametrize("k, omega", [(1.0, 1e-3), (1e6, 1.3)])
+def test_a_periodic_orbit_over_hundreds_of_natural_periods_is_refused_at_once(k, omega):
+    # a linear oscillator forced at Ω = 1e-3 rad/s (1000 natural periods per forcing period) took 91 s, k = 1e6
+    # at Ω = 1.3 (769) over 120 s: the flows step at most 0.5/ω, about 0.1 s per natural period
+    import time
+
+    s = vd.Scene("forced")
+    s.add_body("cart", joint=vd.Slider((1, 0, 0)), mass=1.0)
+    s.add_joint_spring("cart", k)
+    s.add_joint_damper("cart", 0.01)
+    s.add_joint_force("cart", vd.laws.Harmonic(1.0, omega, phase=math.pi / 2))
+    start = time.perf_counter()
+    with pytest.raises(vd.ModelError, match=r"spans .* of the scene's fastest natural period .*more than 200"):
+        vd.floquet(s.build(), 2 * math.pi / omega)
+    assert time.perf_counter() - start < 5.0
+
+
+def test_a_period_guess_far_below_the_natural_period_is_named_too_short():
+    # rod_pivot from 1 rad with a guess of 1e-9 s said "the start is too close to rest"
+    with pytest.raises(vd.ModelError, match=r"the period 1e-09 s is too short: .* natural period at the start"):
+        vd.floquet(vd.load_scene("rod_pivot").build(), 1e-9, [1.0], [0.0])
 
 
 @pytest.mark.parametrize("call, words", [

@@ -139,9 +139,9 @@ def frc_command(scene, args, out=None):
              number(abs(m[0]), digits=mu_digits(me)), f"{me:.1e}", s]
             for w, a, e, m, me, s in zip(curve.omega, curve.amplitude, curve.error, curve.multipliers,
                                           curve.multiplier_error, curve.stability)]
-    p(f"points: amplitude = max over a period of |{curve.coordinate} − equilibrium| ({u}) ± its truncation "
-      "estimate; largest Floquet multiplier |μ| (Hill's method) ± its error; stability 'within the error' where "
-      "|μ| = 1 within it")
+    p(f"points: amplitude = max over a period of |{curve.coordinate} − equilibrium| ({u}) ± its error "
+      "(truncation, residual, round-off); largest Floquet multiplier |μ| (Hill's method) ± its error; stability "
+      "'within the error' where |μ| = 1 within it")
     for line in table(["Ω rad/s", "Ω/2π Hz", f"amplitude {u}", "±", "max |μ|", "± |μ|", "stability"], rows):
         p("  " + line)
     write_files(p, files)

@@ -58,9 +58,11 @@ class Branch:
         if not self.lam.size:
             return joined
         k = 1 if more.lam.size else 0  # (more's first point is this one's last)
+        shift = self.lam.size - k  # (more's folds' indices, counted in the joined points)
         return replace(joined, x=np.vstack([self.x, more.x[k:]]), lam=np.concatenate([self.lam, more.lam[k:]]),
                        s=np.concatenate([self.s, self.s[-1] + more.s[k:] - (more.s[0] if more.s.size else 0.0)]),
-                       folds=list(self.folds) + list(more.folds), residual=max(self.residual, more.residual))
+                       folds=list(self.folds) + [replace(f, index=f.index + shift) for f in more.folds],
+                       residual=max(self.residual, more.residual))
 
 
 CLOSE = 0.01  # (``curvature``) a correction within this × the step from the predictor doubles the next step
@@ -90,6 +92,7 @@ class Arclength:
     scale: np.ndarray | None = None
     chord: float | None = None
     curvature: bool = False
+    strict: bool = False  # a correction moving λ back against both tangents (two folds skipped) fails
 
 
 def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, jacobian: Callable | None = None,
@@ -190,6 +193,18 @@ def continuation(fun: Callable, x0: np.ndarray, lam0: float, lam_end: float, *, 
         y_new = corr.x
         Jy_new = J(y_new)
         t_new = _tangent(Jy_new, t, None)
+        if path.strict and t[n] * t_new[n] > 0 and (y_new[n] - y[n]) * t[n] < 0 and \
+                abs(y_new[n] - y[n]) > abs(t[n]) * h:
+            # (λ went back further than the predictor took it forward while both tangents point ahead: the
+            # corrector crossed to another part of the branch, as across a narrow resonance loop)
+            h *= 0.5
+            rejected += 1
+            bend[:] = 0.0
+            if h < min_step:
+                status, reason = "failed", "step"
+                message = f"the corrector could not go on at {parameter} = {y[n] * w[n]:.10g}: the branch doubles back"
+                break
+            continue
         steps += 1
         lam_old, lam_new = y[n] * w[n], y_new[n] * w[n]
         if t[n] * t_new[n] < 0:  # λ turned back: a fold between the two points

@@ -17,7 +17,7 @@ import pinocchio as pin
 
 from ..._check import finite_array, scalar
 from ..._format import number
-from ...defaults import FD_STEP
+from ...defaults import EPS, FD_STEP
 from ...errors import ModelError
 from ...model import dynamics
 from ...model.derivatives import analytic_derivatives_rows
@@ -328,6 +328,37 @@ class Balance:
         val = abs(a[0] + np.sum(ac * np.cos(k * tau) + as_ * np.sin(k * tau)))
         return float(max(val, best))
 
+    def precision(self, X, omega, c):
+        """The amplitude's precision at this point and Ω (m or rad): the balance's residual (the corrector's, ≤ its
+        tolerance) plus its round-off — ε × the size of the terms in each sample's residual, |K x| + |C ẋ| + |M ẍ|
+        + the excitation's and the static loads', projected — carried to the amplitude at fixed Ω through ∂R/∂X
+        (Σ |gᵀ (∂R/∂X)⁻¹| (|R| + round-off), g the amplitude's gradient), plus the amplitude's own rounding.
+        Infinite where ∂R/∂X is singular (a fold: the amplitude at that Ω is not a function of the residual)."""
+        xd, xdd, r, K, C, M = self.derivatives(X, omega)
+        m = 2 * self.H + 1
+        x = self.E @ X.reshape(m, self.n)
+        static = self.__dict__.get("_static")
+        if static is None:
+            sys_ = self.system
+            static = self._static = dynamics.cancelling_terms(sys_, sys_.workspace(), self.q_eq,
+                                                              np.zeros(self.n), np.zeros(self.n), 0.0)
+        size = (np.einsum("jpi,ji->jp", np.abs(K), np.abs(x)) + np.einsum("jpi,ji->jp", np.abs(C), np.abs(xd))
+                + np.einsum("jpi,ji->jp", np.abs(M), np.abs(xdd)) + np.abs(r) + static + self.scale)
+        rounding = EPS * (np.abs(self.P) @ size).ravel() / self.scale
+        R = np.abs(self.residual(X, omega))
+        grid = np.linspace(0, 2 * np.pi, max(64, 16 * m), endpoint=False)
+        E = fourier_basis(grid, self.H)[0]
+        x_c = E @ X.reshape(m, self.n)[:, c]
+        j = int(np.argmax(np.abs(x_c)))
+        g = np.zeros(X.size)
+        g.reshape(m, self.n)[:, c] = np.sign(x_c[j]) * E[j]
+        try:
+            z = np.linalg.solve(self.jacobian(X, omega)[:, :X.size].T, g)
+        except np.linalg.LinAlgError:
+            return math.inf
+        A = float(np.abs(x_c[j]))
+        return float(np.abs(z) @ (R + rounding)) + EPS * m * A if np.all(np.isfinite(z)) else math.inf
+
     def refined(self):
         """The balance with 2H + 1 harmonics (the next odd one too, which odd forces excite), made once."""
         big = self.__dict__.get("_refined")
@@ -343,11 +374,13 @@ class Balance:
             big.P, big._memo, big._kept, big._refined = w[:, None] * big.E.T, None, OrderedDict(), None
         return big
 
-    def truncation(self, X, omega, c):
+    def truncation(self, X, omega, c, at_omega=False):
         """(error, omega_error, X2, omega2): the estimated truncation errors of this point of the branch — one
         Newton step of the 2H + 1 balance from it, normal to the branch (the continuation's corrector: regular
         at folds too), its largest displacement of coordinate c over a period and its change of Ω — and the
-        coefficients and Ω that step reaches."""
+        coefficients and Ω that step reaches. ``at_omega``: the step from the residual's harmonics above H alone
+        (the rest is this balance's residual, :meth:`precision`), its error the larger of that and the same step at
+        fixed Ω (the amplitude's error at this Ω: larger where the branch is steep, as just past a fold)."""
         t = np.linalg.svd(self.jacobian(X, omega))[2][-1]  # the branch's tangent (X, Ω)
         big = self.refined()
         X2 = embed(X, self.H, big.H, self.n)
@@ -358,11 +391,24 @@ class Balance:
         xd, xdd, r = big._samples(X2, omega)[1:]
         K, C, M = (doubled(a) for a in self.derivatives(X, omega)[3:])
         A = np.vstack([big.jacobian(X2, omega, (xd, xdd, r, K, C, M)), t2])
-        dY = np.linalg.lstsq(A, np.append(-big.residual(X2, omega), 0.0), rcond=None)[0]
+        R2 = big.residual(X2, omega)
+        dY = np.linalg.lstsq(A, np.append(-R2, 0.0), rcond=None)[0]
         dX = dY[:-1]
         grid = np.linspace(0, 2 * np.pi, max(64, 8 * (2 * big.H + 1)), endpoint=False)
-        d = fourier_basis(grid, big.H)[0] @ dX.reshape(2 * big.H + 1, self.n)[:, c]
-        return float(np.max(np.abs(d))), float(abs(dY[-1])), X2 + dX, omega + float(dY[-1])
+        E = fourier_basis(grid, big.H)[0]
+
+        def largest(d):  # largest displacement of coordinate c over a period (m or rad)
+            return float(np.max(np.abs(E @ d.reshape(2 * big.H + 1, self.n)[:, c])))
+
+        error = largest(dX)
+        if at_omega:  # (the harmonics up to H carry this balance's own residual: the precision's, not truncation)
+            R2[:X.size] = 0.0
+            error = largest(np.linalg.lstsq(A, np.append(-R2, 0.0), rcond=None)[0][:-1])
+            try:
+                error = max(error, largest(np.linalg.solve(A[:-1, :-1], -R2)))
+            except np.linalg.LinAlgError:
+                error = math.inf
+        return error, float(abs(dY[-1])), X2 + dX, omega + float(dY[-1])
 
 
 def fourier_basis(tau, H):

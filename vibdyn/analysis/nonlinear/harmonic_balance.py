@@ -14,7 +14,8 @@ support, whose velocity Ω·Y·sin τ also depends on Ω, a central difference).
 solver kit's pseudo-arclength continuation (:mod:`vibdyn.solvers.continuation`), which locates folds exactly.
 
 Truncation: each point's error is estimated by one Newton step of the 2H + 1 balance from the H solution (its
-largest displacement of the reported coordinate over a period); with ``harmonics=None`` H grows (doubled, then
+largest displacement of the reported coordinate over a period), plus the balance's own residual and round-off
+carried to the amplitude at that Ω (:meth:`Balance.precision`); with ``harmonics=None`` H grows (doubled, then
 where the estimates' geometric decay says) until that estimate is below ``tol`` × the peak amplitude.
 
 Stability: Hill's method, the quadratic eigenproblem (Δ₀ + λΔ₁ + λ²Δ₂) Y = 0 of the HB Jacobian, keeping the
@@ -31,7 +32,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -57,6 +58,8 @@ MAX_HARMONICS = 48  # and stop growing here (said so in the result's message)
 MAX_HILL = 400  # a fixed H is refused where Hill's matrices pass this size (H = 99 for one coordinate: 10 s)
 CHORD = 0.1  # the corrector keeps a Jacobian while each step cuts the residual 10 times
 CONTINUATION_TOL = 1e-11  # ‖R‖_∞ of the corrector, relative to the excitation's generalized force
+PEAK_COND = 1e10  # a natural frequency sizes the linear peak where Z(ω) is no worse conditioned (undamped: ∞)
+ROUNDOFF_MARGIN = 8.0  # and at least this many ulps of the largest stiffness force of the linear peak
 
 
 @dataclass(frozen=True)
@@ -97,7 +100,8 @@ class ForcedResponseCurve:
     """A forced-response curve (:func:`forced_response_curve`).
 
     Per point: ``omega`` (Ω, rad/s), ``amplitude`` (max over a period of |q_c − q_c,eq|, m or rad),
-    ``error`` (its harmonic-truncation estimate, same unit), ``coefficients`` (points × (2H + 1) × nv: each tangent
+    ``error`` (its truncation estimate plus the balance's residual and round-off carried to it, same unit),
+    ``coefficients`` (points × (2H + 1) × nv: each tangent
     coordinate's displacement from ``q_eq``, x(τ) = c₀ + Σ_k a_k cos kτ + b_k sin kτ with τ = Ωt, its rows
     interleaved c₀, a₁, b₁, a₂, b₂, …, a_H, b_H; :meth:`harmonic` picks one harmonic), ``multipliers``
     (points × 2nv complex Floquet multipliers by Hill's method, by decreasing modulus), ``multiplier_error`` (the
@@ -163,7 +167,7 @@ class ForcedResponseCurve:
                  f"{number(self.omega[-1])} rad/s, {self.status} ({self.message}), {self.elapsed:.2f} s",
                  f"  peak: amplitude {number(self.peak.amplitude, u, digits=10)} ± {self.peak.error:.1e} at "
                  f"Ω = {number(self.peak.omega, digits=10)} rad/s ({number(self.peak.frequency_hz, digits=8)} Hz)",
-                 f"  truncation error ≤ {float(np.max(self.error)):.1e} {u}; "
+                 f"  points' error ≤ {float(np.max(self.error)):.1e} {u}; "
                  f"{self.stability.count('unstable')} unstable points, {self.stability.count('within the error')} "
                  f"neutral within the error of |μ| (Hill's method, |μ|'s error up to "
                  f"{float(np.max(self.multiplier_error)):.0e})"]
@@ -216,8 +220,8 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
     X0 = None
     while True:
         bal = Balance(system, excitation, q_eq, H)
-        run = _follow(bal, lo, hi, X0, step, max_steps)
-        trunc = [bal.truncation(x, w, c) for x, w in zip(run.x, run.lam)]
+        run, run_tol = _follow(bal, lo, hi, X0, step, max_steps)
+        trunc = [bal.truncation(x, w, c, at_omega=True) for x, w in zip(run.x, run.lam)]
         err = np.array([e[0] for e in trunc])
         amp = np.array([bal.amplitude(x, c) for x in run.x])
         worst = float(np.max(err / max(float(np.max(amp)), 1e-300)))
@@ -227,6 +231,7 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
         H_next = _next_harmonics(history, tol)
         X0 = embed(run.x[0], H, H_next, system.nv)
         H = H_next
+    err = err + np.array([bal.precision(x, w, c) for x, w in zip(run.x, run.lam)])
     status, message = run.status, run.message
     if harmonics is None and worst > tol:
         message += f"; truncation {worst:.1e} of the peak with H = {H} (the most tried) is above tol = {tol:g}"
@@ -236,7 +241,7 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
     for f in run.folds:
         e = bal.truncation(f.x, f.lam, c)
         folds.append(ResponseFold(f.lam, bal.amplitude(f.x, c), e[0], f.index, e[1]))
-    peak = _peak(bal, run, amp, c)
+    peak = _peak(bal, run, amp, c, run_tol)
     if status != "finished" and int(np.argmax(amp)) == len(amp) - 1:
         # (the curve stopped while its amplitude still grew: the largest reached is no peak, and how far the true
         # one lies above it, or at what Ω, is not known)
@@ -303,10 +308,13 @@ def _follow(bal, lo, hi, X0, step, max_steps):
     D = bal.derivatives(np.zeros((2 * H + 1) * n), lo)
     K0, C0, M0 = D[3][0], D[4][0], D[5][0]
     f1 = bal.P[1:3] @ (-D[2])  # the excitation's first harmonic at rest (cos, sin)
-    grid = np.linspace(lo, hi, 201)
+    natural = _natural_frequencies(K0, M0, lo, hi)
+    grid = np.concatenate([np.linspace(lo, hi, 201), natural])
     peak = np.zeros(n)
-    for w in grid:
+    for j, w in enumerate(grid):
         Z = K0 - w**2 * M0 + 1j * w * C0
+        if j >= 201 and np.linalg.cond(Z) > PEAK_COND:  # (an undamped resonance: no finite linear peak)
+            continue
         try:
             u = np.linalg.solve(Z, f1[0] - 1j * f1[1])
         except np.linalg.LinAlgError:
@@ -325,17 +333,42 @@ def _follow(bal, lo, hi, X0, step, max_steps):
     def stop(x, w):  # the branch has gone back below lo, or far beyond the linear peak
         return w < lo - 0.5 * (hi - lo) or np.max(np.abs(x)) > 1e3 * big
 
-    branch = continuation(bal.residual, X0, lo, hi, jacobian=bal.jacobian, stop=stop, parameter="Ω (rad/s)",
-                          path=Arclength(step=step, tol=CONTINUATION_TOL, max_steps=max_steps, max_step=5 * step,
-                                         scale=scale, chord=CHORD))
+    # legs ending at each undamped natural frequency in the range: the branch is solved there, on its lightly
+    # damped peak (at c = 1e-6 a step of 0.1 rad/s across Ω = 1 otherwise landed on the far side of the 1e-6 rad/s
+    # wide peak: 199.7 m claimed as the peak, ± 9e-13, for 1e6)
+    branch, x, w, h = None, X0, lo, step
+    # the corrector's tolerance, relative to the force, above the round-off of the balance's largest terms there
+    # (k·X at a peak of Q times the static response: 2e-10 of the force at c = 1e-6, below which it stalls)
+    tol = max(CONTINUATION_TOL, ROUNDOFF_MARGIN * EPS * ref * float(np.max(np.abs(K0))) / bal.scale)
+    for end in [*natural, hi]:
+        left = max_steps - (branch.steps if branch is not None else 0)
+        leg = continuation(bal.residual, x, w, end, jacobian=bal.jacobian, stop=stop, parameter="Ω (rad/s)",
+                           path=Arclength(step=h, tol=tol, max_steps=max(left, 1), max_step=5 * step,
+                                          scale=scale, chord=CHORD, strict=True))
+        branch = leg if branch is None else branch.then(leg)
+        if leg.status != "finished" or not leg.lam.size or end == hi:
+            break
+        x, w, h = leg.x[-1], float(leg.lam[-1]), leg.step or h
+    if branch.reason == "max_steps":  # (the last leg's message counts its own steps)
+        branch = replace(branch, message=f"{max_steps} steps taken before Ω (rad/s) = {hi:g}")
     if len(branch.lam) == 0:
         raise ConvergenceError(f"forced_response_curve: no periodic response found at Ω = {lo:g} rad/s "
                                f"({branch.message}); try a lower start, a smaller excitation or an explicit "
                                "equilibrium", residual=branch.residual)
-    return branch
+    return branch, tol
 
 
-def _peak(bal, run, amp, c):
+def _natural_frequencies(K, M, lo, hi):
+    """The undamped natural frequencies (rad/s) of K, M strictly within (lo, hi), increasing."""
+    try:
+        lam = np.linalg.eigvals(np.linalg.solve(M, K))
+    except np.linalg.LinAlgError:
+        return []
+    real = lam[(np.abs(lam.imag) <= 1e-9 * np.abs(lam)) & (lam.real > 0)].real
+    return sorted(float(v) for v in np.sqrt(real) if lo < v < hi)
+
+
+def _peak(bal, run, amp, c, tol):
     """The largest amplitude along the branch, refined between the neighbours of the best point: amplitude
     maximised over the arclength s, each point solved on the hyperplane normal to the tangent there.
 
@@ -360,7 +393,7 @@ def _peak(bal, run, amp, c):
             if res is None:
                 res = cache[s] = newton(lambda y: np.append(bal.residual(y[:-1], y[-1]), t @ (y - y_i) - s),
                                         y_i + s * t, lambda y: np.vstack([bal.jacobian(y[:-1], y[-1]), t]),
-                                        tol=CONTINUATION_TOL, max_iter=20)
+                                        tol=tol, max_iter=20)
             return -bal.amplitude(res.x[:-1], c) if res.converged else -amp[i]
 
         xatol = 1e-10 * max(hi_s - lo_s, 1e-300)
@@ -380,9 +413,20 @@ def _peak(bal, run, amp, c):
             ds = 2 * (math.sqrt(EPS) * abs(opt.x) + xatol / 3)
             ds += math.sqrt(2 * dA / -A2) if curved else hi_s - lo_s  # (else: the bracket)
             dw = abs(w1) * ds + 0.5 * abs(w2) * ds**2
+            dw = max(dw, _flat(A, e[0] + dA, float(y[-1]), run.lam, amp, i))
             return ResponsePeak(float(y[-1]), float(A), float(e[0] + dA), float(e[1] + dw))
     e = bal.truncation(run.x[i], run.lam[i], c)
-    return ResponsePeak(float(run.lam[i]), float(amp[i]), e[0], e[1])
+    dA = e[0] + bal.precision(run.x[i], run.lam[i], c)
+    dw = _flat(amp[i], dA, run.lam[i], run.lam, amp, i) if 0 < i < len(amp) - 1 else 0.0
+    return ResponsePeak(float(run.lam[i]), float(amp[i]), dA, e[1] + dw)
+
+
+def _flat(A, dA, w, lam, amp, i):
+    """The Ω (rad/s) within which the amplitude stays within its error dA of the peak A at w: √(2 dA / A''), A''
+    from the chords to the neighbours i ± 1 (≤ the top's own on a resonance peak: the safe side, where the
+    arclength differences fail, as on a peak 1e-6 rad/s wide whose tangent is almost all X)."""
+    chords = [2 * (A - amp[j]) / (w - lam[j]) ** 2 for j in (i - 1, i + 1) if lam[j] != w]
+    return math.sqrt(2 * dA / max(chords)) if chords and max(chords) > 0 else 0.0
 
 
 def _amplitude_precision(bal, y, t, c, A, residual):

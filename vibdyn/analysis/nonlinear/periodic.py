@@ -33,14 +33,17 @@ from .shooting import (
     RCOND,
     SCALE_RTOL,
     Shooting,
+    check_span,
     conservative,
     damping_only,
     energy_roundoff,
+    fastest_frequency,
     first_return,
     flow_scales,
     free_indices,
     growth_segments,
     motion_scales,
+    resolvable_start,
     wrapped,
 )
 
@@ -268,7 +271,9 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
             raise ModelError(f"{what}: {len(nodes)} starting nodes given for segments = {segments}")
     q_start, v_start = nodes[0]
     # (before any flow, against 2 of the coordinates' own scales: a pendulum's orbit moves by about that)
-    _resolvable(system, q_start, 2 * np.asarray(system.coordinate_scales, dtype=float), free, tol, what)
+    resolvable_start(system, q_start, 2 * np.asarray(system.coordinate_scales, dtype=float), free, tol, what)
+    if period is not None:
+        check_span(system, q_start, v_start, t0, free, period, autonomous, what)
     omega = 2 * math.pi / period if period is not None else _omega_guess(system, q_start, v_start, t0, free)
     if autonomous and period is None:
         period = first_return(system, q_start, v_start, t0, omega, rtol)
@@ -326,22 +331,6 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
                                    "the orbit, or give phase (a coordinate whose velocity is zero at the start)",
                                    residual=orbit.residual, best=[(orbit.q0, orbit.v0)])
     return orbit
-
-
-def _resolvable(system, q, scales, free, tol, what) -> None:
-    """Refuse a start so far from neutral (an angle of 1e7 rad) that a double's round-off there exceeds half the
-    closing tolerance of the motion: the shooting can then neither close nor stop (each flow's steps shrink to the
-    round-off)."""
-    size = np.abs(system.difference(system.neutral(), q))
-    roundoff = size * np.finfo(float).eps
-    bad = [i for i in free if roundoff[i] > 0.5 * tol * scales[i]]
-    if bad:
-        i = bad[0]
-        unit = system.units[i]
-        raise ModelError(f"{what}: {system.coordinates[i]} = {size[i]:.3g} {unit} from neutral: at that size a "
-                         f"number's round-off ({roundoff[i]:.1e} {unit}) exceeds the closing tolerance "
-                         f"(tol = {tol:.0e} of {scales[i]:.3g} {unit}); start within a few turns of neutral (an angle "
-                         "less 2π·k, the same pose where nothing depends on the turns), or give a looser tol")
 
 
 def _cover(system, shoot, x, rtol, most: int = 32) -> int:
@@ -427,12 +416,8 @@ def _omega_guess(system, q, v, t, free):
     """A frequency scale (rad/s) at a start: the largest of √|eig(M⁻¹K)| there and the angles' speeds (rad/s: a
     turning pivot's); 1 if neither is positive. A slider's speed is no frequency: over the scene's length scale
     (1 mm for a slider at the origin) it made the flows' steps hundreds of times too short."""
-    M, K, _ = linear_terms(system, q, v, t)
-    f = np.ix_(free, free)
-    lam = np.abs(np.linalg.eigvals(np.linalg.solve(M[f], K[f])))
-    angles = np.asarray(system.units)[free] == "rad"
-    w = max(math.sqrt(float(lam.max(initial=0.0))), float(np.abs(v[free][angles]).max(initial=0.0)))
-    return w if w > 0 and math.isfinite(w) else 1.0
+    w = fastest_frequency(system, q, v, t, free)
+    return w if w > 0 else 1.0
 
 
 def _phase(system, q, v, t, omega, free, phase, scales, what):

@@ -25,9 +25,11 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from ..._format import number
 from ...description.elements.damper import Dampers
 from ...description.elements.joint_damper import JointDampers
 from ...errors import ConvergenceError, ModelError
+from ...model.derivatives import linear_terms
 from ...model.dynamics import energy_gradient
 from ...model.groups import ForceGroup
 from ...simulation.flow import Flow
@@ -45,6 +47,8 @@ ROUNDOFF = 16.0  # ulps of the energy's terms: its round-off
 STILL = 1e-6  # a unit's coordinates moving less than this × their scales (motion_scales) are at rest
 RESOLVED = 1e-3  # the flows resolve a coordinate to rtol of at least this × the largest motion of its unit
 SCALE_RTOL = 1e-6  # the loose run that sizes the motion before the first flow (its steps cost little)
+MAX_CYCLES = 200  # a period spanning more of the start's fastest natural periods is refused (each costs ~0.1 s)
+MIN_GUESS = 1e-3  # an autonomous period guess below this share of the fastest natural period is refused
 CHECK_STEP = 3e-5  # the transitions' check: flows from the nodes moved by this (and twice this) of the scales
 # (1e-4 before: with Φ exact to its tolerance, the differences' truncation then exceeded the flows' error/h and the
 # second pair ran on the ball pendulum's backbone; a stiffness 1e-4 too large is still caught)
@@ -487,3 +491,56 @@ def energy_roundoff(system, q, v, t) -> float:
     difference below it, e.g. an orbit's energy above a nearby rest, is not resolved)."""
     e = system.energy(q, v, t)
     return ROUNDOFF * float(np.finfo(float).eps) * (abs(e.kinetic) + abs(e.gravity) + abs(e.elastic))
+
+
+def resolvable_start(system, q, scales, free, tol, what) -> None:
+    """Refuse a start so far from neutral (an angle of 1e7 rad) that a double's round-off there exceeds half the
+    closing tolerance of the motion: the shooting can then neither close nor stop (each flow's steps shrink to the
+    round-off)."""
+    size = np.abs(system.difference(system.neutral(), q))
+    roundoff = size * np.finfo(float).eps
+    bad = [i for i in free if roundoff[i] > 0.5 * tol * scales[i]]
+    if bad:
+        i = bad[0]
+        unit = system.units[i]
+        raise ModelError(f"{what}: {system.coordinates[i]} = {size[i]:.3g} {unit} from neutral: at that size a "
+                         f"number's round-off ({roundoff[i]:.1e} {unit}) exceeds the closing tolerance "
+                         f"(tol = {tol:.0e} of {scales[i]:.3g} {unit}); start within a few turns of neutral (an angle "
+                         "less 2π·k, the same pose where nothing depends on the turns), or give a looser tol")
+
+
+def fastest_frequency(system, q, v, t, free):
+    """The start's largest frequency (rad/s): of √|eig(M⁻¹K)| there and the angles' speeds (a turning pivot's); 0
+    where there is none (or it is not finite)."""
+    M, K, _ = linear_terms(system, q, v, t)
+    f = np.ix_(free, free)
+    lam = np.abs(np.linalg.eigvals(np.linalg.solve(M[f], K[f])))
+    angles = np.asarray(system.units)[free] == "rad"
+    w = max(math.sqrt(float(lam.max(initial=0.0))), float(np.abs(v[free][angles]).max(initial=0.0)))
+    return w if w > 0 and math.isfinite(w) else 0.0
+
+
+def check_span(system, q, v, t, free, period, autonomous, what) -> None:
+    """Refuse, before any flow, a period that the flows cannot resolve in reasonable time or that cannot be an
+    orbit's: one spanning more than MAX_CYCLES of the start's fastest natural period 2π/ω (the flows step at most
+    STEP_RESOLUTION/ω, so their cost grows with that count: about 0.08 s a cycle for one coordinate, each flow
+    run several times by the shooting), or an autonomous guess shorter than MIN_GUESS of it (no orbit is that
+    fast, and the shooting from it only finds rest)."""
+    w = fastest_frequency(system, q, v, t, free)
+    if w == 0.0:
+        return
+    natural = 2 * math.pi / w
+    cycles = period / natural
+    if cycles > MAX_CYCLES:
+        raise ModelError(
+            f"{what}: the period {number(period, 's', digits=6)} spans {cycles:.3g} of the scene's fastest natural "
+            f"period at the start ({number(natural, 's', digits=6)}, ω = {number(w, digits=6)} rad/s): the flows "
+            f"must resolve each of them, about 0.1 s each, and more than {MAX_CYCLES} are refused (over 20 s); for "
+            "a linear response far below (or above) resonance use the receptance (System.linearize(...).receptance) or "
+            "forced_response_curve (harmonic balance, no flows)")
+    if autonomous and cycles < MIN_GUESS:
+        raise ModelError(
+            f"{what}: the period {number(period, 's', digits=6)} is too short: {cycles:.2g} of the scene's fastest "
+            f"natural period at the start ({number(natural, 's', digits=6)}, ω = {number(w, digits=6)} rad/s "
+            "from its stiffness and speeds there), and no orbit from this start is that fast; give a guess near "
+            "the orbit's period, or none (found from the motion's first return)")
