@@ -483,7 +483,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
     return found(out, target)
 
 
-ROUND_OFF = 1  # × nv ε × the forces' scale: the residual a search polishes to past its tol (round-off)
+ROUND_OFF = 8  # × nv ε × the forces' scale: the residual a search polishes to past its tol (round-off)
 POLISH_ITER = 3  # Newton steps (fresh Jacobians) it may take to get there
 
 

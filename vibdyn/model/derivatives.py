@@ -254,8 +254,13 @@ def rnea_part_sizes(system, ws, q, v, a, fext, K, floor=0.0):
     reaching every entry through the tree's transforms)."""
     sizes = _part_sizes(system, ws, q, v, a, fext, K)
     s = system.coordinate_scales
-    d = np.diagonal(sizes) * s * s
-    floors = np.maximum.outer(np.maximum(d, floor, out=d), d)
+    unit = not np.any(s != 1.0)  # (rotations only: the scales' products are ones, no product to take)
+    d = np.diagonal(sizes).copy() if unit else np.diagonal(sizes) * s * s
+    np.maximum(d, floor, out=d)
+    if unit:
+        sizes += np.maximum.outer(d, d)
+        return sizes
+    floors = np.maximum.outer(d, d)
     floors *= system.inverse_scale_products
     sizes += floors
     return sizes
