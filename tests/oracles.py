@@ -46,6 +46,19 @@ def assert_close(actual, expected, rel, scale=None, what=""):
 
 
 # ---------------------------------------------------------------------------------------------- scenes
+
+def cli(argv):
+    """(exit code, stdout, stderr) of the command line ``vibdyn *argv`` run in this process (its items as strings)."""
+    import contextlib
+    import io
+
+    from vibdyn.faces.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in argv])
+    return code, out.getvalue(), err.getvalue()
+
 def random_rotation(rng):
     """A uniformly random rotation matrix."""
     from scipy.spatial.transform import Rotation

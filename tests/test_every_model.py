@@ -6,14 +6,12 @@ coordinate as input and output; ``simulate`` runs 1 s from the neutral configura
 mechanism runs the span in ``SIM_T``, its benchmark's own scale).
 """
 
-import contextlib
-import io
 
 import pytest
 from conftest import MODELS
+from oracles import cli as run
 
 import vibdyn as vd
-from vibdyn.faces.cli import main
 
 FILES = sorted(MODELS.glob("*.toml"))
 COMMANDS = ("info", "modes", "frf", "simulate", "sensitivity")
@@ -22,13 +20,6 @@ SIM_T = {"andrews_squeezer": "0.003"}
 
 # (model, command) -> words the refusal must contain. Each one is a physical impossibility, not a bug.
 REFUSALS: dict[tuple[str, str], str] = {}
-
-
-def run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
 
 
 def argv_for(command, path):

@@ -2,8 +2,6 @@
 half-power band, a finite plot and valid JSON. Anti-resonances of a driving-point FRF are checked against
 an independent oracle: the natural frequencies of the model with that coordinate clamped."""
 
-import contextlib
-import io
 import json
 import math
 
@@ -11,16 +9,9 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 from conftest import MODELS
+from oracles import cli as run
 
 import vibdyn as vd
-from vibdyn.faces.cli import main
-
-
-def run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
 
 
 def strict_json(text):

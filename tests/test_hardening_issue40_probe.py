@@ -3,16 +3,14 @@ record spectra at long periods and extreme inputs, Campbell tracking and onset a
 tables, and the CLI. Each number is checked against an independent oracle (a 50-digit matrix exponential, the
 Jeffcott closed form), each estimate must cover the error."""
 
-import contextlib
-import io
 
 import numpy as np
 import pytest
+from oracles import cli as run
 from test_rotor_stability import WN, K, M, fixed_rotor, spun_hub  # (the Jeffcott rotors of that file)
 
 import vibdyn as vd
 from vibdyn.errors import ModelError
-from vibdyn.faces.cli import main
 
 
 # ----------------------------------------------------------------------------- record spectra
@@ -144,13 +142,6 @@ def test_two_by_two_spectrum_table_is_ambiguous_and_refused():
 
 
 # ----------------------------------------------------------------------------- the CLI
-def run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
-
-
 @pytest.mark.parametrize("extra, words", [(["--damping", "-0.1"], "damping ratio"), (["--damping", "nan"], "damping"),
                                           (["--design", "ec8:0.3:Z"], "ground type"),
                                           (["--design", "asce7:1:0.5:-3"], "T_L")])

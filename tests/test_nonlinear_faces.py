@@ -7,8 +7,6 @@ peak), the conservation of phase-space volume (|μ| = 1 for the undamped shaken 
 threshold a²Ω² = 2 g l_eq for the inverted one.
 """
 
-import contextlib
-import io
 import json
 import math
 import re
@@ -16,18 +14,11 @@ import re
 import numpy as np
 import pytest
 from conftest import MODELS
+from oracles import cli as run
 
 import vibdyn as vd
-from vibdyn.faces.cli import main
 
 matplotlib = pytest.importorskip("matplotlib")
-
-
-def run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in argv])
-    return code, out.getvalue(), err.getvalue()
 
 
 def assert_png(path, min_bytes=5000):

@@ -2,8 +2,6 @@
 path stays a path, an unknown name is refused listing the bundled ones; the packaging metadata (models as package data,
 version, license, changelog) agrees with the source tree. The wheel itself is checked by .ci/wheel-check."""
 
-import contextlib
-import io
 import os
 import shutil
 import subprocess
@@ -13,9 +11,9 @@ from pathlib import Path
 
 import pytest
 from conftest import MODELS, ROOT
+from oracles import cli as run
 
 import vibdyn as vd
-from vibdyn.faces.cli import main
 
 try:  # Python ≥ 3.11
     import tomllib
@@ -23,13 +21,6 @@ except ModuleNotFoundError:  # pragma: no cover
     import tomli as tomllib
 
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
-
-
-def run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
 
 
 def test_bundled_models_are_the_models_folder():

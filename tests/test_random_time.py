@@ -7,23 +7,14 @@ method: time integration of sample paths) within 3 sampling errors, ISO 8608's o
 Python result.
 """
 
-import contextlib
-import io
 import json
 import math
 
 import numpy as np
 import pytest
+from oracles import cli as run
 
 import vibdyn as vd
-from vibdyn.faces.cli import main
-
-
-def run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in argv])
-    return code, out.getvalue(), err.getvalue()
 
 
 def test_sample_is_gaussian_with_the_psd_variance_and_exact_derivatives():

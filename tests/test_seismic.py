@@ -3,20 +3,18 @@ SRSS and CQC by hand on a shear frame (numpy eigh of its M and K, Der Kiureghian
 record's spectrum against scipy's solve_ivp (extrema located by events), the exactness of the Nigam–Jennings step
 for a piecewise-linear input, the missing-mass correction's static limit, and the refusals."""
 
-import contextlib
-import io
 import json
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
 from conftest import MODELS
+from oracles import cli as _run
 from scipy.integrate import solve_ivp
 
 import vibdyn as vd
 from vibdyn.analysis.response.record_spectrum import _exponential_step, nigam_jennings
 from vibdyn.analysis.response.seismic import correlation
-from vibdyn.faces.cli import main
 
 M_BOOK = np.array([2000.0, 1500.0, 1000.0])
 K_BOOK = np.array([[1e6, -4e5, 0.0], [-4e5, 6e5, -2e5], [0.0, -2e5, 2e5]])
@@ -476,13 +474,6 @@ def test_response_spectrum_refusals(building):
 
 
 # ------------------------------------------------------------------ faces
-def _run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
-
-
 def test_cli_spectrum_file_and_record(tmp_path, building):
     T = np.linspace(0.0, 3.0, 301)
     table = tmp_path / "ec8.txt"
