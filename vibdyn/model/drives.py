@@ -81,9 +81,10 @@ class Drives:
                                      f"expected a finite number ({unit})")
         return out[0], out[1], out[2]
 
-    def impose(self, q, v, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Copies of (q, v) with the driven entries replaced by the laws' values at t."""
-        qd, vd, _ = self.values(t)
+    def impose(self, q, v, t: float, laws=None) -> tuple[np.ndarray, np.ndarray]:
+        """Copies of (q, v) with the driven entries replaced by the laws' values at t (``laws``: their (q_d, v_d,
+        a_d) there where the caller has them; None: asked)."""
+        qd, vd, _ = self.values(t) if laws is None else laws
         q, v = np.array(q, dtype=float), np.array(v, dtype=float)
         q[self.q_index], v[self.index] = qd, vd
         return q, v

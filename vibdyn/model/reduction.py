@@ -188,10 +188,11 @@ class Reduction:
     def impose(self, q, v, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Copies of (q, v) with the held coordinates set: the drives' laws at t (s), the held speeds (and
         configuration)."""
-        q, v = np.array(self._pose if self._pose is not None else q, dtype=float), np.array(v, dtype=float)
+        q = self._pose if self._pose is not None else q
         if self._drives is not None:
-            qd, vd, _ = self._laws(t)
-            q[self._drives.q_index], v[self._drives.index] = qd, vd
+            q, v = self._drives.impose(q, v, t, self._laws(t))
+        else:
+            q, v = np.array(q, dtype=float), np.array(v, dtype=float)
         for i, s in self.held_speeds.items():
             v[i] = s
         return q, v
