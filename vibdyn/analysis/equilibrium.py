@@ -461,20 +461,15 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
             step = step - left / (np.abs(left) / max_step).max()
         return _within_limits(system, what, b["q"], step.copy(), b["ind"][rest], tree_forces(x), unit, target)
 
+    # past tol on to round-off (refine): a linear model taken at a residual of tol carries K's change over the
+    # pose's error (K′ δq), which no estimate of its own sees (iftomm_a05's ω 7.7e-10 off, stated 4.8e-12)
     out = newton(rho, x0, jacobian, retract, tol=target, max_iter=max_iter, start=(b["f"][rows], J),
                  steps=Steps(max_step=max_step, expand=True, shape=shape_step, min_alpha=1e-3,
-                             on_no_decrease="accept", stall=1e3, polish=True))
+                             on_no_decrease="accept", stall=1e3, polish=True,
+                             refine=ROUND_OFF * nv * EPS * force_scale))
     if out.status == "diverged":
         raise ConvergenceError(f"{what} search diverged (non-finite forces)", residual=out.residual,
                                best=split(out.x)[0])
-    floor = ROUND_OFF * nv * EPS * force_scale
-    if out.status == "converged" and out.residual > floor:
-        # on to round-off: a linear model taken at a residual of tol carries K's change over the pose's error
-        # (K′ δq), which no estimate of its own sees (iftomm_a05's ω 7.7e-10 off, stated 4.8e-12)
-        more = newton(rho, out.x, jacobian, retract, tol=floor, max_iter=POLISH_ITER,
-                      steps=Steps(max_step=max_step, on_no_decrease="stop"))
-        if more.residual < out.residual:
-            out = replace(out, x=more.x, residual=more.residual, iterations=out.iterations + more.iterations)
     if out.status not in ("converged", "stagnated"):
         b = at(out.x)
         raise ConvergenceError(_not_converged(system, what, max_iter, out.residual, b["q"], tree_forces(out.x),
@@ -483,8 +478,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
     return found(out, target)
 
 
-ROUND_OFF = 8  # × nv ε × the forces' scale: the residual a search polishes to past its tol (round-off)
-POLISH_ITER = 3  # Newton steps (fresh Jacobians) it may take to get there
+ROUND_OFF = 8  # × nv ε × the forces' scale: the residual a search refines to past its tol (round-off)
 
 
 def _finish(point, N, ignore_zeros, start, travel=0.0):

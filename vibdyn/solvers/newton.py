@@ -58,7 +58,8 @@ class Steps:
     ``on_no_decrease`` "stop" ends the search, "accept" takes the shortest step tried and goes on (the best
     point is kept either way); ``stall``: a factor s, steps that no longer move x (round-off) end the search
     as "stagnated" once ‖F‖_∞ ≤ s·tol; ``polish``: after convergence, one more step with the last Jacobian,
-    kept if it lowers the residual."""
+    kept if it lowers the residual; ``refine``: a residual to go on to after convergence (round-off, below tol),
+    by at most :data:`REFINE_ITER` fresh Newton steps (capped by ``max_step``), kept where they lower it."""
 
     max_step: float | np.ndarray | None = None
     expand: bool = False
@@ -67,8 +68,10 @@ class Steps:
     on_no_decrease: str = "stop"
     stall: float | None = None
     polish: bool = False
+    refine: float | None = None
 
 
+REFINE_ITER = 3  # the fresh Newton steps ``Steps.refine`` may take past convergence
 PLAIN = Steps()  # full least-squares steps, no cap, the line search down to 1e-4, stopped where nothing decreases
 
 
@@ -159,6 +162,11 @@ def newton(fun: Callable, x0: np.ndarray, jacobian: Callable | None = None, retr
         res_p = float(np.abs(f_p).max(initial=0.0))
         if res_p < res:
             res, x = res_p, x_p
+    if steps.refine is not None and 0 < steps.refine < res <= tol:
+        more = newton(fun, x, jacobian, retract, tol=steps.refine, max_iter=REFINE_ITER, rcond=rcond,
+                      steps=Steps(max_step=max_step, on_no_decrease="stop"))
+        if more.residual < res:
+            res, x, it, evaluated = more.residual, more.x, it + more.iterations, evaluated + more.jacobians
     out = NewtonResult(x, res, it, res <= tol, "converged" if res <= tol else message, time.perf_counter() - began,
                        "converged" if res <= tol else status, evaluated)
     return out
