@@ -131,8 +131,10 @@ class LinearModel:
     def A(self):
         """State matrix of x = (δq, δv): ẋ = A x + B_state u (2nv × 2nv)."""
         n = self.nv
-        Minv_K, Minv_C = self.solve_mass(self.K), self.solve_mass(self.C)
-        return np.block([[np.zeros((n, n)), np.eye(n)], [-Minv_K, -Minv_C]])
+        A = np.zeros((2 * n, 2 * n))  # (in place, not np.block: the damped modes ask at every Campbell speed)
+        A[:n, n:] = np.eye(n)
+        A[n:, :n], A[n:, n:] = -self.solve_mass(self.K), -self.solve_mass(self.C)
+        return A
 
     def state_input(self, B: ArrayLike) -> np.ndarray:
         """State input matrix [[0], [M⁻¹ B]] for a generalized input matrix B (nv × m)."""

@@ -487,11 +487,8 @@ def _state_modes(lin):
     the absolute uncertainties (1/s) of all eigenvalues and of the modes': first-order perturbation
     |wᴴ δA v| / |wᴴ v| with δA from the error estimates of K and C (and the round-off of the eigensolver), w
     and v the left and right eigenvectors."""
-    n = lin.nv
+    A, n = lin.A, lin.nv
     M, Mi = lin.M, np.linalg.inv(lin.M)
-    A = np.zeros((2 * n, 2 * n))  # (lin.A, without np.block's cost: this runs at every speed of a Campbell diagram)
-    A[:n, n:] = np.eye(n)
-    A[n:, :n], A[n:, n:] = -lin.solve_mass(lin.K), -lin.solve_mass(lin.C)
     Minv = np.abs(Mi)
     E = np.zeros_like(A)
     E[n:, :n], E[n:, n:] = Minv @ lin.K_error, Minv @ lin.C_error
