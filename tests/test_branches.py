@@ -13,6 +13,7 @@ from test_assembly import rssr  # (the spatial linkage of that file)
 
 import vibdyn as vd
 from vibdyn.defaults import ASSEMBLY_TOL
+from vibdyn.model import assembly
 
 A, B, C, D = 0.1, 0.3, 0.25, 0.3  # the bundled four-bar: crank, coupler, rocker, ground (m)
 NEAREST = "the closure nearest the neutral configuration"
@@ -283,20 +284,10 @@ def watt_branches(theta, rotation):
     return out
 
 
-@pytest.mark.parametrize("rotation", [0.0, 0.5, 3.0])
-def test_a_watt_six_bar_drawn_open_is_not_called_nearest_unless_it_is(rotation):
-    """Two loops, four dependent coordinates: the Watt six-bar's assembly modes (four: the four-bar's two, each
-    with the dyad's two) are sampled by restarts, not enumerated, so its closure is not called the nearest,
-    and the note says why. Drawn with the crank turned 0, 0.5, 3.0 rad the assembly took closures at 2.04,
-    3.21, 4.13 and called them nearest where a hand mode closes at 1.65, 1.55, 2.47 (hand closure: the
-    four-bar's circle intersection, then the dyad's, on a fine grid of the crank's turn refined by a bounded
-    search on each mode). Now the closure is on a hand mode, never nearer than the hand nearest, and for these
-    drawings it is that one."""
-    system = watt(rotation).build()
-    a = system.constraints.assembly()
-    assert not a.nearest and a.where == "a closure found near the neutral configuration" and a.dof == 1
-    assert "not proven the nearest" in a.note and "sampled" in a.note
-    x = system.difference(system.neutral(), a.q)
+def watt_hand_nearest(rotation):
+    """Distance (dimensionless) of the hand closure nearest the described pose over the Watt six-bar's four
+    assembly modes: the four-bar's circle intersection, then the dyad's, on a fine grid of the crank's turn
+    refined by a bounded search on each mode."""
     grid = np.linspace(-np.pi, np.pi, 4001)
     best = np.inf
     for k in ((0, 0), (0, 1), (1, 0), (1, 1)):
@@ -309,10 +300,41 @@ def test_a_watt_six_bar_drawn_open_is_not_called_nearest_unless_it_is(rotation):
         r = minimize_scalar(distance, bounds=(grid[max(i - 1, 0)], grid[min(i + 1, 4000)]), method="bounded",
                             options={"xatol": 1e-12})
         best = min(best, float(r.fun))
-    gaps = [np.abs(wrap(x - h)).max() for h in watt_branches(x[0], rotation).values()]
-    assert min(gaps) <= 1e-9  # on a hand assembly mode
-    assert a.distance >= best - 1e-8
-    assert a.distance == pytest.approx(best, abs=1e-8)
+    return best
+
+
+def on_a_watt_mode(system, q, rotation):
+    """Whether q is on a hand assembly mode of the Watt six-bar (to 1e-9 rad)."""
+    x = system.difference(system.neutral(), q)
+    return min(np.abs(wrap(x - h)).max() for h in watt_branches(x[0], rotation).values()) <= 1e-9
+
+
+@pytest.mark.parametrize("rotation", [0.0, 0.5, 3.0])
+def test_a_watt_six_bar_drawn_open_assembles_at_the_nearest_of_its_four_modes(rotation):
+    """Two loops, four dependent coordinates: the Watt six-bar's assembly modes are four (the four-bar's two,
+    each with the dyad's two). Its loops are solved one after another (the four-bar's coordinates, then the
+    dyad's from each of its closures), so the modes are enumerated, not sampled, and the closure is called the
+    nearest. Drawn with the crank turned 0, 0.5, 3.0 rad the assembly once took closures at 2.04, 3.21, 4.13 and
+    called them nearest where a hand mode closes at 1.65, 1.55, 2.47; later it found the nearest but could not
+    prove it (26 sampled restarts of the four coordinates together). The closure is the hand nearest."""
+    system = watt(rotation).build()
+    a = system.constraints.assembly()
+    assert a.nearest and a.where == NEAREST and a.dof == 1 and "not proven" not in a.note
+    assert on_a_watt_mode(system, a.q, rotation)
+    assert a.distance == pytest.approx(watt_hand_nearest(rotation), abs=1e-8)
+
+
+def test_assembly_modes_sampled_not_enumerated_are_not_called_nearest(monkeypatch):
+    """Where the restarts of a block of dependent coordinates are sampled (more combinations than PARTNER_MAX:
+    forced here with PARTNER_MAX = 4 for the Watt six-bar's blocks of two), the closure is not called the nearest
+    and the note says why; it is on a hand assembly mode, no nearer than the hand nearest."""
+    monkeypatch.setattr(assembly, "PARTNER_MAX", 4)
+    system = watt(0.0).build()
+    a = system.constraints.assembly()
+    assert not a.nearest and a.where == "a closure found near the neutral configuration" and a.dof == 1
+    assert "not proven the nearest" in a.note and "sampled (4 restarts" in a.note
+    assert on_a_watt_mode(system, a.q, 0.0)
+    assert a.distance >= watt_hand_nearest(0.0) - 1e-8
 
 
 @pytest.mark.parametrize("ground", [0.649, 0.6499])

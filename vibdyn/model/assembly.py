@@ -5,9 +5,10 @@ Distance: the dimensionless tangent-space norm |x| of x = difference(q_d, q) / s
 scale for translations), each periodic angle (pivots, the angles of cylindrical and universal joints) taken
 within π of the described one (q and q ± 2π are one pose: the shorter way round counts).
 
-1. Trust-region least squares (scipy's ``least_squares``) on the dimensionless loop residual Φ in the chart
-   q(x) = integrate(q_d, s·x) at the described pose q_d, polished to round-off by the loops' Gauss–Newton
-   (:meth:`Constraints.assemble`).
+1. The loops' Gauss–Newton (:meth:`Constraints.assemble`) from the described pose q_d; where it does not
+   close them (or closes them beyond the limits), trust-region least squares (scipy's ``least_squares``) on
+   the dimensionless loop residual Φ in the chart q(x) = integrate(q_d, s·x), polished to round-off by the
+   same Gauss–Newton.
 2. Where that fails (a linkage laid flat is a stationary point of |Φ|²), restarts from perturbed poses:
    ±r along each coordinate for each r of :data:`RESTART_RADII`, then seeded random poses; the first round
    that closes the loops ends the search.
@@ -20,12 +21,14 @@ within π of the described one (q and q ± 2π are one pose: the shorter way rou
    by arclength continuation until it comes back to its start (a closed curve, traced whole), the local
    minima of its distance are slid to the nearest, and at points along it the other assembly modes (the
    other closures with the same independent coordinates: a four-bar's mirror-image coupler and rocker) are
-   sought by Gauss–Newton restarts of the dependent coordinates and traced in turn. The nearest of all is
-   taken, and called "the closure nearest the neutral configuration" (``Assembly.nearest``) only when every
-   branch met was traced whole, each search for the other modes tried its whole grid of restarts (up to
-   three dependent coordinates: :func:`_partners`) and no slide ended beyond a limit; otherwise (mobility 2
-   or more: surfaces, not traced; a branch cut by a singular position; modes sampled, not enumerated, with
-   more dependent coordinates) it is "a closure found near the neutral configuration",
+   sought by Gauss–Newton restarts of the dependent coordinates, loop block by loop block where the loops can
+   be solved one after another (a Watt six-bar's four-bar, then its dyad from each of the four-bar's
+   closures), and traced in turn. The nearest of all is taken, and called "the closure nearest the neutral
+   configuration" (``Assembly.nearest``) only when every branch met was traced whole, each search for the
+   other modes tried its whole grid of restarts (up to three dependent coordinates a block: :func:`_partners`)
+   and no slide ended beyond a limit; otherwise (mobility 2 or more: surfaces, not traced; a branch cut by a
+   singular position; modes sampled, not enumerated, with more dependent coordinates solved together) it is
+   "a closure found near the neutral configuration",
    the nearest of those compared, and ``.note`` says why it is not proven. Ties (the mirror images of a
    symmetric description) go to the closure whose first differing coordinate is larger, and are noted.
 4. A closure that is isolated (the loops close only there: links whose lengths add up, stretched flat) locks
@@ -66,6 +69,7 @@ PARTNER_ITER, PARTNER_OPEN = (4, 6), 1e-2  # Newton iterations of a restart, the
 KNOWN_STEP, KNOWN_GAP = 1e-2, 1e-3  # a restart's Newton step and gap below which it is taken to converge to the
 # closure it is beside (quadratic convergence: it ends within about the step² of where it is)
 MAX_BRANCHES = 16  # branches traced before the search gives up proving the nearest
+MAX_BLOCK_LOOPS = 8  # more loops than this: their dependent coordinates are one block (:func:`_blocks`)
 WHERE = "the closure nearest the neutral configuration"
 WHERE_FOUND = "a closure found near the neutral configuration"  # (the nearest of those found, not proven)
 
@@ -167,16 +171,17 @@ def _tangent(c, J, previous):
     return -t if previous is not None and t @ previous < 0 else t
 
 
-def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), known=None):
+def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), known=None, loops=None):
     """(q, Φ_q, corrections) of the closure reached from q by Gauss–Newton (minimum-norm dimensionless steps of
     all coordinates, or of ``dep`` only, each halved until |Φ| decreases), Φ and Φ_q from one evaluation per
-    point; ``corrections`` the sizes of the steps taken. None where |Φ| stays above ASSEMBLY_TOL after
-    ``iterations``, stops decreasing, or is above give_up[1] after give_up[0] iterations; None too where a step
-    below KNOWN_STEP lands within KNOWN_GAP of one of the closures ``known`` (an array, one a row: it converges to
-    that one, already known)."""
-    model, cs, rs = c.model, c.col_scale, c.row_scale
+    point, of the ``loops`` (indices; None: all, and Φ_q is then the whole Jacobian); ``corrections`` the sizes
+    of the steps taken. None where |Φ| stays above ASSEMBLY_TOL after ``iterations``, stops decreasing, or is
+    above give_up[1] after give_up[0] iterations; None too where a step below KNOWN_STEP lands within KNOWN_GAP
+    of one of the closures ``known`` (an array, one a row: it converges to that one, already known)."""
+    model, cs = c.model, c.col_scale
+    rs = c.row_scale if loops is None else c.row_scale[_rows(c, loops)]
     cols = slice(None) if dep is None else dep
-    phi, J = c.evaluate(q)
+    phi, J = c.evaluate(q, loops=loops)
     r = rs * phi
     steps = []
     for k in range(iterations + 1):
@@ -191,7 +196,7 @@ def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), 
         while True:
             q1 = pin.integrate(model, q, cs * (alpha * dx))
             with np.errstate(over="ignore", invalid="ignore"):
-                phi1, J1 = c.evaluate(q1)
+                phi1, J1 = c.evaluate(q1, loops=loops)
             r1 = rs * phi1
             if float(r1 @ r1) <= (1 - 1e-4 * alpha) * norm0:
                 break
@@ -261,40 +266,119 @@ def _on_branch(c, p, S, steps):
     return False
 
 
+def _rows(c, loops):
+    """Indices of the equations of the ``loops`` (indices), in order."""
+    ends = np.cumsum((0,) + tuple(c.sizes))
+    return np.concatenate([np.arange(ends[i], ends[i + 1]) for i in loops])
+
+
+def _blocks(c, J, used, dep):
+    """[(loops, columns)]: the dependent coordinates ``dep`` of a closure where Φ_q is J in blocks solved one
+    after another, each the fewest loops whose new coordinates (those their equations use, ``used``: rows ×
+    coordinates, not solved by an earlier block) their equations fix (Φ_q on them of full column rank), with
+    every other loop then closed by what is solved; one block of every loop where no such order exists (or more
+    than MAX_BLOCK_LOOPS loops). The equations of a block use no coordinate of a later one: its closures, then
+    each later block's from each of them, are every closure with the same independent coordinates."""
+    n = len(c.sizes)
+    if n > MAX_BLOCK_LOOPS:
+        return [(tuple(range(n)), dep)]
+    uses = [set(dep[used[_rows(c, (i,))][:, dep].any(axis=0)]) for i in range(n)]
+    solved, left, out = set(), list(range(n)), []
+    while left:
+        for group in itertools.chain.from_iterable(itertools.combinations(left, k) for k in range(1, len(left) + 1)):
+            new = set().union(*(uses[i] for i in group)) - solved
+            loops = tuple(i for i in left if i in group or uses[i] <= solved | new)
+            cols = np.array(sorted(new), dtype=int)
+            if cols.size and _full_rank(c, J, _rows(c, loops), cols):
+                break
+        else:
+            return [(tuple(range(n)), dep)]
+        out.append((loops, cols))
+        solved |= new
+        left = [i for i in left if i not in loops]
+    return out
+
+
+def _full_rank(c, J, rows, cols):
+    """Whether Φ_q's ``rows`` have full column rank on ``cols`` (dimensionless, singular values above RANK_RTOL of
+    the largest)."""
+    s = np.linalg.svd(c.row_scale[rows, None] * J[rows][:, cols] * c.col_scale[None, cols], compute_uv=False)
+    return s.size >= cols.size and s[cols.size - 1] > RANK_RTOL * s[0]
+
+
+def _fibres(c, q):
+    """The blocks (:func:`_blocks`) of the dependent coordinates at the closure q: those of the independent ones
+    QR with column pivoting keeps (:meth:`Constraints.partition`) or, with mobility 1 where those leave a block
+    of more than two, of the coordinate whose largest block is smallest (the fewest coordinates restarted
+    together). A loop uses the coordinates with a nonzero column in Φ_q at q or at two poses near it (the ones
+    its ends move with: structural zeros are exact)."""
+    model, cs, nv = c.model, c.col_scale, c.nv
+    J = c.jacobian(q)
+    ind, _ = c.partition(J)
+    dep = np.setdiff1d(np.arange(nv), ind)
+    if len(c.sizes) == 1 or dep.size <= 2:  # (one block, or blocks no smaller than the grid of the whole)
+        return [(tuple(range(len(c.sizes))), dep)]
+    rng = np.random.default_rng(0)
+    used = sum(np.abs(c.jacobian(p)) for p in
+               [pin.integrate(model, q, cs * rng.standard_normal(nv)) for _ in range(2)]) + np.abs(J) > 0
+    tried = [ind] + ([np.array([k]) for k in range(nv) if k != ind[0]] if ind.size == 1 else [])
+    best = None
+    for ind in tried:
+        dep = np.setdiff1d(np.arange(nv), ind)
+        if best is not None and not _full_rank(c, J, np.arange(c.m), dep):
+            continue
+        blocks = _blocks(c, J, used, dep)
+        size = max(cols.size for _, cols in blocks)
+        if best is None or size < best[0]:
+            best = (size, blocks)
+        if best[0] <= 2:
+            break
+    return best[1]
+
+
+def _grid(c, cols):
+    """(restarts, complete) of the coordinates ``cols``: each moved by 0, ±2π/3 (angles) or 0, ±1 × the length
+    scale (others), every combination but all 0 where there are at most PARTNER_MAX, else each coordinate moved
+    alone and a seeded sample of the other combinations up to PARTNER_MAX (``complete`` False)."""
+    choices = [(0.0, 2 * np.pi / 3, -2 * np.pi / 3) if c.units[i] == "rad" else (0.0, 1.0, -1.0) for i in cols]
+    combos = list(itertools.islice(itertools.product(*choices), 1, None))
+    if len(combos) <= PARTNER_MAX:
+        return combos, True
+    singles = [x for x in combos if np.count_nonzero(x) == 1]
+    others = [x for x in combos if np.count_nonzero(x) > 1]
+    pick = np.random.default_rng(0).choice(len(others), max(PARTNER_MAX - len(singles), 0), replace=False)
+    return singles + [others[i] for i in np.sort(pick)], False
+
+
 def _partners(c, q, qd):
     """(closures, complete): the other closures with q's independent coordinates (the other assembly modes
-    there: the mirror image of a four-bar's coupler and rocker about the line they span): Gauss–Newton on the
-    dependent coordinates (:func:`_correct`) from q's moved by 0, ±2π/3 (angles) or 0, ±1 × the
-    length scale (others) each: every combination but q's own where there are at most PARTNER_MAX, else each
-    coordinate moved alone and a seeded sample of the other combinations up to PARTNER_MAX (``complete``
-    False: sampled, not the whole grid). A restart still open by PARTNER_OPEN after PARTNER_ITER[0] iterations
-    is dropped (it is not converging), as is one beside q or a closure it found already."""
+    there: the mirror image of a four-bar's coupler and rocker about the line they span), block by block of the
+    dependent coordinates (:func:`_blocks`): from each closure of the blocks before, Gauss–Newton on the block's
+    coordinates and equations (:func:`_correct`) from each restart of its grid (:func:`_grid`; ``complete`` False
+    where one is sampled). A restart still open by PARTNER_OPEN after PARTNER_ITER[0] iterations is dropped (it is
+    not converging), as is one beside the closure it started from or one it found already."""
     model, cs, nv = c.model, c.col_scale, c.nv
-    ind, _ = c.partition(c.jacobian(q))
-    dep = np.setdiff1d(np.arange(nv), ind)
-    choices = [(0.0, 2 * np.pi / 3, -2 * np.pi / 3) if c.units[i] == "rad" else (0.0, 1.0, -1.0)
-               for i in dep]
-    combos = list(itertools.islice(itertools.product(*choices), 1, None))
-    complete = len(combos) <= PARTNER_MAX
-    if not complete:
-        singles = [x for x in combos if np.count_nonzero(x) == 1]
-        others = [x for x in combos if np.count_nonzero(x) > 1]
-        n = max(PARTNER_MAX - len(singles), 0)
-        pick = np.random.default_rng(0).choice(len(others), n, replace=False)
-        combos = singles + [others[i] for i in np.sort(pick)]
-    out = []
-    for combo in combos:
-        x = np.zeros(nv)
-        x[dep] = combo
-        # (a few iterations first: most restarts that fail are far off by then)
-        closed = _correct(c, pin.integrate(model, q, cs * x), dep, sum(PARTNER_ITER), (PARTNER_ITER[0], PARTNER_OPEN),
-                          np.array([q] + out))
-        if closed is None:
-            continue
-        q1 = c.within_pi(closed[0], qd)
-        if _gap(c, q, q1) > SAME and all(_gap(c, o, q1) > SAME for o in out):
-            out.append(q1)
-    return out, complete
+    partial, complete = [q], True
+    for loops, cols in _fibres(c, q):
+        combos, whole = _grid(c, cols)
+        complete = complete and whole
+        reached = []
+        for p in partial:
+            found: list = []
+            for combo in [np.zeros(cols.size)] + combos:  # (p's own first: it closes the block's loops from q's)
+                x = np.zeros(nv)
+                x[cols] = combo
+                # (a few iterations first: most restarts that fail are far off by then)
+                closed = _correct(c, pin.integrate(model, p, cs * x), cols, sum(PARTNER_ITER),
+                                  (PARTNER_ITER[0], PARTNER_OPEN), np.array(found) if found else None, loops)
+                if closed is None:
+                    continue
+                q1 = c.within_pi(closed[0], qd)
+                if all(_gap(c, o, q1) > SAME for o in found):
+                    found.append(q1)
+            reached += found
+        partial = reached
+    return [p for p in partial if _gap(c, q, p) > SAME], complete
 
 
 def _local_minima(d, whole):
@@ -406,10 +490,13 @@ def _compared(c, qd, closures, system):
 
 def _closures(c, qd, system):
     """(closures found within the limits, starts tried, (best open residual, its q), why the first closure
-    beyond the limits is): least squares from the described pose, then from each round of perturbed poses
-    until one closes the loops within the limits."""
+    beyond the limits is): Gauss–Newton from the described pose, else least squares from it, then from each
+    round of perturbed poses until one closes the loops within the limits."""
     from scipy.optimize import least_squares
 
+    q = _close(c, qd, qd)
+    if q is not None and not _beyond(system, q):
+        return [q], 1, (0.0, q), ""
     at, fun, jac = _chart(c, qd)
     found, tried, best, beyond = [], 0, (np.inf, qd), ""
     for starts in _rounds(c.nv):

@@ -160,11 +160,11 @@ class Constraints:
                     continue
                 oMi = data.oMi[jid]
                 R = oMi.rotation
-                e.p, e.R = oMi.act(r), R @ Rl
-                if jacobians:
-                    J = pin.getJointJacobian(model, data, jid, pin.LOCAL).reshape(6, nv)
-                    e.Jv = R @ (J[:3] - pin.skew(r) @ J[3:])
-                    e.Jw = R @ J[3:]
+                Rr = R @ r
+                e.p, e.R = oMi.translation + Rr, R @ Rl
+                if jacobians:  # (as the hot path's: :meth:`_equations`)
+                    J = pin.getJointJacobian(model, data, jid, pin.LOCAL_WORLD_ALIGNED).reshape(6, nv)
+                    e.Jv, e.Jw = J[:3] - pin.skew(Rr) @ J[3:], J[3:]
                 if v is not None:
                     vel, acc = data.v[jid], data.a[jid]  # LOCAL: d/dt of the local components
                     w, dw = vel.angular, acc.angular
@@ -175,13 +175,13 @@ class Constraints:
             out.append(fr)
         return out
 
-    def evaluate(self, q, jacobian=True, wrenches=False):
-        """(Φ (m,), Φ_q (m × nv) or None) at q: positions in m, orientations in rad. With ``wrenches``, also
-        per loop the coefficient matrices (C_a, C_b) (rows × 6) with Φ_q = C_a J_a + C_b J_b, J the
-        LOCAL_WORLD_ALIGNED Jacobians (linear; angular) of the loop frames: the wrench (force N; torque N·m,
-        world axes, at the loop point) that multipliers λ exert on end a is C_aᵀ λ, on end b C_bᵀ λ."""
+    def evaluate(self, q, jacobian=True, wrenches=False, loops=None):
+        """(Φ (m,), Φ_q (m × nv) or None) at q: positions in m, orientations in rad; ``loops`` (indices): their
+        rows only. With ``wrenches`` (every loop), also per loop the coefficient matrices (C_a, C_b) (rows × 6)
+        with Φ_q = C_a J_a + C_b J_b, J the LOCAL_WORLD_ALIGNED Jacobians (linear; angular) of the loop frames:
+        the wrench (N; N·m, world axes, at the loop point) multipliers λ exert on end a is C_aᵀ λ, on b C_bᵀ λ."""
         if not wrenches:
-            return self._equations(q, jacobian)
+            return self._equations(q, jacobian, range(len(self.loops)) if loops is None else loops)
         phis, jacs, coeffs = [], [], []
         for lp, (normals, pairs), (a, b) in zip(self.loops, self._axes, self._frames(q, jacobian)):
             kinds = lp.joint.loop_rows
@@ -218,21 +218,21 @@ class Constraints:
         J = (np.vstack(jacs) if jacs else np.zeros((0, nv))) if jacobian else None
         return (phi, J, coeffs) if wrenches else (phi, J)
 
-    def _equations(self, q, jacobian):
-        """(Φ, Φ_q or None) of :meth:`evaluate`, each row written out from the ends' frames into one array (no
-        coefficient matrices: the hot path of every closure, search and step)."""
+    def _equations(self, q, jacobian, loops):
+        """(Φ, Φ_q or None) of :meth:`evaluate` for the ``loops`` (indices), each row written out from the ends'
+        frames into one array (no coefficient matrices: the hot path of every closure, search and step)."""
         model, data = self.model, self.data
         if jacobian:
             pin.computeJointJacobians(model, data, q)
         else:
             pin.forwardKinematics(model, data, q)
-        nv, local = model.nv, pin.LOCAL
-        phi = np.empty(self.m)
-        J = np.empty((self.m, nv)) if jacobian else None
+        nv, aligned, m = model.nv, pin.LOCAL_WORLD_ALIGNED, sum(self.sizes[i] for i in loops)
+        phi = np.empty(m)
+        J = np.empty((m, nv)) if jacobian else None
         zero, k = None, 0
-        for lp, (normals, pairs), ends in zip(self.loops, self._axes, self._ends):
-            frames = []
-            for jid, r, Rl in ends:
+        for i in loops:
+            (normals, pairs), kinds, frames = self._axes[i], self.loops[i].joint.loop_rows, []
+            for jid, r, Rl in self._ends[i]:
                 if jid == 0:
                     if jacobian and zero is None:
                         zero = np.zeros((3, nv))
@@ -240,13 +240,13 @@ class Constraints:
                     continue
                 oMi = data.oMi[jid]
                 R = oMi.rotation
+                Rr = R @ r
                 if jacobian:
-                    Jl = pin.getJointJacobian(model, data, jid, local)
-                    frames.append((oMi.act(r), R @ Rl, R @ (Jl[:3] - pin.skew(r) @ Jl[3:]), R @ Jl[3:]))
+                    Jo = pin.getJointJacobian(model, data, jid, aligned)  # (world axes, at the joint's origin)
+                    frames.append((oMi.translation + Rr, R @ Rl, Jo[:3] - pin.skew(Rr) @ Jo[3:], Jo[3:]))
                 else:
-                    frames.append((oMi.act(r), R @ Rl, None, None))
+                    frames.append((oMi.translation + Rr, R @ Rl, None, None))
             (pa, Ra, Jva, Jwa), (pb, Rb, Jvb, Jwb) = frames
-            kinds = lp.joint.loop_rows
             e = pb - pa
             de = Jvb - Jva if jacobian else None
             if "position" in kinds:
