@@ -39,6 +39,7 @@ within π of the described one (q and q ± 2π are one pose: the shorter way rou
    moves increasing.
 """
 
+import functools
 import itertools
 import time
 from dataclasses import dataclass, field
@@ -191,7 +192,7 @@ def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), 
         if k == iterations or not np.isfinite(res) or (k >= give_up[0] and res > give_up[1]):
             return None
         dx = np.zeros(c.nv)
-        dx[cols] = np.linalg.lstsq(rs[:, None] * J[:, cols] * cs[None, cols], -r, rcond=RANK_RTOL)[0]
+        dx[cols] = _min_norm(rs[:, None] * J[:, cols] * cs[None, cols], -r)
         norm0, alpha = float(r @ r), 1.0
         while True:
             q1 = pin.integrate(model, q, cs * (alpha * dx))
@@ -210,18 +211,31 @@ def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), 
     return None
 
 
+def _min_norm(A, b):
+    """The minimum-norm least-squares x of A x ≈ b on A's rank (LAPACK's complete orthogonal factorisation,
+    gelsy, rank to RANK_RTOL: numpy's lstsq, an SVD, costs several times more on these small systems)."""
+    from scipy.linalg import lapack  # (on first use: not at `import vibdyn`)
+
+    m, n = A.shape
+    B = np.zeros((max(m, n), 1))
+    B[:m, 0] = b
+    x = lapack.dgelsy(A, B, np.zeros(n, dtype=np.int32), RANK_RTOL, max(4 * n + 1, 2 * min(m, n) + 64))[1]
+    return x[:n, 0]
+
+
 def _trace(c, q0, qd):
     """(samples, tangents, whole) of the branch through the closure q0 of a one-mobility mechanism: arclength
-    steps along the motion from TRACE_STEP up to TRACE_MAX_STEP (dimensionless), each closed again by
-    Gauss–Newton (:func:`_correct`; halved down to TRACE_MIN_STEP where the corrector fails, moves more than half
-    the step, contracts slowly, jumps or turns back); ``whole`` when the trace comes back to q0 (the branch is a
-    closed curve, traced whole), False where it stops (a singular position, a step that cannot be closed on it,
-    TRACE_MAX samples)."""
+    steps along the motion (second-order predictions) from TRACE_STEP up to TRACE_MAX_STEP (dimensionless), each
+    closed again by Gauss–Newton (:func:`_correct`; halved down to TRACE_MIN_STEP where the corrector fails, moves
+    more than half the step, contracts slowly, jumps or turns back); ``whole`` when the trace comes back to q0 (the
+    branch is a closed curve, traced whole), False where it stops (a singular position, a step that cannot be closed
+    on it, TRACE_MAX samples)."""
     model, cs = c.model, c.col_scale
     t = _tangent(c, c.jacobian(q0), None)
-    samples, tangents, q, h = [q0], [t], q0, TRACE_STEP
+    samples, tangents, q, h, bend = [q0], [t], q0, TRACE_STEP, 0.0
     while t is not None and len(samples) < TRACE_MAX:
-        out = _correct(c, pin.integrate(model, q, cs * (h * t)))
+        # (second order: the tangent's turn per unit length over the last step, the corrector's work then O(h³))
+        out = _correct(c, pin.integrate(model, q, cs * (h * t + 0.5 * h * h * bend)))
         t1 = None if out is None else _tangent(c, out[1], t)
         if t1 is not None:
             q1, _, steps = out
@@ -238,38 +252,44 @@ def _trace(c, q0, qd):
         samples.append(q1)
         tangents.append(t1)
         grow = len(steps) <= 4 and t1 @ t >= 0.9
-        q, t, h = q1, t1, min(TRACE_MAX_STEP, 1.5 * h) if grow else h
+        q, t, h, bend = q1, t1, min(TRACE_MAX_STEP, 1.5 * h) if grow else h, (t1 - t) / h
     return samples, tangents, False
 
 
-def _on_branch(c, p, S, steps):
+def _on_branch(c, p, S, steps, T):
     """Whether the closure p lies on the traced branch of samples S (``steps``: the chord from each sample to
-    the next): near a sample (within 0.6 of its longer chord), and reached from it along the motion by steps of
-    p's offset projected on the tangent, each closed again (:func:`_correct`), until the offset is below SAME or
-    its projection is (p is then beside the branch, not on it)."""
+    the next; T: the unit tangents there): near a sample (within 0.6 of its longer chord), and reached from it
+    along the motion by steps of p's offset projected on the tangent, each closed again (:func:`_correct`), until
+    the offset is below SAME or its projection is (p is then beside the branch, not on it)."""
     d = _gaps(c, p, S)
     i = int(np.argmin(d))
     if d[i] > 0.6 * max(steps[i], steps[i - 1]):
         return False
-    q, J = S[i], c.jacobian(S[i])
+    q, t = S[i], T[i]
     for _ in range(CORRECT_ITER):
         x = _offsets(c, q, c.within_pi(p.copy(), q))
         if np.linalg.norm(x) <= SAME:
             return True
-        t = _tangent(c, J, None)
         if t is None or abs(x @ t) <= SAME:
             return False
         out = _correct(c, pin.integrate(c.model, q, c.col_scale * ((x @ t) * t)))
         if out is None:
             return False
-        q, J, _ = out
+        q, t = out[0], _tangent(c, out[1], None)
     return False
 
 
 def _rows(c, loops):
     """Indices of the equations of the ``loops`` (indices), in order."""
-    ends = np.cumsum((0,) + tuple(c.sizes))
-    return np.concatenate([np.arange(ends[i], ends[i + 1]) for i in loops])
+    return _rows_of(tuple(c.sizes), tuple(loops))
+
+
+@functools.lru_cache(maxsize=256)
+def _rows_of(sizes, loops):
+    ends = np.cumsum((0,) + sizes)
+    out = np.concatenate([np.arange(ends[i], ends[i + 1]) for i in loops])
+    out.flags.writeable = False
+    return out
 
 
 def _blocks(c, J, used, dep):
@@ -410,7 +430,7 @@ def _branches(c, qd, seeds):
         whole = whole and closed
         S = np.array(samples)
         ends = samples[1:] + (samples[:1] if closed else [samples[-1]])
-        branches.append((S, [_gap(c, p, r) for p, r in zip(samples, ends)]))
+        branches.append((S, [_gap(c, p, r) for p, r in zip(samples, ends)], tangents))
         mins = _local_minima(_gaps(c, qd, S), closed)
         candidates += [samples[i] for i in mins]
         met = [p for p, _ in queue if _on_branch(c, p, *branches[-1])]  # (searched there: not queued again)

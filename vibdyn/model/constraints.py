@@ -82,7 +82,7 @@ class Constraints:
                     ends.append((info.joint_id, B.act(np.array(point)), B.rotation.copy()))
             self._ends.append(ends)
             self._axes.append((lp.joint.loop_normals(), lp.joint.loop_alignments()))
-        self.sizes = tuple(lp.equations for lp in self.loops)
+        self.sizes, self._every = tuple(lp.equations for lp in self.loops), tuple(range(len(self.loops)))
         self.m = sum(self.sizes)
         L = system.length_scale
         # dimensionless scaling: position rows / L, translation columns × L
@@ -181,7 +181,7 @@ class Constraints:
         with Φ_q = C_a J_a + C_b J_b, J the LOCAL_WORLD_ALIGNED Jacobians (linear; angular) of the loop frames:
         the wrench (N; N·m, world axes, at the loop point) multipliers λ exert on end a is C_aᵀ λ, on b C_bᵀ λ."""
         if not wrenches:
-            return self._equations(q, jacobian, range(len(self.loops)) if loops is None else loops)
+            return self._equations(q, jacobian, self._every if loops is None else loops)
         phis, jacs, coeffs = [], [], []
         for lp, (normals, pairs), (a, b) in zip(self.loops, self._axes, self._frames(q, jacobian)):
             kinds = lp.joint.loop_rows
@@ -226,10 +226,9 @@ class Constraints:
             pin.computeJointJacobians(model, data, q)
         else:
             pin.forwardKinematics(model, data, q)
-        nv, aligned, m = model.nv, pin.LOCAL_WORLD_ALIGNED, sum(self.sizes[i] for i in loops)
-        phi = np.empty(m)
-        J = np.empty((m, nv)) if jacobian else None
-        zero, k = None, 0
+        nv, aligned, m = model.nv, pin.LOCAL_WORLD_ALIGNED, self.m if loops is self._every else sum(
+            self.sizes[i] for i in loops)
+        phi, J, zero, k = np.empty(m), np.empty((m, nv)) if jacobian else None, None, 0
         for i in loops:
             (normals, pairs), kinds, frames = self._axes[i], self.loops[i].joint.loop_rows, []
             for jid, r, Rl in self._ends[i]:
