@@ -8,6 +8,7 @@ each point's truncation estimate from the 2H + 1 balance. Units: SI; X the coeff
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -315,8 +316,8 @@ class Balance:
         a = X.reshape(2 * self.H + 1, self.n)[:, c]
         k = np.arange(1, self.H + 1)
         ac, as_ = a[1::2], a[2::2]
-        grid = np.linspace(0, 2 * np.pi, max(64, 16 * (2 * self.H + 1)), endpoint=False)
-        vals = fourier_basis(grid, self.H)[0] @ a
+        grid, E = sampled_basis(self.H)
+        vals = E @ a
         j = int(np.argmax(np.abs(vals)))
         tau, best = grid[j], abs(vals[j])
         for _ in range(8):
@@ -346,8 +347,7 @@ class Balance:
                 + np.einsum("jpi,ji->jp", np.abs(M), np.abs(xdd)) + np.abs(r) + static + self.scale)
         rounding = EPS * (np.abs(self.P) @ size).ravel() / self.scale
         R = np.abs(self.residual(X, omega))
-        grid = np.linspace(0, 2 * np.pi, max(64, 16 * m), endpoint=False)
-        E = fourier_basis(grid, self.H)[0]
+        E = sampled_basis(self.H)[1]
         x_c = E @ X.reshape(m, self.n)[:, c]
         j = int(np.argmax(np.abs(x_c)))
         g = np.zeros(X.size)
@@ -392,18 +392,21 @@ class Balance:
         K, C, M = (doubled(a) for a in self.derivatives(X, omega)[3:])
         A = np.vstack([big.jacobian(X2, omega, (xd, xdd, r, K, C, M)), t2])
         R2 = big.residual(X2, omega)
-        dY = np.linalg.lstsq(A, np.append(-R2, 0.0), rcond=None)[0]
+        b = np.append(-R2, 0.0)
+        if at_omega:  # (the harmonics up to H carry this balance's own residual: the precision's, not truncation)
+            R2[:X.size] = 0.0
+            b = np.column_stack([b, np.append(-R2, 0.0)])  # (both steps from one factorisation of A)
+        Y = np.linalg.lstsq(A, b, rcond=None)[0]
+        dY = Y if Y.ndim == 1 else Y[:, 0]
         dX = dY[:-1]
-        grid = np.linspace(0, 2 * np.pi, max(64, 8 * (2 * big.H + 1)), endpoint=False)
-        E = fourier_basis(grid, big.H)[0]
+        E = sampled_basis(big.H, 8)[1]
 
         def largest(d):  # largest displacement of coordinate c over a period (m or rad)
             return float(np.max(np.abs(E @ d.reshape(2 * big.H + 1, self.n)[:, c])))
 
         error = largest(dX)
-        if at_omega:  # (the harmonics up to H carry this balance's own residual: the precision's, not truncation)
-            R2[:X.size] = 0.0
-            error = largest(np.linalg.lstsq(A, np.append(-R2, 0.0), rcond=None)[0][:-1])
+        if at_omega:
+            error = largest(Y[:-1, 1])
             try:
                 error = max(error, largest(np.linalg.solve(A[:-1, :-1], -R2)))
             except np.linalg.LinAlgError:
@@ -423,6 +426,16 @@ def fourier_basis(tau, H):
     E1[:, 1::2], E1[:, 2::2] = -k * s, k * c
     E2[:, 1::2], E2[:, 2::2] = -k**2 * c, -k**2 * s
     return E, E1, E2
+
+
+@functools.lru_cache(maxsize=64)
+def sampled_basis(H, per=16):
+    """(τ, E): max(64, per·(2H + 1)) uniform samples τ of a period (rad) and the Fourier basis E there (columns 1,
+    cos τ, sin τ, …, cos Hτ, sin Hτ), made once per (H, per) and shared (read-only)."""
+    tau = np.linspace(0, 2 * np.pi, max(64, per * (2 * H + 1)), endpoint=False)
+    E = fourier_basis(tau, H)[0]
+    tau.flags.writeable = E.flags.writeable = False
+    return tau, E
 
 
 def doubled(A):

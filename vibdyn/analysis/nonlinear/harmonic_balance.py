@@ -45,7 +45,7 @@ from ...solvers.continuation import Arclength, continuation
 from ...solvers.differences import second_derivative
 from ...solvers.newton import newton
 from ..equilibrium import static_configuration
-from .balance import Balance, Excitation, PointForce, SupportMotion, embed, fourier_basis
+from .balance import Balance, Excitation, PointForce, SupportMotion, embed, sampled_basis
 
 __all__ = ["forced_response_curve", "ForcedResponseCurve", "ResponseFold", "ResponsePeak", "PointForce",
            "SupportMotion"]
@@ -434,8 +434,7 @@ def _amplitude_precision(bal, y, t, c, A, residual):
     residual ‖R‖_∞ carried to A = |x_c(τ*)| through the bordered Jacobian (|gᵀ [J; t]⁻¹|₁ ‖R‖), plus A's
     rounding."""
     H, n = bal.H, bal.n
-    grid = np.linspace(0, 2 * np.pi, max(64, 16 * (2 * H + 1)), endpoint=False)
-    E = fourier_basis(grid, H)[0]
+    E = sampled_basis(H)[1]
     x_c = E @ y[:-1].reshape(2 * H + 1, n)[:, c]
     j = int(np.argmax(np.abs(x_c)))
     g = np.zeros(y.size)
