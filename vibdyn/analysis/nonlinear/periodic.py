@@ -275,12 +275,15 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
     if period is not None:
         check_span(system, q_start, v_start, t0, free, period, autonomous, what)
     omega = 2 * math.pi / period if period is not None else _omega_guess(system, q_start, v_start, t0, free)
+    returned = None
     if autonomous and period is None:
-        period = first_return(system, q_start, v_start, t0, omega, rtol)
+        period, returned = first_return(system, q_start, v_start, t0, omega, rtol)
         omega = 2 * math.pi / period
     assert period is not None  # (given, or found from the first return)
     cons = autonomous and conservative(system)
     nodes = Shooting.impose(system, nodes, t0, period)
+    if returned is not None and not (np.array_equal(nodes[0][0], q_start) and np.array_equal(nodes[0][1], v_start)):
+        returned = None  # (a run from another start)
     q_start, v_start = nodes[0]
     # a first run over the first segment: the coordinates' scales, the energy scale and (one node) the growth
     k = len(nodes)
@@ -289,9 +292,12 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
     span = period * (1 if k == 1 else 1.0 / k)
     try:
         if first is None or k != 1:
-            # the flows' tolerances are rtol of the motion's size, measured first by a loose run
-            loose = Flow(system, q_start, v_start, rtol=max(rtol, SCALE_RTOL), max_step=max_step)
-            fs = flow_scales(system, loose(q_start, v_start, t0, t0 + span), omega, autonomous)
+            # the flows' tolerances are rtol of the motion's size, measured first by a loose run (or the run that
+            # found the period: it covers one from this start)
+            if returned is None or k != 1:
+                returned = Flow(system, q_start, v_start, rtol=max(rtol, SCALE_RTOL), max_step=max_step)(
+                    q_start, v_start, t0, t0 + span)
+            fs = flow_scales(system, returned, omega, autonomous)
             trial = Shooting(system, t0, span, False, 1, omega, rtol, max_step=max_step, flow_scales=fs)
             first = trial.flows(trial.pack([nodes[0]]), full=True)[0]
             kinetic = float(np.max(first.kinetic))

@@ -416,10 +416,11 @@ def growth_segments(transition) -> int:
         else MAX_SEGMENTS
 
 
-def first_return(system, q0, v0, t0, omega, rtol) -> float:
-    """The time (s) the motion from (q0, v0) takes to come back near its start: the first upward crossing of
-    the section through the start orthogonal to its flow (scaled by ``omega`` rad/s) that comes back to within
-    a tenth of how far the motion went. Looks over 3 periods of ``omega``, then 4 times longer, 5 times."""
+def first_return(system, q0, v0, t0, omega, rtol):
+    """(T, run): the time T (s) the motion from (q0, v0) takes to come back near its start — the first upward
+    crossing of the section through the start orthogonal to its flow (scaled by ``omega`` rad/s) that comes back
+    to within a tenth of how far the motion went — and the run that found it (at least T long). Looks over 3
+    periods of ``omega``, then 4 times longer, 5 times."""
     free = free_indices(system)
     wrap = turning_indices(system, free)
     s = np.asarray(system.coordinate_scales, dtype=float)[free]
@@ -446,7 +447,7 @@ def first_return(system, q0, v0, t0, omega, rtol) -> float:
             dc = float(np.linalg.norm(scaled(qc, vc)))
             went = dist[traj.t < tc].max(initial=0.0)
             if went > 0 and dc < 0.1 * went:
-                return float(tc - t0)
+                return float(tc - t0), traj
         span *= 4
     raise ConvergenceError(f"periodic orbit: the motion from the start does not come back near it within "
                            f"{span / 4:.4g} s: give the period (s), or start on (or near) a periodic orbit")
