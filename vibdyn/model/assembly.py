@@ -71,6 +71,7 @@ KNOWN_STEP, KNOWN_GAP = 1e-2, 1e-3  # a restart's Newton step and gap below whic
 # closure it is beside (quadratic convergence: it ends within about the step² of where it is)
 MAX_BRANCHES = 16  # branches traced before the search gives up proving the nearest
 MAX_BLOCK_LOOPS = 8  # more loops than this: their dependent coordinates are one block (:func:`_blocks`)
+MAX_TRIED = 8  # other independent coordinates tried for smaller blocks (:func:`_fibres`)
 WHERE = "the closure nearest the neutral configuration"
 WHERE_FOUND = "a closure found near the neutral configuration"  # (the nearest of those found, not proven)
 
@@ -294,18 +295,20 @@ def _rows_of(sizes, loops):
 
 def _blocks(c, J, used, dep):
     """[(loops, columns)]: the dependent coordinates ``dep`` of a closure where Φ_q is J in blocks solved one
-    after another, each the fewest loops whose new coordinates (those their equations use, ``used``: rows ×
-    coordinates, not solved by an earlier block) their equations fix (Φ_q on them of full column rank), with
-    every other loop then closed by what is solved; one block of every loop where no such order exists (or more
-    than MAX_BLOCK_LOOPS loops). The equations of a block use no coordinate of a later one: its closures, then
-    each later block's from each of them, are every closure with the same independent coordinates."""
+    after another, each the fewest loops (one to three, else all those left) whose new coordinates (those their
+    equations use, ``used``: rows × coordinates, not solved by an earlier block) their equations fix (Φ_q on them
+    of full column rank), with every other loop then closed by what is solved; one block of every loop where no
+    such order exists (or more than MAX_BLOCK_LOOPS loops). The equations of a block use no coordinate of a later
+    one: its closures, then each later block's from each of them, are every closure with the same independent
+    coordinates."""
     n = len(c.sizes)
     if n > MAX_BLOCK_LOOPS:
         return [(tuple(range(n)), dep)]
     uses = [set(dep[used[_rows(c, (i,))][:, dep].any(axis=0)]) for i in range(n)]
     solved, left, out = set(), list(range(n)), []
     while left:
-        for group in itertools.chain.from_iterable(itertools.combinations(left, k) for k in range(1, len(left) + 1)):
+        sizes = sorted({*range(1, min(3, len(left)) + 1), len(left)})  # (at most three loops a block, or all)
+        for group in itertools.chain.from_iterable(itertools.combinations(left, k) for k in sizes):
             new = set().union(*(uses[i] for i in group)) - solved
             loops = tuple(i for i in left if i in group or uses[i] <= solved | new)
             cols = np.array(sorted(new), dtype=int)
@@ -329,9 +332,9 @@ def _full_rank(c, J, rows, cols):
 def _fibres(c, q):
     """The blocks (:func:`_blocks`) of the dependent coordinates at the closure q: those of the independent ones
     QR with column pivoting keeps (:meth:`Constraints.partition`) or, with mobility 1 where those leave a block
-    of more than two, of the coordinate whose largest block is smallest (the fewest coordinates restarted
-    together). A loop uses the coordinates with a nonzero column in Φ_q at q or at two poses near it (the ones
-    its ends move with: structural zeros are exact)."""
+    of more than two, of the coordinate (of MAX_TRIED others) whose largest block is smallest (the fewest
+    coordinates restarted together). A loop uses the coordinates with a nonzero column in Φ_q at q or at two poses
+    near it (the ones its ends move with: structural zeros are exact)."""
     model, cs, nv = c.model, c.col_scale, c.nv
     J = c.jacobian(q)
     ind, _ = c.partition(J)
@@ -339,9 +342,11 @@ def _fibres(c, q):
     if len(c.sizes) == 1 or dep.size <= 2:  # (one block, or blocks no smaller than the grid of the whole)
         return [(tuple(range(len(c.sizes))), dep)]
     rng = np.random.default_rng(0)
-    used = sum(np.abs(c.jacobian(p)) for p in
-               [pin.integrate(model, q, cs * rng.standard_normal(nv)) for _ in range(2)]) + np.abs(J) > 0
-    tried = [ind] + ([np.array([k]) for k in range(nv) if k != ind[0]] if ind.size == 1 else [])
+    used = J != 0  # (a non-finite entry counts as used)
+    with np.errstate(all="ignore"):
+        for _ in range(2):
+            used |= c.jacobian(pin.integrate(model, q, cs * rng.standard_normal(nv))) != 0
+    tried = [ind] + ([np.array([k]) for k in range(nv) if k != ind[0]][:MAX_TRIED] if ind.size == 1 else [])
     best = None
     for ind in tried:
         dep = np.setdiff1d(np.arange(nv), ind)
