@@ -36,3 +36,9 @@ def test_the_loop_equations_hot_path_equals_the_wrench_form(kind, world):
         assert np.abs(phi - phi_w).max() <= 1e-15 * max(1.0, np.abs(phi_w).max())
         assert np.abs(c.evaluate(q, jacobian=False)[0] - phi_w).max() <= 1e-15 * max(1.0, np.abs(phi_w).max())
         assert np.abs(J - J_w).max() <= 1e-15 * max(1.0, np.abs(J_w).max())
+        # some loops only: their rows of the whole, in the order asked
+        ends = np.cumsum((0,) + c.sizes)
+        for loops in ([1, 0], [0]) if not world else ([0],):
+            rows = np.concatenate([np.arange(ends[i], ends[i + 1]) for i in loops])
+            phi_l, J_l = c.evaluate(q, loops=loops)
+            assert np.array_equal(phi_l, phi[rows]) and np.array_equal(J_l, J[rows])
