@@ -405,9 +405,9 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     if not damped and n:
         N2 = K - Kt
         np.abs(N2, out=N2)
-        N2 *= 0.1
         sym_floor = 2e-13 * np.maximum.reduce(abs_Ks, axis=None)
-        if np.maximum.reduce(N2, axis=None) > sym_floor:  # (else within it before K's errors are taken off)
+        if 0.1 * np.maximum.reduce(N2, axis=None) > sym_floor:  # (else within it before K's errors are taken off)
+            N2 *= 0.1
             N2 -= Ke
             N2 -= Ke.T
             damped = bool(np.maximum.reduce(N2, axis=None) > sym_floor)

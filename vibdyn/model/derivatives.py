@@ -39,14 +39,15 @@ class Derivatives:
         self.nv = system.nv
         self.fkin = None
         self.differenced = False  # element_fd was used: these derivatives are exact only to ~1e-10 (relative)
-        joints = system.point_joints if points else ()  # (joint-space groups need no accumulators)
+        self.J, self.R, self.u, self.dV = {}, {}, {}, {}
+        self.turns = {}  # per joint: whether it turns with some coordinate (a slider's frame does not)
+        if not (points and system.point_groups):  # joint-space groups need no accumulators, no point Jacobians
+            self.dFq, self.dFv, self.dFq_abs = {}, {}, {} if magnitudes else None
+            return
+        joints = system.point_joints
         self.dFq = {j: np.zeros((6, self.nv)) for j in joints}
         self.dFv = {j: np.zeros((6, self.nv)) for j in joints}
         self.dFq_abs = {j: np.zeros((6, self.nv)) for j in joints} if magnitudes else None
-        self.J, self.R, self.u, self.dV = {}, {}, {}, {}
-        self.turns = {}  # per joint: whether it turns with some coordinate (a slider's frame does not)
-        if not (points and system.point_groups):  # joint-space groups need none of the point Jacobians
-            return
         pin.computeJointJacobians(model, data, q)
         if need_velocity_derivatives:  # (the joints' velocities are read only for the velocity derivatives)
             pin.forwardKinematics(model, data, q, v)
@@ -220,7 +221,7 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
         gravity_alone = not (system.point_groups or moving or accelerating)
         terms += terms if gravity_alone else np.abs(dynamics.gravity_term(system, ws, q))
         terms += np.abs(Q)
-        K_parts = rnea_part_sizes(system, ws, q, v, a, fext, K, terms=terms, motion=(moving, accelerating))
+        K_parts = rnea_part_sizes(system, ws, q, v, a, fext, K, 0.0, terms, (moving, accelerating))
     differenced = untrusted(system)[0].size != 0
     if differenced:  # (after data.tau is read: the differences overwrite it)
         in_v = untrusted_columns(system, ws, q, v, a, t, shift, None, C, fext, with_terms)
@@ -233,7 +234,7 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
     C_rnea = C.copy() if with_terms and (system.depends_on_velocity or moving) else None
     subtract_group_derivatives(system, d, system.point_groups, system.joint_groups, K, C, K_size)
     C_size = None
-    if C_rnea is not None and C.any():  # the elements' dampings beside RNEA's gyroscopic terms (they may cancel)
+    if C_rnea is not None and np.count_nonzero(C):  # the elements' dampings beside RNEA's gyroscopic terms (may cancel)
         C_size = np.abs(C_rnea)
         C_rnea -= C
         C_size += np.abs(C_rnea, out=C_rnea)
@@ -258,8 +259,12 @@ def rnea_part_sizes(system, ws, q, v, a, fext, K, floor=0.0, terms=None, motion=
     that cancel in r): that floor is their largest (through the scales), and each row i also takes terms_i / s_j
     (their round-off per unit coordinate j). ``motion``: (v ≠ 0, a ≠ 0) if known."""
     moving, accelerating = (bool(np.count_nonzero(v)), bool(np.count_nonzero(a))) if motion is None else motion
-    sizes = _part_sizes(system, ws, q, v, a, fext, K, moving, accelerating)
-    if "m" not in system.units:  # (rotations only: every scale is 1, no product to take)
+    one_kind = fext is None and not (moving and accelerating) and not (system.has_gravity and (moving or accelerating))
+    sizes = np.abs(K) if one_kind else _part_sizes(system, ws, q, v, a, fext, K, moving, accelerating)
+    unit = ws.stencils.get("unit scales")  # (rotations only: every scale is 1, no product to take)
+    if unit is None:
+        unit = ws.stencils["unit scales"] = not np.any(system.coordinate_scales != 1.0)
+    if unit:
         if terms is not None:
             floor = max(floor, float(np.maximum.reduce(terms, initial=0.0)))
         floors = np.maximum(sizes.diagonal(), floor)
@@ -284,10 +289,8 @@ def rnea_part_sizes(system, ws, q, v, a, fext, K, floor=0.0, terms=None, motion=
 
 
 def _part_sizes(system, ws, q, v, a, fext, K, moving, accelerating):
-    """The elementwise sum of :func:`rnea_part_sizes`, without its floor."""
+    """The elementwise sum of :func:`rnea_part_sizes` where K has more than one kind of term, without its floor."""
     model, data = system.model, ws.data
-    if fext is None and not (moving and accelerating) and not (system.has_gravity and (moving or accelerating)):
-        return np.abs(K)  # (one kind of term alone)
     zero = np.zeros(system.nv)
     gravity = pin.computeGeneralizedGravityDerivatives(model, data, q).copy() if system.has_gravity else None
     free = K if fext is None else pin.computeRNEADerivatives(model, data, q, v, a)[0].copy()
