@@ -493,7 +493,8 @@ def _state_matrix(lin, L):
     MiC, info_c = lapack.dpotrs(L, lin.C, lower=1)
     Mi, info_i = lapack.dpotrs(L, np.eye(n), lower=1)
     if info or info_c or info_i or not (all_finite(MiK) and all_finite(MiC)):
-        return lin.A  # (which says what failed)
+        A = lin.A  # (its own solves, which say what failed)
+        return A, np.linalg.inv(lin.M), -A[n:, :n], -A[n:, n:]
     A = np.zeros((2 * n, 2 * n))
     A.ravel()[n:2 * n * n:2 * n + 1] = 1.0  # the identity block A[:n, n:]
     np.negative(MiK, out=A[n:, :n])
