@@ -336,7 +336,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         Phi *= np.copysign(1.0, np.minimum.reduce(Phi) + np.maximum.reduce(Phi))
     # δω² per mode: the eigen residual in the M⁻¹ norm (‖R‖²_M⁻¹ = ‖L⁻¹R‖²), and |φ|ᵀ(K's error + n·ε·|K|)|φ|
     # (a quadratic form: K's error needs no symmetrising)
-    R = Ks @ Phi - (M @ Phi) * w2
+    R = Ks.dot(Phi) - M.dot(Phi) * w2  # (ndarray.dot: half matmul's fixed cost on small matrices)
     LR = lapack.dtrtrs(L, R, lower=1)[0] if n else R
     A = np.abs(Phi)
     abs_Ks = np.abs(Ks)
@@ -344,15 +344,15 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     # M's own round-off (n·ε|M|: CRBA sums the bodies' inertias) moves ω² by |ω²| |φ|ᵀ(n·ε|M|)|φ|: on an
     # ill-conditioned M (masses 1e-6 and 1e6 in series) |φ|ᵀ|M||φ| ≫ φᵀMφ = 1; it joins K's quadratic form
     # (one sum over both: |φ|ᵀ(|M| |φ| n·ε|ω²| + (K's error + n·ε·|K|)|φ|))
-    X = np.abs(M) @ (A * ((n * EPS) * abs_w2))
+    X = np.abs(M).dot(A * ((n * EPS) * abs_w2))
     terms = getattr(lin, "K_error_terms", None)
     if terms is None:
-        X += ((n * EPS) * abs_Ks + Ke) @ A
+        X += ((n * EPS) * abs_Ks + Ke).dot(A)
         quadratic = np.add.reduce(A * X)
     else:  # rank-one parts of K's error: a mode that does not stretch a spring takes none of its rounding
         U, V = terms
         base = np.maximum(Ke - np.abs(U).T @ V, 0.0)
-        X += ((n * EPS) * abs_Ks + base) @ A
+        X += ((n * EPS) * abs_Ks + base).dot(A)
         quadratic = np.add.reduce(A * X) + np.add.reduce(np.abs(U @ Phi) * (V @ A))
     # (einsum's sum of squares overflows to inf without a warning: caught below and scaled)
     uncertainty = np.sqrt(np.einsum("ij,ij->j", LR, LR))
@@ -511,14 +511,14 @@ def _state_modes(lin, A, Mi):
     Minv = np.abs(Mi)
     abs_A = np.abs(A)
     E = 2 * n * EPS * abs_A
-    E[n:, :n] += Minv @ lin.K_error
-    E[n:, n:] += Minv @ lin.C_error
+    E[n:, :n] += Minv.dot(lin.K_error)
+    E[n:, n:] += Minv.dot(lin.C_error)
     size = abs_A.sum(axis=0).max()
     abs_M = np.abs(M)
     for qz in (False, True):
         lam, W, V = sla.eig(A, np.eye(len(A)) if qz else None, left=True, right=True)
         aW, aV, Wc = np.abs(W), np.abs(V), W.conj()
-        eta = np.einsum("ij,ij->j", aW, E @ aV)
+        eta = np.einsum("ij,ij->j", aW, E.dot(aV))
         wv = np.maximum(np.abs(np.einsum("ij,ij->j", Wc, V)), 1e-300)
         # M's own round-off δM (n·ε|M|, and that of solving M⁻¹[K C] for A) moves A's rows by M⁻¹δM M⁻¹[K C], and
         # wᴴδA v = −λ² yᴴ δM v₁ with y = M⁻¹w₂ (the left vector of λ²M + λC + K): on an ill-conditioned M
@@ -526,13 +526,13 @@ def _state_modes(lin, A, Mi):
         mag = np.abs(lam)
         # (|λ|² beyond the floats: no such term is measurable, left to the backward error below)
         with np.errstate(over="ignore", invalid="ignore"):
-            mass = (n * EPS * mag) * (mag * np.einsum("ij,ij->j", np.abs(Mi @ W[n:]), abs_M @ aV[:n]))
+            mass = (n * EPS * mag) * (mag * np.einsum("ij,ij->j", np.abs(Mi.dot(W[n:])), abs_M.dot(aV[:n])))
             # the pairs' own backward errors ‖Av − λv‖ / (‖A‖ ‖v‖): the QR algorithm is not always as accurate as
             # it promises (LAPACK's caps a gyroscopic λ near 1.5e138 at higher spins), the QZ one then is; a pair
             # neither resolves says so through its residual (‖w‖ / |wᴴv| × it); and its Newton step
             # wᴴ(Av − λv) / wᴴv, the eigensolver's error on a badly scaled A (rows of k1/m1 = 1e12 beside 1e-12:
             # a slow pair of those sliders 1 % off, ± 0.3 % from ε|A|)
-            R = A @ V - V * lam
+            R = A.dot(V) - V * lam
             residual = np.abs(R).sum(axis=0)
             resolved = residual <= BACKWARD_FACTOR * len(A) * EPS * size * aV.sum(axis=0)
             newton = 2 * np.abs(np.einsum("ij,ij->j", Wc, R)) / wv
@@ -652,6 +652,7 @@ def classify(rigid, unstable, eigenvalues, zero, uncertainty, ignore_zeros=0):
 
 def _is_classical(lin, MiK, MiC):
     C, K = lin.C, lin.K
-    X = C @ MiK - K @ MiC
-    return bool(np.abs(X).max() <= 1e-8 * max(np.abs(C @ MiK).max(), 1e-300))
+    CMK = C.dot(MiK)
+    X = CMK - K.dot(MiC)
+    return bool(np.abs(X).max() <= 1e-8 * max(np.abs(CMK).max(), 1e-300))
 

@@ -463,11 +463,11 @@ def subtract_group_derivatives(system, d, point, joint, K, C, K_size=None):
     if point:
         velocity = any(g.velocity_dependent or g.uses_point_velocities for g in point)  # (else no dFv)
         for j in system.point_joints:
-            K -= d.J[j].T @ d.dFq[j]
+            K -= d.J[j].T.dot(d.dFq[j])  # (ndarray.dot: half matmul's fixed cost on small matrices)
             if velocity:
-                C -= d.J[j].T @ d.dFv[j]
+                C -= d.J[j].T.dot(d.dFv[j])
             if K_size is not None:
-                K_size += np.abs(d.J[j].T) @ d.dFq_abs[j]
+                K_size += np.abs(d.J[j].T).dot(d.dFq_abs[j])
     for g in joint:
         dq, dv = g.derivatives(d)
         if dq is not None:
