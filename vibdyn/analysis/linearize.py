@@ -361,7 +361,7 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
         if not all_finite(a0):
             system.check_mass_matrix(q0, "the operating point", M)
             raise ModelError(f"linearize: the accelerations are not finite at the operating point (t = {t0})")
-    rounding = None
+    rounding, damping = None, None  # (damping: whether C has a nonzero, where already counted)
     if method == "fd":
         K, C, K_err, C_err, n, rounding = _finite_differences(system, ws, q0, v0, a0, t0, step)
     else:
@@ -371,12 +371,16 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
         # those summed into K (gravity's, the centrifugal, inertial and elements' stiffnesses: K_size ≥ |K|),
         # with a floor: the largest of the cancelling terms (N·m: per unit rad, or m × the length scale) reaches
         # each entry through the tree's transforms (a joint that gravity does not load still has derivatives
-        # made of its neighbours' torques; a held robot's wrist read −4e-10 rad²/s² for 0)
-        scaled_terms = terms[:, None] / system.coordinate_scales
-        K_err = K_size + scaled_terms
+        # made of its neighbours' torques; a held robot's wrist read −4e-10 rad²/s² for 0); K_size has them all
+        K_err = K_size
         K_err *= 16 * EPS
-        C_err = (16 * EPS * ((np.abs(C) if C_size is None else C_size) + scaled_terms) if np.count_nonzero(C)
-                 else np.zeros(C.shape))
+        damping = bool(np.count_nonzero(C))
+        if damping:
+            C_err = terms[:, None] / system.coordinate_scales
+            C_err += np.abs(C) if C_size is None else C_size
+            C_err *= 16 * EPS
+        else:
+            C_err = np.zeros(C.shape)
         n = 1
         if differenced is not None:  # columns differenced (joints Pinocchio gets wrong): their FD error
             k, h, T_q, hv, T_v = differenced
@@ -396,11 +400,12 @@ def tree_linearize(system: System, at: Any = None, *, v: ArrayLike | None = None
             warnings.warn(f"linearize: the analytic {disagreement} (joint types here: {', '.join(kinds)}): "
                           "using finite differences instead", stacklevel=3)
             K, C, K_err, C_err, n_fd, rounding = _finite_differences(system, ws, q0, v0, a0, t0, step)
-            n, method = n + n_fd, "fd"
+            n, method, damping = n + n_fd, "fd", None
     system.check_mass_matrix(q0, "the operating point", M)  # (finite, and regular against the scene's scales)
-    for name, X in (("K", K), ("C", C)):
-        if (X is K or np.count_nonzero(X)) and not all_finite(X):  # (a C of zeros needs no test)
-            raise ModelError(f"linearize: {name} is not finite at the operating point")
+    if not all_finite(K):
+        raise ModelError("linearize: K is not finite at the operating point")
+    if (np.count_nonzero(C) if damping is None else damping) and not all_finite(C):  # (a C of zeros needs no test)
+        raise ModelError("linearize: C is not finite at the operating point")
     return LinearModel(system, q0, v0, a0, t0, M, C, K, K_err, C_err, method, time.perf_counter() - start, n,
                        rounding)
 

@@ -336,34 +336,34 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         Phi *= np.copysign(1.0, np.minimum.reduce(Phi) + np.maximum.reduce(Phi))
     # δω² per mode: the eigen residual in the M⁻¹ norm (‖R‖²_M⁻¹ = ‖L⁻¹R‖²), and |φ|ᵀ(K's error + n·ε·|K|)|φ|
     # (a quadratic form: K's error needs no symmetrising)
-    R = Ks @ Phi - (M @ Phi) * w2
+    R = Ks.dot(Phi) - M.dot(Phi) * w2  # (ndarray.dot: half matmul's fixed cost on small matrices)
     LR = lapack.dtrtrs(L, R, lower=1)[0] if n else R
     A = np.abs(Phi)
     abs_Ks = np.abs(Ks)
+    abs_w2 = np.abs(w2)
     # M's own round-off (n·ε|M|: CRBA sums the bodies' inertias) moves ω² by |ω²| |φ|ᵀ(n·ε|M|)|φ|: on an
-    # ill-conditioned M (masses 1e-6 and 1e6 in series) |φ|ᵀ|M||φ| ≫ φᵀMφ = 1
-    mass_part = np.add.reduce(A * (np.abs(M) @ A)) * np.abs(w2) if n else np.zeros(0)
-    mass_part *= n * EPS
+    # ill-conditioned M (masses 1e-6 and 1e6 in series) |φ|ᵀ|M||φ| ≫ φᵀMφ = 1; it joins K's quadratic form
+    # (one sum over both: |φ|ᵀ(|M| |φ| n·ε|ω²| + (K's error + n·ε·|K|)|φ|))
+    X = np.abs(M).dot(A * ((n * EPS) * abs_w2))
     terms = getattr(lin, "K_error_terms", None)
     if terms is None:
-        quadratic = np.add.reduce(A * (((n * EPS) * abs_Ks + Ke) @ A))
+        X += ((n * EPS) * abs_Ks + Ke).dot(A)
+        quadratic = np.add.reduce(A * X)
     else:  # rank-one parts of K's error: a mode that does not stretch a spring takes none of its rounding
         U, V = terms
         base = np.maximum(Ke - np.abs(U).T @ V, 0.0)
-        quadratic = np.add.reduce(A * (((n * EPS) * abs_Ks + base) @ A)) + np.add.reduce(
-            np.abs(U @ Phi) * (V @ A))
+        X += ((n * EPS) * abs_Ks + base).dot(A)
+        quadratic = np.add.reduce(A * X) + np.add.reduce(np.abs(U @ Phi) * (V @ A))
     # (einsum's sum of squares overflows to inf without a warning: caught below and scaled)
     uncertainty = np.sqrt(np.einsum("ij,ij->j", LR, LR))
     uncertainty += quadratic
-    uncertainty += mass_part
     if not all_finite(uncertainty):  # the squares overflowed (huge ω²)? the same, column by column scaled
         r = np.abs(R).max(axis=0, initial=0.0)
         LR = lapack.dtrtrs(L, R / np.maximum(r, 1e-300), lower=1)[0]
-        uncertainty = r * np.sqrt(np.add.reduce(LR * LR)) + quadratic + mass_part
+        uncertainty = r * np.sqrt(np.add.reduce(LR * LR)) + quadratic
         if not all_finite(uncertainty):
             raise ModelError("modal analysis: the frequencies or their error estimate overflow (scene scales "
                              f"too extreme: max |ω²| = {scale:.3g} rad²/s²)")
-    abs_w2 = np.abs(w2)
     if tolerance is None:
         rigid = abs_w2 <= 10 * uncertainty
         n_rigid = np.count_nonzero(rigid)
@@ -405,12 +405,15 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     if not damped and n:
         N2 = K - Kt
         np.abs(N2, out=N2)
-        N2 *= 0.1
-        N2 -= Ke
-        N2 -= Ke.T
-        damped = bool(np.maximum.reduce(N2, axis=None) > 2e-13 * np.maximum.reduce(abs_Ks, axis=None))
+        sym_floor = 2e-13 * np.maximum.reduce(abs_Ks, axis=None)
+        if 0.1 * np.maximum.reduce(N2, axis=None) > sym_floor:  # (else within it before K's errors are taken off)
+            N2 *= 0.1
+            N2 -= Ke
+            N2 -= Ke.T
+            damped = bool(np.maximum.reduce(N2, axis=None) > sym_floor)
     if damped:
-        lam, lam_modes, shapes_c, lam_error, lam_abs, modes_abs, defective = _state_modes(lin)
+        A, Mi, MiK, MiC = _state_matrix(lin, L)
+        lam, lam_modes, shapes_c, lam_error, lam_abs, modes_abs, defective = _state_modes(lin, A, Mi)
         mag = np.abs(lam_modes)
         # an eigenvalue is zero (rigid or cyclic) when it is within 10 × its own uncertainty of 0 (or at
         # round-off of the largest): a genuine slow mode (a precession at 0.0025 rad/s beside a spin of 1e6)
@@ -425,7 +428,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         zero_threshold = float(mag[zero_modes].max(initial=floor)) + floor * float(lam_error[np.argmax(mag)])
         lam_error = np.where(zero_modes, np.minimum(lam_error, zero_threshold / lam_scale), lam_error)
         zeta = np.where(mag > 0, -lam_modes.real / np.where(mag > 0, mag, 1.0), 0.0)
-        classical = _is_classical(lin)
+        classical = _is_classical(lin, MiK, MiC)
         omega_d = np.abs(lam_modes.imag)
     else:
         lam = lam_modes = _NO_COMPLEX
@@ -439,7 +442,7 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
     if within:
         note = (f"growth rate {within[0]:.2g} 1/s within its own error {within[1]:.2g} 1/s: neutral within the "
                 "error, not unstable")
-    if defective.any():
+    if damped and defective.any():
         listed = ", ".join(str(i + 1) for i in np.flatnonzero(defective))
         note += ("; " if note else "") + (
             f"damped modes {listed}: a repeated eigenvalue λ = {lam_modes[defective][0]:.6g} 1/s, not diagonalisable "
@@ -482,24 +485,40 @@ def rayleigh(zeta: ArrayLike, omega: ArrayLike) -> tuple[float, float]:
 BACKWARD_FACTOR = 1e3
 
 
-def _state_modes(lin):
+def _state_matrix(lin, L):
+    """(A, M⁻¹, M⁻¹K, M⁻¹C): ``lin.A`` and the inverse of M from L, M's Cholesky factor that sygv left (its lower
+    triangle): the state matrix's solves with the factor already made."""
+    n = lin.nv
+    MiK, info = lapack.dpotrs(L, lin.K, lower=1)
+    MiC, info_c = lapack.dpotrs(L, lin.C, lower=1)
+    Mi, info_i = lapack.dpotrs(L, np.eye(n), lower=1)
+    if info or info_c or info_i or not (all_finite(MiK) and all_finite(MiC)):
+        A = lin.A  # (its own solves, which say what failed)
+        return A, np.linalg.inv(lin.M), -A[n:, :n], -A[n:, n:]
+    A = np.zeros((2 * n, 2 * n))
+    A.ravel()[n:2 * n * n:2 * n + 1] = 1.0  # the identity block A[:n, n:]
+    np.negative(MiK, out=A[n:, :n])
+    np.negative(MiC, out=A[n:, n:])
+    return A, Mi, MiK, MiC
+
+
+def _state_modes(lin, A, Mi):
     """State eigenvalues (all, and one per mode), complex shapes, each mode's estimated relative error, and
     the absolute uncertainties (1/s) of all eigenvalues and of the modes': first-order perturbation
     |wᴴ δA v| / |wᴴ v| with δA from the error estimates of K and C (and the round-off of the eigensolver), w
-    and v the left and right eigenvectors."""
-    A, n = lin.A, lin.nv
-    M, Mi = lin.M, np.linalg.inv(lin.M)
+    and v the left and right eigenvectors. ``A``: the state matrix, ``Mi``: M⁻¹."""
+    n, M = lin.nv, lin.M
     Minv = np.abs(Mi)
-    E = np.zeros_like(A)
-    E[n:, :n], E[n:, n:] = Minv @ lin.K_error, Minv @ lin.C_error
     abs_A = np.abs(A)
-    E += 2 * n * EPS * abs_A
+    E = 2 * n * EPS * abs_A
+    E[n:, :n] += Minv.dot(lin.K_error)
+    E[n:, n:] += Minv.dot(lin.C_error)
     size = abs_A.sum(axis=0).max()
     abs_M = np.abs(M)
     for qz in (False, True):
         lam, W, V = sla.eig(A, np.eye(len(A)) if qz else None, left=True, right=True)
         aW, aV, Wc = np.abs(W), np.abs(V), W.conj()
-        eta = np.einsum("ij,ij->j", aW, E @ aV)
+        eta = np.einsum("ij,ij->j", aW, E.dot(aV))
         wv = np.maximum(np.abs(np.einsum("ij,ij->j", Wc, V)), 1e-300)
         # M's own round-off δM (n·ε|M|, and that of solving M⁻¹[K C] for A) moves A's rows by M⁻¹δM M⁻¹[K C], and
         # wᴴδA v = −λ² yᴴ δM v₁ with y = M⁻¹w₂ (the left vector of λ²M + λC + K): on an ill-conditioned M
@@ -507,23 +526,25 @@ def _state_modes(lin):
         mag = np.abs(lam)
         # (|λ|² beyond the floats: no such term is measurable, left to the backward error below)
         with np.errstate(over="ignore", invalid="ignore"):
-            mass = (n * EPS * mag) * (mag * np.einsum("ij,ij->j", np.abs(Mi @ W[n:]), abs_M @ aV[:n]))
+            mass = (n * EPS * mag) * (mag * np.einsum("ij,ij->j", np.abs(Mi.dot(W[n:])), abs_M.dot(aV[:n])))
             # the pairs' own backward errors ‖Av − λv‖ / (‖A‖ ‖v‖): the QR algorithm is not always as accurate as
             # it promises (LAPACK's caps a gyroscopic λ near 1.5e138 at higher spins), the QZ one then is; a pair
             # neither resolves says so through its residual (‖w‖ / |wᴴv| × it); and its Newton step
             # wᴴ(Av − λv) / wᴴv, the eigensolver's error on a badly scaled A (rows of k1/m1 = 1e12 beside 1e-12:
             # a slow pair of those sliders 1 % off, ± 0.3 % from ε|A|)
-            R = A @ V - V * lam
+            R = A.dot(V) - V * lam
             residual = np.abs(R).sum(axis=0)
-            failed = ~(residual <= BACKWARD_FACTOR * len(A) * EPS * size * aV.sum(axis=0))
+            resolved = residual <= BACKWARD_FACTOR * len(A) * EPS * size * aV.sum(axis=0)
             newton = 2 * np.abs(np.einsum("ij,ij->j", Wc, R)) / wv
-        if not all_finite(mass):
-            mass[~np.isfinite(mass)] = 0.0
+            if not all_finite(mass + newton):  # (both ≥ 0: a sum is finite where each is)
+                mass[~np.isfinite(mass)] = 0.0
+                newton[~np.isfinite(newton)] = 0.0
         eta += mass
         dlam = eta / wv
-        dlam += np.where(np.isfinite(newton), newton, 0.0)
-        if not failed.any():
+        dlam += newton
+        if resolved.all():
             break
+        failed = ~resolved
         if qz:
             with np.errstate(over="ignore", invalid="ignore"):
                 bound = residual * aW.sum(axis=0) / wv
@@ -629,9 +650,9 @@ def classify(rigid, unstable, eigenvalues, zero, uncertainty, ignore_zeros=0):
     return ("neutral" if zero.sum() > ignore_zeros else "stable"), None  # an undamped oscillation is bounded
 
 
-def _is_classical(lin):
-    M, C, K = lin.M, lin.C, lin.K
-    MiK, MiC = np.linalg.solve(M, K), np.linalg.solve(M, C)
-    X = C @ MiK - K @ MiC
-    return bool(np.abs(X).max() <= 1e-8 * max(np.abs(C @ MiK).max(), 1e-300))
+def _is_classical(lin, MiK, MiC):
+    C, K = lin.C, lin.K
+    CMK = C.dot(MiK)
+    X = CMK - K.dot(MiC)
+    return bool(np.abs(X).max() <= 1e-8 * max(np.abs(CMK).max(), 1e-300))
 

@@ -39,14 +39,15 @@ class Derivatives:
         self.nv = system.nv
         self.fkin = None
         self.differenced = False  # element_fd was used: these derivatives are exact only to ~1e-10 (relative)
-        joints = system.point_joints if points else ()  # (joint-space groups need no accumulators)
+        self.J, self.R, self.u, self.dV = {}, {}, {}, {}
+        self.turns = {}  # per joint: whether it turns with some coordinate (a slider's frame does not)
+        if not (points and system.point_groups):  # joint-space groups need no accumulators, no point Jacobians
+            self.dFq, self.dFv, self.dFq_abs = {}, {}, {} if magnitudes else None
+            return
+        joints = system.point_joints
         self.dFq = {j: np.zeros((6, self.nv)) for j in joints}
         self.dFv = {j: np.zeros((6, self.nv)) for j in joints}
         self.dFq_abs = {j: np.zeros((6, self.nv)) for j in joints} if magnitudes else None
-        self.J, self.R, self.u, self.dV = {}, {}, {}, {}
-        self.turns = {}  # per joint: whether it turns with some coordinate (a slider's frame does not)
-        if not (points and system.point_groups):  # joint-space groups need none of the point Jacobians
-            return
         pin.computeJointJacobians(model, data, q)
         if need_velocity_derivatives:  # (the joints' velocities are read only for the velocity derivatives)
             pin.forwardKinematics(model, data, q, v)
@@ -197,13 +198,14 @@ def untrusted_columns(system, ws, q, v, a, t, shift, K, C, fext, estimate=False)
 def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, applied=None, flags=None):
     """(K, C, terms, K_size) = (∂r/∂q, ∂r/∂v, |RNEA| + |Q| + |g|, sizes of K's terms) at (q, v, a, t), analytically;
     ``terms`` (N or N·m per coordinate) is the size of what cancels in r, ``K_size`` (nv × nv) that of the terms
-    summed into K (:func:`rnea_part_sizes`, Σ |J|ᵀ |∂f| of the point elements, |∂Q/∂q| of the joint elements): the
-    scales of their round-off (None unless ``with_terms``; then also ``C_size``, |C|'s of RNEA and the elements,
-    after ``K_size``). ``shift``: offsets of the supports' motion, as :func:`vibdyn.model.dynamics.forces`
-    takes them; ``applied``: the forces at (q, v, t) as that function gives them, if already evaluated.
-    With ``with_terms``, a last item: None, or (k, h, T_q, hv, T_v) of :func:`untrusted_columns` (the columns of
-    joints Pinocchio gets wrong, differenced: their steps and truncation estimates). ``flags``: a dict in which
-    ``"differenced"`` is set (whether a user callable or a joint's columns were differenced: exact to ~1e-10 only)."""
+    summed into K (:func:`rnea_part_sizes`, with ``terms`` per unit coordinate; Σ |J|ᵀ |∂f| of the point
+    elements, |∂Q/∂q| of the joint elements): the scales of their round-off (None unless ``with_terms``; then also
+    ``C_size``, |C|'s of RNEA and the elements, after ``K_size``). ``shift``: offsets of the supports' motion, as
+    :func:`vibdyn.model.dynamics.forces` takes them; ``applied``: the forces at (q, v, t) as that function gives
+    them, if already evaluated. With ``with_terms``, a last item: None, or (k, h, T_q, hv, T_v) of
+    :func:`untrusted_columns` (the columns of joints Pinocchio gets wrong, differenced: their steps and truncation
+    estimates). ``flags``: a dict in which ``"differenced"`` is set (whether a user callable or a joint's columns
+    were differenced: exact to ~1e-10 only)."""
     ws = system.workspace()
     model, data = system.model, ws.data
     Q, fext = dynamics.forces(system, ws, q, v, t, shift) if applied is None else applied
@@ -211,13 +213,15 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
            else pin.computeRNEADerivatives(model, data, q, v, a, fext))
     K, C = out[0].copy(), out[1].copy()  # Pinocchio overwrites them on the next call
     terms = None
+    moving = False
     if with_terms:
+        moving, accelerating = bool(np.count_nonzero(v)), bool(np.count_nonzero(a))
         terms = np.abs(data.tau)  # the derivatives' pass leaves RNEA's τ in data.tau
-        # (+ |g|: RNEA's τ itself where it is the gravity term alone)
-        terms += terms if dynamics.is_gravity(system, v, a) else np.abs(dynamics.gravity_term(system, ws, q))
+        # (+ |g|: RNEA's τ itself where it is the gravity term alone, :func:`dynamics.is_gravity`)
+        gravity_alone = not (system.point_groups or moving or accelerating)
+        terms += terms if gravity_alone else np.abs(dynamics.gravity_term(system, ws, q))
         terms += np.abs(Q)
-        largest = float(np.maximum.reduce(terms * system.coordinate_scales, initial=0.0))
-        K_parts = rnea_part_sizes(system, ws, q, v, a, fext, K, largest)
+        K_parts = rnea_part_sizes(system, ws, q, v, a, fext, K, 0.0, terms, (moving, accelerating))
     differenced = untrusted(system)[0].size != 0
     if differenced:  # (after data.tau is read: the differences overwrite it)
         in_v = untrusted_columns(system, ws, q, v, a, t, shift, None, C, fext, with_terms)
@@ -227,10 +231,10 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
     if system.point_groups:
         d.fkin = dynamics.kinematics(system, ws, q, v if system.uses_point_velocities else None, t, shift)
     # (C is zero unless the state moves or an element depends on velocity)
-    C_rnea = C.copy() if with_terms and (system.depends_on_velocity or np.count_nonzero(v)) else None
+    C_rnea = C.copy() if with_terms and (system.depends_on_velocity or moving) else None
     subtract_group_derivatives(system, d, system.point_groups, system.joint_groups, K, C, K_size)
     C_size = None
-    if C_rnea is not None and C.any():  # the elements' dampings beside RNEA's gyroscopic terms (they may cancel)
+    if C_rnea is not None and np.count_nonzero(C):  # the elements' dampings beside RNEA's gyroscopic terms (may cancel)
         C_size = np.abs(C_rnea)
         C_rnea -= C
         C_size += np.abs(C_rnea, out=C_rnea)
@@ -243,7 +247,7 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
     return (K, C, terms, K_size, C_size, differenced or None) if with_terms else (K, C, terms, K_size)
 
 
-def rnea_part_sizes(system, ws, q, v, a, fext, K, floor=0.0):
+def rnea_part_sizes(system, ws, q, v, a, fext, K, floor=0.0, terms=None, motion=None):
     """|∂g/∂q| + |∂(C(q, v)v)/∂q| + |∂(M(q)a)/∂q| + |∂(−Jᵀf)/∂q| (nv × nv, N·m per rad or N per m): the sizes of
     RNEA's stiffness terms (gravity, centrifugal and gyroscopic, inertial, the point forces' turning with their
     frames), ``K`` their sum at (q, v, a, fext). They may cancel in K (a pendulum on a spun hub at the speed
@@ -251,27 +255,42 @@ def rnea_part_sizes(system, ws, q, v, a, fext, K, floor=0.0):
     entry also takes the larger of its row's and column's diagonal sizes (through the coordinates' scales): RNEA
     sums a joint's terms over its subtree, and an entry may cancel inside one kind (a spun hub's row, 0 by
     symmetry, read −1e-17 beside terms of 0.1), and at least ``floor`` (N·m: the largest force that cancels in r,
-    reaching every entry through the tree's transforms)."""
-    sizes = _part_sizes(system, ws, q, v, a, fext, K)
-    s = system.coordinate_scales
-    unit = not np.any(s != 1.0)  # (rotations only: the scales' products are ones, no product to take)
-    d = np.diagonal(sizes).copy() if unit else np.diagonal(sizes) * s * s
-    np.maximum(d, floor, out=d)
+    reaching every entry through the tree's transforms). With ``terms`` (N or N·m per coordinate, the forces
+    that cancel in r): that floor is their largest (through the scales), and each row i also takes terms_i / s_j
+    (their round-off per unit coordinate j). ``motion``: (v ≠ 0, a ≠ 0) if known."""
+    moving, accelerating = (bool(np.count_nonzero(v)), bool(np.count_nonzero(a))) if motion is None else motion
+    one_kind = fext is None and not (moving and accelerating) and not (system.has_gravity and (moving or accelerating))
+    sizes = np.abs(K) if one_kind else _part_sizes(system, ws, q, v, a, fext, K, moving, accelerating)
+    unit = ws.stencils.get("unit scales")  # (rotations only: every scale is 1, no product to take)
+    if unit is None:
+        unit = ws.stencils["unit scales"] = not np.any(system.coordinate_scales != 1.0)
     if unit:
-        sizes += np.maximum.outer(d, d)
+        if terms is not None:
+            floor = max(floor, float(np.maximum.reduce(terms, initial=0.0)))
+        floors = np.maximum(sizes.diagonal(), floor)
+        floors = np.maximum(floors[:, None], floors)
+        if terms is not None:
+            floors += terms[:, None]
+        sizes += floors
         return sizes
-    floors = np.maximum.outer(d, d)
+    s = system.coordinate_scales
+    scaled = None
+    if terms is not None:
+        scaled = terms * s
+        floor = max(floor, float(np.maximum.reduce(scaled, initial=0.0)))
+    d = sizes.diagonal() * (s * s)
+    np.maximum(d, floor, out=d)
+    floors = np.maximum(d[:, None], d)
+    if scaled is not None:  # (terms_i / s_j = terms_i s_i / (s_i s_j))
+        floors += scaled[:, None]
     floors *= system.inverse_scale_products
     sizes += floors
     return sizes
 
 
-def _part_sizes(system, ws, q, v, a, fext, K):
-    """The elementwise sum of :func:`rnea_part_sizes`, without its floor."""
+def _part_sizes(system, ws, q, v, a, fext, K, moving, accelerating):
+    """The elementwise sum of :func:`rnea_part_sizes` where K has more than one kind of term, without its floor."""
     model, data = system.model, ws.data
-    moving, accelerating = bool(np.count_nonzero(v)), bool(np.count_nonzero(a))
-    if fext is None and not (moving and accelerating) and not (system.has_gravity and (moving or accelerating)):
-        return np.abs(K)  # (one kind of term alone)
     zero = np.zeros(system.nv)
     gravity = pin.computeGeneralizedGravityDerivatives(model, data, q).copy() if system.has_gravity else None
     free = K if fext is None else pin.computeRNEADerivatives(model, data, q, v, a)[0].copy()
@@ -444,11 +463,11 @@ def subtract_group_derivatives(system, d, point, joint, K, C, K_size=None):
     if point:
         velocity = any(g.velocity_dependent or g.uses_point_velocities for g in point)  # (else no dFv)
         for j in system.point_joints:
-            K -= d.J[j].T @ d.dFq[j]
+            K -= d.J[j].T.dot(d.dFq[j])  # (ndarray.dot: half matmul's fixed cost on small matrices)
             if velocity:
-                C -= d.J[j].T @ d.dFv[j]
+                C -= d.J[j].T.dot(d.dFv[j])
             if K_size is not None:
-                K_size += np.abs(d.J[j].T) @ d.dFq_abs[j]
+                K_size += np.abs(d.J[j].T).dot(d.dFq_abs[j])
     for g in joint:
         dq, dv = g.derivatives(d)
         if dq is not None:
