@@ -8,6 +8,7 @@ per coordinate pair, C in N·s/m or N·m·s/rad, M in kg, kg·m or kg·m².
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from dataclasses import dataclass, field, replace
@@ -522,10 +523,10 @@ def measured_share(R, bound, nv):
     + r(−2h) of every column (h⁴ r⁗ beside it is nothing at these steps; random round-off of size e gives it √70 e):
     three times their root mean square over √70, over the bound, kept between 1/16 and 1 (the bound where the
     round-off cancels exactly, at every step alike)."""
-    fourth = (_FOURTH @ R[1:].reshape(4, -1)).reshape(nv, -1)  # (stencil rows: steps +h, +2h, −h, −2h)
+    fourth = _FOURTH.dot(R[1:].reshape(4, -1)).reshape(nv, -1)  # (stencil rows: steps +h, +2h, −h, −2h)
     fourth += 6 * R[0]
     noise = np.hypot.reduce(fourth, axis=0)  # (no overflow of the squares)
-    noise *= 3 / np.sqrt(70 * nv)
+    noise *= 3 / math.sqrt(70 * nv)
     share = np.minimum(noise, bound, out=noise)
     share /= bound + 1e-300
     return np.maximum(share, 1 / 16, out=share)

@@ -184,7 +184,6 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
     a0 = R.motion_acceleration(system, ws, q0, v0, t0, ind, a, steady=a is None and hasattr(at, "drive"))
     tree = tree_linearize(system, q0, v=v0, t=t0, a=a0, method=method, step=step)
     evaluations = tree.evaluations
-    h = steps(system, step)
     terms = None
     if multipliers is None:
         multipliers = getattr(at, "multipliers", None)
@@ -201,7 +200,7 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
     def differenced():
         nonlocal evaluations
         evaluations += 8 * ind.size
-        return moving_terms(system, R, q0, v0, t0, ind, h, np.abs(N).T @ terms)
+        return moving_terms(system, R, q0, v0, t0, ind, steps(system, step), np.abs(N).T @ terms)
 
     if force is None or moving:
         M_r, C_r, K_r, K_err, C_err, terms_r = R.reduce_model(ind, N, tree, moving, differenced)
