@@ -324,6 +324,65 @@ def test_a_watt_six_bar_drawn_open_assembles_at_the_nearest_of_its_four_modes(ro
     assert a.distance == pytest.approx(watt_hand_nearest(rotation), abs=1e-8)
 
 
+P7, G8, L7, L8 = (0.1, 0.0), (0.1, -0.2), 0.15, 0.15  # a second dyad: link 7 on link 5, link 8 on the ground (m)
+
+
+def watt_with_dyad():
+    """Three loops: the Watt six-bar drawn open, with a second dyad (links 7 and 8, 0.15 m each) joining a point
+    of link 5 to a ground pivot."""
+    s = watt(0.0)
+    inertia = np.diag([1e-5, 1e-3, 1e-3])
+    s.add_body("link7", parent="link5", joint=vd.Pivot((0, 0, 1), at=(*P7, 0)), mass=0.3, com=(0.07, 0, 0),
+               inertia=inertia)
+    s.add_body("link8", joint=vd.Pivot((0, 0, 1), at=(*G8, 0)), mass=0.3, com=(0.07, 0, 0), inertia=inertia)
+    s.add_loop("H", ("link7", (L7, 0, 0)), ("link8", (L8, 0, 0)), joint=vd.Pivot((0, 0, 1)))
+    return s
+
+
+def watt_with_dyad_branches(theta):
+    """Hand closure: {name: joint coordinate} of each of the (up to eight) assembly modes with the crank at theta:
+    the Watt six-bar's four, each with the second dyad's two (its circle intersection)."""
+    out = []
+    for x in watt_branches(theta, 0.0).values():
+        crank, coupler, link5, rocker, link6 = x
+        psi3, psi5 = crank + coupler, crank + coupler + link5
+        E = A * np.array([math.cos(crank), math.sin(crank)]) + np.array(rz(psi3))[:2, :2] @ E3
+        P = E + np.array(rz(psi5))[:2, :2] @ P7
+        for H in circle_intersections(P, L7, G8, L8) or []:
+            psi7, psi8 = math.atan2(*(H - P)[::-1]), math.atan2(*(H - np.array(G8))[::-1])
+            out.append({"crank": crank, "coupler": coupler, "link5": link5, "rocker": rocker, "link6": link6,
+                        "link7": psi7 - psi5, "link8": psi8})
+    return out
+
+
+def test_three_loops_solved_one_after_another_assemble_at_the_hand_nearest():
+    """Three loops (the Watt six-bar and a second dyad hung from its link 5): the loops are solved in turn (the
+    four-bar, then each dyad from each closure before), so every assembly mode is enumerated and the closure is
+    called the nearest; it equals the nearest of the hand closures over the crank's whole turn (a fine grid of
+    the crank angle over the eight modes, refined by a bounded search on each)."""
+    system = watt_with_dyad().build()
+    a = system.constraints.assembly()
+    assert a.nearest and a.where == NEAREST and a.dof == 1
+    names = system.coordinates
+
+    def distances(t):
+        return [float(np.linalg.norm(wrap([m[n] for n in names]))) for m in watt_with_dyad_branches(t)]
+
+    def nearest(t):
+        return min(distances(t), default=np.inf)
+
+    grid = np.linspace(-np.pi, np.pi, 2001)
+    d = [nearest(t) for t in grid]
+    i = int(np.argmin(d))
+    r = minimize_scalar(nearest, bounds=(grid[max(i - 1, 0)], grid[min(i + 1, 2000)]), method="bounded",
+                        options={"xatol": 1e-12})
+    x = system.difference(system.neutral(), a.q)
+    crank = x[names.index("crank")]
+    on = [np.abs(wrap(x - np.array([m[n] for n in names]))).max() for m in watt_with_dyad_branches(crank)]
+    assert min(on) <= 1e-9  # on a hand assembly mode
+    assert a.distance == pytest.approx(min(r.fun, min(d)), abs=1e-8)
+
+
 def test_assembly_modes_sampled_not_enumerated_are_not_called_nearest(monkeypatch):
     """Where the restarts of a block of dependent coordinates are sampled (more combinations than PARTNER_MAX:
     forced here with PARTNER_MAX = 4 for the Watt six-bar's blocks of two), the closure is not called the nearest
