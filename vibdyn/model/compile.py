@@ -71,6 +71,7 @@ class Compiled:
     length_scale: float  # m (:func:`length_scale`)
     coordinate_scales: np.ndarray  # finite-difference scale: 1 for rad, the length scale for m
     inverse_scale_products: np.ndarray  # 1/(s_i s_j), nv × nv
+    unit_scales: bool  # every coordinate scale is 1 (rotations only)
     additive_coordinates: tuple  # (indices in v, indices in q) of the vector-space joints' coordinates
     curved_coordinates: tuple  # indices in v of those that move by integrate (ball, planar, free)
     periodic_coordinates: np.ndarray  # indices in q of angles whose q is the angle itself (q ± 2π: one pose)
@@ -135,6 +136,7 @@ class Compiled:
         scales = np.array([self.length_scale if u == "m" else 1.0 for u in self.units])
         self.coordinate_scales = _readonly(scales)
         self.inverse_scale_products = _readonly(1.0 / np.outer(scales, scales))
+        self.unit_scales = bool(np.all(scales == 1.0))
         additive = [(b.idx_v + i, b.idx_q + i) for b in infos.values() if b.nq == b.nv for i in range(b.nv)]
         self.additive_coordinates = tuple(np.array(c, dtype=int) for c in zip(*additive)) if additive else (
             np.zeros(0, int), np.zeros(0, int))

@@ -158,14 +158,9 @@ class Constraints:
                     e.dp = e.ddp = e.w = e.dw = np.zeros(3)
                     fr.append(e)
                     continue
-                oMi = data.oMi[jid]
-                R = oMi.rotation
-                Rr = R @ r
-                e.p, e.R = oMi.translation + Rr, R @ Rl
-                if jacobians:  # (as the hot path's: :meth:`_equations`)
-                    J = pin.getJointJacobian(model, data, jid, pin.LOCAL_WORLD_ALIGNED).reshape(6, nv)
-                    e.Jv, e.Jw = J[:3] - pin.skew(Rr) @ J[3:], J[3:]
+                e.p, e.R, e.Jv, e.Jw = self._end(data, jid, r, Rl, jacobians)
                 if v is not None:
+                    R = data.oMi[jid].rotation
                     vel, acc = data.v[jid], data.a[jid]  # LOCAL: d/dt of the local components
                     w, dw = vel.angular, acc.angular
                     dp = vel.linear + _cross(w, r)
@@ -174,6 +169,17 @@ class Constraints:
                 fr.append(e)
             out.append(fr)
         return out
+
+    def _end(self, data, jid, r, Rl, jacobian):
+        """(p, R, Jv, Jw) of a loop end fixed at r, Rl in joint jid's frame (jid > 0): world position (m), rotation
+        and LOCAL_WORLD_ALIGNED Jacobians (3 × nv each; None without ``jacobian``), one formula for both forms."""
+        oMi = data.oMi[jid]
+        R = oMi.rotation
+        Rr = R @ r
+        if not jacobian:
+            return oMi.translation + Rr, R @ Rl, None, None
+        Jo = pin.getJointJacobian(self.model, data, jid, pin.LOCAL_WORLD_ALIGNED)  # (world axes, at the joint)
+        return oMi.translation + Rr, R @ Rl, Jo[:3] - pin.skew(Rr) @ Jo[3:], Jo[3:]
 
     def evaluate(self, q, jacobian=True, wrenches=False, loops=None):
         """(Φ (m,), Φ_q (m × nv) or None) at q: positions in m, orientations in rad; ``loops`` (indices): their
@@ -226,8 +232,7 @@ class Constraints:
             pin.computeJointJacobians(model, data, q)
         else:
             pin.forwardKinematics(model, data, q)
-        nv, aligned, m = model.nv, pin.LOCAL_WORLD_ALIGNED, self.m if loops is self._every else sum(
-            self.sizes[i] for i in loops)
+        nv, m = model.nv, self.m if loops is self._every else sum(self.sizes[i] for i in loops)
         phi, J, zero, k = np.empty(m), np.empty((m, nv)) if jacobian else None, None, 0
         for i in loops:
             (normals, pairs), kinds, frames = self._axes[i], self.loops[i].joint.loop_rows, []
@@ -237,14 +242,7 @@ class Constraints:
                         zero = np.zeros((3, nv))
                     frames.append((r, Rl, zero, zero))
                     continue
-                oMi = data.oMi[jid]
-                R = oMi.rotation
-                Rr = R @ r
-                if jacobian:
-                    Jo = pin.getJointJacobian(model, data, jid, aligned)  # (world axes, at the joint's origin)
-                    frames.append((oMi.translation + Rr, R @ Rl, Jo[:3] - pin.skew(Rr) @ Jo[3:], Jo[3:]))
-                else:
-                    frames.append((oMi.translation + Rr, R @ Rl, None, None))
+                frames.append(self._end(data, jid, r, Rl, jacobian))
             (pa, Ra, Jva, Jwa), (pb, Rb, Jvb, Jwb) = frames
             e = pb - pa
             de = Jvb - Jva if jacobian else None

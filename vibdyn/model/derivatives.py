@@ -217,9 +217,8 @@ def analytic_derivatives(system, q, v, a, t, with_terms=False, shift=None, appli
     if with_terms:
         moving, accelerating = bool(np.count_nonzero(v)), bool(np.count_nonzero(a))
         terms = np.abs(data.tau)  # the derivatives' pass leaves RNEA's τ in data.tau
-        # (+ |g|: RNEA's τ itself where it is the gravity term alone, :func:`dynamics.is_gravity`)
-        gravity_alone = not (system.point_groups or moving or accelerating)
-        terms += terms if gravity_alone else np.abs(dynamics.gravity_term(system, ws, q))
+        # (+ |g|: RNEA's τ itself where it is the gravity term alone)
+        terms += terms if dynamics.is_gravity(system, v, a) else np.abs(dynamics.gravity_term(system, ws, q))
         terms += np.abs(Q)
         K_parts = rnea_part_sizes(system, ws, q, v, a, fext, K, 0.0, terms, (moving, accelerating))
     differenced = untrusted(system)[0].size != 0
@@ -261,10 +260,7 @@ def rnea_part_sizes(system, ws, q, v, a, fext, K, floor=0.0, terms=None, motion=
     moving, accelerating = (bool(np.count_nonzero(v)), bool(np.count_nonzero(a))) if motion is None else motion
     one_kind = fext is None and not (moving and accelerating) and not (system.has_gravity and (moving or accelerating))
     sizes = np.abs(K) if one_kind else _part_sizes(system, ws, q, v, a, fext, K, moving, accelerating)
-    unit = ws.stencils.get("unit scales")  # (rotations only: every scale is 1, no product to take)
-    if unit is None:
-        unit = ws.stencils["unit scales"] = not np.any(system.coordinate_scales != 1.0)
-    if unit:
+    if system.unit_scales:  # (no product of scales to take)
         if terms is not None:
             floor = max(floor, float(np.maximum.reduce(terms, initial=0.0)))
         floors = np.maximum(sizes.diagonal(), floor)
