@@ -14,6 +14,7 @@ from test_assembly import rssr  # (the spatial linkage of that file)
 import vibdyn as vd
 from vibdyn.defaults import ASSEMBLY_TOL
 from vibdyn.model import assembly
+from vibdyn.model.loop_batch import LoopBatch, close_many
 
 A, B, C, D = 0.1, 0.3, 0.25, 0.3  # the bundled four-bar: crank, coupler, rocker, ground (m)
 NEAREST = "the closure nearest the neutral configuration"
@@ -394,6 +395,37 @@ def test_assembly_modes_sampled_not_enumerated_are_not_called_nearest(monkeypatc
     assert "not proven the nearest" in a.note and "sampled (4 restarts" in a.note
     assert on_a_watt_mode(system, a.q, 0.0)
     assert a.distance >= watt_hand_nearest(0.0) - 1e-8
+
+
+def test_restarts_solved_in_step_reach_what_each_reaches_alone():
+    """The restarts of the other assembly modes run in step (one batched evaluation of the loops per iteration,
+    each refused step's halvings tried at once) and each end where Gauss–Newton from it alone (:func:`_correct`,
+    the scalar path) ends: the same closure, or none, for every restart of the Watt six-bar's two blocks, each
+    from both closures of the first block; and among them the four hand modes at that crank angle."""
+    system = watt(0.0).build()
+    c = system.constraints
+    q = c.assembly().q
+    found = [q]
+    for loops, cols in assembly._fibres(c, q):
+        combos, _ = assembly._grid(c, cols)
+        starts = []
+        for p in found:
+            for combo in [np.zeros(cols.size)] + combos:
+                x = np.zeros(system.nv)
+                x[cols] = combo
+                starts.append(system.integrate(p, c.col_scale * x))
+        batch = close_many(LoopBatch(c, loops), starts, [0] * len(starts), cols, (assembly.PARTNER_ITER,
+                           assembly.PARTNER_OPEN), (-1.0, 0.0), None)  # (no start dropped as converging to another)
+        alone = [assembly._correct(c, p, cols, sum(assembly.PARTNER_ITER), (assembly.PARTNER_ITER[0],
+                                   assembly.PARTNER_OPEN), None, loops) for p in starts]
+        assert [b is None for b in batch] == [a is None for a in alone]
+        assert all(np.abs(system.difference(a[0], b)).max() <= 1e-9 for a, b in zip(alone, batch) if a is not None)
+        found = []
+        for b in (b for b in batch if b is not None):
+            if all(np.abs(wrap(system.difference(f, b))).max() > 1e-6 for f in found):
+                found.append(b)
+    assert len(found) == len(watt_branches(system.difference(system.neutral(), q)[0], 0.0)) == 4
+    assert all(on_a_watt_mode(system, f, 0.0) for f in found)
 
 
 @pytest.mark.parametrize("ground", [0.649, 0.6499])

@@ -1,13 +1,16 @@
-"""The loops' equations have two writings: the hot path (Φ and Φ_q row by row) and the one with the wrench
-coefficients (Φ_q = C_a J_a + C_b J_b, for the loop forces). They agree to round-off for every kind of loop joint,
-between two bodies and with the world, at random configurations."""
+"""The loops' equations have three writings: the hot path (Φ and Φ_q row by row), the one with the wrench
+coefficients (Φ_q = C_a J_a + C_b J_b, for the loop forces) and the batched one of the assembly's restarts (many
+configurations at once, the ends' Jacobians from the joints' local ones). They agree to round-off for every kind
+of loop joint, between two bodies and with the world, at random configurations."""
 
 import numpy as np
 import pytest
 
 import vibdyn as vd
 from vibdyn.description.elements import WORLD
+from vibdyn.model.loop_batch import LoopBatch
 
+EPS = np.finfo(float).eps
 I3 = np.diag([1e-3, 2e-3, 3e-3])
 JOINTS = {"pivot": lambda: vd.Pivot((0, 0, 1)), "slider": lambda: vd.Slider((1, 0, 0)),
           "cylindrical": lambda: vd.Cylindrical((0, 1, 0)), "universal": lambda: vd.Universal((1, 0, 0), (0, 1, 0)),
@@ -42,3 +45,11 @@ def test_the_loop_equations_hot_path_equals_the_wrench_form(kind, world):
             rows = np.concatenate([np.arange(ends[i], ends[i + 1]) for i in loops])
             phi_l, J_l = c.evaluate(q, loops=loops)
             assert np.array_equal(phi_l, phi[rows]) and np.array_equal(J_l, J[rows])
+        # batched, this configuration among others: each one's rows (round-off of some 50 operations)
+        Q = np.array([system.integrate(q, rng.standard_normal(system.nv)), q])
+        for loops in ([1, 0], [0], [1]) if not world else ([0],):
+            phi_b, J_b = LoopBatch(c, loops).evaluate(Q)
+            for k in range(len(Q)):
+                phi_k, J_k = c.evaluate(Q[k], loops=loops)
+                assert np.abs(phi_b[k] - phi_k).max() <= 50 * EPS * max(1.0, np.abs(phi_k).max())
+                assert np.abs(J_b[k] - J_k).max() <= 50 * EPS * max(1.0, np.abs(J_k).max())

@@ -49,6 +49,7 @@ import pinocchio as pin
 
 from ..defaults import ASSEMBLY_TOL, RANK_RTOL
 from ..errors import ConvergenceError, ModelError
+from .loop_batch import LoopBatch, close_many, rows_of
 
 #: radii (rad, or × the length scale) of the restarts along ± each coordinate, one round each
 RESTART_RADII = (0.25, 1.0, np.pi / 2)
@@ -282,15 +283,7 @@ def _on_branch(c, p, S, steps, T):
 
 def _rows(c, loops):
     """Indices of the equations of the ``loops`` (indices), in order."""
-    return _rows_of(tuple(c.sizes), tuple(loops))
-
-
-@functools.lru_cache(maxsize=256)
-def _rows_of(sizes, loops):
-    ends = np.cumsum((0,) + sizes)
-    out = np.concatenate([np.arange(ends[i], ends[i + 1]) for i in loops])
-    out.flags.writeable = False
-    return out
+    return rows_of(tuple(c.sizes), tuple(loops))
 
 
 def _blocks(c, J, used, dep):
@@ -379,26 +372,27 @@ def _partners(c, q, qd):
     """(closures, complete): the other closures with q's independent coordinates (the other assembly modes
     there: the mirror image of a four-bar's coupler and rocker about the line they span), block by block of the
     dependent coordinates (:func:`_blocks`): from each closure of the blocks before, Gauss–Newton on the block's
-    coordinates and equations (:func:`_correct`) from each restart of its grid (:func:`_grid`; ``complete`` False
-    where one is sampled). A restart still open by PARTNER_OPEN after PARTNER_ITER[0] iterations is dropped (it is
-    not converging), as is one beside the closure it started from or one it found already."""
+    coordinates and equations from each restart of its grid (:func:`_grid`; ``complete`` False where one is
+    sampled), all in step (:func:`~vibdyn.model.loop_batch.close_many`: a restart still open by PARTNER_OPEN
+    after PARTNER_ITER[0] iterations is dropped, as is one converging to a closure found already)."""
     model, cs, nv = c.model, c.col_scale, c.nv
     partial, complete = [q], True
     for loops, cols in _fibres(c, q):
         combos, whole = _grid(c, cols)
         complete = complete and whole
-        reached = []
-        for p in partial:
-            found: list = []
+        starts, owner = [], []
+        for j, p in enumerate(partial):
             for combo in [np.zeros(cols.size)] + combos:  # (p's own first: it closes the block's loops from q's)
                 x = np.zeros(nv)
                 x[cols] = combo
-                # (a few iterations first: most restarts that fail are far off by then)
-                closed = _correct(c, pin.integrate(model, p, cs * x), cols, sum(PARTNER_ITER),
-                                  (PARTNER_ITER[0], PARTNER_OPEN), np.array(found) if found else None, loops)
-                if closed is None:
-                    continue
-                q1 = c.within_pi(closed[0], qd)
+                starts.append(pin.integrate(model, p, cs * x))
+                owner.append(j)
+        closed = close_many(LoopBatch(c, loops), starts, owner, cols, (PARTNER_ITER, PARTNER_OPEN),
+                            (KNOWN_STEP, KNOWN_GAP), functools.partial(_gaps, c))
+        reached: list = []
+        for j in range(len(partial)):
+            found: list = []
+            for q1 in (c.within_pi(x, qd) for x, o in zip(closed, owner) if o == j and x is not None):
                 if all(_gap(c, o, q1) > SAME for o in found):
                     found.append(q1)
             reached += found

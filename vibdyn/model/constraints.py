@@ -69,8 +69,8 @@ class Constraints:
         self._local = threading.local()  # (Pinocchio Data per thread: the building thread's is the System's own)
         self._local.data = system.data
         self.loops = tuple(loops)
-        self._ends = []
-        self._axes = []  # per loop: (normals n_i of "normal" rows, (n, u) pairs of "aligned" ones)
+        self.ends = []  # per loop: its two ends (joint id, point in the joint's frame (m), rotation in it); 0: world
+        self.axes = []  # per loop: (normals n_i of "normal" rows, (n, u) pairs of "aligned" ones)
         for lp in self.loops:
             ends = []
             for body, point in (lp.a, lp.b):
@@ -80,14 +80,14 @@ class Constraints:
                     info = system.body_info(body)
                     B = info.body_in_joint
                     ends.append((info.joint_id, B.act(np.array(point)), B.rotation.copy()))
-            self._ends.append(ends)
-            self._axes.append((lp.joint.loop_normals(), lp.joint.loop_alignments()))
+            self.ends.append(ends)
+            self.axes.append((lp.joint.loop_normals(), lp.joint.loop_alignments()))
         self.sizes, self._every = tuple(lp.equations for lp in self.loops), tuple(range(len(self.loops)))
         self.m = sum(self.sizes)
         L = system.length_scale
         # dimensionless scaling: position rows / L, translation columns × L
         units = (np.concatenate([self._row_units(lp, n, len(normals))
-                                 for lp, n, (normals, _) in zip(self.loops, self.sizes, self._axes)])
+                                 for lp, n, (normals, _) in zip(self.loops, self.sizes, self.axes)])
                  if self.loops else np.zeros(0))
         self.row_units = tuple("m" if u == 1 else "rad" for u in units)  # the unit of each equation
         self.row_scale = np.where(units == 1, 1.0 / L, 1.0)
@@ -148,7 +148,7 @@ class Constraints:
             pin.forwardKinematics(model, data, q)
         nv = model.nv
         out = []
-        for ends in self._ends:
+        for ends in self.ends:
             fr = []
             for jid, r, Rl in ends:
                 e = _End()
@@ -189,7 +189,7 @@ class Constraints:
         if not wrenches:
             return self._equations(q, jacobian, self._every if loops is None else loops)
         phis, jacs, coeffs = [], [], []
-        for lp, (normals, pairs), (a, b) in zip(self.loops, self._axes, self._frames(q, jacobian)):
+        for lp, (normals, pairs), (a, b) in zip(self.loops, self.axes, self._frames(q, jacobian)):
             kinds = lp.joint.loop_rows
             e = b.p - a.p
             rows, Ca, Cb = [], [], []
@@ -235,8 +235,8 @@ class Constraints:
         nv, m = model.nv, self.m if loops is self._every else sum(self.sizes[i] for i in loops)
         phi, J, zero, k = np.empty(m), np.empty((m, nv)) if jacobian else None, None, 0
         for i in loops:
-            (normals, pairs), kinds, frames = self._axes[i], self.loops[i].joint.loop_rows, []
-            for jid, r, Rl in self._ends[i]:
+            (normals, pairs), kinds, frames = self.axes[i], self.loops[i].joint.loop_rows, []
+            for jid, r, Rl in self.ends[i]:
                 if jid == 0:
                     if jacobian and zero is None:
                         zero = np.zeros((3, nv))
@@ -411,7 +411,7 @@ class Constraints:
         _, _, coeffs = self.evaluate(q, wrenches=True)
         data = self.data
         out, k = {}, 0
-        for ends, n, (Ca, Cb) in zip(self._ends, self.sizes, coeffs):
+        for ends, n, (Ca, Cb) in zip(self.ends, self.sizes, coeffs):
             for (jid, r, _), C in zip(ends, (Ca, Cb)):
                 if jid == 0:
                     continue
@@ -533,7 +533,7 @@ class Constraints:
         of Φ_q, the accelerations stay accurate. The d/dt of log3's Jacobian (slider and fixed loops) by a
         fourth-order central difference along v (step 1e-4 of the dimensionless speed)."""
         out = []
-        for lp, (normals, pairs), (a, b) in zip(self.loops, self._axes, self._frames(q, v=v)):
+        for lp, (normals, pairs), (a, b) in zip(self.loops, self.axes, self._frames(q, v=v)):
             kinds = lp.joint.loop_rows
             e, de, dde = b.p - a.p, b.dp - a.dp, b.ddp - a.ddp
             if "position" in kinds:
