@@ -38,8 +38,9 @@ def frf_report(system, input_spec, output_spec, w0=None, w1=None, points=400, me
                          "give --from and --to")
         w0 = lo if w0 is None else w0
         w1 = hi if w1 is None else w1
-    if not (0 <= w0 < w1) or points < 3:
-        raise ModelError(f"frf: need 0 ≤ --from < --to and --points ≥ 3, got {w0}, {w1}, {points}")
+    if not (0 <= w0 < w1 < np.inf) or points < 3:
+        raise ModelError(f"frf: need 0 ≤ --from < --to (finite, rad/s) and --points ≥ 3, got --from {w0:.6g}, "
+                         f"--to {w1:.6g}, --points {points}")
     omega = np.geomspace(w0, w1, points) if w0 > 0 else np.linspace(w0, w1, points)
     out = parse_channel(output_spec)
     if input_spec.startswith("support:"):

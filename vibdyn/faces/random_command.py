@@ -45,6 +45,19 @@ def read_psd(path, unit=None):
         raise ModelError(f"PSD file {path}: {e}") from None
 
 
+def _check_kind(psd, args):
+    """--force takes a force or torque PSD, --support a motion PSD (the other kind is refused, naming both)."""
+    from ..description.psd import ORDER
+
+    load = ORDER[psd.quantity] is None
+    if args.force and not load:
+        raise ModelError(f"--force {args.force}: a force PSD is needed (N^2/Hz, or (N*m)^2/Hz on a rotation), got a "
+                         f"PSD of {psd.quantity} ({psd.unit}): a motion PSD goes with --support")
+    if args.support and load:
+        raise ModelError(f"--support {args.support}: a motion PSD is needed (g^2/Hz, (m/s^2)^2/Hz, (m/s)^2/Hz or "
+                         f"m^2/Hz), got a PSD of {psd.quantity} ({psd.unit}): a force PSD goes with --force")
+
+
 def add(sub, scene_help):
     r = sub.add_parser("random", help="RMS responses to a random support motion or force: a PSD table (one-sided, Hz)")
     r.add_argument("scene", help=scene_help)
@@ -65,6 +78,7 @@ def add(sub, scene_help):
 def command(scene, args, out=None):
     p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
     psd = read_psd(args.psd, args.unit)
+    _check_kind(psd, args)
     try:
         d = tuple(float(x) for x in args.direction.split(","))
     except ValueError:
