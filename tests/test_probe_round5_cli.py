@@ -202,3 +202,20 @@ def test_a_backbone_amplitude_in_degrees_gets_a_hint():
 def test_simulate_names_a_wrong_v0_as_the_option():
     code, out, err = run(["simulate", "rod_pivot", "--t-end", "1", "--v0", "1", "2"])
     _one_line_error(code, err, "--v0")
+
+
+def test_a_replay_speed_that_is_no_positive_number_is_refused_for_every_object(tmp_path):
+    """export_html(modes, speed="fast") ended in float()'s ValueError; speed=0 or −1 passed unchecked with modes."""
+    modes = vd.load_scene("double_pendulum").build().operating_point().linearize().modes()
+    for speed in ("fast", 0.0, -1.0):
+        with pytest.raises(ModelError, match="replay speed"):
+            vd.export_html(modes, tmp_path / "m.html", speed=speed)
+
+
+def test_an_orbit_asked_by_a_number_is_refused_listing_the_orbits():
+    """UnbalanceResponse.orbit(5) ended in "'int' object is not subscriptable"."""
+    from test_rotor import jeffcott
+
+    r = vd.unbalance_response(jeffcott().build(), "disk", np.linspace(50.0, 400.0, 8), [("disk", (0, 0, 0))])
+    with pytest.raises(ModelError, match=r"orbits: disk\(0,0,0\)"):
+        r.orbit(5)
