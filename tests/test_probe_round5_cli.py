@@ -219,3 +219,11 @@ def test_an_orbit_asked_by_a_number_is_refused_listing_the_orbits():
     r = vd.unbalance_response(jeffcott().build(), "disk", np.linspace(50.0, 400.0, 8), [("disk", (0, 0, 0))])
     with pytest.raises(ModelError, match=r"orbits: disk\(0,0,0\)"):
         r.orbit(5)
+
+
+def test_the_frf_table_says_which_frequency_and_which_zeta_it_lists():
+    """The resonance's column was 'omega rad/s' (the peak of |H|: neither ω_n nor ω_d) and its ζ 0.148134 beside
+    a modal ζ of 0.15 without a word on the difference."""
+    code, out, err = run(["frf", "receptance_damped", "--input", "m1", "--output", "m2", "--points", "100"])
+    assert code == 0, err
+    assert "peaks and troughs of |H|" in out and "neither ω_n nor ω_d" in out and "half-power band" in out

@@ -67,7 +67,9 @@ def print_frf(frf, peaks, hp, out=None, notes=()):
       f"{frf.relative_error:.1e}, {frf.elapsed * 1e3:.1f} ms")
     for n in notes:
         p(f"note: {n}")
-    p(f"{'':<16} {'omega rad/s':>14} {'f Hz':>12} {'|H|':>12} {'zeta (half power)':>18}")
+    p("frequencies of the peaks and troughs of |H| (a damped peak is at neither ω_n nor ω_d exactly); ζ by the "
+      "half-power band (ω₂ − ω₁)/(2ω), an estimate of the modal ζ that `vibdyn modes` lists")
+    p(f"{'':<16} {'ω rad/s':>14} {'f = ω/2π Hz':>12} {'|H|':>12} {'ζ (half power)':>18}")
     for w, a in zip(peaks.resonances, peaks.amplitudes):
         if not np.isfinite(a):  # undamped, or damped less than the linear model's own error resolves
             zeta = "0 (undamped)" if frf.damping.startswith("undamped") else "within the error"
