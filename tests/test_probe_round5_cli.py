@@ -227,3 +227,14 @@ def test_the_frf_table_says_which_frequency_and_which_zeta_it_lists():
     code, out, err = run(["frf", "receptance_damped", "--input", "m1", "--output", "m2", "--points", "100"])
     assert code == 0, err
     assert "peaks and troughs of |H|" in out and "neither ω_n nor ω_d" in out and "half-power band" in out
+
+
+@pytest.mark.parametrize("angle", [1e10, 1e300])
+def test_a_start_beyond_round_off_is_not_said_to_have_a_constant_force(angle):
+    """From rod = 1e300 rad the trial steps of 1 rad vanish in round-off, and the search said the pendulum's gravity
+    torque 'is constant … it does not depend on q'; it now says the search did not converge, with the degrees hint."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")  # (as the command line runs: the hint prints as a line)
+        code, out, err = run(["modes", "rod_pivot", "--start", f"rod={angle:g}"])
+    assert code == 2
+    assert "does not depend on q" not in err and "degrees by mistake" in err
