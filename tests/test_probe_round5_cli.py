@@ -238,3 +238,19 @@ def test_a_start_beyond_round_off_is_not_said_to_have_a_constant_force(angle):
         code, out, err = run(["modes", "rod_pivot", "--start", f"rod={angle:g}"])
     assert code == 2
     assert "does not depend on q" not in err and "degrees by mistake" in err
+
+
+def test_a_spectrum_analysis_keeping_no_mode_says_so_instead_of_an_empty_zeta(tmp_path):
+    """--modes 0 printed 'SRSS (ζ = );'. Oracle: with no mode kept, the response is static, K u = M r S_a(0)."""
+    table = tmp_path / "spectrum.txt"
+    table.write_text("0 2\n0.5 5\n1 3\n4 1\n")
+    code, out, err = run(["spectrum", "three_storey_building", "--spectrum", table, "--modes", "0",
+                          "--direction", "1", "0", "0", "--json"])
+    assert code == 0, err
+    code, text, err = run(["spectrum", "three_storey_building", "--spectrum", table, "--modes", "0",
+                           "--direction", "1", "0", "0"])
+    assert "(ζ = )" not in text and "no mode kept" in text
+    lin = vd.load_scene("three_storey_building").build().operating_point().linearize()
+    static = np.linalg.solve(lin.K, lin.M @ np.ones(3) * 2.0)
+    for name, u in zip(("floor1", "floor2", "floor3"), static):
+        assert f"{name}" in text and f"{u:.6g}".rstrip("0") in text, (u, text)
