@@ -254,3 +254,20 @@ def test_a_spectrum_analysis_keeping_no_mode_says_so_instead_of_an_empty_zeta(tm
     static = np.linalg.solve(lin.K, lin.M @ np.ones(3) * 2.0)
     for name, u in zip(("floor1", "floor2", "floor3"), static):
         assert f"{name}" in text and f"{u:.6g}".rstrip("0") in text, (u, text)
+
+
+def test_a_psd_function_whose_integral_diverges_has_no_rms():
+    """PSD.function(1/(1 + f)) over 0…∞ Hz gave rms 12.04 (scipy's IntegrationWarning aside); ∫ 1/(1 + f²) df = π/2
+    still gives √(π/2)."""
+    with pytest.raises(ModelError, match="does not converge"):
+        vd.PSD.function(lambda f: 1 / (1 + f), "N^2/Hz").rms()
+    assert abs(vd.PSD.function(lambda f: 1 / (1 + f ** 2), "N^2/Hz").rms() - np.sqrt(np.pi / 2)) < 1e-9
+
+
+def test_psd_sample_and_evaluation_refuse_before_allocating_or_converting():
+    """sample(1e3) of a band up to 1e9 Hz tried to allocate 7.28 TiB (MemoryError) before its own limit; psd("a")
+    ended in float()'s ValueError."""
+    with pytest.raises(ModelError, match="harmonics"):
+        vd.PSD.band_limited(1.0, 1.0, 1e9).sample(1e3)
+    with pytest.raises(ModelError, match="must be numbers"):
+        vd.PSD([20, 80], [0.01, 0.04], unit="g^2/Hz")("a")
