@@ -271,3 +271,12 @@ def test_psd_sample_and_evaluation_refuse_before_allocating_or_converting():
         vd.PSD.band_limited(1.0, 1.0, 1e9).sample(1e3)
     with pytest.raises(ModelError, match="must be numbers"):
         vd.PSD([20, 80], [0.01, 0.04], unit="g^2/Hz")("a")
+
+
+def test_vibdyn_version_prints_the_installed_version(capsys):
+    """`vibdyn --version` said 'the following arguments are required: command'."""
+    from vibdyn.faces.cli import main
+
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.strip() == f"vibdyn {vd.__version__}"
