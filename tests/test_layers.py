@@ -31,7 +31,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "vibdyn"
 LAYERS = {"errors": 0, "_check": 0, "_deprecation": 0, "_format": 0, "defaults": 0, "results": 0, "description": 1,
-          "solvers": 2, "model": 2, "simulation": 3, "analysis": 4, "studies": 5, "io": 6, "faces": 7}
+          "solvers": 2, "model": 2, "simulation": 3, "analysis": 4, "studies": 5, "io": 6, "faces": 7, "__main__": 8}
 # the model layer's machinery that the description's plugins (element kinds) build on
 PLUGIN_MACHINERY = {"vibdyn.model.points", "vibdyn.model.groups"}
 PURE_DESCRIPTION = ("vibdyn.description.scene", "vibdyn.description.inertia", "vibdyn.description.laws",

@@ -30,8 +30,18 @@ def finite_array(value, shape, what):
                               or any(s is not None and s != a for s, a in zip(shape, arr.shape))):
         raise ModelError(f"{what}: expected shape {_fmt(shape)}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ModelError(f"{what}: contains NaN or inf ({value!r})")
+        raise ModelError(f"{what}: contains NaN or inf ({_bad_entries(arr, value)})")
     return arr
+
+
+def _bad_entries(arr, value):
+    """The non-finite entries of ``arr`` in words: the value itself when short, else the first one's index."""
+    if arr.size <= 6:
+        return repr(value.tolist() if isinstance(value, np.ndarray) else float(arr) if arr.ndim == 0 else value)
+    bad = np.argwhere(~np.isfinite(arr))
+    first = tuple(int(i) for i in bad[0])
+    return (f"{len(bad)} of {arr.size} entries, the first {arr[first]} at index "
+            f"{first[0] if len(first) == 1 else first}")
 
 
 def vector3(value, what):

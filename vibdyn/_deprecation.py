@@ -30,9 +30,12 @@ def warn_caller(message: str, category: type[Warning] = UserWarning) -> None:
                                         or frame.f_code.co_filename.startswith("<frozen importlib")):
         frame = frame.f_back
     globals_ = frame.f_globals
+    # (a script run by ``python -c`` or from stdin has a class, BuiltinImporter, as its __loader__: the source
+    # lookup through module_globals then raises ImportError, so its globals are not passed)
+    source = None if isinstance(globals_.get("__loader__"), type) else globals_
     warnings.warn_explicit(message, category, frame.f_code.co_filename, frame.f_lineno,
                            module=globals_.get("__name__", "<string>"),
-                           registry=globals_.setdefault("__warningregistry__", {}), module_globals=globals_)
+                           registry=globals_.setdefault("__warningregistry__", {}), module_globals=source)
 
 
 def warn_once(former: str, message: str) -> None:

@@ -529,6 +529,9 @@ def _refuse_constant(system, what, b, R, rest, candidates, force_scale, residual
             q2 = R.step(q, N, dz)
         except ConvergenceError:  # (loops that cannot close there: no verdict)
             return
+        moved = system.difference(q, q2)[ind[rest]]
+        if np.any(np.abs(moved - dz[rest]) > 0.5 * np.abs(dz[rest])):  # (the step lost to round-off, at an angle
+            return  # of 1e300 rad: the force cannot change, no verdict)
         f2 = R.reduce(ind, R.independent(q2, ind)[1], residual(q2))
         same &= np.abs(f2[ks] - f[ks]) <= 1e-9 * force_scale
     if not same.any():

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._check import finite_array
+from .._check import finite_array, scalar
 from ..defaults import EPS
 from ..errors import ModelError
 from ..solvers.differences import second_derivative
@@ -237,24 +237,45 @@ def log_decrement(t: ArrayLike, x: ArrayLike, offset: float = 0.0) -> LogDecreme
     The positive maxima are refined on a cubic spline of the samples; ln x_k is fitted by least squares
     against their times (scipy.stats.linregress): slope −ζω_n; the period T_d comes from a fit of the
     times against the index. The error adds the fits' standard errors to the change of ζ when the maxima
-    are refined by three-point parabolas instead of the spline."""
+    are refined by three-point parabolas instead of the spline, and to its difference from the ζ of the minima
+    (an ``offset`` off the rest value moves the two apart)."""
     start = time.perf_counter()
     t, x = _curve(t, x, "log decrement")
-    y = x - float(offset)
+    y = x - scalar(offset, "log decrement: offset")
     tk, yk, _ = extrema(t, y, None, "max")
     keep = yk > 0
     tk, yk = tk[keep], yk[keep]
     if tk.size < 2:
         raise ModelError(f"log decrement: need at least two positive maxima of the signal, found {tk.size}")
+    _one_mode(t, y, tk, float(offset))
     zeta, delta, Td, dzeta = _decay(tk, yk)
     idx = np.clip(np.searchsorted(t, tk), 1, t.size - 2)
     idx = np.where(np.abs(t[idx - 1] - tk) < np.abs(t[idx] - tk), idx - 1, idx)
     idx = np.clip(idx, 1, t.size - 2)
     alt = np.array([_parabola(t[i - 1:i + 2], y[i - 1:i + 2]) for i in idx]).reshape(-1, 2)
     dzeta += abs(_decay(alt[:, 0], alt[:, 1])[0] - zeta) if np.all(alt[:, 1] > 0) else 0.0
+    tm, ym, _ = extrema(t, y, None, "min")
+    tm, ym = tm[ym < 0], -ym[ym < 0]
+    if tm.size >= 2:
+        dzeta += abs(_decay(tm, ym)[0] - zeta)
     wd = 2 * math.pi / Td
     return LogDecrement(float(zeta), float(delta), float(wd), float(wd / math.sqrt(1 - zeta ** 2)), tk, yk,
                         float(dzeta + 16 * EPS), time.perf_counter() - start)
+
+
+def _one_mode(t, y, tk, offset):
+    """Refuse maxima that are no free decay of one mode about ``offset``: the signal must fall below the offset
+    between each two (else the rest value is wrong, and ln of the peaks is not linear in t), and the maxima come
+    one per period (equal spacing; noise or a second mode adds maxima between)."""
+    if not np.min(y[(t > tk[0]) & (t < tk[-1])], initial=0.0) < 0:
+        raise ModelError(f"log decrement: the signal does not fall below offset = {offset:g} between its maxima: a "
+                         "free decay oscillates about its rest value; give offset= (the value it settles to)")
+    crossed = [np.min(y[(t > a) & (t < b)], initial=0.0) < 0 for a, b in zip(tk[:-1], tk[1:])]
+    gaps = np.diff(tk)
+    if not all(crossed) or np.max(np.abs(gaps - np.median(gaps))) > 0.25 * np.median(gaps):
+        raise ModelError(f"log decrement: the maxima are not one per period (their spacing ranges from "
+                         f"{gaps.min():.4g} to {gaps.max():.4g} s): noise or a second mode adds maxima; filter the "
+                         "signal to its one mode first")
 
 
 def _decay(tk, yk):

@@ -156,7 +156,10 @@ class UnbalanceResponse:
 
     def orbit(self, point: Any) -> Orbit:
         """The orbit at a point given among the outputs as ``(body, (x, y, z))`` (its label or that pair)."""
-        key = point if isinstance(point, str) else _point_label(point)
+        try:
+            key = point if isinstance(point, str) else _point_label(point)
+        except (TypeError, IndexError, ValueError):
+            key = repr(point)  # (no point: refused below, listing the orbits there are)
         if key not in self._planes:
             raise ModelError(f"unbalance response: no orbit at {key!r}: give the point as (body, (x, y, z)) among the "
                              f"outputs (orbits: {', '.join(self._planes) or 'none'})")

@@ -157,7 +157,10 @@ class PSD:
 
     def __call__(self, f_hz: ArrayLike) -> np.ndarray:
         """G(f) in SI (:attr:`si_unit`) at the frequencies ``f_hz`` (Hz, ≥ 0)."""
-        f = np.asarray(f_hz, dtype=float)
+        try:
+            f = np.asarray(f_hz, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"PSD: frequencies (Hz) must be numbers, got {f_hz!r}") from None
         scale = UNITS[self.unit][1]
         lo, hi = self.band
         inside = (f >= lo) & (f <= hi)
@@ -169,7 +172,8 @@ class PSD:
                 v = np.broadcast_to(np.asarray(self.fun(f[inside]), dtype=float), f[inside].shape)
                 if not np.all(np.isfinite(v)) or np.any(v < 0):
                     k = int(np.flatnonzero(~(np.isfinite(v) & (v >= 0)))[0])
-                    raise ModelError(f"PSD function: value {v[k]!r} at {f[inside][k]:g} Hz (need finite levels ≥ 0)")
+                    raise ModelError(f"PSD function: value {float(v[k])!r} at {f[inside][k]:g} Hz (need finite levels "
+                                     "≥ 0)")
                 out[inside] = v * scale
             return out
         return self._table(f) * scale
@@ -219,8 +223,19 @@ class PSD:
         lo, hi = self.band
         pts = self.breakpoints
         edges = [lo, *[p for p in pts if lo < p < hi], hi]
-        total = sum(quad(lambda x: float(self(np.array([x]))[0]), a, b, limit=200, epsrel=1e-10)[0]
-                    for a, b in zip(edges[:-1], edges[1:]))
+        import warnings
+
+        from scipy.integrate import IntegrationWarning
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", IntegrationWarning)
+            try:
+                total = sum(quad(lambda x: float(self(np.array([x]))[0]), a, b, limit=200, epsrel=1e-10)[0]
+                            for a, b in zip(edges[:-1], edges[1:]))
+            except IntegrationWarning as e:  # (a function decaying no faster than 1/f: its integral diverges)
+                raise ModelError(f"PSD.rms: the integral of the PSD over {lo:g}…{hi:g} Hz does not converge "
+                                 f"({str(e).splitlines()[0].strip()}): band-limit it (band=) if its RMS is "
+                                 "unbounded") from None
         return math.sqrt(total)
 
     def sample(self, duration: float, seed: int | None = None, f_max: float | None = None) -> RandomSignal:
@@ -234,12 +249,14 @@ class PSD:
         if not math.isfinite(hi):
             raise ModelError("PSD.sample: the band reaches infinity: give f_max (Hz), the highest frequency to sample")
         lo = self.band[0]
-        k = np.arange(max(1, math.floor(lo * T + 0.5)), math.ceil(hi * T - 0.5) + 1)
+        first, last = max(1, math.floor(lo * T + 0.5)), math.ceil(hi * T - 0.5)
+        if last - first + 1 > 2_000_000:
+            raise ModelError(f"PSD.sample: {last - first + 1} harmonics (duration × f_max): shorten the duration or "
+                             "lower f_max")
+        k = np.arange(first, last + 1)
         if k.size == 0:
             raise ModelError(f"PSD.sample: no frequency k/{T:g} Hz inside the band {lo:g}…{hi:g} Hz (a longer "
                              "duration)")
-        if k.size > 2_000_000:
-            raise ModelError(f"PSD.sample: {k.size} harmonics (duration × f_max): shorten the duration or lower f_max")
         f = k / T
         a = np.maximum((k - 0.5) / T, lo)
         b = np.minimum((k + 0.5) / T, hi)

@@ -16,10 +16,16 @@ def speed_list(text, unit="rad/s"):
             a, b, n = text.split(":")
             if int(n) < 2:
                 raise ValueError
-            return np.linspace(float(a), float(b), int(n))
-        return np.array([float(x) for x in text.split(",")])
+            ends = float(a), float(b)
+            if not np.all(np.isfinite(ends)):
+                raise ValueError
+            return np.linspace(*ends, int(n))
+        speeds = np.array([float(x) for x in text.split(",")])
+        if not np.all(np.isfinite(speeds)):
+            raise ValueError
+        return speeds
     except ValueError:
-        raise ModelError(f"--speeds: expected FROM:TO:N (N ≥ 2) or a comma list of speeds in {unit}, got "
+        raise ModelError(f"--speeds: expected FROM:TO:N (N ≥ 2) or a comma list of speeds in {unit}, finite, got "
                          f"'{text}'") from None
 
 
@@ -36,8 +42,10 @@ def command(system, args, out=None):
     p = lambda *a: print(*a, file=out or sys.stdout)  # noqa: E731
     try:
         orders = tuple(float(x) for x in args.orders.split(","))
+        if not all(np.isfinite(orders)):
+            raise ValueError
     except ValueError:
-        raise ModelError(f"--orders: expected numbers separated by commas, got '{args.orders}'") from None
+        raise ModelError(f"--orders: expected finite numbers separated by commas, got '{args.orders}'") from None
     held = False if getattr(args, "free_spin", False) else None
     unit = "rpm" if getattr(args, "rpm", False) else "rad/s"
     k = RPM if unit == "rpm" else 1.0  # rad/s -> the unit shown

@@ -599,6 +599,7 @@ def _main(argv=None):
             print(f"vibdyn: error: {e}", file=sys.stderr)
             return 2
     parser = argparse.ArgumentParser(prog="vibdyn", description="Vibration analysis of sets of rigid solids.")
+    parser.add_argument("--version", action="version", version=f"vibdyn {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for add, _ in COMMANDS.values():
         add(sub)
@@ -609,6 +610,15 @@ def _main(argv=None):
         print(f"vibdyn: error: {e}", file=sys.stderr)
         return 2
     return 0
+
+
+def _version():
+    from importlib import metadata
+
+    try:
+        return metadata.version("vibdyn")
+    except metadata.PackageNotFoundError:  # pragma: no cover - a source tree on sys.path, never installed
+        return "0+unknown"
 
 
 def _rotation(R):

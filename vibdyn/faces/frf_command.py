@@ -38,8 +38,9 @@ def frf_report(system, input_spec, output_spec, w0=None, w1=None, points=400, me
                          "give --from and --to")
         w0 = lo if w0 is None else w0
         w1 = hi if w1 is None else w1
-    if not (0 <= w0 < w1) or points < 3:
-        raise ModelError(f"frf: need 0 ≤ --from < --to and --points ≥ 3, got {w0}, {w1}, {points}")
+    if not (0 <= w0 < w1 < np.inf) or points < 3:
+        raise ModelError(f"frf: need 0 ≤ --from < --to (finite, rad/s) and --points ≥ 3, got --from {w0:.6g}, "
+                         f"--to {w1:.6g}, --points {points}")
     omega = np.geomspace(w0, w1, points) if w0 > 0 else np.linspace(w0, w1, points)
     out = parse_channel(output_spec)
     if input_spec.startswith("support:"):
@@ -66,7 +67,9 @@ def print_frf(frf, peaks, hp, out=None, notes=()):
       f"{frf.relative_error:.1e}, {frf.elapsed * 1e3:.1f} ms")
     for n in notes:
         p(f"note: {n}")
-    p(f"{'':<16} {'omega rad/s':>14} {'f Hz':>12} {'|H|':>12} {'zeta (half power)':>18}")
+    p("frequencies of the peaks and troughs of |H| (a damped peak is at neither ω_n nor ω_d exactly); ζ by the "
+      "half-power band (ω₂ − ω₁)/(2ω), an estimate of the modal ζ that `vibdyn modes` lists")
+    p(f"{'':<16} {'ω rad/s':>14} {'f = ω/2π Hz':>12} {'|H|':>12} {'ζ (half power)':>18}")
     for w, a in zip(peaks.resonances, peaks.amplitudes):
         if not np.isfinite(a):  # undamped, or damped less than the linear model's own error resolves
             zeta = "0 (undamped)" if frf.damping.startswith("undamped") else "within the error"

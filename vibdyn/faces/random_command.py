@@ -45,6 +45,20 @@ def read_psd(path, unit=None):
         raise ModelError(f"PSD file {path}: {e}") from None
 
 
+def _check_kind(psd, args, system):
+    """--force takes a force or torque PSD, --support a motion PSD (the other kind is refused, naming both; a
+    declared support refuses a load PSD itself, and the API takes a load PSD on a coordinate as a force)."""
+    from ..description.psd import ORDER
+
+    load = ORDER[psd.quantity] is None
+    if args.force and not load:
+        raise ModelError(f"--force {args.force}: a force PSD is needed (N^2/Hz, or (N*m)^2/Hz on a rotation), got a "
+                         f"PSD of {psd.quantity} ({psd.unit}): a motion PSD goes with --support")
+    if args.support in system.coordinates and load:
+        raise ModelError(f"--support {args.support}: a motion PSD is needed (g^2/Hz, (m/s^2)^2/Hz, (m/s)^2/Hz or "
+                         f"m^2/Hz), got a PSD of {psd.quantity} ({psd.unit}): a force PSD goes with --force")
+
+
 def add(sub, scene_help):
     r = sub.add_parser("random", help="RMS responses to a random support motion or force: a PSD table (one-sided, Hz)")
     r.add_argument("scene", help=scene_help)
@@ -72,6 +86,7 @@ def command(scene, args, out=None):
     if len(d) != 3:
         raise ModelError(f"--direction: expected three comma-separated numbers, got {args.direction!r}")
     system = scene.build()
+    _check_kind(psd, args, system)
     lin = system.operating_point().linearize()
     if args.zeta is not None:
         lin = lin.with_modal_damping(args.zeta)

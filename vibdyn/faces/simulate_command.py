@@ -22,9 +22,10 @@ def command(system, args, out=None):
         raise ModelError(f"--samples must be at least 2 (the start and the end), got {args.samples}")
     origin = system.start_configuration()[0] if system.constraints is not None else system.neutral()
     q0 = None if args.offset is None else system.integrate(origin, system.check_velocity(args.offset, "--offset"))
+    v0 = None if args.v0 is None else system.check_velocity(args.v0, "--v0")
     t_eval = None if args.samples is None else np.linspace(0.0, args.t_end, args.samples) if args.t_end > 0 else None
     try:
-        traj = simulate(system, args.t_end, q0, args.v0, args.method, args.rtol, args.atol, args.dt, t_eval,
+        traj = simulate(system, args.t_end, q0, v0, args.method, args.rtol, args.atol, args.dt, t_eval,
                         error_method=args.error, progress=False if args.no_progress else None)
         failure = None
     except SimulationError as e:

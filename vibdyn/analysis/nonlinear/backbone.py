@@ -38,7 +38,7 @@ import pinocchio as pin
 import scipy.linalg as sla
 from numpy.typing import ArrayLike
 
-from ..._check import has_coordinates, integer, scalar
+from ..._check import degrees_hint, has_coordinates, hint, integer, scalar
 from ..._deprecation import Renamed
 from ..._format import duration, number, summary, table
 from ...errors import ConvergenceError, ModelError
@@ -231,6 +231,8 @@ def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energi
     if abs(phi[c]) < 1e-8 * float(np.max(np.abs(phi) / s)) * s[c]:
         raise ModelError(f"{what}: coordinate '{cons.coordinates[c]}' does not move in mode {k} (its share of the "
                          "linear mode is zero): choose a coordinate that moves")
+    if requested == "amplitude" and cons.units[c] == "rad":
+        hint(degrees_hint([(cons.coordinates[c], a) for a in requests]), f"{what}: amplitudes")
     phi = phi / phi[c]  # the coordinate c moves by 1 (m or rad)
     _resolvable(cons, q_eq, phi, c, float(modes.omega[k]), requested, requests, what)
     follower = _Follower(cons, q_eq, phi, c, float(modes.omega[k]), modes, k, requested, requests, rtol, tol)

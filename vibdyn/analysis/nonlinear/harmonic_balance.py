@@ -215,6 +215,7 @@ def forced_response_curve(system: System, force: Any, omega: Any, coordinate: st
     _check_system(system)
     excitation = Excitation(system, force)
     q_eq = static_configuration(system, equilibrium, "forced_response_curve")
+    _check_held(system, q_eq)
     H = harmonics or START_HARMONICS
     history: list = []
     X0 = None
@@ -300,6 +301,18 @@ def _check_system(system):
     if timed:
         raise ModelError(f"{what}: the scene's own forces depend on time ({', '.join(timed)}): they are not "
                          "periodic at Ω; remove them and give the excitation as `force`")
+
+
+def _check_held(system, q_eq):
+    """Refuse a scene with a rigid mode at its equilibrium: nothing holds that motion, so the mean of its
+    coordinate over a period is undetermined (the balance has no unique solution, Hill's method no 2n exponents)."""
+    m = system.linearize(q_eq).modes()
+    if m.rigid.any():
+        j = int(np.flatnonzero(m.rigid)[0])
+        name = system.coordinates[int(np.argmax(np.abs(m.shapes[:, j]) / np.asarray(system.coordinate_scales)))]
+        raise ModelError(f"forced_response_curve: the scene has a rigid mode at its equilibrium (ω = 0, mainly "
+                         f"'{name}'): nothing holds that motion, so its mean position over a period is undetermined; "
+                         "hold it (a spring, or a Fixed joint)")
 
 
 def _follow(bal, lo, hi, X0, step, max_steps):

@@ -494,12 +494,21 @@ class HarmonicResponse:
 def harmonic_response(lin, omega, force, inputs=None, outputs=None, *, phase=0.0, direction=None,
                       method="direct", damping=None, n_modes=None):
     """Steady response to harmonic forces of amplitudes ``force`` (one per input: N, N·m, or complex) and
-    phases ``phase`` (rad): f(t) = Re(force e^{i(ωt + phase)}) (:class:`HarmonicResponse`)."""
+    phases ``phase`` (rad): f(t) = Re(force e^{i(ωt + phase)}) (:class:`HarmonicResponse`); ``force`` may be a dict
+    {input: amplitude} instead of ``inputs`` and its amplitudes."""
     start = time.perf_counter()
+    if isinstance(force, dict):
+        if inputs is not None:
+            raise ModelError("harmonic force: give the inputs as the keys of force={input: amplitude} or as inputs=, "
+                             "not both")
+        inputs, force = list(force), list(force.values())
     frf = receptance(lin, omega, inputs, outputs, direction=direction, method=method, damping=damping,
                      n_modes=n_modes)
     n_in = len(frf.inputs)
-    F = np.asarray(force, dtype=complex).ravel()
+    try:
+        F = np.asarray(force, dtype=complex).ravel()
+    except (TypeError, ValueError):
+        F = np.full(0, np.nan)  # (not numbers: refused below, naming them)
     if F.size == 1:
         F = np.full(n_in, F[0])
     if F.size != n_in or not np.all(np.isfinite(F)):

@@ -242,8 +242,9 @@ class SeismicResponse:
     def __str__(self):
         from ..._format import number
 
-        lines = [f"response spectrum along {list(self.direction)}, {self.combination.upper()} "
-                 f"(ζ = {', '.join(f'{z:g}' for z in np.unique(self.damping))}); {self.rule}",
+        zeta = ", ".join(f"{z:g}" for z in np.unique(self.damping))
+        kept = f"ζ = {zeta}" if zeta else "no mode kept: the whole mass by its static missing-mass response at S_a(0)"
+        lines = [f"response spectrum along {list(self.direction)}, {self.combination.upper()} ({kept}); {self.rule}",
                  f"{'mode':>4} {'T s':>10} {'f Hz':>10} {'Γ √kg':>12} {'m_eff kg':>12} {'S_a m/s²':>10} "
                  f"{'V_n N':>12}"]
         for i in range(self.n_modes):

@@ -104,6 +104,9 @@ def content(obj, trajectory=None, speed=1.0):
     """The :class:`Content` of a Modes, Trajectory, System or Scene (plus an optional trajectory: a
     Trajectory or a ``.npz`` file of ``vibdyn simulate --out``), or of one period of a nonlinear orbit (a
     PeriodicOrbit, a Backbone's largest orbit, or ``ForcedResponseCurve.orbit(i)``: its real motion, looped)."""
+    from ..._check import scalar
+
+    speed = scalar(speed, "replay speed (× real time)", positive=True)
     orbit = _motion.orbit_motion(obj)
     if orbit is not None:
         system, data, label, slow = orbit
