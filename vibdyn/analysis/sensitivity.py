@@ -249,8 +249,11 @@ def _undamped(modes, dM, dK, eM, eK):
     coupling = np.where(same[None, :, :], 0.0, np.abs(T)).max(axis=1, initial=0.0).T  # n_m × n_p
     cond = np.where(np.isfinite(gap), 2 * dw2_base / np.where(np.isfinite(gap), gap, 1.0), 0.0)[:, None] * coupling
     rel_w2 = np.where(modes.rigid, 0.0, 2 * modes.omega_relative_error)[:, None]  # (shapes normalised on M as known)
-    e_w2 = (quad + dw2_base[:, None] * np.abs(np.diagonal(H, axis1=1, axis2=2).T) + cond
-            + (8 * EPS + rel_w2) * np.abs(d_w2))
+    H_diag = np.abs(np.diagonal(H, axis1=1, axis2=2).T)  # n_m × n_p
+    e_w2 = (quad + dw2_base[:, None] * H_diag + cond + (8 * EPS + rel_w2) * np.abs(d_w2))
+    for g in groups:
+        if len(g) > 1:  # (a cluster's derivatives are its subspace's eigenvalues, ascending: not one mode's each)
+            e_w2[g] = _cluster_error(g, A, eK, eM if mass else None, w2, H, e_w2[g])
     d_w, e_w = np.zeros((n_m, n_p)), np.zeros((n_m, n_p))
     pos = omega > 0
     # ω = √|ω²|: an unstable mode's (ω² < 0, ω its growth rate) moves as −∂ω²/(2ω)
@@ -258,13 +261,30 @@ def _undamped(modes, dM, dK, eM, eK):
     e_w[pos] = e_w2[pos] / (2 * omega[pos, None]) + np.abs(d_w[pos]) * rel_w2[pos] / 2  # (ω's own error)
     zero = ~pos
     leaves = zero[:, None] & (np.abs(d_w2) > e_w2)
-    e_w[zero] = np.where(leaves[zero], np.inf, 0.0)
+    # a mode at zero within its error ω_e that stays there: ∂ω = −ω φᵀ∂Mφ/2 for some ω ≤ ω_e (0 for a rigid one)
+    e_w[zero] = np.where(leaves[zero], np.inf, 0.5 * np.asarray(modes.omega_error)[zero, None] * H_diag[zero])
 
     def shapes():
         sym = lambda X: 0.5 * (X + X.transpose(0, 2, 1))  # noqa: E731
         return _nelson(M, Ks, Phi, w2, sym(dK), dM, sym(eK), eM, d_w2, e_w2, dw2_base, repeated | ~pos)
 
     return d_w2, e_w2, d_w, e_w, repeated, shapes
+
+
+def _cluster_error(g, A, eK, eM, w2, H, e_g):
+    """The error of each derivative of a cluster g of repeated ω² (eigenvalues of its subspace's projection, in
+    ascending order): the projection's own error bound (the 2-norm of |Φ_g|ᵀ E |Φ_g|, which moves every eigenvalue
+    by at most that: Weyl), the largest of the members' other terms, and the spread of the cluster's ω² (the projection
+    takes their mean for all) times ‖Φ_gᵀ ∂M Φ_g‖."""
+    Ag = A[:, g]
+    Q = Ag.T @ eK @ Ag  # n_p × k × k
+    if eM is not None:
+        Q = Q + np.abs(w2[g]).max() * (Ag.T @ eM @ Ag)
+    quad_g = np.array([np.linalg.norm(q, 2) for q in Q])
+    diag_q = np.einsum("pii->ip", Q)  # (the members' own quadratic forms, already in e_g)
+    spread = float(np.ptp(w2[g]))
+    Hg = np.array([np.linalg.norm(h[np.ix_(g, g)], 2) for h in H])
+    return np.broadcast_to((e_g - diag_q).max(axis=0) + quad_g + spread * Hg, e_g.shape).copy()
 
 
 def _nelson(M, Ks, Phi, w2, dKs, dM, eKs, eM, d_w2, e_w2, dw2_base, skip):

@@ -1,0 +1,78 @@
+"""Design sensitivities, probe round five (issue 40): each stated error covers the actual one, against oracles
+the code does not use (closed forms of a pendulum on a ball joint, a 50-digit eigen-solution of a slider chain)."""
+
+import numpy as np
+import pytest
+
+import vibdyn as vd
+
+G = 9.81
+
+
+# ------------------------------------------------------------------------------------------ repeated frequencies
+def ball_pendulum(ixx, iyy, k=5.0, m=1.0, arm=0.4):
+    """A body on a ball joint, centre of mass `arm` below it, a torsion spring k on the joint: the tilts about x
+    and y have (I + m arm²) ω² = m g arm + k (equal where ixx = iyy), the spin about z k/I_zz."""
+    sc = vd.Scene("ball", gravity=(0, 0, -G))
+    sc.add_body("p", joint=vd.Ball(), mass=m, com=(0, 0, -arm), inertia=np.diag([ixx, iyy, 0.01]))
+    sc.add_joint_spring("p", stiffness=k, name="ks")
+    return sc
+
+
+@pytest.mark.parametrize("iyy", [0.02, 0.02 * (1 + 1e-13), 0.02 * (1 - 1e-13)])
+def test_a_repeated_pairs_errors_go_with_its_ascending_derivatives(iyy):
+    """A repeated tilt pair (ixx = iyy = 0.02 within round-off): ∂ω/∂I_xx and ∂ω/∂I_yy over the pair are, ascending,
+    (−ω/(2J), 0); each error was the one of the mode in that row before sorting (−19.5587 ± 2.3e-13, actual 1.2e-10)."""
+    k, m, arm, ixx = 5.0, 1.0, 0.4, 0.02
+    J = ixx + m * arm**2
+    w = np.sqrt((m * G * arm + k) / J)
+    s = ball_pendulum(ixx, iyy, k, m, arm).build().operating_point().linearize().modes().sensitivity(
+        ["p.inertia.xx", "p.inertia.yy"])
+    assert s.repeated[:2].all()
+    exact = np.array([-w / (2 * J), 0.0])
+    for j in range(2):
+        assert np.all(np.abs(s.d_omega[:2, j] - exact) <= s.d_omega_error[:2, j]), (j, s.d_omega[:2, j], exact)
+        assert np.all(s.d_omega_error[:2, j] < 1e-9 * abs(exact[0]))
+
+
+def test_a_pair_repeated_only_within_its_error_covers_its_split():
+    """I_yy = I_xx (1 + 1e-9): the pair is one cluster, whose derivatives take the pair's mean ω²; ∂ω/∂m of each
+    member differs from that by the split (3.5e-10 against a stated 8.4e-12)."""
+    k, m, arm, ixx, iyy = 5.0, 1.0, 0.4, 0.02, 0.02 * (1 + 1e-9)
+    s = ball_pendulum(ixx, iyy, k, m, arm).build().operating_point().linearize().modes().sensitivity(["p.mass"])
+    exact = []
+    for inertia in (ixx, iyy):
+        J = inertia + m * arm**2
+        w = np.sqrt((m * G * arm + k) / J)
+        exact.append(0.5 / w * (G * arm / J - (m * G * arm + k) * arm**2 / J**2))
+    exact = np.sort(exact)  # (ascending: the lower ω, about the larger inertia, moves less)
+    assert s.repeated[:2].all()
+    assert np.all(np.abs(np.sort(s.d_omega[:2, 0]) - exact) <= s.d_omega_error[:2, 0])
+
+
+# ------------------------------------------------------------------------------------------ a mode at zero
+def slider_chain(stiffness, masses):
+    sc = vd.Scene("chain")
+    parent = "world"
+    for i, (k, m) in enumerate(zip(stiffness, masses)):
+        sc.add_body(f"b{i}", parent=parent, joint=vd.Slider(axis=(1, 0, 0)), mass=m)
+        sc.add_joint_spring(f"b{i}", stiffness=k, name=f"k{i}")
+        parent = f"b{i}"
+    return sc
+
+
+def test_a_mode_at_zero_within_its_error_has_an_error_on_its_mass_derivative():
+    """Springs of 1e9, 1e-9 and 1 N/m in a chain of unit masses: the lowest mode, ω = 2.236e-5 rad/s (of
+    M⁻¹K's eigenvalues by 50-digit arithmetic), is zero within its error beside 3.16e4 rad/s. Its ∂ω/∂m₂ is
+    −5.59e-6 (s/kg): it was given as 0 ± 0."""
+    m = slider_chain([1e9, 1e-9, 1.0], [1.0, 1.0, 1.0]).build().operating_point().linearize().modes()
+    assert m.omega[0] == 0.0 and m.omega_error[0] >= 2.236e-5
+    s = m.sensitivity(["b1.mass", "b2.mass"])
+    exact = -5.5901699e-06  # (both masses: they move together in the lowest mode)
+    assert np.all(np.abs(s.d_omega[0] - exact) <= s.d_omega_error[0])
+    free = vd.Scene("free")  # a truly rigid mode still 0 ± 0
+    free.add_body("a", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
+    free.add_body("b", parent="a", joint=vd.Slider(axis=(1, 0, 0)), mass=2.0)
+    free.add_joint_spring("b", stiffness=3.0, name="k")
+    s = free.build().operating_point().linearize().modes().sensitivity(["a.mass", "b.mass"])
+    assert np.all(s.d_omega[0] == 0) and np.all(s.d_omega_error[0] == 0)
