@@ -76,3 +76,35 @@ def test_a_mode_at_zero_within_its_error_has_an_error_on_its_mass_derivative():
     free.add_joint_spring("b", stiffness=3.0, name="k")
     s = free.build().operating_point().linearize().modes().sensitivity(["a.mass", "b.mass"])
     assert np.all(s.d_omega[0] == 0) and np.all(s.d_omega_error[0] == 0)
+
+
+# ------------------------------------------------------------------------------------------ a repeated damped pair
+def diagonal_springs(c=0.5, k=100.0, m=1.0):
+    """A mass m on x and y sliders between two springs k (and dampers c) along the diagonals (1, ±1): two modes of
+    the same λ = −c/(2m) ± i√(k/m − c²/4m²), along each diagonal."""
+    s = vd.Scene("xy")
+    s.add_body("x", joint=vd.Slider(axis=(1, 0, 0)), mass=0.0)
+    s.add_body("y", parent="x", joint=vd.Slider(axis=(0, 1, 0)), mass=m)
+    for i, d in enumerate((np.array([1, 1, 0]), np.array([1, -1, 0]))):
+        end = ("world", tuple(-d / np.sqrt(2)))
+        s.add_spring(f"s{i + 1}", end, ("y", (0, 0, 0)), stiffness=k, free_length=1.0)
+        s.add_damper(f"c{i + 1}", end, ("y", (0, 0, 0)), damping=c)
+    return s
+
+
+def test_a_repeated_damped_pairs_derivatives_are_its_eigenspaces():
+    """The spring and damper along (1, 1) move the mode along it alone: ∂ω_n/∂k₁ = (0, 1/(2√(km))) ascending,
+    ∂ζ/∂c₁ = {0, 1/(2√(km))}, ∂λ/∂k₁ = {0, i/(2m√(k/m − c²/4m²))}. Both rows were the same eigenvector's
+    (0.025 ± 3e-16 each, half the one and not the other)."""
+    c, k, m = 0.5, 100.0, 1.0
+    modes = diagonal_springs(c, k, m).build().operating_point().linearize().modes()
+    s = modes.sensitivity(["s1.stiffness", "c1.damping"])
+    assert s.d_omega_n.shape == (2, 2)
+    one = 1 / (2 * np.sqrt(k * m))
+    assert np.all(np.abs(s.d_omega_n[:, 0] - [0.0, one]) <= s.d_omega_n_error[:, 0])
+    order = np.argsort(s.d_zeta[:, 1])
+    assert np.all(np.abs(s.d_zeta[order, 1] - [0.0, one]) <= s.d_zeta_error[order, 1])
+    dlam = 1j / (2 * m * np.sqrt(k / m - c**2 / (4 * m**2)))
+    order = np.argsort(np.abs(s.d_eigenvalues[:, 0]))
+    assert np.all(np.abs(s.d_eigenvalues[order, 0] - [0.0, dlam]) <= s.d_eigenvalues_error[order, 0])
+    assert np.all(s.d_omega_n_error < 1e-12) and np.all(s.d_zeta_error < 1e-12)

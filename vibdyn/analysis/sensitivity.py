@@ -328,6 +328,9 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     lam, W, V = sla.eig(A, left=True, right=True)
     idx = [int(np.argmin(np.abs(lam - x))) for x in lam_m]
     defective = np.asarray(modes.defective, bool) if modes.defective.size else np.zeros(n_d, bool)
+    err_m = np.asarray(modes.eigenvalue_error, float)
+    zero = np.asarray(modes.damped_zero) if modes.damped_zero.size else np.zeros(n_d, bool)
+    clusters = _damped_clusters(lam, lam_m, err_m, defective | zero)
     # a defective pair's eigenvalues have no derivative (they split as √δp): the pair's mean does, ½ trace(Y ∂A Z)
     # over its invariant subspace (Z right, Y left basis, Y Z = I)
     pairs = {}
@@ -339,6 +342,7 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     MiK, MiC = Minv @ lin.K, Minv @ lin.C
     d_l = np.zeros((n_d, n_p), complex)
     e_l = np.zeros((n_d, n_p))
+    clustered = {r for rows, _ in clusters for r in rows}
     for j in range(n_p):
         dA = np.zeros_like(A)
         dA[n:, :n] = -Minv @ (dK[j] - dM[j] @ MiK)
@@ -347,8 +351,10 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
         eA[n:, :n] = aMinv @ (eK[j] + eM[j] @ np.abs(MiK))
         eA[n:, n:] = aMinv @ (eC[j] + eM[j] @ np.abs(MiC))
         eA += 4 * n * EPS * np.abs(dA)
+        for rows, ks in clusters:  # a repeated, diagonalisable eigenvalue: its eigenspace's Y ∂A Z, ascending
+            d_l[rows, j], e_l[rows, j] = _cluster_derivatives(W[:, ks], V[:, ks], dA, eA, lam_m[rows[0]])
         for r, k in enumerate(idx):
-            if r in pairs:
+            if r in pairs or r in clustered:
                 continue
             w, v = W[:, k], V[:, k]
             den = w.conj() @ v
@@ -366,12 +372,12 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     # known only to δλ/gap) or to |λ|, times the derivative
     gaps = np.abs(lam[:, None] - lam[None, :])
     np.fill_diagonal(gaps, np.inf)
+    for rows, ks in clusters:  # (a cluster's members: their distance to the eigenvalues outside it)
+        gaps[np.ix_(ks, ks)] = np.inf
     near = np.minimum(gaps.min(axis=1)[idx], np.abs(lam_m))
     near = np.where(defective, np.abs(lam_m), near)
-    rel = np.where(near > 0, np.asarray(modes.eigenvalue_error) / np.where(near > 0, near, 1.0),
-                   np.asarray(modes.eigenvalue_relative_error))
+    rel = np.where(near > 0, err_m / np.where(near > 0, near, 1.0), np.asarray(modes.eigenvalue_relative_error))
     e_l += np.abs(d_l) * rel[:, None] * 2
-    zero = np.asarray(modes.damped_zero) if modes.damped_zero.size else np.zeros(n_d, bool)
     d_l[zero] = 0.0
     e_l[zero] = 0.0
     mag = np.abs(lam_m)[:, None]
@@ -384,6 +390,45 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     e_wn[defective] = np.inf
     e_z[defective] = np.inf
     return d_l, e_l, d_wn, e_wn, d_z, e_z, defective
+
+
+def _damped_clusters(lam, lam_m, err, skip):
+    """[(rows, indices in lam)] of the modes' eigenvalues repeated within their errors (10 × their sum, as the
+    undamped frequencies are clustered), but for ``skip`` ones (defective, zero); the usual case, none, costs one
+    comparison."""
+    close = np.abs(lam_m[:, None] - lam_m[None, :]) <= 10 * (err[:, None] + err[None, :])
+    close &= ~skip[:, None] & ~skip[None, :]
+    if np.count_nonzero(close) == np.count_nonzero(~skip):
+        return []
+    out, seen = [], set()
+    for r in range(len(lam_m)):
+        rows = [int(x) for x in np.flatnonzero(close[r])]
+        if len(rows) < 2 or r in seen:
+            continue
+        seen.update(rows)
+        radius = float(np.abs(lam_m[rows] - lam_m[r]).max() + 10 * err[rows].max())
+        ks = [int(x) for x in np.flatnonzero(np.abs(lam - lam_m[r]) <= radius)]
+        out.append((rows, ks))
+    return out
+
+
+def _cluster_derivatives(Wc, Vc, dA, eA, lam):
+    """(∂λ, error) of a repeated, diagonalisable eigenvalue's members: the eigenvalues of B = Y ∂A Z over its
+    eigenspace (Z = Vc right, Y = (Wcᴴ Vc)⁻¹ Wcᴴ left, Y Z = I), in ascending order of ∂|λ|; each error ‖|Y| E |Z|‖₂
+    times the condition of B's eigenvectors (Bauer–Fike). Infinite where the rows and the eigenspace differ in size
+    or its basis is singular (not diagonalisable after all)."""
+    k = Vc.shape[1]
+    try:
+        Y = np.linalg.solve(Wc.conj().T @ Vc, Wc.conj().T)
+        mu, X = np.linalg.eig(Y @ dA @ Vc)
+        cond = np.linalg.cond(X)
+    except np.linalg.LinAlgError:
+        return 0.0, np.inf
+    if not np.all(np.isfinite(mu)) or not np.isfinite(cond):
+        return 0.0, np.inf
+    mu = mu[np.lexsort((mu.imag, (np.conj(lam) * mu).real))]
+    e = np.linalg.norm(np.abs(Y) @ eA @ np.abs(Vc), 2) * cond
+    return mu, np.full(k, e)
 
 
 # ------------------------------------------------------------------------------------------ entry point
