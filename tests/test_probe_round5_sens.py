@@ -108,3 +108,29 @@ def test_a_repeated_damped_pairs_derivatives_are_its_eigenspaces():
     order = np.argsort(np.abs(s.d_eigenvalues[:, 0]))
     assert np.all(np.abs(s.d_eigenvalues[order, 0] - [0.0, dlam]) <= s.d_eigenvalues_error[order, 0])
     assert np.all(s.d_omega_n_error < 1e-12) and np.all(s.d_zeta_error < 1e-12)
+
+
+# ------------------------------------------------------------------------------------------ bad input, by name
+def hub_and_arm():
+    s = vd.Scene("t", gravity=(0, 0, -G))
+    s.add_body("hub", joint=vd.Pivot(axis=(0, 0, 1)), mass=2.0, inertia=np.diag([.03, .03, .05]))
+    s.add_body("arm", parent="hub", joint=vd.Pivot(axis=(1, 0, 0), at=(0.2, 0, 0)), mass=1.0,
+               com=(0, 0, -0.3), inertia=vd.inertia.rod(1.0, 0.6, axis=(0, 0, 1)))
+    return s
+
+
+@pytest.mark.parametrize("system, words", [(hub_and_arm(), "expected a system (build it first"),
+                                           (3, "expected a system, got int")])
+def test_campbell_of_no_system_is_refused_by_name(system, words):
+    """A scene or a number given for the system was Python's AttributeError ('Scene' object has no attribute
+    'units')."""
+    with pytest.raises(vd.ModelError, match=r"campbell: " + words.replace("(", r"\(")):
+        vd.campbell(system, "hub", [1.0, 2.0])
+
+
+@pytest.mark.parametrize("hold", [3, 3.0, {"hub": 1}, ["hub", 1]])
+def test_a_hold_that_is_no_name_is_refused_by_name(hold):
+    """linearize(hold=3) was Python's "'int' object is not iterable"."""
+    S = hub_and_arm().build()
+    with pytest.raises(vd.ModelError, match="linearize: hold must be a coordinate's name or a list of names"):
+        S.linearize(S.steady_motion({"hub": 3.0}), hold=hold)
