@@ -134,3 +134,35 @@ def test_a_hold_that_is_no_name_is_refused_by_name(hold):
     S = hub_and_arm().build()
     with pytest.raises(vd.ModelError, match="linearize: hold must be a coordinate's name or a list of names"):
         S.linearize(S.steady_motion({"hub": 3.0}), hold=hold)
+
+
+# ------------------------------------------------------------------------------------------ a feature finer than the step
+def pencil(m1, m2, k1, k2):
+    """(ω, ∂ω/∂k1) of two sliders in series (relative coordinates: M = [[m1 + m2, m2], [m2, m2]], K = diag(k1, k2)) by
+    implicit differentiation of det(K − xM) = 0, x = ω²."""
+    x = np.sort(np.roots([m1 * m2, -(k1 * m2 + k2 * (m1 + m2)), k1 * k2]).real)
+    P_k1 = k2 - x * m2
+    P_x = -(m1 + m2) * (k2 - x * m2) - m2 * (k1 - x * (m1 + m2)) - 2 * x * m2**2
+    return np.sqrt(x), -P_k1 / P_x / (2 * np.sqrt(x))
+
+
+def two_sliders(k1):
+    sc = vd.Scene("chain2")
+    sc.add_body("m1", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
+    sc.add_body("m2", parent="m1", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
+    sc.add_joint_spring("m1", stiffness=k1, name="k1")
+    sc.add_joint_spring("m2", stiffness=1.0, name="k2")
+    return sc
+
+
+@pytest.mark.parametrize("width", [1e-5, 3e-5, 1e-4])
+def test_a_smooth_feature_finer_than_the_step_is_no_kink(width):
+    """k1 = 1000 + 200 (k − 1) + 50 √((k − 1)² + w²): smooth, ∂k1/∂k = 200 at k = 1, but bent over w ≤ the step
+    (1e-4): it was refused as "not differentiable … a kink or a jump"; a kink stays one at a step 100 times finer."""
+    def build(k):
+        return two_sliders(1000.0 + 200.0 * (k - 1.0) + 50.0 * np.sqrt((k - 1.0) ** 2 + width**2))
+
+    s = vd.sensitivity(build, {"k": 1.0})
+    exact = 200.0 * pencil(1.0, 1.0, 1000.0 + 50.0 * width, 1.0)[1]
+    assert np.all(np.abs(s.d_omega[:, 0] - exact) <= s.d_omega_error[:, 0])
+    assert np.all(s.d_omega_error[:, 0] < 1e-6 * np.abs(exact))
