@@ -146,12 +146,12 @@ def pencil(m1, m2, k1, k2):
     return np.sqrt(x), -P_k1 / P_x / (2 * np.sqrt(x))
 
 
-def two_sliders(k1):
+def two_sliders(k1, k2=1.0):
     sc = vd.Scene("chain2")
     sc.add_body("m1", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
     sc.add_body("m2", parent="m1", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
     sc.add_joint_spring("m1", stiffness=k1, name="k1")
-    sc.add_joint_spring("m2", stiffness=1.0, name="k2")
+    sc.add_joint_spring("m2", stiffness=k2, name="k2")
     return sc
 
 
@@ -166,3 +166,22 @@ def test_a_smooth_feature_finer_than_the_step_is_no_kink(width):
     exact = 200.0 * pencil(1.0, 1.0, 1000.0 + 50.0 * width, 1.0)[1]
     assert np.all(np.abs(s.d_omega[:, 0] - exact) <= s.d_omega_error[:, 0])
     assert np.all(s.d_omega_error[:, 0] < 1e-6 * np.abs(exact))
+
+
+# ------------------------------------------------------------------------------------------ updating
+def test_a_fit_slowed_by_measurements_the_model_cannot_reach_says_so():
+    """Two sliders in series cannot have frequencies 10 and 10.01 rad/s (their ratio is at least 1 + √2): the
+    large-residual fit converges slowly, and the default 30 evaluations ended in "did not converge" alone. It now
+    names the residuals at the best point and max_iter; with more it reaches scipy's own least-squares optimum on
+    the 2×2 pencil's closed form."""
+    from scipy.optimize import least_squares
+
+    measured = np.array([10.0, 10.01])
+    with pytest.raises(vd.ConvergenceError, match=r"residuals are -?\d.* σ: measurements the model cannot reach.*"
+                                                  r"max_iter="):
+        vd.update(two_sliders, {"k1": 30.0, "k2": 120.0}, measured)
+    u = vd.update(two_sliders, {"k1": 30.0, "k2": 120.0}, measured, max_iter=200)
+    fit = least_squares(lambda x: (pencil(1.0, 1.0, x[0], x[1])[0] - measured) / (0.005 * measured), [30.0, 120.0],
+                        xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    for i, name in enumerate(("k1", "k2")):
+        assert abs(u.values[name] - fit.x[i]) < 1e-3 * u.std[name]

@@ -252,8 +252,11 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
         cost = float(0.5 * np.sum(((sens.omega0[idx] - w_meas) / sig) ** 2))
     std = sig_ref * np.sqrt(np.einsum("ij,ij->i", root, root))
     if fit.status <= 0:
-        raise ConvergenceError(f"update: the fit did not converge in {max_iter} evaluations ({fit.message})",
-                               best=dict(zip(names, (x * scale).tolist())))
+        off = (sens.omega0[idx] - w_meas) / sig
+        far = (f"; at the best point so far the residuals are {', '.join(f'{r:.3g}' for r in off)} σ: measurements the "
+               "model cannot reach make the fit slow") if np.abs(off).max() > 3 else ""
+        raise ConvergenceError(f"update: the fit did not converge in {max_iter} evaluations ({fit.message}){far}; "
+                               "give more (max_iter=)", best=dict(zip(names, (x * scale).tolist())))
     omega = sens.omega0[idx]
     return Update(dict(zip(names, (x * scale).tolist())), dict(zip(names, std.tolist())), cov, omega, w_meas, sig,
                   omega - w_meas, idx, mac_table, int(fit.njev or 0), cost, time.perf_counter() - t0,
