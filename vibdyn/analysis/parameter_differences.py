@@ -54,6 +54,7 @@ class Pipeline:
         self.names = tuple(names)
         self.coordinates = None if coordinates is None else tuple(coordinates)
         self.base_values, self.base = None, None  # (the base values, and the model there once made)
+        self.a0 = None  # (about a pose: the reference acceleration given with the base model, kept; else the free one)
 
     def __call__(self, values):
         scene, speeds = self.make_scene(values)
@@ -66,6 +67,8 @@ class Pipeline:
                 "as the parameter moves, and a derivative needs the same coordinates on both sides of p")
         op = FOUND_AGAIN[self.regime](system, self.q0, self.v0, speeds)
         at = {"v": self.v0} if self.regime == "pose" else {}  # (an operating point carries its own velocity)
+        if self.a0 is not None:
+            at["a"] = self.a0
         # reduced as the base model is: the same coordinates held at their (new) speeds, the same independent ones
         at.update(hold=self.hold, independent=self.independent)
         try:

@@ -518,12 +518,21 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
 
     pipeline = Pipeline(make_scene, lin.q, lin.v, regime, hold, getattr(lin, "independent", None), names,
                         system.coordinates)
+    # about a pose that is no equilibrium, the reference motion's acceleration: the free one there, which moves with
+    # p (a stiffness changes it, and M(q) a with it: not the element's terms alone), or one given, kept
+    moving = False
+    if regime == "pose":
+        free = system.accelerations(lin.q, lin.v, lin.t)
+        if np.allclose(lin.a, free, rtol=1e-9, atol=1e-12 * np.abs(free).max(initial=0.0)):
+            moving = bool(np.any(lin.a))
+        else:
+            pipeline.a0 = np.array(lin.a, float)
     steps = np.array([step(values[j], units[j], system.length_scale) for j in range(len(names))])
     direct: dict[int, tuple] = {}
     from ..model.derivatives import untrusted
 
     # (the element path takes Pinocchio's joint velocity derivatives, wrong for some joint types: not there)
-    if system.reduction.allows("derivatives on the tree's elements") and not hold \
+    if system.reduction.allows("derivatives on the tree's elements") and not hold and not moving \
             and regime in ("static", "pose", "held") and not untrusted(system)[0].size:
         # a tree about a point it holds or finds again: the analytic model is the base, and a parameter a force
         # is proportional to (a stiffness, a damping) is differentiated on its element alone, no rebuild
