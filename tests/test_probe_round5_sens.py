@@ -225,3 +225,27 @@ def test_sensitivities_about_a_pose_are_those_of_the_model_linearised_there(a):
         exact, own = derivative(lambda x: omega(**{key: x}), x0, 1e-2 * x0)
         assert np.all(np.abs(s.d_omega[:, j] - exact) <= s.d_omega_error[:, j] + own), (key, s.d_omega[:, j], exact)
         assert np.all(own < 1e-9 * np.abs(exact).max())
+
+
+# ------------------------------------------------------------------------------------------ a builder's declared speed
+def spun_hub(speed=3.0):
+    """The hinge-off-a-hub scene, its hub declared to turn at ``speed`` (rad/s, free: a steady motion)."""
+    s = hub_and_arm()
+    s.set_operating_point(cyclic={"hub": speed})
+    return s
+
+
+def test_a_builders_declared_speed_is_a_parameter():
+    """build(speed) declaring the hub's speed: the rebuilt scenes were all solved at the first one's speed, so the
+    speed was refused as "does not change the linear model … no mode depends on it" (∂ω/∂Ω = −0.9325 by differences
+    of the rebuilt scenes), and updating could not fit it."""
+    def omega(speed):
+        return spun_hub(speed).build().operating_point().linearize(method="analytic").modes().omega
+
+    s = vd.sensitivity(spun_hub, {"speed": 3.0})
+    exact, own = derivative(omega, 3.0, 3e-2)
+    assert abs(exact[1] + 0.9325) < 1e-4
+    assert np.all(np.abs(s.d_omega[:, 0] - exact) <= s.d_omega_error[:, 0] + own)
+    measured = omega(2.5)[1:]
+    u = vd.update(spun_hub, {"speed": 3.0}, measured, sigma=1e-6 * measured)
+    assert abs(u.values["speed"] - 2.5) <= 3 * u.std["speed"] + 1e-9

@@ -610,6 +610,8 @@ def _of_builder(build, params, start, unused):
     system = scene0.build()
     tree = system.operating_point().linearize(method="analytic")
     regime, speeds = _regime(system, tree)
+    if regime == "steady" and (scene0.operating_point or {}).get("cyclic"):
+        regime = "declared"  # (the builder's scene declares its speeds: a parameter may be one, or move a found one)
 
     def make_scene(vals):
         return build(**{k: float(x) for k, x in zip(names, vals)}), speeds
