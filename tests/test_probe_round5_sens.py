@@ -136,7 +136,7 @@ def test_a_hold_that_is_no_name_is_refused_by_name(hold):
         S.linearize(S.steady_motion({"hub": 3.0}), hold=hold)
 
 
-# ------------------------------------------------------------------------------------------ a feature finer than the step
+# ------------------------------------------------------------------------------- a feature finer than the step
 def pencil(m1, m2, k1, k2):
     """(ω, ∂ω/∂k1) of two sliders in series (relative coordinates: M = [[m1 + m2, m2], [m2, m2]], K = diag(k1, k2)) by
     implicit differentiation of det(K − xM) = 0, x = ω²."""

@@ -54,7 +54,7 @@ class Pipeline:
         self.names = tuple(names)
         self.coordinates = None if coordinates is None else tuple(coordinates)
         self.base_values, self.base = None, None  # (the base values, and the model there once made)
-        self.a0 = None  # (about a pose: the reference acceleration given with the base model, kept; else the free one)
+        self.a0: np.ndarray | None = None  # (about a pose: the acceleration given with the base model, kept)
 
     def __call__(self, values):
         scene, speeds = self.make_scene(values)
