@@ -249,3 +249,38 @@ def test_a_builders_declared_speed_is_a_parameter():
     measured = omega(2.5)[1:]
     u = vd.update(spun_hub, {"speed": 3.0}, measured, sigma=1e-6 * measured)
     assert abs(u.values["speed"] - 2.5) <= 3 * u.std["speed"] + 1e-9
+
+
+# ------------------------------------------------------------------------------------------ coalescing pairs
+def critical_pair(k0=1.0):
+    """Two independent oscillators, each critically damped (c = 2√(km)) at λ = −1: two Jordan blocks at one λ."""
+    sc = vd.Scene("two")
+    for i, (axis, m) in enumerate((((1, 0, 0), 1.0), ((0, 1, 0), 2.0))):
+        sc.add_body(f"b{i}", joint=vd.Slider(axis=axis), mass=m)
+        sc.add_joint_spring(f"b{i}", stiffness=(k0 if i == 0 else 1.0) * m, name=f"k{i}")
+        sc.add_joint_damper(f"b{i}", damping=2.0 * m, name=f"c{i}")
+    return sc
+
+
+def test_a_damped_row_zero_only_within_its_error_claims_no_derivative():
+    """The modes call two of the four coalesced eigenvalues at λ = −1 zero within their error (±1); their ∂λ/∂k₀ was
+    0 ± 0, where oscillator 0's eigenvalues leave −1 as ±√δk (slopes of the rebuilt scenes grow 100 times from
+    δ = 1e-6 to 1e-10: unbounded). A true rigid mode's stays 0 ± 0."""
+    modes = critical_pair().build().operating_point().linearize().modes()
+    s = modes.sensitivity(["k0.stiffness"])
+
+    def slope(d):
+        lam = critical_pair(1.0 + d).build().operating_point().linearize().modes().damped_eigenvalues
+        return np.abs(lam + 1.0).max() / d
+
+    assert slope(1e-10) > 30 * slope(1e-6)  # (the oracle: no finite derivative)
+    suspect = modes.damped_zero & (modes.damped_eigenvalues != 0)
+    assert suspect.any()
+    assert np.all(np.isinf(s.d_eigenvalues_error[suspect])) and np.all(np.isinf(s.d_omega_n_error[suspect]))
+    free = vd.Scene("free")
+    free.add_body("a", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
+    free.add_body("b", parent="a", joint=vd.Slider(axis=(1, 0, 0)), mass=2.0)
+    free.add_joint_spring("b", stiffness=3.0, name="k")
+    free.add_joint_damper("b", damping=0.5, name="c")
+    s = free.build().operating_point().linearize().modes().sensitivity(["k.stiffness", "c.damping"])
+    assert np.all(s.d_eigenvalues[:2] == 0) and np.all(s.d_eigenvalues_error[:2] == 0)

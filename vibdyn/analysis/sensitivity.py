@@ -378,8 +378,8 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     near = np.where(defective, np.abs(lam_m), near)
     rel = np.where(near > 0, err_m / np.where(near > 0, near, 1.0), np.asarray(modes.eigenvalue_relative_error))
     e_l += np.abs(d_l) * rel[:, None] * 2
-    d_l[zero] = 0.0
-    e_l[zero] = 0.0
+    d_l[zero] = 0.0  # (a zero within its error only, λ ≠ 0 — coalescing defective pairs — moves as none can say)
+    e_l[zero] = np.where(lam_m[zero] == 0, 0.0, np.inf)[:, None]
     mag = np.abs(lam_m)[:, None]
     safe = np.where(mag > 0, mag, 1.0)
     d_wn = np.where(mag > 0, (np.conj(lam_m)[:, None] * d_l).real / safe, 0.0)
