@@ -284,3 +284,10 @@ def test_a_damped_row_zero_only_within_its_error_claims_no_derivative():
     free.add_joint_damper("b", damping=0.5, name="c")
     s = free.build().operating_point().linearize().modes().sensitivity(["k.stiffness", "c.damping"])
     assert np.all(s.d_eigenvalues[:2] == 0) and np.all(s.d_eigenvalues_error[:2] == 0)
+
+
+@pytest.mark.parametrize("store, words", [("/", "is a directory"), (3, "store must be a file path")])
+def test_a_sweep_store_that_is_no_file_is_refused_by_name(store, words, tmp_path):
+    """store="/" was Python's IsADirectoryError, store=3 its TypeError, after the sweep had started."""
+    with pytest.raises(vd.ModelError, match=words):
+        vd.sweep(two_sliders, {"k1": [1.0, 2.0]}, store=store if store != "/" else tmp_path, progress=False)
