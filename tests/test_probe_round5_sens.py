@@ -262,10 +262,11 @@ def critical_pair(k0=1.0):
     return sc
 
 
-def test_a_damped_row_zero_only_within_its_error_claims_no_derivative():
-    """The modes call two of the four coalesced eigenvalues at λ = −1 zero within their error (±1); their ∂λ/∂k₀ was
-    0 ± 0, where oscillator 0's eigenvalues leave −1 as ±√δk (slopes of the rebuilt scenes grow 100 times from
-    δ = 1e-6 to 1e-10: unbounded). A true rigid mode's stays 0 ± 0."""
+def test_coalesced_critically_damped_pairs_are_defective_and_claim_no_derivative():
+    """Two oscillators, each critically damped: four eigenvalues at λ = −1 in two Jordan blocks. The modes called two
+    of them zero within an error of ±1 and the point neutral (the defective test took isolated pairs only), and
+    ∂λ/∂k₀ was 0 ± 0, where oscillator 0's eigenvalues leave −1 as ±√δk (slopes of the rebuilt scenes grow 100 times
+    from δ = 1e-6 to 1e-10: unbounded). A true rigid mode's stays 0 ± 0."""
     modes = critical_pair().build().operating_point().linearize().modes()
     s = modes.sensitivity(["k0.stiffness"])
 
@@ -274,9 +275,10 @@ def test_a_damped_row_zero_only_within_its_error_claims_no_derivative():
         return np.abs(lam + 1.0).max() / d
 
     assert slope(1e-10) > 30 * slope(1e-6)  # (the oracle: no finite derivative)
-    suspect = modes.damped_zero & (modes.damped_eigenvalues != 0)
-    assert suspect.any()
-    assert np.all(np.isinf(s.d_eigenvalues_error[suspect])) and np.all(np.isinf(s.d_omega_n_error[suspect]))
+    assert np.all(np.abs(modes.damped_eigenvalues + 1.0) <= modes.eigenvalue_error)
+    assert modes.defective.all() and not modes.damped_zero.any() and modes.stability == "stable"
+    assert np.all(modes.eigenvalue_error < 1e-6)
+    assert np.all(np.isinf(s.d_eigenvalues_error)) and np.all(np.isinf(s.d_omega_n_error))
     free = vd.Scene("free")
     free.add_body("a", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
     free.add_body("b", parent="a", joint=vd.Slider(axis=(1, 0, 0)), mass=2.0)
