@@ -293,3 +293,31 @@ def test_a_sweep_store_that_is_no_file_is_refused_by_name(store, words, tmp_path
     """store="/" was Python's IsADirectoryError, store=3 its TypeError, after the sweep had started."""
     with pytest.raises(vd.ModelError, match=words):
         vd.sweep(two_sliders, {"k1": [1.0, 2.0]}, store=store if store != "/" else tmp_path, progress=False)
+
+
+def free_chain(k1, k2):
+    """Three sliders in series, free at the base (one rigid mode), springs k1 and k2 between them."""
+    sc = vd.Scene("free3")
+    parent = "world"
+    for i, m in enumerate((1.0, 2.0, 1.5)):
+        sc.add_body(f"b{i}", parent=parent, joint=vd.Slider(axis=(1, 0, 0)), mass=m)
+        if i:
+            sc.add_joint_spring(f"b{i}", stiffness=(k1, k2)[i - 1], name=f"k{i}")
+        parent = f"b{i}"
+    return sc
+
+
+def test_complex_measured_shapes_pair_by_the_complex_mac():
+    """Shapes from an experimental modal analysis are complex: they were cast to real with numpy's ComplexWarning and
+    then refused as "all zero" (1j × a shape), or paired by their real parts. Measured from k = (40, 90) with a
+    phase, in reverse order, at two (body, point) pairs: the fit returns (40, 90)."""
+    points = [("b0", (0.0, 0.0, 0.0)), ("b2", (0.1, 0.0, 0.0))]
+    truth = free_chain(40.0, 90.0).build().operating_point().linearize().modes()
+    measured = truth.omega[1:][::-1]
+    shapes = (truth.point_shapes(points)[..., 1:] * np.exp(0.3j))[..., ::-1]
+    u = vd.update(free_chain, {"k1": 30.0, "k2": 120.0}, measured, sigma=1e-6 * measured, shapes=shapes, points=points)
+    assert list(u.pairs) == [2, 1]
+    for name, value in (("k1", 40.0), ("k2", 90.0)):
+        assert abs(u.values[name] - value) <= 3 * u.std[name] + 1e-9
+    with pytest.raises(vd.ModelError, match="update: the point on 'b0': expected numbers"):
+        vd.update(free_chain, {"k1": 30.0, "k2": 120.0}, measured, shapes=shapes, points=[("b0", "x"), "b2"])
