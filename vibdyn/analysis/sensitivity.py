@@ -352,7 +352,7 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
         eA[n:, n:] = aMinv @ (eC[j] + eM[j] @ np.abs(MiC))
         eA += 4 * n * EPS * np.abs(dA)
         for rows, ks in clusters:  # a repeated, diagonalisable eigenvalue: its eigenspace's Y ∂A Z, ascending
-            d_l[rows, j], e_l[rows, j] = _cluster_derivatives(W[:, ks], V[:, ks], dA, eA, lam_m[rows[0]])
+            d_l[rows, j], e_l[rows, j] = _cluster_derivatives(W[:, ks], V[:, ks], dA, eA, lam_m[rows[0]], len(rows))
         for r, k in enumerate(idx):
             if r in pairs or r in clustered:
                 continue
@@ -412,12 +412,13 @@ def _damped_clusters(lam, lam_m, err, skip):
     return out
 
 
-def _cluster_derivatives(Wc, Vc, dA, eA, lam):
+def _cluster_derivatives(Wc, Vc, dA, eA, lam, k):
     """(∂λ, error) of a repeated, diagonalisable eigenvalue's members: the eigenvalues of B = Y ∂A Z over its
     eigenspace (Z = Vc right, Y = (Wcᴴ Vc)⁻¹ Wcᴴ left, Y Z = I), in ascending order of ∂|λ|; each error ‖|Y| E |Z|‖₂
     times the condition of B's eigenvectors (Bauer–Fike). Infinite where the rows and the eigenspace differ in size
     or its basis is singular (not diagonalisable after all)."""
-    k = Vc.shape[1]
+    if Vc.shape[1] != k:
+        return 0.0, np.inf
     try:
         Y = np.linalg.solve(Wc.conj().T @ Vc, Wc.conj().T)
         mu, X = np.linalg.eig(Y @ dA @ Vc)
