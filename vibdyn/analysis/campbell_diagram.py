@@ -419,7 +419,11 @@ def coordinate_frame(system, spin: str, held: bool) -> str:
 
 
 def check_spin(system, spin: str, what: str) -> None:
-    """Refuse a ``spin`` that is no rotation coordinate of ``system`` (a ModelError naming it and ``what``)."""
+    """Refuse a ``spin`` that is no rotation coordinate of ``system`` (a ModelError naming it and ``what``), and a
+    ``system`` that is none."""
+    if not (hasattr(system, "coordinate_index") and hasattr(system, "units")):
+        build = " (build it first: scene.build())" if hasattr(system, "build") else ""
+        raise ModelError(f"{what}: expected a system{build}, got {type(system).__name__}")
     unit = system.units[system.coordinate_index(spin)]
     if unit != "rad":
         raise ModelError(f"{what}: '{spin}' is not a rotation (its unit is {unit})")

@@ -322,6 +322,9 @@ def linearize(system: System, at: Any = None, *, v: ArrayLike | None = None, t: 
     those as the independent coordinates instead of choosing them (another model's, to compare or difference).
     """
     reduction = system.reduction
+    if hold is not None and not isinstance(hold, str) and (
+            not isinstance(hold, (list, tuple)) or not all(isinstance(name, str) for name in hold)):
+        raise ModelError(f"linearize: hold must be a coordinate's name or a list of names, got {hold!r}")
     if hold:
         held = [system.coordinate_index(name) for name in ([hold] if isinstance(hold, str) else hold)]
         speeds = reference_state(system, at, v, t)[1]

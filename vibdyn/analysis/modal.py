@@ -568,15 +568,16 @@ def _state_modes(lin, A, Mi):
     return lam, lm, Vm, rel, dlam, dm, dfm
 
 
-def invariant_pair(A, mu, radius):
-    """(Y, Z, T₁₁) of the two eigenvalues of A within ``radius`` of ``mu`` (None unless exactly two): Z (2n × 2)
-    an orthonormal basis of their invariant subspace, Y (2 × 2n) the left one with Y Z = I (the spectral
-    projector Z Y), T₁₁ = Y A Z their 2×2 upper triangular Schur block."""
+def invariant_pair(A, mu, radius, count=2):
+    """(Y, Z, T₁₁) of the ``count`` eigenvalues of A within ``radius`` of ``mu`` (None unless exactly that many): Z
+    (2n × count) an orthonormal basis of their invariant subspace, Y (count × 2n) the left one with Y Z = I (the
+    spectral projector Z Y), T₁₁ = Y A Z their upper triangular Schur block."""
     T, Z, sdim = sla.schur(A, output="complex", sort=lambda z: abs(z - mu) <= radius)
-    if sdim != 2:
+    if sdim != count:
         return None
-    X = sla.solve_sylvester(T[:2, :2], -T[2:, 2:], T[:2, 2:]) if T.shape[0] > 2 else np.zeros((2, 0))
-    return np.hstack([np.eye(2), -X]) @ Z.conj().T, Z[:, :2], T[:2, :2]
+    c = count
+    X = sla.solve_sylvester(T[:c, :c], -T[c:, c:], T[:c, c:]) if T.shape[0] > c else np.zeros((c, 0))
+    return np.hstack([np.eye(c), -X]) @ Z.conj().T, Z[:, :c], T[:c, :c]
 
 
 #: a pair whose split s satisfies s² ≤ DEFECTIVE_FACTOR · |t| η (t its Jordan coupling, η the size of A's error
@@ -611,17 +612,23 @@ def _defective_pairs(A, E, lam, dlam, eta):
             continue
         mu, half = 0.5 * (lam[i] + lam[j]), 0.5 * abs(lam[i] - lam[j])
         others = np.delete(np.abs(lam - mu), [i, j])
+        members = np.array([i, j])
         pair = invariant_pair(A, mu, 0.5 * (half + others.min(initial=np.inf)) if others.size else np.inf)
-        if pair is None:
-            continue
-        done[[i, j]] = True
+        if pair is None:  # (more coalesce: several Jordan blocks at one λ, two critically damped oscillators alike)
+            members = np.flatnonzero(np.abs(lam - mu) <= np.maximum(dlam, dlam[[i, j]].max()))
+            far = np.delete(np.abs(lam - mu), members)
+            reach = 0.5 * (np.abs(lam[members] - mu).max() + far.min(initial=np.inf)) if far.size else np.inf
+            pair = invariant_pair(A, mu, reach, members.size) if members.size > 2 and not done[members].any() else None
+            if pair is None:
+                continue
+        done[members] = True
         Y, Z, T = pair
-        t = abs(T[0, 1])
+        t = np.abs(np.triu(T, 1)).max()
         eta2 = float((np.abs(Y) @ E @ np.abs(Z)).max())
-        split = 0.5 * abs(T[0, 0] - T[1, 1])
+        split = np.abs(np.diag(T) - np.diag(T).mean()).max()
         if t > DEFECTIVE_FACTOR * eta2 and split**2 <= DEFECTIVE_FACTOR * t * eta2:
-            defective[[i, j]] = True
-            dlam[[i, j]] = np.sqrt(split**2 + t * eta2) + eta2
+            defective[members] = True
+            dlam[members] = np.sqrt(split**2 + t * eta2) + eta2
     return defective
 
 

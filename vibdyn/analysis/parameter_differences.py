@@ -28,6 +28,10 @@ FOUND_AGAIN: dict[str, Callable] = {
 }
 
 
+class NotSmooth(ModelError):
+    """The model has a kink or a jump along a parameter at its value."""
+
+
 class CoordinatesChanged(ModelError):
     """The scene at a displaced parameter value has other coordinates than at the base value."""
 
@@ -50,6 +54,7 @@ class Pipeline:
         self.names = tuple(names)
         self.coordinates = None if coordinates is None else tuple(coordinates)
         self.base_values, self.base = None, None  # (the base values, and the model there once made)
+        self.a0: np.ndarray | None = None  # (about a pose: the acceleration given with the base model, kept)
 
     def __call__(self, values):
         scene, speeds = self.make_scene(values)
@@ -62,6 +67,8 @@ class Pipeline:
                 "as the parameter moves, and a derivative needs the same coordinates on both sides of p")
         op = FOUND_AGAIN[self.regime](system, self.q0, self.v0, speeds)
         at = {"v": self.v0} if self.regime == "pose" else {}  # (an operating point carries its own velocity)
+        if self.a0 is not None:
+            at["a"] = self.a0
         # reduced as the base model is: the same coordinates held at their (new) speeds, the same independent ones
         at.update(hold=self.hold, independent=self.independent)
         try:
@@ -84,7 +91,7 @@ def step(value, unit, length_scale):
 UNSEEN_ROUNDING = 1 / 4
 
 
-def differences_along(pipeline, base_values, j, h, at_bound, base=None):
+def differences_along(pipeline, base_values, j, h, at_bound, base=None, finer=True):
     """(derivatives, their errors, a note) of (M, C, K) along parameter j: central differences (or one-sided,
     second order, at a bound, or where the scene at p − h or p − 2h is refused: the note says so), each error
     |D(h) − D(2h)| plus the models' own errors carried over the step. ``base``: the pipeline's model at p (the
@@ -138,14 +145,22 @@ def differences_along(pipeline, base_values, j, h, at_bound, base=None):
         err.append(e)
         rels.append(rel)
     if base is not None and not at_bound:
-        _smooth(name, p, h, [x[0] for x in X], (base.M, base.C, base.K), rels)
+        try:
+            _smooth(name, p, h, [x[0] for x in X], (base.M, base.C, base.K), rels)
+        except NotSmooth:
+            if not finer:
+                raise
+            # (a feature finer than the step, a pendulum of 1e-7 m at a step of 1e-7 m, looks like a kink at it: a kink
+            # or a jump is one at a step a hundred times finer too)
+            return differences_along(pipeline, base_values, j, h / 100, at_bound, base, finer=False)
     return Dh, err, note
 
 
 def _smooth(name, p, h, X, base, rels):
     """Refuses a parameter the model has a kink or a jump in at p: the one-sided second-order slopes from the
-    left and from the right (equal to O(h³) for a smooth model) differ by over 1 % and over ten times what the
-    evaluations' rounding and the models' own errors can move them by (a kink smaller than that is not seen)."""
+    left and from the right (equal to O(h³) for a smooth model) differ by over 1 % (of the slopes, and of their change
+    across the stencil) and over ten times what the evaluations' rounding and the models' own errors can move them
+    by (a kink smaller than that is not seen)."""
     for k, label in enumerate("MCK"):
         f = [X[0][k], X[1][k], base[k], X[2][k], X[3][k]]
         left, right = sides(f, h)
@@ -155,10 +170,13 @@ def _smooth(name, p, h, X, base, rels):
         # the entry, 10 ε of the matrix's largest), and the models' own errors; Σ|coefficients| 16/2h
         top = size.max(initial=0.0)
         noise = (100 * EPS * size + (10 * EPS + rels[k]) * top) * 2 * round_off(h, True)
-        bad = (gap > 10 * noise) & (gap > 0.01 * np.maximum(np.abs(left), np.abs(right)))
+        # (beside the slopes, the change of slope across the stencil, |f(2h) − 2f + f(−2h)|/2h: at a smooth extremum
+        # both one-sided slopes are O(h³) and differ by that much, a kink's or a jump's by as much as it changes)
+        bend = np.abs(f[4] - 2 * f[2] + f[0]) / (2 * h)
+        bad = (gap > 10 * noise) & (gap > 0.01 * np.maximum(np.maximum(np.abs(left), np.abs(right)), bend))
         if bad.any():
             i, c = np.unravel_index(int(np.argmax(np.where(bad, gap / np.maximum(noise, 1e-300), 0.0))), gap.shape)
-            raise ModelError(
+            raise NotSmooth(
                 f"sensitivity: '{name}': not differentiable at {name} = {p:.10g}: the left and right slopes differ "
                 f"(∂{label}[{i}, {c}]/∂p is {left[i, c]:.6g} from the left, {right[i, c]:.6g} from the right, steps "
                 f"of {h:.3g}); the model has a kink or a jump there: differentiate on either side of it")

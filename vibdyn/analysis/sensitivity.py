@@ -249,8 +249,11 @@ def _undamped(modes, dM, dK, eM, eK):
     coupling = np.where(same[None, :, :], 0.0, np.abs(T)).max(axis=1, initial=0.0).T  # n_m × n_p
     cond = np.where(np.isfinite(gap), 2 * dw2_base / np.where(np.isfinite(gap), gap, 1.0), 0.0)[:, None] * coupling
     rel_w2 = np.where(modes.rigid, 0.0, 2 * modes.omega_relative_error)[:, None]  # (shapes normalised on M as known)
-    e_w2 = (quad + dw2_base[:, None] * np.abs(np.diagonal(H, axis1=1, axis2=2).T) + cond
-            + (8 * EPS + rel_w2) * np.abs(d_w2))
+    H_diag = np.abs(np.diagonal(H, axis1=1, axis2=2).T)  # n_m × n_p
+    e_w2 = (quad + dw2_base[:, None] * H_diag + cond + (8 * EPS + rel_w2) * np.abs(d_w2))
+    for g in groups:
+        if len(g) > 1:  # (a cluster's derivatives are its subspace's eigenvalues, ascending: not one mode's each)
+            e_w2[g] = _cluster_error(g, A, eK, eM if mass else None, w2, H, e_w2[g])
     d_w, e_w = np.zeros((n_m, n_p)), np.zeros((n_m, n_p))
     pos = omega > 0
     # ω = √|ω²|: an unstable mode's (ω² < 0, ω its growth rate) moves as −∂ω²/(2ω)
@@ -258,13 +261,30 @@ def _undamped(modes, dM, dK, eM, eK):
     e_w[pos] = e_w2[pos] / (2 * omega[pos, None]) + np.abs(d_w[pos]) * rel_w2[pos] / 2  # (ω's own error)
     zero = ~pos
     leaves = zero[:, None] & (np.abs(d_w2) > e_w2)
-    e_w[zero] = np.where(leaves[zero], np.inf, 0.0)
+    # a mode at zero within its error ω_e that stays there: ∂ω = −ω φᵀ∂Mφ/2 for some ω ≤ ω_e (0 for a rigid one)
+    e_w[zero] = np.where(leaves[zero], np.inf, 0.5 * np.asarray(modes.omega_error)[zero, None] * H_diag[zero])
 
     def shapes():
         sym = lambda X: 0.5 * (X + X.transpose(0, 2, 1))  # noqa: E731
         return _nelson(M, Ks, Phi, w2, sym(dK), dM, sym(eK), eM, d_w2, e_w2, dw2_base, repeated | ~pos)
 
     return d_w2, e_w2, d_w, e_w, repeated, shapes
+
+
+def _cluster_error(g, A, eK, eM, w2, H, e_g):
+    """The error of each derivative of a cluster g of repeated ω² (eigenvalues of its subspace's projection, in
+    ascending order): the projection's own error bound (the 2-norm of |Φ_g|ᵀ E |Φ_g|, which moves every eigenvalue
+    by at most that: Weyl), the largest of the members' other terms, and the spread of the cluster's ω² (the projection
+    takes their mean for all) times ‖Φ_gᵀ ∂M Φ_g‖."""
+    Ag = A[:, g]
+    Q = Ag.T @ eK @ Ag  # n_p × k × k
+    if eM is not None:
+        Q = Q + np.abs(w2[g]).max() * (Ag.T @ eM @ Ag)
+    quad_g = np.array([np.linalg.norm(q, 2) for q in Q])
+    diag_q = np.einsum("pii->ip", Q)  # (the members' own quadratic forms, already in e_g)
+    spread = float(np.ptp(w2[g]))
+    Hg = np.array([np.linalg.norm(h[np.ix_(g, g)], 2) for h in H])
+    return np.broadcast_to((e_g - diag_q).max(axis=0) + quad_g + spread * Hg, e_g.shape).copy()
 
 
 def _nelson(M, Ks, Phi, w2, dKs, dM, eKs, eM, d_w2, e_w2, dw2_base, skip):
@@ -308,6 +328,9 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     lam, W, V = sla.eig(A, left=True, right=True)
     idx = [int(np.argmin(np.abs(lam - x))) for x in lam_m]
     defective = np.asarray(modes.defective, bool) if modes.defective.size else np.zeros(n_d, bool)
+    err_m = np.asarray(modes.eigenvalue_error, float)
+    zero = np.asarray(modes.damped_zero) if modes.damped_zero.size else np.zeros(n_d, bool)
+    clusters = _damped_clusters(lam, lam_m, err_m, defective | zero)
     # a defective pair's eigenvalues have no derivative (they split as √δp): the pair's mean does, ½ trace(Y ∂A Z)
     # over its invariant subspace (Z right, Y left basis, Y Z = I)
     pairs = {}
@@ -319,6 +342,7 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     MiK, MiC = Minv @ lin.K, Minv @ lin.C
     d_l = np.zeros((n_d, n_p), complex)
     e_l = np.zeros((n_d, n_p))
+    clustered = {r for rows, _ in clusters for r in rows}
     for j in range(n_p):
         dA = np.zeros_like(A)
         dA[n:, :n] = -Minv @ (dK[j] - dM[j] @ MiK)
@@ -327,8 +351,10 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
         eA[n:, :n] = aMinv @ (eK[j] + eM[j] @ np.abs(MiK))
         eA[n:, n:] = aMinv @ (eC[j] + eM[j] @ np.abs(MiC))
         eA += 4 * n * EPS * np.abs(dA)
+        for rows, ks in clusters:  # a repeated, diagonalisable eigenvalue: its eigenspace's Y ∂A Z, ascending
+            d_l[rows, j], e_l[rows, j] = _cluster_derivatives(W[:, ks], V[:, ks], dA, eA, lam_m[rows[0]], len(rows))
         for r, k in enumerate(idx):
-            if r in pairs:
+            if r in pairs or r in clustered:
                 continue
             w, v = W[:, k], V[:, k]
             den = w.conj() @ v
@@ -346,14 +372,14 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     # known only to δλ/gap) or to |λ|, times the derivative
     gaps = np.abs(lam[:, None] - lam[None, :])
     np.fill_diagonal(gaps, np.inf)
+    for rows, ks in clusters:  # (a cluster's members: their distance to the eigenvalues outside it)
+        gaps[np.ix_(ks, ks)] = np.inf
     near = np.minimum(gaps.min(axis=1)[idx], np.abs(lam_m))
     near = np.where(defective, np.abs(lam_m), near)
-    rel = np.where(near > 0, np.asarray(modes.eigenvalue_error) / np.where(near > 0, near, 1.0),
-                   np.asarray(modes.eigenvalue_relative_error))
+    rel = np.where(near > 0, err_m / np.where(near > 0, near, 1.0), np.asarray(modes.eigenvalue_relative_error))
     e_l += np.abs(d_l) * rel[:, None] * 2
-    zero = np.asarray(modes.damped_zero) if modes.damped_zero.size else np.zeros(n_d, bool)
-    d_l[zero] = 0.0
-    e_l[zero] = 0.0
+    d_l[zero] = 0.0  # (a zero within its error only, λ ≠ 0 — coalescing defective pairs — moves as none can say)
+    e_l[zero] = np.where(lam_m[zero] == 0, 0.0, np.inf)[:, None]
     mag = np.abs(lam_m)[:, None]
     safe = np.where(mag > 0, mag, 1.0)
     d_wn = np.where(mag > 0, (np.conj(lam_m)[:, None] * d_l).real / safe, 0.0)
@@ -364,6 +390,46 @@ def _damped(modes, lin, dM, dC, dK, eM, eC, eK):
     e_wn[defective] = np.inf
     e_z[defective] = np.inf
     return d_l, e_l, d_wn, e_wn, d_z, e_z, defective
+
+
+def _damped_clusters(lam, lam_m, err, skip):
+    """[(rows, indices in lam)] of the modes' eigenvalues repeated within their errors (10 × their sum, as the
+    undamped frequencies are clustered), but for ``skip`` ones (defective, zero); the usual case, none, costs one
+    comparison."""
+    close = np.abs(lam_m[:, None] - lam_m[None, :]) <= 10 * (err[:, None] + err[None, :])
+    close &= ~skip[:, None] & ~skip[None, :]
+    if np.count_nonzero(close) == np.count_nonzero(~skip):
+        return []
+    out, seen = [], set()
+    for r in range(len(lam_m)):
+        rows = [int(x) for x in np.flatnonzero(close[r])]
+        if len(rows) < 2 or r in seen:
+            continue
+        seen.update(rows)
+        radius = float(np.abs(lam_m[rows] - lam_m[r]).max() + 10 * err[rows].max())
+        ks = [int(x) for x in np.flatnonzero(np.abs(lam - lam_m[r]) <= radius)]
+        out.append((rows, ks))
+    return out
+
+
+def _cluster_derivatives(Wc, Vc, dA, eA, lam, k):
+    """(∂λ, error) of a repeated, diagonalisable eigenvalue's members: the eigenvalues of B = Y ∂A Z over its
+    eigenspace (Z = Vc right, Y = (Wcᴴ Vc)⁻¹ Wcᴴ left, Y Z = I), in ascending order of ∂|λ|; each error ‖|Y| E |Z|‖₂
+    times the condition of B's eigenvectors (Bauer–Fike). Infinite where the rows and the eigenspace differ in size
+    or its basis is singular (not diagonalisable after all)."""
+    if Vc.shape[1] != k:
+        return 0.0, np.inf
+    try:
+        Y = np.linalg.solve(Wc.conj().T @ Vc, Wc.conj().T)
+        mu, X = np.linalg.eig(Y @ dA @ Vc)
+        cond = np.linalg.cond(X)
+    except np.linalg.LinAlgError:
+        return 0.0, np.inf
+    if not np.all(np.isfinite(mu)) or not np.isfinite(cond):
+        return 0.0, np.inf
+    mu = mu[np.lexsort((mu.imag, (np.conj(lam) * mu).real))]
+    e = np.linalg.norm(np.abs(Y) @ eA @ np.abs(Vc), 2) * cond
+    return mu, np.full(k, e)
 
 
 # ------------------------------------------------------------------------------------------ entry point
@@ -453,12 +519,21 @@ def sensitivity(source: Any, params: Any, *, unused: str = "raise") -> Sensitivi
 
     pipeline = Pipeline(make_scene, lin.q, lin.v, regime, hold, getattr(lin, "independent", None), names,
                         system.coordinates)
+    # about a pose that is no equilibrium, the reference motion's acceleration: the free one there, which moves with
+    # p (a stiffness changes it, and M(q) a with it: not the element's terms alone), or one given, kept
+    moving = False
+    if regime == "pose":
+        free = system.accelerations(lin.q, lin.v, lin.t)
+        if np.allclose(lin.a, free, rtol=1e-9, atol=1e-12 * np.abs(free).max(initial=0.0)):
+            moving = bool(np.any(lin.a))
+        else:
+            pipeline.a0 = np.array(lin.a, float)
     steps = np.array([step(values[j], units[j], system.length_scale) for j in range(len(names))])
     direct: dict[int, tuple] = {}
     from ..model.derivatives import untrusted
 
     # (the element path takes Pinocchio's joint velocity derivatives, wrong for some joint types: not there)
-    if system.reduction.allows("derivatives on the tree's elements") and not hold \
+    if system.reduction.allows("derivatives on the tree's elements") and not hold and not moving \
             and regime in ("static", "pose", "held") and not untrusted(system)[0].size:
         # a tree about a point it holds or finds again: the analytic model is the base, and a parameter a force
         # is proportional to (a stiffness, a damping) is differentiated on its element alone, no rebuild
@@ -536,6 +611,8 @@ def _of_builder(build, params, start, unused):
     system = scene0.build()
     tree = system.operating_point().linearize(method="analytic")
     regime, speeds = _regime(system, tree)
+    if regime == "steady" and (scene0.operating_point or {}).get("cyclic"):
+        regime = "declared"  # (the builder's scene declares its speeds: a parameter may be one, or move a found one)
 
     def make_scene(vals):
         return build(**{k: float(x) for k, x in zip(names, vals)}), speeds

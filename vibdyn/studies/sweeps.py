@@ -340,8 +340,12 @@ def sweep(build: Callable, parameters: Any, analysis: Any = "modes", executor: A
         raise ModelError("sweep: build must be a callable(**parameters) -> Scene or System")
     if not callable(analysis) and analysis not in ANALYSES:
         raise ModelError(f"sweep: analysis must be one of {ANALYSES} or a callable(system) -> dict, got {analysis!r}")
+    if store is not None and not isinstance(store, (str, Path)):
+        raise ModelError(f"sweep: store must be a file path (str or pathlib.Path), got {store!r}")
     if store is not None and not Path(store).parent.is_dir():  # found before any work, not after it
         raise ModelError(f"sweep store {store}: no such directory '{Path(store).parent}'")
+    if store is not None and Path(store).is_dir():
+        raise ModelError(f"sweep store {store}: is a directory; give a file to write the points to (JSON lines)")
     if executor == "processes":
         _check_sendable(build, analysis)
     points, names = _grid(parameters)

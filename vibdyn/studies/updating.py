@@ -113,6 +113,21 @@ def _bounds(bounds, names, p0):
     return lo, hi
 
 
+def _points(points):
+    """The measuring points as :meth:`Modes.point_shapes` takes them: body names or (body, (x, y, z)) pairs."""
+    if isinstance(points, str) or not isinstance(points, (list, tuple)) or not points:
+        raise ModelError(f"update: points must be a list of body names or (body, (x, y, z)) pairs, got {points!r}")
+    out: list = []
+    for p in points:
+        if isinstance(p, (tuple, list)) and len(p) == 2 and isinstance(p[0], str):
+            out.append((p[0], tuple(vector3(p[1], f"update: the point on '{p[0]}'"))))
+        elif isinstance(p, str):
+            out.append(p)
+        else:
+            raise ModelError(f"update: each of points must be a body's name or a (body, (x, y, z)) pair, got {p!r}")
+    return out
+
+
 def _measured_shapes(shapes, points, w_meas):
     """The measured shapes as floats (None without), each a nonzero column; measured frequencies without shapes
     must ascend (they are paired with the model's flexible modes in ascending order)."""
@@ -124,8 +139,9 @@ def _measured_shapes(shapes, points, w_meas):
                              "without shapes they are paired with the model's flexible modes in ascending order; "
                              "sort them, or give shapes= to pair them by MAC")
         return None
-    try:
-        meas = np.asarray(shapes, dtype=float)
+    try:  # (complex shapes, as an experimental modal analysis gives them, pair by the complex MAC)
+        meas = np.asarray(shapes)
+        meas = meas.astype(complex if np.iscomplexobj(meas) else float)
     except (TypeError, ValueError):
         raise ModelError("update: shapes must be an array of numbers (displacements)") from None
     if not np.all(np.isfinite(meas)):
@@ -186,6 +202,8 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
     weight = sig / sig_ref
     lo, hi = _bounds(bounds, names, p0)
     meas_shapes = _measured_shapes(shapes, points, w_meas)
+    if points is not None:
+        points = _points(points)
     build(**start)  # (a builder returning no scene is refused here, not along the fit)
     scale = np.where(p0 != 0, np.abs(p0), 1.0)
     cache: dict = {}
@@ -252,8 +270,11 @@ def update(build: Callable, start: dict, measured: Any, sigma: Any = None, bound
         cost = float(0.5 * np.sum(((sens.omega0[idx] - w_meas) / sig) ** 2))
     std = sig_ref * np.sqrt(np.einsum("ij,ij->i", root, root))
     if fit.status <= 0:
-        raise ConvergenceError(f"update: the fit did not converge in {max_iter} evaluations ({fit.message})",
-                               best=dict(zip(names, (x * scale).tolist())))
+        off = (sens.omega0[idx] - w_meas) / sig
+        far = (f"; at the best point so far the residuals are {', '.join(f'{r:.3g}' for r in off)} σ: measurements the "
+               "model cannot reach make the fit slow") if np.abs(off).max() > 3 else ""
+        raise ConvergenceError(f"update: the fit did not converge in {max_iter} evaluations ({fit.message}){far}; "
+                               "give more (max_iter=)", best=dict(zip(names, (x * scale).tolist())))
     omega = sens.omega0[idx]
     return Update(dict(zip(names, (x * scale).tolist())), dict(zip(names, std.tolist())), cov, omega, w_meas, sig,
                   omega - w_meas, idx, mac_table, int(fit.njev or 0), cost, time.perf_counter() - t0,
