@@ -41,6 +41,7 @@ within π of the described one (q and q ± 2π are one pose: the shorter way rou
 
 import functools
 import itertools
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -184,32 +185,33 @@ def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), 
     model, cs = c.model, c.col_scale
     rs = c.row_scale if loops is None else c.row_scale[_rows(c, loops)]
     cols = slice(None) if dep is None else dep
+    scale = rs[:, None] * cs[None, cols]
     phi, J = c.evaluate(q, loops=loops)
     r = rs * phi
-    steps = []
-    for k in range(iterations + 1):
-        res = float(np.abs(r).max(initial=0.0))
-        if res <= ASSEMBLY_TOL:
-            return q, J, steps
-        if k == iterations or not np.isfinite(res) or (k >= give_up[0] and res > give_up[1]):
-            return None
-        dx = np.zeros(c.nv)
-        dx[cols] = _min_norm(rs[:, None] * J[:, cols] * cs[None, cols], -r)
-        norm0, alpha = float(r @ r), 1.0
-        while True:
-            q1 = pin.integrate(model, q, cs * (alpha * dx))
-            with np.errstate(over="ignore", invalid="ignore"):
-                phi1, J1 = c.evaluate(q1, loops=loops)
-            r1 = rs * phi1
-            if float(r1 @ r1) <= (1 - 1e-4 * alpha) * norm0:
-                break
-            alpha *= 0.5
-            if alpha < 1e-4:
+    steps: list = []
+    with np.errstate(over="ignore", invalid="ignore"):  # (a trial step too far: its |Φ| is not finite, refused)
+        for k in range(iterations + 1):
+            res = float(np.abs(r).max(initial=0.0))
+            if res <= ASSEMBLY_TOL:
+                return q, J, steps
+            if k == iterations or not np.isfinite(res) or (k >= give_up[0] and res > give_up[1]):
                 return None
-        steps.append(alpha * float(np.linalg.norm(dx)))
-        q, J, r = q1, J1, r1
-        if known is not None and steps[-1] <= KNOWN_STEP and _gaps(c, q, known).min() <= KNOWN_GAP:
-            return None
+            dx = np.zeros(c.nv)
+            dx[cols] = _min_norm(J[:, cols] * scale, -r)
+            norm0, alpha = float(r @ r), 1.0
+            while True:
+                q1 = pin.integrate(model, q, cs * (alpha * dx))
+                phi1, J1 = c.evaluate(q1, loops=loops)
+                r1 = rs * phi1
+                if float(r1 @ r1) <= (1 - 1e-4 * alpha) * norm0:
+                    break
+                alpha *= 0.5
+                if alpha < 1e-4:
+                    return None
+            steps.append(alpha * math.sqrt(dx @ dx))
+            q, J, r = q1, J1, r1
+            if known is not None and steps[-1] <= KNOWN_STEP and _gaps(c, q, known).min() <= KNOWN_GAP:
+                return None
     return None
 
 

@@ -105,7 +105,7 @@ def close_many(batch: LoopBatch, starts, owner, cols, iterations, known, gaps) -
     dimensionless distances from q to the rows of Q) of a closure that a start of the same ``owner`` reached
     before (it converges to that one)."""
     c = batch.c
-    model, cs, rs, scale = c.model, c.col_scale, batch.row_scale, c.col_scale[cols]
+    model, rs, scale = c.model, batch.row_scale, c.col_scale[cols]
     (n1, n2), opened = iterations
     Q = np.array(starts)
     phi, J = batch.evaluate(Q)
@@ -115,7 +115,8 @@ def close_many(batch: LoopBatch, starts, owner, cols, iterations, known, gaps) -
         res = np.abs(R[live]).max(axis=1, initial=0.0)
         for i in live[res <= ASSEMBLY_TOL]:
             out[i] = Q[i]
-        keep = (res > ASSEMBLY_TOL) & np.isfinite(res) & ~((k >= n1) & (res > opened))
+        keep = (res > ASSEMBLY_TOL) & np.isfinite(J[live]).all(axis=(1, 2)) & ~((k >= n1) & (res > opened))
+        keep &= np.isfinite(res)
         live = live[keep] if k < n1 + n2 else live[:0]
         if not live.size:
             break
@@ -125,6 +126,7 @@ def close_many(batch: LoopBatch, starts, owner, cols, iterations, known, gaps) -
         x = Vt.swapaxes(1, 2) @ (inv[:, :, None] * (U.swapaxes(1, 2) @ -R[live][:, :, None]))  # (minimum norm)
         dx[:, cols] = scale * x[..., 0]
         norm0, alpha, steps = (R[live] ** 2).sum(axis=1), np.ones(live.size), np.zeros(live.size)
+        size = np.sqrt((x[..., 0] ** 2).sum(axis=1))  # (dimensionless)
         trying, ladder = np.arange(live.size), np.ones(1)
         while trying.size:  # (the full steps, then the next HALVINGS halvings of each refused one at once)
             a = alpha[trying, None] * ladder
@@ -134,11 +136,9 @@ def close_many(batch: LoopBatch, starts, owner, cols, iterations, known, gaps) -
             R1 = rs * phi1
             ok = ((R1 ** 2).sum(axis=1).reshape(a.shape) <= (1 - 1e-4 * a) * norm0[trying, None]) & (a >= 1e-4)
             first, took = ok.argmax(axis=1), ok.any(axis=1)
-            for n in np.flatnonzero(took):
-                j, i = trying[n], n * ladder.size + first[n]
-                Q[live[j]], R[live[j]], J[live[j]] = Q1[i], R1[i], J1[i]
-                alpha[j] = a[n, first[n]]
-                steps[j] = alpha[j] * np.linalg.norm(dx[j] / cs)
+            j, i = trying[took], np.flatnonzero(took) * ladder.size + first[took]
+            Q[live[j]], R[live[j]], J[live[j]], alpha[j] = Q1[i], R1[i], J1[i], a[took, first[took]]
+            steps[j] = alpha[j] * size[j]
             alpha[trying[~took]] = 0.5 * a[~took, -1]
             trying, ladder = trying[~took & (alpha[trying] >= 1e-4)], 0.5 ** np.arange(HALVINGS)
         moved = alpha >= 1e-4
