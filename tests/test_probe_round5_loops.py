@@ -1,0 +1,107 @@
+"""Issue 40, probes round five: closed loops. Each test holds a result against an oracle vibdyn does not share
+(the four-bar's equilibrium and frequency by Lagrange multipliers in closed form: its loop equations, their
+Hessians, the potential and the mass matrix written out by hand and solved by Newton)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import vibdyn as vd
+
+A, B, C, D = 0.1, 0.3, 0.25, 0.3  # the bundled four-bar: crank, coupler, rocker, ground (m)
+MASSES, K_CRANK, REST, G = (1.0, 0.5, 0.8), 2.0, 1.0, 9.81
+
+
+def rz(t):
+    return np.array([[math.cos(t), -math.sin(t), 0.0], [math.sin(t), math.cos(t), 0.0], [0.0, 0.0, 1.0]])
+
+
+def rod(m, length):
+    return np.diag([1e-6, m * length**2 / 12, m * length**2 / 12])
+
+
+def four_bar(a, b, c, d, rotation=0.0):
+    """A four-bar (crank a, coupler b, rocker c, ground d; m) drawn with every link along x and the crank joint
+    turned by ``rotation`` (rad), slender rods, a torsion spring on the crank, gravity −y; no start."""
+    s = vd.Scene("four_bar", gravity=(0, -G, 0))
+    m1, m2, m3 = MASSES
+    s.add_body("crank", joint=vd.Pivot((0, 0, 1), rotation=rz(rotation)), mass=m1, com=(a / 2, 0, 0),
+               inertia=rod(m1, a))
+    s.add_body("coupler", parent="crank", joint=vd.Pivot((0, 0, 1), at=(a, 0, 0)), mass=m2, com=(b / 2, 0, 0),
+               inertia=rod(m2, b))
+    s.add_body("rocker", joint=vd.Pivot((0, 0, 1), at=(d, 0, 0)), mass=m3, com=(c / 2, 0, 0), inertia=rod(m3, c))
+    s.add_joint_spring("crank", stiffness=K_CRANK, rest=REST)
+    s.add_loop("pin", ("coupler", (b, 0, 0)), ("rocker", (c, 0, 0)), joint=vd.Pivot((0, 0, 1)))
+    return s
+
+
+def lagrange_equilibrium(a, b, c, d, x0, rotation=0.0):
+    """(x, ω²) of the four-bar's equilibrium nearest x0 (joint angles: crank, coupler relative to it, rocker) by
+    hand: Newton on ∇V + Φ_xᵀλ = 0, Φ = 0 (Φ the pin's two planar equations, link angles p = A x + rotation), then
+    ω² = τᵀ(∇²V + Σλᵢ∇²Φᵢ)τ / τᵀMτ along the loop's one motion τ (Φ_x τ = 0), all in closed form."""
+    m1, m2, m3 = MASSES
+    T = np.array([[1.0, 0, 0], [1, 1, 0], [0, 0, 1]])
+    coef = np.array([a, b, -c])
+    weight = G * np.array([m1 * a / 2 + m2 * a, m2 * b / 2, m3 * c / 2])
+
+    def angles(x):
+        return T @ x + np.array([rotation, rotation, 0.0])
+
+    def phi(x):
+        p = angles(x)
+        return np.array([coef @ np.cos(p) - d, coef @ np.sin(p)])
+
+    def phi_x(x):
+        p = angles(x)
+        return np.array([-coef * np.sin(p), coef * np.cos(p)]) @ T
+
+    def phi_xx(x):
+        p = angles(x)
+        return [T.T @ np.diag(-coef * np.cos(p)) @ T, T.T @ np.diag(-coef * np.sin(p)) @ T]
+
+    def grad(x):
+        return T.T @ (weight * np.cos(angles(x))) + np.array([K_CRANK * (x[0] - REST), 0, 0])
+
+    def hess(x):
+        return T.T @ np.diag(-weight * np.sin(angles(x))) @ T + np.diag([K_CRANK, 0, 0])
+
+    def mass(x):
+        p = angles(x)
+        Mp = np.diag([m1 * a * a / 3 + m2 * a * a, m2 * b * b / 3, m3 * c * c / 3])
+        Mp[0, 1] = Mp[1, 0] = m2 * a * b / 2 * math.cos(p[0] - p[1])
+        return T.T @ Mp @ T
+
+    x = np.array(x0, float)
+    lam = np.linalg.lstsq(phi_x(x).T, -grad(x), rcond=None)[0]
+    for _ in range(30):
+        J, H = phi_x(x), phi_xx(x)
+        K = hess(x) + lam[0] * H[0] + lam[1] * H[1]
+        step = np.linalg.solve(np.block([[K, J.T], [J, np.zeros((2, 2))]]),
+                               -np.concatenate([grad(x) + J.T @ lam, phi(x)]))
+        x, lam = x + step[:3], lam + step[3:]
+        if np.abs(step).max() < 1e-15:
+            break
+    J, H = phi_x(x), phi_xx(x)
+    tau = np.linalg.svd(J)[2][-1]
+    K = hess(x) + lam[0] * H[0] + lam[1] * H[1]
+    return x, (tau @ K @ tau) / (tau @ mass(x) @ tau)
+
+
+@pytest.mark.parametrize("gap", [1e-7, 1e-6])
+def test_a_four_bar_just_short_of_locking_has_its_equilibrium_and_frequency_within_their_errors(gap):
+    """A four-bar whose ground is `gap` (0.1 or 1 µm) short of crank + coupler + rocker moves over a small range
+    only, where the loops' Jacobian is ill-conditioned. Its equilibrium search closed the loops to the assembly
+    tolerance (1e-12) only, which there moves the pose along the mechanism by 1.7e-9 rad: the frequency was
+    306.7123274 ± 1.1e-10 rad/s (172.6498206 ± 1.1e-10) where the hand Lagrange solution gives 306.7124985
+    (172.6498501), 1.6e6 (2.7e5) times the stated error. Now the search's last steps close the loops to round-off:
+    pose and frequency equal the hand ones within their own error estimates."""
+    d = A + B + C - gap
+    system = four_bar(A, B, C, d).build()
+    eq = system.equilibrium()
+    x = system.difference(system.neutral(), eq.q)
+    exact, w2 = lagrange_equilibrium(A, B, C, d, x)
+    assert np.abs(x - exact).max() <= eq.q_error.max()
+    modes = eq.linearize().modes()
+    assert eq.stability == ("stable" if w2 > 0 else "unstable")
+    assert abs(modes.omega[0] - math.sqrt(abs(w2))) <= modes.omega_error[0]
