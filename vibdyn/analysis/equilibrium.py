@@ -402,11 +402,13 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
             cols.append(R.reduce(ind1, b["N"], Jv)[np.ix_(rows, unknown)])
         return np.hstack(cols)
 
+    fine = {"on": False}  # (the loops closed on to round-off at each step: see LOCK_CLOSURE)
+
     def retract(x, step):
         b = at(x)
         dz = np.zeros(b["ind"].size)
         dz[rest] = step[: len(rest)]
-        return np.concatenate([R.step(b["q"], b["N"], dz, moved), x[nq:] + step[len(rest):]])
+        return np.concatenate([R.step(b["q"], b["N"], dz, moved, refine=fine["on"]), x[nq:] + step[len(rest):]])
 
     def found(out, target):
         """The operating point the search ``out`` reached, with the holders' forces and the loops'."""
@@ -475,10 +477,24 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
         raise ConvergenceError(_not_converged(system, what, max_iter, out.residual, b["q"], tree_forces(out.x),
                                               target, b["ind"][rest], turns_hint(system, q_given)),
                                residual=out.residual, best=b["q"])
+    q_end = at(out.x)["q"]
+    closure = R.closure(q_end)
+    if out.converged and closure > 16 * EPS and closure > LOCK_CLOSURE * R.conditioning(q_end):
+        # near a lock the loops' Jacobian is ill-conditioned: their closure left at ASSEMBLY_TOL moves the pose by
+        # closure / conditioning along the mechanism, and its modes with it (a four-bar 0.1 µm short of locking:
+        # pose 1.7e-9 rad, ω 5.6e-7 off): the search ends with the loops closed on to round-off
+        fine["on"] = True
+        x1 = np.concatenate([R.close(q_end, moved, refine=True), out.x[nq:]])
+        more = newton(rho, x1, jacobian, retract, tol=target, max_iter=max_iter,
+                      steps=Steps(max_step=max_step, on_no_decrease="stop", polish=True,
+                                  refine=ROUND_OFF * nv * EPS * force_scale))
+        if more.converged:
+            out = more
     return found(out, target)
 
 
 ROUND_OFF = 8  # × nv ε × the forces' scale: the residual a search refines to past its tol (round-off)
+LOCK_CLOSURE = 1e-11  # a closure over the loops' conditioning (σ_min/σ_max) above this is closed on to round-off
 
 
 def _finish(point, N, ignore_zeros, start, travel=0.0):

@@ -423,16 +423,16 @@ class Constraints:
             k += n
         return out
 
-    def assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0", record=True):
+    def assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0", record=True, refine=None):
         """The consistent configuration near q0: Gauss–Newton with minimum-norm steps (SVD) in the tangent
         space, each at most :data:`MAX_STEP` (rad, or × the length scale), configurations moved with
         ``pin.integrate``; dimensionless residual ≤ tol. Angles of pivots (and the periodic coordinates of
         cylindrical and universal joints) end within π of q0's. ``start`` names q0 in the error (a
         ConvergenceError naming the loop and the residual reached from it). ``record``: False for a trial
-        closure (a search's), never kept as :attr:`closed`."""
-        return self._assemble(q0, tol, max_iter, start, record)[0]
+        closure (a search's), never kept as :attr:`closed`. ``refine``: a residual to go on to, past tol (round-off)."""
+        return self._assemble(q0, tol, max_iter, start, record, refine)[0]
 
-    def _assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0", record=True):
+    def _assemble(self, q0, tol=ASSEMBLY_TOL, max_iter=50, start="q0", record=True, refine=None):
         """(q, Φ(q), Φ_q(q)) of :meth:`assemble`; Φ_q is None where it was not evaluated at q. The solver
         kit's Newton (:func:`vibdyn.solvers.newton.newton`) in the dimensionless metric: minimum-norm
         least-squares steps on the rank of Φ_q, each at most MAX_STEP, moved by ``pin.integrate``."""
@@ -457,7 +457,7 @@ class Constraints:
         # are not news
         with np.errstate(over="ignore", invalid="ignore"):
             out = newton(fun, q0, jacobian, lambda q, dx: pin.integrate(model, q, cs * dx), tol=tol,
-                         max_iter=max_iter, rcond=RANK_RTOL, steps=Steps(max_step=MAX_STEP))
+                         max_iter=max_iter, rcond=RANK_RTOL, steps=Steps(max_step=MAX_STEP, refine=refine))
         best = (out.residual, out.x)
         if best[0] <= tol:
             phi, J = (last["phi"], last["J"]) if last.get("q") is out.x else (None, None)

@@ -27,6 +27,9 @@ from .._deprecation import Renamed
 from ..errors import ModelError
 from . import dynamics
 
+#: the dimensionless closure a search's iterates are refined to past ASSEMBLY_TOL (16 ε: round-off): near a lock
+#: the loops' Jacobian is ill-conditioned, and a closure left at 1e-13 moves the pose by 1e-9 along the mechanism
+CLOSE_REFINE = 16 * np.finfo(float).eps
 
 class Reduction:
     """How the nv tangent coordinates of ``system`` reduce to independent ones (see the module docstring).
@@ -239,9 +242,12 @@ class Reduction:
             return 0.0
         return float(np.abs(self._loops.scaled_phi(self._loops.phi(q))).max(initial=0.0))
 
-    def close(self, q, start: str = "q0") -> np.ndarray:
-        """q on the loops (assembled nearest q, a ConvergenceError naming ``start`` if they cannot close)."""
-        return np.array(q, dtype=float) if self._loops is None else self._loops.assemble(q, start=start)
+    def close(self, q, start: str = "q0", refine: bool = False) -> np.ndarray:
+        """q on the loops (assembled nearest q, a ConvergenceError naming ``start`` if they cannot close; with
+        ``refine`` on to round-off where it can be, :data:`CLOSE_REFINE`)."""
+        if self._loops is None:
+            return np.array(q, dtype=float)
+        return self._loops.assemble(q, start=start, refine=CLOSE_REFINE if refine else None)
 
     def closures(self, qs) -> np.ndarray:
         """Largest |Φ| of the loops (m for positions, rad for orientations) at each configuration of ``qs``;
@@ -313,16 +319,18 @@ class Reduction:
         q = pin.integrate(self.model, q0, N0 @ dz)
         return q if self._loops is None else self._loops.close(q, self.dependent(ind))
 
-    def step(self, q, N, dz, start: str = "an iterate") -> np.ndarray:
+    def step(self, q, N, dz, start: str = "an iterate", refine: bool = False) -> np.ndarray:
         """q moved by N dz (``N`` the basis at q, dz per independent coordinate), the loops closed again (a
-        ConvergenceError naming ``start`` if they cannot): the move of a search in the independent coordinates."""
+        ConvergenceError naming ``start`` if they cannot): the move of a search in the independent coordinates.
+        ``refine``: closed on to round-off where it can be (:data:`CLOSE_REFINE`)."""
         import pinocchio as pin
 
         if self._loops is None:
             return pin.integrate(self.model, q, N @ dz)
         if not np.any(dz):
             return q
-        return self._loops.assemble(pin.integrate(self.model, q, N @ dz), start=start)
+        return self._loops.assemble(pin.integrate(self.model, q, N @ dz), start=start,
+                                    refine=CLOSE_REFINE if refine else None)
 
     def reduce(self, ind, N, r) -> np.ndarray:
         """Nᵀ r: the generalized forces r (nv, or nv × m) on the independent coordinates ``ind`` (basis N)."""

@@ -167,8 +167,8 @@ class System(Compiled):
         return np.zeros((0, self.nv)) if self.constraints is None else self.constraints.jacobian(q)
 
     def assemble(self, q0: ArrayLike | None = None) -> Vector:
-        """The configuration with loops closed nearest q0 (None: :meth:`start_configuration`), by Gauss–Newton
-        in the tangent space; ConvergenceError naming the loop and the start if they cannot be closed."""
+        """A configuration with the loops closed, reached from q0 (None: :meth:`start_configuration`) by Gauss–Newton
+        (not searched for the nearest); ConvergenceError naming the loop and the start if they cannot be closed."""
         q0, start = self.start_configuration() if q0 is None else (self.check_configuration(q0, "q0"), "q0")
         if start == "q0":
             start_hint(self, q0, "assemble: q0")
