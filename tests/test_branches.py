@@ -13,7 +13,7 @@ from test_assembly import rssr  # (the spatial linkage of that file)
 
 import vibdyn as vd
 from vibdyn.defaults import ASSEMBLY_TOL
-from vibdyn.model import assembly
+from vibdyn.model import assembly, assembly_modes
 from vibdyn.model.loop_batch import LoopBatch, close_many
 
 A, B, C, D = 0.1, 0.3, 0.25, 0.3  # the bundled four-bar: crank, coupler, rocker, ground (m)
@@ -388,7 +388,7 @@ def test_assembly_modes_sampled_not_enumerated_are_not_called_nearest(monkeypatc
     """Where the restarts of a block of dependent coordinates are sampled (more combinations than PARTNER_MAX:
     forced here with PARTNER_MAX = 4 for the Watt six-bar's blocks of two), the closure is not called the nearest
     and the note says why; it is on a hand assembly mode, no nearer than the hand nearest."""
-    monkeypatch.setattr(assembly, "PARTNER_MAX", 4)
+    monkeypatch.setattr(assembly_modes, "PARTNER_MAX", 4)
     system = watt(0.0).build()
     a = system.constraints.assembly()
     assert not a.nearest and a.where == "a closure found near the neutral configuration" and a.dof == 1
@@ -406,18 +406,18 @@ def test_restarts_solved_in_step_reach_what_each_reaches_alone():
     c = system.constraints
     q = c.assembly().q
     found = [q]
-    for loops, cols in assembly._fibres(c, q):
-        combos, _ = assembly._grid(c, cols)
+    for loops, cols in assembly_modes._fibres(c, q):
+        combos, _ = assembly_modes._grid(c, cols)
         starts = []
         for p in found:
             for combo in [np.zeros(cols.size)] + combos:
                 x = np.zeros(system.nv)
                 x[cols] = combo
                 starts.append(system.integrate(p, c.col_scale * x))
-        batch = close_many(LoopBatch(c, loops), starts, [0] * len(starts), cols, (assembly.PARTNER_ITER,
-                           assembly.PARTNER_OPEN), (-1.0, 0.0), None)  # (no start dropped as converging to another)
-        alone = [assembly._correct(c, p, cols, sum(assembly.PARTNER_ITER), (assembly.PARTNER_ITER[0],
-                                   assembly.PARTNER_OPEN), None, loops) for p in starts]
+        iterations, opened = assembly_modes.PARTNER_ITER, assembly_modes.PARTNER_OPEN
+        batch = close_many(LoopBatch(c, loops), starts, [0] * len(starts), cols, (iterations, opened), (-1.0, 0.0),
+                           None)  # (no start dropped as converging to another)
+        alone = [assembly._correct(c, p, cols, sum(iterations), (iterations[0], opened), loops) for p in starts]
         assert [b is None for b in batch] == [a is None for a in alone]
         assert all(np.abs(system.difference(a[0], b)).max() <= 1e-9 for a, b in zip(alone, batch) if a is not None)
         found = []

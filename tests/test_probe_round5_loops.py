@@ -126,13 +126,6 @@ def time_limit(seconds):
 
 
 @pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="needs SIGALRM")
-@pytest.mark.xfail(strict=True, raises=TimeoutError, reason=(
-    "vibdyn/model/assembly.py (the coordinator's this session): check_mobility runs only after _compared has slid "
-    "(_nearest) each closure found. At a closure within ~1e-6 of the isolated one Φ_q still has rank 2 (its small "
-    "singular value above RANK_RTOL), so the slide steps along that null direction; every step's _correct fails "
-    "(the loop cannot close off the isolated point) and _close's Newton comes back to it within round-off, "
-    "accepted by d1 <= dist (1 + 1e-9) while the projected step stays above SLIDE_TOL: each of the 10 slides runs "
-    "all SLIDE_ITER = 300 iterations (6000 failed corrections and closures, 40-130 s) before the lock is refused"))
 def test_a_four_bar_locked_with_its_rocker_longest_is_refused_promptly():
     """A four-bar whose rocker (0.7 m) is as long as crank, coupler and ground together closes only stretched flat
     (hand geometry: the rocker's tip reaches the coupler's only with every link in line) and is refused as locked,
@@ -163,12 +156,6 @@ def wrap(x):
     return (np.asarray(x) + np.pi) % (2 * np.pi) - np.pi
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "vibdyn/model/assembly.py (the coordinator's this session): _compared keeps the closure a slide started from "
-    "when the slide ends beyond the limits (q1, held = q, True) without checking that closure itself; the branch "
-    "candidates (_branches' local minima of the traced samples and the partners) are never checked against the "
-    "limits (only _closures filters what it finds), so the closure taken can lie beyond them, and the note says "
-    "'the one taken is the nearest of the search within them'"))
 @pytest.mark.parametrize("rotation,limit", [(0.3, ("rocker", -np.pi, 0.0)), (2.0, ("crank", -0.5, 0.5)),
                                             (4.0, ("rocker", 0.0, np.pi))])
 def test_the_described_assembly_keeps_to_the_position_limits(rotation, limit):
@@ -176,7 +163,7 @@ def test_the_described_assembly_keeps_to_the_position_limits(rotation, limit):
     closures lie beyond the limit: the assembly took a closure beyond it (rocker 1.522 rad above its upper limit 0;
     crank −0.811 below −0.5; rocker −1.693 below 0), after which every equilibrium search refuses its own start.
     The closure taken must lie within the limits, no nearer than the hand nearest within them (both assembly modes
-    over a fine grid of the crank's turn)."""
+    over a fine grid of the crank's turn), and the equilibrium search start there."""
     scene = four_bar(A, B, C, D, rotation)
     scene.set_limits(*limit)
     system = scene.build()
@@ -187,13 +174,15 @@ def test_the_described_assembly_keeps_to_the_position_limits(rotation, limit):
     hand = min(float(np.linalg.norm(wrap(m))) for t in np.linspace(-np.pi, np.pi, 20001)
                for m in four_bar_closures(t, rotation) or [] if limit[1] <= wrap(m)[i] <= limit[2])
     assert a.distance >= hand - 1e-3  # (the grid's spacing)
-    system.equilibrium()
+    try:  # (the search starts there: it was refused as beyond the limit)
+        eq = system.equilibrium()
+    except vd.ConvergenceError as e:  # (the forces push the mechanism past the limit: said so)
+        assert "at its upper limit" in str(e) or "at its lower limit" in str(e)
+        assert "forces push it beyond" in str(e)
+    else:
+        assert limit[1] <= system.difference(system.neutral(), eq.q)[i] <= limit[2]
 
 
-@pytest.mark.xfail(strict=True, raises=vd.ConvergenceError, reason=(
-    "vibdyn/model/assembly.py: every closure _closures' 27 restarts reach is beyond the limits (all near the "
-    "drawing, crank about 0.2-0.5 rad), and assemble_described then refuses ('the loops close only beyond the "
-    "scene's position limits') without following the mechanism's motion from them to closures within the limits"))
 def test_a_crank_limited_to_a_range_it_reaches_is_assembled_there():
     """The bundled four-bar's crank turns fully (Grashof: 0.1 + 0.3 ≤ 0.3 + 0.25; the hand closure exists at every
     crank angle). Drawn turned 0.3 rad with its crank limited to [1, 2] rad, the assembly was refused: 'the loops

@@ -25,7 +25,7 @@ within π of the described one (q and q ± 2π are one pose: the shorter way rou
    be solved one after another (a Watt six-bar's four-bar, then its dyad from each of the four-bar's
    closures), and traced in turn. The nearest of all is taken, and called "the closure nearest the neutral
    configuration" (``Assembly.nearest``) only when every branch met was traced whole, each search for the
-   other modes tried its whole grid of restarts (up to three dependent coordinates a block: :func:`_partners`)
+   other modes tried its whole grid of restarts (up to three dependent coordinates a block: :func:`.partners`)
    and no slide ended beyond a limit; otherwise (mobility 2 or more: surfaces, not traced; a branch cut by a
    singular position; modes sampled, not enumerated, with more dependent coordinates solved together) it is
    "a closure found near the neutral configuration",
@@ -39,8 +39,6 @@ within π of the described one (q and q ± 2π are one pose: the shorter way rou
    moves increasing.
 """
 
-import functools
-import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -50,7 +48,10 @@ import pinocchio as pin
 
 from ..defaults import ASSEMBLY_TOL, RANK_RTOL
 from ..errors import ConvergenceError, ModelError
-from .loop_batch import LoopBatch, close_many, rows_of
+from . import assembly_modes
+from .assembly_modes import partners
+from .loop_batch import rows_of
+from .loop_metric import SAME, gap, gaps, offsets
 
 #: radii (rad, or × the length scale) of the restarts along ± each coordinate, one round each
 RESTART_RADII = (0.25, 1.0, np.pi / 2)
@@ -58,7 +59,6 @@ RANDOM_RESTARTS = 8  # the last round: seeded random poses, half with std 1, hal
 OPEN_TOL = 1e-6  # a least-squares result with dimensionless |Φ| below this is polished by Gauss–Newton
 SLIDE_TOL, SLIDE_ITER = 1e-10, 300  # the slide to the nearest closure: last projected step (dimensionless)
 SLIDE_HALVINGS = 6  # a slide's step halved this many times where the closure reached is farther or not found
-SAME = 1e-6  # closures nearer each other than this (dimensionless) are one
 TIE_RTOL = 1e-7  # distances within this (relative) are a tie
 BESIDE = 1e-3  # step to the closures beside one, for the rank there (dimensionless)
 LEAVE = (1e-3, 1e-2, 1e-1)  # steps along the motion off a closure where the forces are undefined
@@ -66,14 +66,7 @@ TRACE_STEP, TRACE_MAX_STEP, TRACE_MIN_STEP = 0.2, 0.8, 1e-3  # arclength steps (
 CORRECT_ITER = 8  # Gauss–Newton iterations of one corrector (a trace step, a slide step)
 TRACE_MAX = 2000  # samples of one branch before its trace is given up (the nearest is then not proven)
 PARTNER_POINTS = 2  # points along each traced branch where the other assembly modes are sought
-PARTNER_MAX = 26  # restarts of the dependent coordinates per point: the whole grid of up to 3 (see _partners)
-PARTNER_ITER, PARTNER_OPEN = (4, 6), 1e-2  # Newton iterations of a restart, the last 6 only for a restart whose
-# dimensionless residual is below PARTNER_OPEN after the first 4
-KNOWN_STEP, KNOWN_GAP = 1e-2, 1e-3  # a restart's Newton step and gap below which it is taken to converge to the
-# closure it is beside (quadratic convergence: it ends within about the step² of where it is)
 MAX_BRANCHES = 16  # branches traced before the search gives up proving the nearest
-MAX_BLOCK_LOOPS = 8  # more loops than this: their dependent coordinates are one block (:func:`_blocks`)
-MAX_TRIED = 8  # other independent coordinates tried for smaller blocks (:func:`_fibres`)
 WHERE = "the closure nearest the neutral configuration"
 WHERE_FOUND = "a closure found near the neutral configuration"  # (the nearest of those found, not proven)
 
@@ -146,25 +139,6 @@ def _close(c, q, qd):
         return None
 
 
-def _offsets(c, qd, q):
-    return pin.difference(c.model, qd, q) / c.col_scale
-
-
-def _gap(c, a, b):
-    """Dimensionless tangent distance from a to b, b's periodic angles taken within π of a's."""
-    return float(np.linalg.norm(_offsets(c, a, c.within_pi(b.copy(), a))))
-
-
-def _gaps(c, q, samples):
-    """:func:`_gap` from q to each of ``samples`` (an array of configurations, one a row)."""
-    model, iq = c.model, c.periodic_coordinates
-    if model.nq != model.nv:  # (a Lie group other than ℝⁿ: one by one)
-        return np.array([_gap(c, q, s) for s in samples])
-    d = samples - q
-    d[:, iq] -= 2 * np.pi * np.round(d[:, iq] / (2 * np.pi))
-    return np.linalg.norm(d / c.col_scale, axis=1)
-
-
 def _tangent(c, J, previous):
     """The unit (dimensionless) direction of the one motion the loops allow where Φ_q is J, turned to go on
     along ``previous``; None where the mobility there is not 1."""
@@ -175,15 +149,14 @@ def _tangent(c, J, previous):
     return -t if previous is not None and t @ previous < 0 else t
 
 
-def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), known=None, loops=None):
+def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), loops=None):
     """(q, Φ_q, corrections) of the closure reached from q by Gauss–Newton (minimum-norm dimensionless steps of
     all coordinates, or of ``dep`` only, each halved until |Φ| decreases), Φ and Φ_q from one evaluation per
     point, of the ``loops`` (indices; None: all, and Φ_q is then the whole Jacobian); ``corrections`` the sizes
     of the steps taken. None where |Φ| stays above ASSEMBLY_TOL after ``iterations``, stops decreasing, or is
-    above give_up[1] after give_up[0] iterations; None too where a step below KNOWN_STEP lands within KNOWN_GAP
-    of one of the closures ``known`` (an array, one a row: it converges to that one, already known)."""
+    above give_up[1] after give_up[0] iterations."""
     model, cs = c.model, c.col_scale
-    rs = c.row_scale if loops is None else c.row_scale[_rows(c, loops)]
+    rs = c.row_scale if loops is None else c.row_scale[rows_of(tuple(c.sizes), tuple(loops))]
     cols = slice(None) if dep is None else dep
     scale = rs[:, None] * cs[None, cols]
     phi, J = c.evaluate(q, loops=loops)
@@ -210,8 +183,6 @@ def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), 
                     return None
             steps.append(alpha * math.sqrt(dx @ dx))
             q, J, r = q1, J1, r1
-            if known is not None and steps[-1] <= KNOWN_STEP and _gaps(c, q, known).min() <= KNOWN_GAP:
-                return None
     return None
 
 
@@ -245,12 +216,12 @@ def _trace(c, q0, qd):
             q1, _, steps = out
             q1 = c.within_pi(q1, qd)
         if (t1 is None or (steps and steps[0] > 0.5 * h) or (len(steps) > 1 and steps[1] > 0.5 * steps[0])
-                or _gap(c, q, q1) > 2 * h or t1 @ t < 0.5):
+                or gap(c, q, q1) > 2 * h or t1 @ t < 0.5):
             if h / 2 < TRACE_MIN_STEP:
                 return samples, tangents, False
             h /= 2
             continue
-        ahead = _offsets(c, q1, c.within_pi(q0.copy(), q1))  # (q0 ahead along the motion: the loop is closing)
+        ahead = offsets(c, q1, c.within_pi(q0.copy(), q1))  # (q0 ahead along the motion: the loop is closing)
         if len(samples) > 1 and np.linalg.norm(ahead) <= h and ahead @ t1 > 0:
             return samples, tangents, True
         samples.append(q1)
@@ -265,13 +236,13 @@ def _on_branch(c, p, S, steps, T):
     the next; T: the unit tangents there): near a sample (within 0.6 of its longer chord), and reached from it
     along the motion by steps of p's offset projected on the tangent, each closed again (:func:`_correct`), until
     the offset is below SAME or its projection is (p is then beside the branch, not on it)."""
-    d = _gaps(c, p, S)
+    d = gaps(c, p, S)
     i = int(np.argmin(d))
     if d[i] > 0.6 * max(steps[i], steps[i - 1]):
         return False
     q, t = S[i], T[i]
     for _ in range(CORRECT_ITER):
-        x = _offsets(c, q, c.within_pi(p.copy(), q))
+        x = offsets(c, q, c.within_pi(p.copy(), q))
         if np.linalg.norm(x) <= SAME:
             return True
         if t is None or abs(x @ t) <= SAME:
@@ -283,125 +254,6 @@ def _on_branch(c, p, S, steps, T):
     return False
 
 
-def _rows(c, loops):
-    """Indices of the equations of the ``loops`` (indices), in order."""
-    return rows_of(tuple(c.sizes), tuple(loops))
-
-
-def _blocks(c, J, used, dep):
-    """[(loops, columns)]: the dependent coordinates ``dep`` of a closure where Φ_q is J in blocks solved one
-    after another, each the fewest loops (one to three, else all those left) whose new coordinates (those their
-    equations use, ``used``: rows × coordinates, not solved by an earlier block) their equations fix (Φ_q on them
-    of full column rank), with every other loop then closed by what is solved; one block of every loop where no
-    such order exists (or more than MAX_BLOCK_LOOPS loops). The equations of a block use no coordinate of a later
-    one: its closures, then each later block's from each of them, are every closure with the same independent
-    coordinates."""
-    n = len(c.sizes)
-    if n > MAX_BLOCK_LOOPS:
-        return [(tuple(range(n)), dep)]
-    uses = [set(dep[used[_rows(c, (i,))][:, dep].any(axis=0)]) for i in range(n)]
-    solved, left, out = set(), list(range(n)), []
-    while left:
-        sizes = sorted({*range(1, min(3, len(left)) + 1), len(left)})  # (at most three loops a block, or all)
-        for group in itertools.chain.from_iterable(itertools.combinations(left, k) for k in sizes):
-            new = set().union(*(uses[i] for i in group)) - solved
-            loops = tuple(i for i in left if i in group or uses[i] <= solved | new)
-            cols = np.array(sorted(new), dtype=int)
-            if cols.size and _full_rank(c, J, _rows(c, loops), cols):
-                break
-        else:
-            return [(tuple(range(n)), dep)]
-        out.append((loops, cols))
-        solved |= new
-        left = [i for i in left if i not in loops]
-    return out
-
-
-def _full_rank(c, J, rows, cols):
-    """Whether Φ_q's ``rows`` have full column rank on ``cols`` (dimensionless, singular values above RANK_RTOL of
-    the largest)."""
-    s = np.linalg.svd(c.row_scale[rows, None] * J[rows][:, cols] * c.col_scale[None, cols], compute_uv=False)
-    return s.size >= cols.size and s[cols.size - 1] > RANK_RTOL * s[0]
-
-
-def _fibres(c, q):
-    """The blocks (:func:`_blocks`) of the dependent coordinates at the closure q: those of the independent ones
-    QR with column pivoting keeps (:meth:`Constraints.partition`) or, with mobility 1 where those leave a block
-    of more than two, of the coordinate (of MAX_TRIED others) whose largest block is smallest (the fewest
-    coordinates restarted together). A loop uses the coordinates with a nonzero column in Φ_q at q or at two poses
-    near it (the ones its ends move with: structural zeros are exact)."""
-    model, cs, nv = c.model, c.col_scale, c.nv
-    J = c.jacobian(q)
-    ind, _ = c.partition(J)
-    dep = np.setdiff1d(np.arange(nv), ind)
-    if len(c.sizes) == 1 or dep.size <= 2:  # (one block, or blocks no smaller than the grid of the whole)
-        return [(tuple(range(len(c.sizes))), dep)]
-    rng = np.random.default_rng(0)
-    used = J != 0  # (a non-finite entry counts as used)
-    with np.errstate(all="ignore"):
-        for _ in range(2):
-            used |= c.jacobian(pin.integrate(model, q, cs * rng.standard_normal(nv))) != 0
-    tried = [ind] + ([np.array([k]) for k in range(nv) if k != ind[0]][:MAX_TRIED] if ind.size == 1 else [])
-    best = None
-    for ind in tried:
-        dep = np.setdiff1d(np.arange(nv), ind)
-        if best is not None and not _full_rank(c, J, np.arange(c.m), dep):
-            continue
-        blocks = _blocks(c, J, used, dep)
-        size = max(cols.size for _, cols in blocks)
-        if best is None or size < best[0]:
-            best = (size, blocks)
-        if best[0] <= 2:
-            break
-    return best[1]
-
-
-def _grid(c, cols):
-    """(restarts, complete) of the coordinates ``cols``: each moved by 0, ±2π/3 (angles) or 0, ±1 × the length
-    scale (others), every combination but all 0 where there are at most PARTNER_MAX, else each coordinate moved
-    alone and a seeded sample of the other combinations up to PARTNER_MAX (``complete`` False)."""
-    choices = [(0.0, 2 * np.pi / 3, -2 * np.pi / 3) if c.units[i] == "rad" else (0.0, 1.0, -1.0) for i in cols]
-    combos = list(itertools.islice(itertools.product(*choices), 1, None))
-    if len(combos) <= PARTNER_MAX:
-        return combos, True
-    singles = [x for x in combos if np.count_nonzero(x) == 1]
-    others = [x for x in combos if np.count_nonzero(x) > 1]
-    pick = np.random.default_rng(0).choice(len(others), max(PARTNER_MAX - len(singles), 0), replace=False)
-    return singles + [others[i] for i in np.sort(pick)], False
-
-
-def _partners(c, q, qd):
-    """(closures, complete): the other closures with q's independent coordinates (the other assembly modes
-    there: the mirror image of a four-bar's coupler and rocker about the line they span), block by block of the
-    dependent coordinates (:func:`_blocks`): from each closure of the blocks before, Gauss–Newton on the block's
-    coordinates and equations from each restart of its grid (:func:`_grid`; ``complete`` False where one is
-    sampled), all in step (:func:`~vibdyn.model.loop_batch.close_many`: a restart still open by PARTNER_OPEN
-    after PARTNER_ITER[0] iterations is dropped, as is one converging to a closure found already)."""
-    model, cs, nv = c.model, c.col_scale, c.nv
-    partial, complete = [q], True
-    for loops, cols in _fibres(c, q):
-        combos, whole = _grid(c, cols)
-        complete = complete and whole
-        starts, owner = [], []
-        for j, p in enumerate(partial):
-            for combo in [np.zeros(cols.size)] + combos:  # (p's own first: it closes the block's loops from q's)
-                x = np.zeros(nv)
-                x[cols] = combo
-                starts.append(pin.integrate(model, p, cs * x))
-                owner.append(j)
-        closed = close_many(LoopBatch(c, loops), starts, owner, cols, (PARTNER_ITER, PARTNER_OPEN),
-                            (KNOWN_STEP, KNOWN_GAP), functools.partial(_gaps, c))
-        reached: list = []
-        for j in range(len(partial)):
-            found: list = []
-            for q1 in (c.within_pi(x, qd) for x, o in zip(closed, owner) if o == j and x is not None):
-                if all(_gap(c, o, q1) > SAME for o in found):
-                    found.append(q1)
-            reached += found
-        partial = reached
-    return [p for p in partial if _gap(c, q, p) > SAME], complete
-
-
 def _local_minima(d, whole):
     """Indices of the local minima of the distances d along a branch (cyclic where ``whole``; else its ends
     count)."""
@@ -411,13 +263,14 @@ def _local_minima(d, whole):
     return [i for i in range(n) if (i == 0 or d[i] <= d[i - 1]) and (i == n - 1 or d[i] <= d[i + 1])]
 
 
-def _branches(c, qd, seeds):
+def _branches(c, qd, seeds, system):
     """(candidates, branches, whole, complete) of a one-mobility mechanism: each branch of the loops' closures reached
-    from the ``seeds`` is traced (:func:`_trace`); the local minima of its distance to qd are the candidates
+    from the ``seeds`` is traced (:func:`_trace`); the local minima of its distance to qd (among its samples
+    within the position limits) are the candidates
     (to be slid to the nearest); at PARTNER_POINTS points along it and at its minima the other assembly modes
-    are sought (:func:`_partners`), and each not on a traced branch is traced in turn. ``whole``: every
+    are sought (:func:`.partners`), and each not on a traced branch is traced in turn. ``whole``: every
     branch met was traced whole (closed curves) within MAX_BRANCHES; ``complete``: every search for the other
-    modes tried its whole grid of restarts (:func:`_partners`). (A branch reached as a partner is not searched
+    modes tried its whole grid of restarts (:func:`.partners`). (A branch reached as a partner is not searched
     again at its first point; where the searches that found it, or the other partners found on it, are
     PARTNER_POINTS, only at its minima.)"""
     queue, branches, candidates, whole, complete = [(q, False) for q in seeds], [], [], True, True
@@ -431,8 +284,9 @@ def _branches(c, qd, seeds):
         whole = whole and closed
         S = np.array(samples)
         ends = samples[1:] + (samples[:1] if closed else [samples[-1]])
-        branches.append((S, [_gap(c, p, r) for p, r in zip(samples, ends)], tangents))
-        mins = _local_minima(_gaps(c, qd, S), closed)
+        branches.append((S, [gap(c, p, r) for p, r in zip(samples, ends)], tangents))
+        d = np.where(_within(system, S), gaps(c, qd, S), np.inf)  # (the minima within the position limits)
+        mins = [i for i in _local_minima(d, closed) if np.isfinite(d[i])]
         candidates += [samples[i] for i in mins]
         met = [p for p, _ in queue if _on_branch(c, p, *branches[-1])]  # (searched there: not queued again)
         queue = [(p, f) for p, f in queue if not any(p is m for m in met)]
@@ -440,7 +294,7 @@ def _branches(c, qd, seeds):
         if partner + len(met) < PARTNER_POINTS:
             points |= set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS)
         for i in sorted(points - ({0} if partner else set())):
-            found, grid = _partners(c, samples[i], qd)
+            found, grid = partners(c, samples[i], qd)
             complete = complete and grid
             queue += [(p, True) for p in found]
     return candidates, len(branches), whole, complete
@@ -453,7 +307,7 @@ def _nearest(c, qd, q):
     curvature there: superlinear where the plain step converges linearly), the plain step where that fails,
     halved up to SLIDE_HALVINGS times (a small branch, curved more than the step)."""
     model, cs = c.model, c.col_scale
-    dist, J, last = np.linalg.norm(_offsets(c, qd, q)), c.jacobian(q), None
+    dist, J, last = np.linalg.norm(offsets(c, qd, q)), c.jacobian(q), None
     for _ in range(SLIDE_ITER):
         rank, _, _, Vt = c.decompose(J)
         V0 = Vt[rank:]
@@ -474,8 +328,10 @@ def _nearest(c, qd, q):
             q1 = _close(c, pin.integrate(model, q, cs * st), qd) if out is None else c.within_pi(out[0], qd)
             if q1 is None:
                 continue
-            d1 = np.linalg.norm(_offsets(c, qd, q1))
-            if d1 <= dist * (1 + 1e-9):  # (near the nearest the distance changes by step², below its round-off)
+            d1 = np.linalg.norm(offsets(c, qd, q1))
+            # (near the nearest the distance changes by step², below its round-off; a closure that neither moves
+            # with the step nor comes nearer is no slide: the loops allow no motion there, an isolated closure's)
+            if d1 <= dist * (1 + 1e-9) and (d1 < dist * (1 - 1e-12) or gap(c, q, q1) > 0.5 * np.linalg.norm(st)):
                 break
         else:
             break
@@ -494,16 +350,42 @@ def _beyond(system, q):
     return ""
 
 
+def _within(system, samples):
+    """Which of ``samples`` (configurations, one a row) lie within the scene's position limits."""
+    if not system.limits:
+        return np.ones(len(samples), dtype=bool)
+    x = np.array([system.difference(system.neutral(), q) for q in samples])
+    return ((x >= system.lower_limits) & (x <= system.upper_limits)).all(axis=1)
+
+
+def _inside(c, qd, closures, system):
+    """Closures within the position limits reached from ``closures`` (beyond them) along the mechanism's
+    motion: where it has one motion, the sample nearest qd within the limits of each branch traced from them."""
+    out: list = []
+    for q in closures:
+        if system.nv - c.rank(q) != 1 or any(gap(c, q, p) <= SAME for p in out):
+            continue
+        S = np.array(_trace(c, q, qd)[0])
+        d = np.where(_within(system, S), gaps(c, qd, S), np.inf)
+        if np.isfinite(d.min()):
+            out.append(S[int(np.argmin(d))])
+    return out
+
+
 def _compared(c, qd, closures, system):
     """([(distance, offsets, q)] of the distinct closures reached from ``closures`` by :func:`_nearest`, each
-    kept where it ends within the position limits (else the closure it started from), held): ``held`` when
-    some slide ended beyond the limits. Distances dimensionless, periodic angles within π of qd's."""
+    kept where it ends within the position limits (else the closure it started from, if that one is within
+    them), held): ``held`` when some slide ended beyond the limits. Distances dimensionless, periodic angles
+    within π of qd's."""
     out, held = [], False
     for q in closures:
         q1 = _nearest(c, qd, q)
         if _beyond(system, q1):
-            q1, held = q, True
-        x = _offsets(c, qd, q1)
+            held = True
+            if _beyond(system, q):
+                continue
+            q1 = q
+        x = offsets(c, qd, q1)
         if all(np.abs(x - y).max() > SAME for _, y, _ in out):
             out.append((float(np.linalg.norm(x)), x, q1))
     return out, held
@@ -511,15 +393,15 @@ def _compared(c, qd, closures, system):
 
 def _closures(c, qd, system):
     """(closures found within the limits, starts tried, (best open residual, its q), why the first closure
-    beyond the limits is): Gauss–Newton from the described pose, else least squares from it, then from each
-    round of perturbed poses until one closes the loops within the limits."""
+    beyond the limits is, the closures found beyond them): Gauss–Newton from the described pose, else least
+    squares from it, then from each round of perturbed poses until one closes the loops within the limits."""
     from scipy.optimize import least_squares
 
     q = _close(c, qd, qd)
     if q is not None and not _beyond(system, q):
-        return [q], 1, (0.0, q), ""
+        return [q], 1, (0.0, q), "", []
     at, fun, jac = _chart(c, qd)
-    found, tried, best, beyond = [], 0, (np.inf, qd), ""
+    found, tried, best, beyond, outside = [], 0, (np.inf, qd), "", [] if q is None else [q]
     for starts in _rounds(c.nv):
         for x0 in starts:
             tried += 1
@@ -534,12 +416,11 @@ def _closures(c, qd, system):
             q = _close(c, at(r.x), qd) if res <= OPEN_TOL else None
             if q is not None:
                 why = _beyond(system, q)
-                if not why:
-                    found.append(q)
+                (outside if why else found).append(q)
                 beyond = beyond or why
         if found:
             break
-    return found, tried, best, beyond
+    return found, tried, best, beyond, outside
 
 
 def _beside_ranks(c, q, qd):
@@ -600,11 +481,13 @@ def assemble_described(c, system):
     the module. A ConvergenceError naming the loop left most open, and by how much, if no start closes them."""
     start = time.perf_counter()
     qd = system.neutral()
-    found, tried, (res, q_open), beyond = _closures(c, qd, system)
+    found, tried, (res, q_open), beyond, outside = _closures(c, qd, system)
+    found = found or _inside(c, qd, outside, system)
     if not found and beyond:
-        raise ConvergenceError(f"assembly from the neutral configuration: the loops close only beyond the scene's "
-                               f"position limits ({tried} starts tried): {beyond}; widen the limits or declare a "
-                               "start (Scene.set_operating_point(start=...))", residual=0.0, best=None)
+        raise ConvergenceError(f"assembly from the neutral configuration: every closure found lies beyond the "
+                               f"scene's position limits ({tried} starts tried, and the mechanism's motion followed "
+                               f"from them where it has one): {beyond}; widen the limits or declare a start "
+                               "(Scene.set_operating_point(start=...))", residual=0.0, best=None)
     if not found:
         phi = c.phi(q_open)
         i = int(np.argmax(np.abs(c.scaled_phi(phi))))
@@ -622,14 +505,15 @@ def assemble_described(c, system):
         dof = system.nv - c.rank(min(unique, key=lambda u: u[0])[2])
         seeds = [q for _, _, q in unique]
         if dof == 1:
-            more, branches, whole, complete = _branches(c, qd, seeds)
+            more, branches, whole, complete = _branches(c, qd, seeds, system)
             why = "" if whole else (f"a branch of its closures could not be traced whole ({branches} traced: a "
                                     "singular position, a step that could not be closed on it, or too many)")
             if whole and not complete:
-                why = (f"its {branches} branches were traced whole, but its assembly modes were sampled ({PARTNER_MAX} "
-                       "restarts of its dependent coordinates at each point), not enumerated")
+                why = (f"its {branches} branches were traced whole, but its assembly modes were sampled "
+                       f"({assembly_modes.PARTNER_MAX} restarts of its dependent coordinates at each point), not "
+                       "enumerated")
         else:
-            more = [p for q in seeds for p in _partners(c, q, qd)[0]]
+            more = [p for q in seeds for p in partners(c, q, qd)[0]]
             why = (f"the mechanism has mobility {dof} there: its closures form surfaces, which are not traced (the "
                    f"closures of {tried} starts and their other assembly modes were compared)")
         unique, held = _compared(c, qd, seeds + more, system)
@@ -676,6 +560,6 @@ def assemble_described(c, system):
             notes.append(moved)
         q = c.assemble(q, start=where)  # (recorded: the mobility is taken here; a locking loop is named)
     phi = float(np.abs(c.scaled_phi(c.phi(q))).max(initial=0.0))
-    x = _offsets(c, qd, q)
+    x = offsets(c, qd, q)
     return Assembly(q, where, phi, x * c.col_scale, float(np.linalg.norm(x)), system.nv - rank, rank, generic,
                     singular, tried, "; ".join(notes), time.perf_counter() - start, not why)
