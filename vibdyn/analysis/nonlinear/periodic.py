@@ -44,6 +44,7 @@ from .shooting import (
     growth_segments,
     motion_scales,
     resolvable_start,
+    start_sizes,
     wrapped,
 )
 
@@ -270,8 +271,7 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
         if len(nodes) not in (1, segments):
             raise ModelError(f"{what}: {len(nodes)} starting nodes given for segments = {segments}")
     q_start, v_start = nodes[0]
-    # (before any flow, against 2 of the coordinates' own scales: a pendulum's orbit moves by about that)
-    resolvable_start(system, q_start, 2 * np.asarray(system.coordinate_scales, dtype=float), free, tol, what)
+    resolvable_start(system, q_start, start_sizes(system, q_start, v_start, t0, free), free, tol, what)
     if period is not None:
         check_span(system, q_start, v_start, t0, free, period, autonomous, what)
     omega = 2 * math.pi / period if period is not None else _omega_guess(system, q_start, v_start, t0, free)
@@ -298,11 +298,16 @@ def orbit_from(system: Any, q0: Any, v0: ArrayLike | None, period: float | None,
                 returned = Flow(system, q_start, v_start, rtol=max(rtol, SCALE_RTOL), max_step=max_step)(
                     q_start, v_start, t0, t0 + span)
             fs = flow_scales(system, returned, omega, autonomous)
+            # (before flows at rtol of a motion the round-off cannot resolve: their steps would shrink to nothing)
+            resolvable_start(system, q_start, motion_scales(system, returned, omega, relative=autonomous), free, tol,
+                             what, motion=True)
             trial = Shooting(system, t0, span, False, 1, omega, rtol, max_step=max_step, flow_scales=fs)
             first = trial.flows(trial.pack([nodes[0]]), full=True)[0]
             kinetic = float(np.max(first.kinetic))
         else:
             fs = flow_scales(system, first, omega, autonomous)
+            resolvable_start(system, q_start, motion_scales(system, first, omega, relative=autonomous), free, tol, what,
+                             motion=True)
             kinetic = max(system.energy(q, v, t).kinetic for q, v, t in zip(first.q, first.v, first.t)) if cons else 0.0
     except SimulationError as e:
         raise ConvergenceError(f"{what}: the motion from the start cannot be integrated over a period ({e}): "

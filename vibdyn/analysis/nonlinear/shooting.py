@@ -494,20 +494,37 @@ def energy_roundoff(system, q, v, t) -> float:
     return ROUNDOFF * float(np.finfo(float).eps) * (abs(e.kinetic) + abs(e.gravity) + abs(e.elastic))
 
 
-def resolvable_start(system, q, scales, free, tol, what) -> None:
+def resolvable_start(system, q, scales, free, tol, what, motion=False) -> None:
     """Refuse a start so far from neutral (an angle of 1e7 rad) that a double's round-off there exceeds half the
     closing tolerance of the motion: the shooting can then neither close nor stop (each flow's steps shrink to the
-    round-off)."""
+    round-off). ``scales`` (per tangent coordinate) the motion's size: guessed before any flow, measured by a first
+    run with ``motion`` True."""
     size = np.abs(system.difference(system.neutral(), q))
     roundoff = size * np.finfo(float).eps
     bad = [i for i in free if roundoff[i] > 0.5 * tol * scales[i]]
     if bad:
         i = bad[0]
         unit = system.units[i]
+        hint = ("start within a few turns of neutral (an angle less 2π·k, the same pose where nothing depends on the "
+                "turns)") if unit == "rad" else "place the scene (or its rest positions) nearer the motion"
         raise ModelError(f"{what}: {system.coordinates[i]} = {size[i]:.3g} {unit} from neutral: at that size a "
                          f"number's round-off ({roundoff[i]:.1e} {unit}) exceeds the closing tolerance "
-                         f"(tol = {tol:.0e} of {scales[i]:.3g} {unit}); start within a few turns of neutral (an angle "
-                         "less 2π·k, the same pose where nothing depends on the turns), or give a looser tol")
+                         f"(tol = {tol:.0e} of {scales[i]:.3g} {unit}{', its motion' if motion else ''}); {hint}, "
+                         "or give a looser tol")
+
+
+def start_sizes(system, q, v, t, free) -> np.ndarray:
+    """Before any flow, per tangent coordinate, how far the motion from (q, v) may go: 2 of the coordinate's scale (a
+    pendulum's orbit moves by about that), and for a translation also |v|/ω and |a|/ω² at the start (ω its fastest
+    frequency: a Duffing slider released 1000 m out in a scene of no length moves by about that)."""
+    sizes = 2 * np.asarray(system.coordinate_scales, dtype=float)
+    moving = np.asarray(system.units) != "rad"
+    w = fastest_frequency(system, q, v, t, free) if moving[free].any() else 0.0
+    if w > 0.0:
+        a = np.asarray(system.accelerations(q, v, t), dtype=float)
+        guess = np.maximum(np.abs(v) / w, np.abs(a) / w**2)
+        sizes = np.where(moving & np.isfinite(guess), np.maximum(sizes, guess), sizes)
+    return sizes
 
 
 def fastest_frequency(system, q, v, t, free):
