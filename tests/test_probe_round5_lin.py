@@ -1,0 +1,67 @@
+"""Issue 40, round five (linear core): probes that found a fault, each against an independent oracle."""
+import re
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import vibdyn as vd
+
+G = 9.81
+
+
+def _torqued_pendulum():
+    """A pendulum (1 kg at 0.5 m) with a joint torque 3 − 0.1 a (N·m): equilibrium 3 − 0.1 a = m g l sin a."""
+    s = vd.Scene("p", gravity=(0, 0, -G))
+    s.add_body("a", joint=vd.Pivot((1, 0, 0)), mass=1.0, com=(0, 0, -0.5), inertia=np.diag([.01, .01, .01]))
+    s.add_joint_force("a", lambda t, q, v: 3.0 - 0.1 * q, velocity_dependent=False, time_dependent=False)
+    return s.build()
+
+
+@pytest.mark.parametrize("max_iter", [2, 3])
+def test_a_suggested_start_is_one_the_search_converges_from(max_iter):
+    """The start a failed search suggests was checked: from it the same search (same max_iter) converges, to the
+    equilibrium the message quotes (was a half-unit step, a = 1.14, farther off than where it stopped, 0.6417)."""
+    truth = brentq(lambda a: 3.0 - 0.1 * a - 1.0 * G * 0.5 * np.sin(a), 0.0, 1.5)
+    S = _torqued_pendulum()
+    with pytest.raises(vd.ConvergenceError) as err:
+        S.equilibrium(max_iter=max_iter)
+    text = str(err.value)
+    start = float(re.search(r"`--start a=([-0-9.e+]+)`", text).group(1))
+    assert "(checked)" in text
+    quoted = float(re.search(r"converges to the static equilibrium at a = ([-0-9.e+]+) rad", text).group(1))
+    assert abs(quoted - truth) <= 1e-5
+    eq = S.equilibrium([start], max_iter=max_iter)
+    assert abs(eq.q[0] - truth) <= eq.q_error[0] + 1e-12
+
+
+def test_no_start_is_suggested_where_none_converges():
+    """A torque 2 + 0.5 sin q never balances: no start is suggested (was `--start wheel=-1.07`)."""
+    s = vd.Scene("driven")
+    s.add_body("wheel", joint=vd.Pivot((0, 0, 1)), mass=1.0, inertia=vd.inertia.disc(1.0, 0.1))
+    s.add_joint_force("wheel", lambda t, q, v: 2.0 + 0.5 * np.sin(q), velocity_dependent=False,
+                      time_dependent=False)
+    with pytest.raises(vd.ConvergenceError) as err:
+        s.build().equilibrium(max_iter=10)
+    assert "--start" not in str(err.value) and "No start was suggested" in str(err.value)
+
+
+def test_an_unknown_speed_that_did_not_settle_is_named_and_its_checked_guess_suggested():
+    """A rotor driven by τ = 10 − ω² (steady speed √10) sought with too few iterations: the message names the
+    speed that did not settle (was "not settled: none") and suggests a guess from which the same search converges
+    to √10 (was no usable hint: a start changing only the configuration)."""
+    s = vd.Scene("r")
+    s.add_body("rotor", joint=vd.Pivot((0, 0, 1)), mass=1.0, inertia=np.diag([.1, .1, .1]))
+    s.add_body("sl", parent="rotor", joint=vd.Slider((1, 0, 0)), mass=0.5, inertia=np.eye(3) * 1e-3)
+    s.add_joint_spring("sl", 100.0)
+    s.add_joint_force("rotor", lambda t, q, v: 10 - v ** 2, velocity_dependent=True, time_dependent=False)
+    S = s.build()
+    with pytest.raises(vd.ConvergenceError) as err:
+        S.steady_motion({"rotor": None}, max_iter=3)
+    text = str(err.value)
+    assert "not settled: the speed of 'rotor'" in text and "(checked)" in text
+    guess = float(re.search(r"guess=([0-9.e+-]+)", text).group(1))
+    quoted = float(re.search(r"'rotor' turning at ([0-9.e+-]+) rad/s", text).group(1))
+    assert abs(quoted - np.sqrt(10.0)) <= 1e-5
+    st = S.steady_motion({"rotor": None}, max_iter=3, guess=guess)
+    assert abs(st.speeds["rotor"] - np.sqrt(10.0)) <= 1e-9
