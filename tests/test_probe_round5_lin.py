@@ -65,3 +65,9 @@ def test_an_unknown_speed_that_did_not_settle_is_named_and_its_checked_guess_sug
     assert abs(quoted - np.sqrt(10.0)) <= 1e-5
     st = S.steady_motion({"rotor": None}, max_iter=3, guess=guess)
     assert abs(st.speeds["rotor"] - np.sqrt(10.0)) <= 1e-9
+
+
+def test_equilibria_without_starts_says_so():
+    """`equilibria([])` was "no start converged" (a ConvergenceError, not a ValueError) when none was given."""
+    with pytest.raises(ValueError, match="equilibria: starts is empty"):
+        _torqued_pendulum().equilibria([])

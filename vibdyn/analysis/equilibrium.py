@@ -241,6 +241,9 @@ def _along_speed(system, q0, t, cyclic, failed):
 
 def equilibria(system, starts, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
     """Distinct static equilibria reached from several starting configurations, lowest potential first."""
+    starts = list(starts)
+    if not starts:
+        raise ModelError("equilibria: starts is empty: give the configurations to search from (one or more)")
     found = []
     for q0 in starts:
         try:
