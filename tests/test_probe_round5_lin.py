@@ -103,3 +103,33 @@ def test_modes_stay_ascending_when_a_mode_within_its_error_of_zero_lies_above_a_
         fits = np.flatnonzero(~used & (lo <= w + slack) & (w - slack <= hi))
         assert fits.size, w
         used[fits[np.argmin(hi[fits])]] = True
+
+
+def test_a_weak_spring_under_a_weight_is_not_called_no_dependence_on_q():
+    """A 2 kg slider under gravity on a 1e-8 N/m spring balances at x = −m g / k = −1.96e9 m: its force does depend
+    on x. The refusal said "it does not depend on q ... there is no stationary point"; it now says the force is
+    nearly constant and no balance is within reach (a weightless one, exactly constant, keeps the plain words)."""
+    s = vd.Scene("weak", gravity=(0, 0, -G))
+    s.add_body("b", joint=vd.Slider((0, 0, 1)), mass=2.0, inertia=np.eye(3) * 1e-3)
+    s.add_joint_spring("b", 1e-8)
+    with pytest.raises(vd.ConvergenceError) as err:
+        s.build().equilibrium()
+    text = str(err.value)
+    assert "does not depend on q" not in text and "nearly" in text and "within reach" in text
+
+
+def test_an_equilibrium_far_off_is_suggested_from_the_linear_models_whole_step():
+    """A 1 kg slider on a 0.1 N/m spring in a scene a millimetre across balances at −m g/k = −98.1 m, beyond the
+    search's capped steps (it stops near −1e-4 m). The suggested start is the linear model's whole step from there,
+    checked: the same search converges from it to −98.1 m."""
+    s = vd.Scene("weak", gravity=(0, 0, -G))
+    s.add_body("b", joint=vd.Slider((0, 0, 1)), mass=1.0, inertia=np.eye(3) * 1e-6)
+    s.add_joint_spring("b", 0.1)
+    S = s.build()
+    with pytest.raises(vd.ConvergenceError) as err:
+        S.equilibrium()
+    text = str(err.value)
+    start = float(re.search(r"`--start b=([-0-9.e+]+)`", text).group(1))
+    assert "(checked)" in text
+    eq = S.equilibrium([start])
+    assert abs(eq.q[0] + G / 0.1) <= eq.q_error[0] + 1e-12 * G / 0.1

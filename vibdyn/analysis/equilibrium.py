@@ -479,6 +479,11 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
 
         # (one unknown speed: the check starts it where this search left it, the guess it suggests with the start)
         spun = {i: float(b["v"][i]) for i in unknown}
+        try:  # the linear model's whole step from there, uncapped (an equilibrium far off: a weak spring)
+            leap = retract(out.x, np.linalg.lstsq(jacobian(out.x), -rho(out.x), rcond=None)[0])[:nq] if suggest \
+                else None
+        except (ConvergenceError, ModelError, np.linalg.LinAlgError):
+            leap = None
         again = float(f"{spun[unknown[0]]:.6g}") if len(unknown) == 1 else guess  # (as printed: as checked)
 
         def check(q1):
@@ -488,7 +493,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
                 return None
         raise ConvergenceError(_not_converged(system, what, max_iter, out.residual, b["q"], tree_forces(out.x),
                                               target, b["ind"][rest], turns_hint(system, q_given),
-                                              check if suggest else None, spun, again if unknown else None),
+                                              check if suggest else None, spun, again if unknown else None, leap),
                                residual=out.residual, best=b["q"])
     return found(out, target)
 
@@ -536,7 +541,7 @@ def _refuse_constant(system, what, b, R, rest, candidates, force_scale, residual
     ind, N, f, q = b["ind"], b["N"], b["f"], b["q"]
     unit = system.coordinate_scales
     rng = np.random.default_rng(0)
-    same = np.ones(len(ks), bool)
+    same, change = np.ones(len(ks), bool), np.zeros(len(ks))
     for _ in range(3):
         dz = np.zeros(ind.size)
         dz[rest] = rng.uniform(-1.0, 1.0, len(rest)) * unit[ind[rest]]
@@ -548,15 +553,24 @@ def _refuse_constant(system, what, b, R, rest, candidates, force_scale, residual
         if np.any(np.abs(moved - dz[rest]) > 0.5 * np.abs(dz[rest])):  # (the step lost to round-off, at an angle
             return  # of 1e300 rad: the force cannot change, no verdict)
         f2 = R.reduce(ind, R.independent(q2, ind)[1], residual(q2))
-        same &= np.abs(f2[ks] - f[ks]) <= 1e-9 * force_scale
+        change = np.maximum(change, np.abs(f2[ks] - f[ks]))
+        same &= change <= 1e-9 * force_scale
     if not same.any():
         return
     coords = [(system.coordinates[ind[k]], system.units[ind[k]], f[k]) for k, s in zip(ks, same) if s]
     forces = ", ".join(f"'{n}': {number(-x, 'N' if u == 'm' else 'N·m')}" for n, u, x in coords)
+    moved = change[same].max()
+    # (a change above the forces' round-off is a weak dependence, a spring of 1e-8 N/m under a weight: a balance
+    # far away, not none)
+    exact = moved <= 100 * EPS * force_scale
+    how = ("the same at every configuration tried: it does not depend on q), so there is no stationary point"
+           if exact else f"nearly: it changed by at most {moved:.2g} over the configurations tried, a coordinate "
+           "scale around here, below 1e-9 of the forces), so there is no stationary point within reach: a balance, "
+           "if any, lies far beyond")
     raise ConvergenceError(
-        f"no {what}: the generalized force along {', '.join(repr(n) for n, _, _ in coords)} is constant "
-        f"({forces}, the same at every configuration tried: it does not depend on q), so there is no "
-        "stationary point. Hold it instead (system.held(q), or `held = true` under [operating_point] in a "
+        f"no {what}{'' if exact else ' within reach'}: the generalized force along "
+        f"{', '.join(repr(n) for n, _, _ in coords)} is constant "
+        f"({forces}, {how}. Hold it instead (system.held(q), or `held = true` under [operating_point] in a "
         "scene file), or add a spring or a force that balances it", residual=float(np.abs(f[ks]).max()),
         best=q.copy())
 
@@ -590,11 +604,12 @@ def _within_limits(system, what, q, step, rest, r, unit, target):
     return step * scale
 
 
-def _not_converged(system, what, max_iter, res, q, r, target, rest, turns, check, spun, guess):
+def _not_converged(system, what, max_iter, res, q, r, target, rest, turns, check, spun, guess, leap):
     """The message of a search that did not converge at q (residual ``res``, forces r on the tree's coordinates;
     ``spun`` {index: speed} where it left the unknown speeds): what did not settle, and a start only if ``check``
     (a start's q -> the point the same search reaches from it, from speed ``guess``, or None) found that one
-    converges: where it stopped, then half a unit on along the forces (None: no start suggested)."""
+    converges: where it stopped, then half a unit on along the forces, then ``leap`` (the linear model's whole
+    step from q, or None) (None: no start suggested)."""
     x = system.difference(system.neutral(), q)
     bad = [i for i in rest if abs(r[i]) > target]
     units = system.units
@@ -611,7 +626,8 @@ def _not_converged(system, what, max_iter, res, q, r, target, rest, turns, check
     unit = system.coordinate_scales
     stepped = x.copy()
     stepped[bad] -= 0.5 * unit[bad] * np.sign(r[bad])
-    for offsets in (x, stepped):  # (as printed: the start a user would type is the one checked)
+    tried = (x, stepped) if leap is None else (x, stepped, system.difference(system.neutral(), leap))
+    for offsets in tried:  # (as printed: the start a user would type is the one checked)
         given = {i: float(number(offsets[i], digits=4)) for i in rest}
         given = {i: v for i, v in given.items() if v}
         dq = np.zeros(system.nv)
@@ -628,6 +644,7 @@ def _not_converged(system, what, max_iter, res, q, r, target, rest, turns, check
                  "under [operating_point] in the scene file, or q0= in Python" if hint else "the neutral configuration")
         return (f"{head} Start nearer an equilibrium: {where}{from_speed}: from there the same search converges to the "
                 f"{what} at {reached} (checked)")
-    return (f"{head} No start was suggested: from where it stopped, and half a unit on along the forces, the same "
+    return (f"{head} No start was suggested: from where it stopped, half a unit on along the forces, and a whole "
+            f"step of its linear model on, the same "
             f"search (max_iter={max_iter}) does not converge either: raise max_iter or start elsewhere (q0=); there "
             f"may be no {what} near")
