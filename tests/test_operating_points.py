@@ -63,7 +63,9 @@ def test_non_convergence_names_the_unsettled_coordinates_and_suggests_a_start():
         s.build().equilibrium(max_iter=10)
     text = str(err.value)
     assert "did not converge" in text and "not settled: 'wheel'" in text
-    assert "--start wheel=" in text and "start = { wheel = " in text
+    # no torque balance anywhere: no start converges, none is suggested (a suggested start is a checked one:
+    # tests/test_probe_round5_lin.py)
+    assert "--start" not in text and "No start was suggested" in text
 
 
 def test_start_by_coordinate_name_in_files_and_on_the_command_line(tmp_path, capsys):

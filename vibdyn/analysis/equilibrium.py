@@ -164,7 +164,7 @@ def _steady(system, v_cyclic, q0, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER,
     # (followed from rest in the tree's own coordinates: where the reduction allows it)
     given = given and system.reduction.allows("steady motions followed from rest")
     try:
-        found = search(system, q0, t, cyclic, tol, max_iter, guess, caller="steady_motion")
+        found = search(system, q0, t, cyclic, tol, max_iter, guess, caller="steady_motion", suggest=not given)
     except ConvergenceError as failed:
         if not given:
             raise
@@ -223,7 +223,7 @@ def _along_speed(system, q0, t, cyclic, failed):
     if failed is None:  # (asked only for a better branch: no message)
         raise ConvergenceError(branch.message)
     names = system.coordinates
-    head = str(failed).split(". Start nearer")[0]
+    head = str(failed).split(". Start nearer")[0].rstrip(".")
     if not branch.lam.size:
         raise ConvergenceError(f"{head}; no resting state (static equilibrium with the speeds 0) was found near the "
                                "start either: give q0= near the steady pose", residual=failed.residual,
@@ -241,10 +241,14 @@ def _along_speed(system, q0, t, cyclic, failed):
 
 def equilibria(system, starts, t=0.0, tol=EQUILIBRIUM_TOL, max_iter=MAX_ITER):
     """Distinct static equilibria reached from several starting configurations, lowest potential first."""
+    starts = list(starts)
+    if not starts:
+        raise ModelError("equilibria: starts is empty: give the configurations to search from (one or more)")
     found = []
     for q0 in starts:
         try:
-            eq = system.equilibrium(q0, t, tol, max_iter)  # with loops: the constrained search
+            _given_start(system, q0, "equilibrium: q0")
+            eq = search(system, q0, t, {}, tol, max_iter, caller="equilibrium", suggest=False)  # (others tried)
         except ConvergenceError:
             continue
         if all(np.abs(system.difference(e.q, eq.q)).max() > 1e-6 * max(1.0, system.length_scale) for e in found):
@@ -309,7 +313,7 @@ class Declared:
     mechanism's names it if its loops cannot close there)."""
 
 
-def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium", reduction=None):
+def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium", reduction=None, suggest=True):
     """The one equilibrium search, for every scene: Newton in the independent coordinates z of the system's
     reduction R (:mod:`vibdyn.model.reduction`; ``reduction``: another, e.g. every coordinate held,
     :meth:`~Reduction.holding_all`), q moved by :meth:`~Reduction.step` (the loops closed again),
@@ -318,7 +322,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
     ``cyclic``: {index in v: speed (rad/s or m/s), or None to find it from ``guess``}; the held coordinates
     (drives) move at their laws' position and speed at t (:meth:`~Reduction.impose`). With nothing independent
     (every coordinate held) there is nothing to solve: the forces are the holders', to the inverse dynamics'
-    round-off (``tol``)."""
+    round-off (``tol``). ``suggest``: a failed search checks the start it suggests (False: none suggested)."""
     start = time.perf_counter()
     has_coordinates(system, "steady motion" if cyclic else "equilibrium", "to balance")
     R, names, nv, nq = reduction or system.reduction, system.coordinates, system.nv, system.nq
@@ -474,8 +478,24 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
                                best=split(out.x)[0])
     if out.status not in ("converged", "stagnated"):
         b = at(out.x)
+
+        # (one unknown speed: the check starts it where this search left it, the guess it suggests with the start)
+        spun = {i: float(b["v"][i]) for i in unknown}
+        try:  # the linear model's whole step from there, uncapped (an equilibrium far off: a weak spring)
+            leap = retract(out.x, np.linalg.lstsq(jacobian(out.x), -rho(out.x), rcond=None)[0])[:nq] if suggest \
+                else None
+        except (ConvergenceError, ModelError, np.linalg.LinAlgError):
+            leap = None
+        again = float(f"{spun[unknown[0]]:.6g}") if len(unknown) == 1 else guess  # (as printed: as checked)
+
+        def check(q1):
+            try:
+                return search(system, q1, t, cyclic, tol, max_iter, again, caller, reduction, suggest=False)
+            except (ConvergenceError, ModelError):
+                return None
         raise ConvergenceError(_not_converged(system, what, max_iter, out.residual, b["q"], tree_forces(out.x),
-                                              target, b["ind"][rest], turns_hint(system, q_given)),
+                                              target, b["ind"][rest], turns_hint(system, q_given),
+                                              check if suggest else None, spun, again if unknown else None, leap),
                                residual=out.residual, best=b["q"])
     q_end = at(out.x)["q"]
     closure = R.closure(q_end)
@@ -537,7 +557,7 @@ def _refuse_constant(system, what, b, R, rest, candidates, force_scale, residual
     ind, N, f, q = b["ind"], b["N"], b["f"], b["q"]
     unit = system.coordinate_scales
     rng = np.random.default_rng(0)
-    same = np.ones(len(ks), bool)
+    same, change = np.ones(len(ks), bool), np.zeros(len(ks))
     for _ in range(3):
         dz = np.zeros(ind.size)
         dz[rest] = rng.uniform(-1.0, 1.0, len(rest)) * unit[ind[rest]]
@@ -549,15 +569,24 @@ def _refuse_constant(system, what, b, R, rest, candidates, force_scale, residual
         if np.any(np.abs(moved - dz[rest]) > 0.5 * np.abs(dz[rest])):  # (the step lost to round-off, at an angle
             return  # of 1e300 rad: the force cannot change, no verdict)
         f2 = R.reduce(ind, R.independent(q2, ind)[1], residual(q2))
-        same &= np.abs(f2[ks] - f[ks]) <= 1e-9 * force_scale
+        change = np.maximum(change, np.abs(f2[ks] - f[ks]))
+        same &= change <= 1e-9 * force_scale
     if not same.any():
         return
     coords = [(system.coordinates[ind[k]], system.units[ind[k]], f[k]) for k, s in zip(ks, same) if s]
     forces = ", ".join(f"'{n}': {number(-x, 'N' if u == 'm' else 'N·m')}" for n, u, x in coords)
+    moved = change[same].max()
+    # (a change above the forces' round-off is a weak dependence, a spring of 1e-8 N/m under a weight: a balance
+    # far away, not none)
+    exact = moved <= 100 * EPS * force_scale
+    how = ("the same at every configuration tried: it does not depend on q), so there is no stationary point"
+           if exact else f"nearly: it changed by at most {moved:.2g} over the configurations tried, a coordinate "
+           "scale around here, below 1e-9 of the forces), so there is no stationary point within reach: a balance, "
+           "if any, lies far beyond")
     raise ConvergenceError(
-        f"no {what}: the generalized force along {', '.join(repr(n) for n, _, _ in coords)} is constant "
-        f"({forces}, the same at every configuration tried: it does not depend on q), so there is no "
-        "stationary point. Hold it instead (system.held(q), or `held = true` under [operating_point] in a "
+        f"no {what}{'' if exact else ' within reach'}: the generalized force along "
+        f"{', '.join(repr(n) for n, _, _ in coords)} is constant "
+        f"({forces}, {how}. Hold it instead (system.held(q), or `held = true` under [operating_point] in a "
         "scene file), or add a spring or a force that balances it", residual=float(np.abs(f[ks]).max()),
         best=q.copy())
 
@@ -591,21 +620,47 @@ def _within_limits(system, what, q, step, rest, r, unit, target):
     return step * scale
 
 
-def _not_converged(system, what, max_iter, res, q, r, target, rest, turns):
-    """The message of a search that did not converge at q (residual ``res``, forces r on the tree's coordinates):
-    the coordinates that did not settle, and a start."""
+def _not_converged(system, what, max_iter, res, q, r, target, rest, turns, check, spun, guess, leap):
+    """The message of a search that did not converge at q (residual ``res``, forces r on the tree's coordinates;
+    ``spun`` {index: speed} where it left the unknown speeds): what did not settle, and a start only if ``check``
+    (a start's q -> the point the same search reaches from it, from speed ``guess``, or None) found that one
+    converges: where it stopped, then half a unit on along the forces, then ``leap`` (the linear model's whole
+    step from q, or None) (None: no start suggested)."""
     x = system.difference(system.neutral(), q)
     bad = [i for i in rest if abs(r[i]) > target]
     units = system.units
     parts = [f"'{system.coordinates[i]}' (unbalanced {number(-r[i], 'N' if units[i] == 'm' else 'N·m')} at "
              f"{number(x[i], units[i])})" for i in bad]
+    parts += [f"the speed of '{system.coordinates[i]}' (unbalanced {number(-r[i], 'N' if units[i] == 'm' else 'N·m')}"
+              f" at {number(w, units[i] + '/s')})" for i, w in spun.items() if abs(r[i]) > target]
     head = (f"{what} search did not converge in {max_iter} iterations: residual {res:.3e} (target "
             f"{target:.3e}); not settled: {', '.join(parts) or 'none'}.")
     if turns:  # (a start in degrees: the hint below would be as far off)
         return f"{head} start nearer an equilibrium (q0=); the start has {turns}"
+    if check is None:
+        return head
     unit = system.coordinate_scales
-    hint = " ".join(f"{system.coordinates[i]}={number(x[i] - 0.5 * unit[i] * np.sign(r[i]), digits=3)}"
-                    for i in bad)
-    return (f"{head} Start nearer an equilibrium: `--start {hint}` (vibdyn modes/frf), "
-            f"`start = {{ {hint.replace(' ', ', ').replace('=', ' = ')} }}` under [operating_point] in the scene file, "
-            "or q0= in Python")
+    stepped = x.copy()
+    stepped[bad] -= 0.5 * unit[bad] * np.sign(r[bad])
+    tried = (x, stepped) if leap is None else (x, stepped, system.difference(system.neutral(), leap))
+    for offsets in tried:  # (as printed: the start a user would type is the one checked)
+        given = {i: float(number(offsets[i], digits=4)) for i in rest}
+        given = {i: v for i, v in given.items() if v}
+        dq = np.zeros(system.nv)
+        dq[list(given)] = list(given.values())
+        point = check(pin.integrate(system.model, system.neutral(), dq))
+        if point is None:
+            continue
+        hint = " ".join(f"{system.coordinates[i]}={v:g}" for i, v in given.items())
+        at = system.difference(system.neutral(), point.q)
+        reached = ", ".join([f"{system.coordinates[i]} = {number(at[i], units[i])}" for i in rest] + [
+            f"'{system.coordinates[i]}' turning at {number(point.v[i], units[i] + '/s')}" for i in spun])
+        from_speed = f" and guess={guess:.6g} (steady_motion's start speed)" if guess is not None else ""
+        where = (f"`--start {hint}` (vibdyn modes/frf), `start = {{ {hint.replace(' ', ', ').replace('=', ' = ')} }}` "
+                 "under [operating_point] in the scene file, or q0= in Python" if hint else "the neutral configuration")
+        return (f"{head} Start nearer an equilibrium: {where}{from_speed}: from there the same search converges to the "
+                f"{what} at {reached} (checked)")
+    return (f"{head} No start was suggested: from where it stopped, half a unit on along the forces, and a whole "
+            f"step of its linear model on, the same "
+            f"search (max_iter={max_iter}) does not converge either: raise max_iter or start elsewhere (q0=); there "
+            f"may be no {what} near")

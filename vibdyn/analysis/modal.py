@@ -386,6 +386,10 @@ def _modes(lin: Any, tolerance: float | None = None, rigid_only: bool = False) -
         # (a rigid mode's error covers the ω² set to zero as well: the truth is near what was computed)
         cleaned = uncertainty + np.where(rigid, abs_w2, 0.0)
         w2 = np.where(rigid, 0.0, w2)
+        if np.any(w2[1:] < w2[:-1]):  # (zeroed above a resolved mode, at stiffness ratios ~1e16: ascending again)
+            order = np.argsort(w2, kind="stable")
+            w2, Phi, rigid, uncertainty, cleaned = w2[order], Phi[:, order], rigid[order], uncertainty[order], \
+                cleaned[order]
         abs_w2 = np.abs(w2)
     unstable = w2 < 0
     omega = np.sqrt(abs_w2)
