@@ -204,7 +204,8 @@ def test_assembly_keeps_to_the_joint_limits():
     scene = described("four_bar")
     scene.set_limits("rocker", -0.1, 0.1)
     system = scene.build()  # (refused where met: at the first analysis, not at build)
-    with pytest.raises(vd.ConvergenceError, match=r"every closure found lies beyond the scene's position limits.*'rocker'.*limit 0\.1"):
+    with pytest.raises(vd.ConvergenceError,
+                       match=r"every closure found lies beyond the scene's position limits.*'rocker'.*limit 0\.1"):
         system.constraints.assembly()
     with pytest.raises(vd.ConvergenceError, match="position limits"):
         system.operating_point()

@@ -126,3 +126,14 @@ def test_a_forced_response_amplitude_error_covers_the_truncation(c, force, omega
         v0 = w * sum(j * X[2 * j] for j in range(1, H + 1))
         truth = _forced_amplitude(w, 1.0, c, 0.1, force, x0, v0)
         assert abs(curve.amplitude[i] - truth) <= curve.error[i] < 20 * abs(curve.amplitude[i] - truth) + 1e-15
+
+
+@pytest.mark.parametrize("amplitude", [1e-3, 1e-2, 0.1, 1.0])
+def test_a_conservative_orbits_double_multiplier_one_is_within_its_error(amplitude):
+    # x'' + x³ = 0: an autonomous conservative orbit's monodromy has both multipliers exactly 1 (the flow's own
+    # direction, and the energy's: a Jordan block); the computed pair, split by Φ's error as √error, was stated
+    # 4–8× under its distance from 1 (1e-3 m: |μ − 1| = 2.09e-5 for 5.3e-6), its first-order bound κ·error taken
+    # where first order fails
+    orbit = vd.periodic_orbit(_duffing(k=0.0, k3=1.0), [amplitude], [0.0], phase="cart")
+    assert orbit.multipliers.size == 2
+    assert np.all(np.abs(orbit.multipliers - 1.0) <= orbit.multiplier_error)

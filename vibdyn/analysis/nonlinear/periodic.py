@@ -56,6 +56,8 @@ POINTS = 128  # outputs per period of the orbit's trajectory (equally spaced: th
 STEP_RESOLUTION = 0.5  # steps of the flows at most this / ω (ω: the start's fastest linear frequency or 2π/T)
 SAMPLES = 8  # perturbations of Φ that measure the spread of clustered multipliers
 SPREAD_FACTOR = 3.0  # the spread's safety factor
+ISOLATED = 0.05  # κ·error below this share of the gap to the nearest other multiplier: first order holds (a Jordan
+# pair split by the error itself, a conservative orbit's double 1, sits at about 1/4 of its own gap)
 MIN_ENERGY_RATIO = 10.0  # a conservative orbit's motion energy must exceed this × the energy's round-off
 COVER_GAP = 1e-6  # a return to the start at T/k closer than this (scaled) makes T/k the orbit's period
 UNDETERMINED = 1e-6  # the period's share of a singular direction of the shooting Jacobian that leaves it open
@@ -613,13 +615,14 @@ def _product(mats, errs):
 
 def multipliers(mono, error, own=None, others=()):
     """(μ by decreasing modulus, the uncertainty of each) for a monodromy whose error has 2-norm ≤ ``error``:
-    κ_k · error (κ_k = ‖x‖‖y‖/|yᴴx| from the right and left eigenvectors) where that is below half the
-    distance to the nearest other multiplier; for clustered or defective ones (first order fails there), the
-    largest move of μ_k over perturbations of Φ of 2-norm ``error``, times SPREAD_FACTOR. With ``own`` (the 2-norm
-    of the part of Φ's error known only by its size: the integration's own estimate) and ``others`` (pairs (Φ', d):
-    monodromies computed otherwise, whose difference from Φ over d estimates the rest of its error), an isolated
-    μ_k's is κ_k · own plus its moves |μ_k(Φ') − μ_k| / d: the multipliers' own differences keep the cancellations
-    a bound on ‖Φ' − Φ‖ loses (κ ‖E‖ overstated a forced orbit's by 100 ×)."""
+    κ_k · error (κ_k = ‖x‖‖y‖/|yᴴx| from the right and left eigenvectors) where that is below ISOLATED of the
+    distance to the nearest other multiplier; for clustered or defective ones (first order fails there: κ · error
+    is then no bound), the largest move of μ_k over perturbations of Φ of 2-norm ``error``, times SPREAD_FACTOR,
+    plus half the gap to the nearest other (a split Jordan pair's truth lies between its members). With ``own``
+    (the 2-norm of the part of Φ's error known only by its size: the integration's own estimate) and ``others``
+    (pairs (Φ', d): monodromies computed otherwise, whose difference from Φ over d estimates the rest of its
+    error), an isolated μ_k's is κ_k · own plus its moves |μ_k(Φ') − μ_k| / d: the multipliers' own differences
+    keep the cancellations a bound on ‖Φ' − Φ‖ loses (κ ‖E‖ overstated a forced orbit's by 100 ×)."""
     lam, vl, vr = sla.eig(mono, left=True, right=True)
     order = np.argsort(-np.abs(lam), kind="stable")
     lam, vl, vr = lam[order], vl[:, order], vr[:, order]
@@ -627,7 +630,7 @@ def multipliers(mono, error, own=None, others=()):
     kappa = np.linalg.norm(vl, axis=0) * np.linalg.norm(vr, axis=0) / np.maximum(dot, 1e-300)
     first = kappa * error
     gap = np.array([np.abs(np.delete(lam, k) - lam[k]).min(initial=np.inf) for k in range(lam.size)])
-    bad = ~(first < 0.5 * gap)
+    bad = ~(first < ISOLATED * gap)
     err = first.copy()
     if own is not None:
         err = kappa * own
@@ -645,7 +648,9 @@ def multipliers(mono, error, own=None, others=()):
             moved = np.linalg.eigvals(mono + E)
             rows, cols = assign(np.abs(lam[:, None] - moved[None, :]))
             spread[rows] = np.maximum(spread[rows], np.abs(moved[cols] - lam[rows]))
-        err[bad] = np.minimum(first[bad], SPREAD_FACTOR * spread[bad])
+        # (κ·error is no bound where first order fails: a Jordan pair's moves go as √error, and the pair computed is
+        # already split by Φ's error, its truth anywhere between its members: half the gap more)
+        err[bad] = SPREAD_FACTOR * spread[bad] + 0.5 * gap[bad]
         # a cluster shares one uncertainty: its members move together
         for k in np.flatnonzero(bad):
             near = bad & (np.abs(lam - lam[k]) <= err[k] + err)
