@@ -3,6 +3,7 @@ the code does not use (closed forms of a pendulum on a ball joint, a 50-digit ei
 
 import numpy as np
 import pytest
+from test_hardening_issue40 import _chain  # (two 1 kg sliders in a chain)
 
 import vibdyn as vd
 
@@ -147,12 +148,8 @@ def pencil(m1, m2, k1, k2):
 
 
 def two_sliders(k1, k2=1.0):
-    sc = vd.Scene("chain2")
-    sc.add_body("m1", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
-    sc.add_body("m2", parent="m1", joint=vd.Slider(axis=(1, 0, 0)), mass=1.0)
-    sc.add_joint_spring("m1", stiffness=k1, name="k1")
-    sc.add_joint_spring("m2", stiffness=k2, name="k2")
-    return sc
+    """Two 1 kg sliders in a chain: ground -k1- m1 -k2- m2."""
+    return _chain(k1, k2)
 
 
 @pytest.mark.parametrize("width", [1e-5, 3e-5, 1e-4])

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..defaults import EPS
 from ..errors import ModelError
-from ..model.fd import differences, one_sided, round_off, sides
+from ..model.fd import bend, differences, one_sided, round_off, sides
 from .linearize import linearize
 
 #: relative step of the pipeline's differences (h = STEP·|p|, or STEP × the parameter's scale at p = 0)
@@ -170,10 +170,9 @@ def _smooth(name, p, h, X, base, rels):
         # the entry, 10 ε of the matrix's largest), and the models' own errors; Σ|coefficients| 16/2h
         top = size.max(initial=0.0)
         noise = (100 * EPS * size + (10 * EPS + rels[k]) * top) * 2 * round_off(h, True)
-        # (beside the slopes, the change of slope across the stencil, |f(2h) − 2f + f(−2h)|/2h: at a smooth extremum
-        # both one-sided slopes are O(h³) and differ by that much, a kink's or a jump's by as much as it changes)
-        bend = np.abs(f[4] - 2 * f[2] + f[0]) / (2 * h)
-        bad = (gap > 10 * noise) & (gap > 0.01 * np.maximum(np.maximum(np.abs(left), np.abs(right)), bend))
+        # (beside the slopes, their change across the stencil: at a smooth extremum both one-sided slopes are O(h³)
+        # and differ by that much, a kink's or a jump's by as much as it changes)
+        bad = (gap > 10 * noise) & (gap > 0.01 * np.maximum(np.maximum(np.abs(left), np.abs(right)), bend(f, h)))
         if bad.any():
             i, c = np.unravel_index(int(np.argmax(np.where(bad, gap / np.maximum(noise, 1e-300), 0.0))), gap.shape)
             raise NotSmooth(

@@ -23,6 +23,7 @@ from ..solvers.differences import (
     CENTRAL,
     ESTIMATED,
     ONE_SIDED,
+    bend,
     derivative,
     differences,
     displaced_vectors,
@@ -39,7 +40,7 @@ from ..solvers.differences import (
 
 # the kit's names offered here too (modules on the model take every difference from here; numpy-only ones, and
 # the solvers, from the kit itself)
-__all__ = ["CENTRAL", "ESTIMATED", "ONE_SIDED", "derivative", "differences", "displaced_vectors", "hessian",
+__all__ = ["CENTRAL", "ESTIMATED", "ONE_SIDED", "bend", "derivative", "differences", "displaced_vectors", "hessian",
            "one_sided", "round_off", "secant", "sides", "second_derivative", "vector_derivative",
            "steps", "Stencil", "stencil", "step_stencil", "tangent_derivative", "point_jacobian",
            "world_point_jacobian"]

@@ -137,6 +137,14 @@ def sides(values, h):
     return (3 * c - 4 * m1 + m2) / (2 * h), (-3 * c + 4 * p1 - p2) / (2 * h)
 
 
+def bend(values, h):
+    """|f(x + 2h) − 2f(x) + f(x − 2h)| / 2h from the values at x − 2h, x − h, x, x + h, x + 2h (numbers or arrays):
+    the change of slope across the stencil, h·f″ of a smooth function (at a smooth extremum the one-sided slopes of
+    :func:`sides` differ by O(h³) of it), a kink's change of slope or a jump / h at x."""
+    m2, _, c, _, p2 = values
+    return np.abs(p2 - 2 * c + m2) / (2 * h)
+
+
 def round_off(h, one_sided: bool = False):
     """A difference's rounding per unit rounding of its values (ε|f| each): Σ|coefficients| / divisor, 2/2h for
     a central difference, (3 + 4 + 1)/2h for the one-sided one (h a number or an array)."""
