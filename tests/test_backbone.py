@@ -256,14 +256,17 @@ def test_an_asymmetric_pendulums_amplitude_is_its_farther_turning_point_by_energ
 
 
 def test_a_pendulum_past_its_separatrix_is_refused_near_pi_and_says_why():
-    """A rod on a pivot asked for a swing of 3.5 rad (beyond the separatrix at π, where the period becomes
-    infinite): the branch is followed up to within 0.01 rad of π, then ends where the shooting residual stalls
+    """A rod on a pivot asked for a swing of 3.5 rad is refused at once: a swing reaches π at most (the separatrix,
+    where the period becomes infinite; the angle's q and q ± 2π are one pose). Asked for an energy above the
+    separatrix's, the branch is followed up to within 0.01 rad of π, then ends where the shooting residual stalls
     at its floor (not after halving its step down to the minimum), and the error names the separatrix."""
     system = vd.load_scene("rod_pivot").build()
-    with pytest.raises(vd.ConvergenceError, match="separatrix") as info:
+    with pytest.raises(vd.ModelError, match="separatrix"):
         vd.backbone(system, 0, amplitudes=[3.5])
+    with pytest.raises(vd.ConvergenceError, match="separatrix") as info:
+        vd.backbone(system, 0, energies=[50.0])
     reached = float(re.search(r"largest amplitude reached ([\d.]+) rad", str(info.value)).group(1))
-    assert math.pi - 0.01 < reached < math.pi
+    assert math.pi - 0.01 < reached <= math.pi
 
 
 # ---------------------------------------------------------------------------------------------- 5. where a body sits

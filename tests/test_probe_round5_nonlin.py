@@ -137,3 +137,22 @@ def test_a_conservative_orbits_double_multiplier_one_is_within_its_error(amplitu
     orbit = vd.periodic_orbit(_duffing(k=0.0, k3=1.0), [amplitude], [0.0], phase="cart")
     assert orbit.multipliers.size == 2
     assert np.all(np.abs(orbit.multipliers - 1.0) <= orbit.multiplier_error)
+
+
+def test_a_pendulums_backbone_keeps_its_swing_within_a_turn():
+    # a pivot's angle q and q ± 2π are one pose, so a swing reaches π at most (the separatrix): amplitudes of 3.3 and
+    # 90 rad were followed as numbers past it (3.3 returned an orbit whose amplitude read 3.1477 rad; 90 rad ended
+    # "largest amplitude reached 14.57 rad, largest energy 6.98 J", below the separatrix's 9.81 J: the pose of a
+    # 2.0 rad swing counted 4π further)
+    import re
+
+    system = vd.load_scene("rod_pivot").build()
+    for amplitude in (3.3, 6.0):
+        with pytest.raises(vd.ModelError, match="a swing reaches π at most"):
+            vd.backbone(system, 0, amplitudes=[amplitude])
+    with pytest.warns(UserWarning, match="degrees by mistake"), pytest.raises(vd.ModelError, match="π at most"):
+        vd.backbone(system, 0, amplitudes=[90.0])
+    with pytest.raises(vd.ConvergenceError) as beyond:
+        vd.backbone(system, 0, energies=[50.0])  # (above the separatrix: rotations, no swing)
+    reached = re.search(r"largest amplitude reached ([0-9.e+-]+) rad", str(beyond.value))
+    assert reached is not None and float(reached.group(1)) <= math.pi

@@ -75,6 +75,7 @@ class Compiled:
     additive_coordinates: tuple  # (indices in v, indices in q) of the vector-space joints' coordinates
     curved_coordinates: tuple  # indices in v of those that move by integrate (ball, planar, free)
     periodic_coordinates: np.ndarray  # indices in q of angles whose q is the angle itself (q ± 2π: one pose)
+    periodic_tangents: frozenset  # their indices in v
     inertia_scales: np.ndarray  # kg (m) or kg·m² (rad) per coordinate: the scale of M's diagonal
     inertia_weights: np.ndarray  # 1/√(s_i s_j) of the inertia scales (vibdyn.model.inertia_check)
     force_groups: tuple  # the force-element groups, one per kind the scene has
@@ -143,6 +144,8 @@ class Compiled:
         self.curved_coordinates = tuple(k for b in infos.values() if b.nq != b.nv for k in b.v_indices)
         self.periodic_coordinates = _readonly(np.array([b.idx_q + i for b in infos.values()
                                                         for i, p in enumerate(b.joint.periodic) if p], dtype=int))
+        self.periodic_tangents = frozenset(b.idx_v + i for b in infos.values()
+                                           for i, p in enumerate(b.joint.periodic) if p)
         self.inertia_scales = s = inertia_scales(scene, self.units, extent)
         self.inertia_weights = _readonly(1.0 / np.outer(np.sqrt(s), np.sqrt(s)))
         return ws

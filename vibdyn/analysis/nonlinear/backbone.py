@@ -50,6 +50,7 @@ from ...solvers.continuation import Arclength, continuation
 from ...solvers.newton import Steps, newton
 from ...solvers.tracking import assign
 from ..equilibrium import static_configuration
+from .backbone_requests import bad_coordinate, checked_requests, mode_index, within_a_turn
 from .periodic import MIN_ENERGY_RATIO, RTOL, STEP_RESOLUTION, TOL, orbit_from
 from .shooting import RCOND, Shooting, conservative, energy_roundoff
 
@@ -216,23 +217,25 @@ def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energi
     """
     start = time.perf_counter()
     what = "backbone"
-    requested, requests = _requests(amplitudes, energies, what)
+    requested, requests = checked_requests(amplitudes, energies, what)
     tol = scalar(tol, f"{what}: tol", positive=True)
     rtol = scalar(rtol, f"{what}: rtol", positive=True)
     max_steps = integer(max_steps, f"{what}: max_steps", minimum=1)
     cons, note = _conservative_part(system, what)
     q_eq = static_configuration(cons, equilibrium, what)
     modes = cons.linearize(q_eq).modes()
-    k = _mode_index(mode, modes, what)
+    k = mode_index(mode, modes, what)
     phi = np.asarray(modes.shapes[:, k], dtype=float)
     s = np.asarray(cons.coordinate_scales, dtype=float)
     c = (cons.coordinate_index(coordinate) if isinstance(coordinate, str)
-         else _bad_coordinate(coordinate, what) if coordinate is not None else int(np.argmax(np.abs(phi) / s)))
+         else bad_coordinate(coordinate, what) if coordinate is not None else int(np.argmax(np.abs(phi) / s)))
     if abs(phi[c]) < 1e-8 * float(np.max(np.abs(phi) / s)) * s[c]:
         raise ModelError(f"{what}: coordinate '{cons.coordinates[c]}' does not move in mode {k} (its share of the "
                          "linear mode is zero): choose a coordinate that moves")
     if requested == "amplitude" and cons.units[c] == "rad":
         hint(degrees_hint([(cons.coordinates[c], a) for a in requests]), f"{what}: amplitudes")
+    if requested == "amplitude":
+        within_a_turn(cons, c, requests, what)
     phi = phi / phi[c]  # the coordinate c moves by 1 (m or rad)
     _resolvable(cons, q_eq, phi, c, float(modes.omega[k]), requested, requests, what)
     follower = _Follower(cons, q_eq, phi, c, float(modes.omega[k]), modes, k, requested, requests, rtol, tol)
@@ -252,24 +255,6 @@ def backbone(system: Any, mode: int, amplitudes: ArrayLike | None = None, energi
 
 
 # ---------------------------------------------------------------------------------------------- checks
-def _requests(amplitudes, energies, what):
-    if (amplitudes is None) == (energies is None):
-        raise ModelError(f"{what}: give exactly one of amplitudes (m or rad) or energies (J), got "
-                         f"{'both' if amplitudes is not None else 'neither'}")
-    name, value = ("amplitude", amplitudes) if amplitudes is not None else ("energy", energies)
-    try:
-        arr = np.atleast_1d(np.asarray(value, dtype=float))
-    except (TypeError, ValueError):
-        raise ModelError(f"{what}: {name} requests must be numbers, got {value!r}") from None
-    if arr.ndim != 1 or arr.size == 0:
-        raise ModelError(f"{what}: {name} requests must be a non-empty list of numbers, got shape {arr.shape}")
-    bad = np.flatnonzero(~(np.isfinite(arr) & (arr > 0)))
-    if bad.size:
-        raise ModelError(f"{what}: {name} requests must be positive and finite: entry {int(bad[0])} is "
-                         f"{float(arr[bad[0]])!r}")
-    return name, arr
-
-
 def _resolvable(system, q_eq, phi, c, omega, requested, requests, what):
     """ModelError for a request whose energy above rest (½ ω² a² φᵀMφ for an amplitude a) is within
     4 · MIN_ENERGY_RATIO times the round-off of the scene's energy (periodic_orbit's floor, amplitude × 2):
@@ -285,10 +270,6 @@ def _resolvable(system, q_eq, phi, c, omega, requested, requests, what):
                          "rest: the orbit's energy is within the round-off of the scene's energy, so it cannot be told "
                          f"from its neighbours; ask for at least about {least:.1g} {unit} (the small orbits' frequency "
                          f"tends to the linear one, ω = {number(omega, 'rad/s', digits=10)})")
-
-
-def _bad_coordinate(coordinate, what):
-    raise ModelError(f"{what}: coordinate must be a coordinate's name, got {coordinate!r}")
 
 
 def _conservative_part(system, what):
@@ -327,24 +308,6 @@ def _velocity_dependent(element):
         return True
     group = type(element).group
     return group is not None and bool(getattr(group, "velocity_dependent", False) is True)
-
-
-def _mode_index(mode, modes, what):
-    n = len(modes.omega)
-    k = integer(mode, f"{what}: mode", minimum=0)
-    if k >= n:
-        raise ModelError(f"{what}: mode {k} out of range: the linearisation has {n} mode{'s' if n > 1 else ''} "
-                         f"(0 … {n - 1})")
-    if np.all(modes.rigid | modes.unstable):
-        raise ModelError(f"{what}: the scene has no oscillating mode (every mode is rigid/cyclic or unstable): "
-                         "nothing to follow")
-    if modes.rigid[k] or modes.unstable[k]:
-        raise ModelError(f"{what}: mode {k} is {'rigid (ω = 0)' if modes.rigid[k] else 'unstable (ω² < 0)'}: "
-                         "no oscillation grows out of it")
-    if np.any(modes.rigid):
-        raise ModelError(f"{what}: the scene has rigid or cyclic modes ({int(np.count_nonzero(modes.rigid))}): "
-                         "their free drift makes the orbits a larger family; hold those coordinates")
-    return k
 
 
 # ---------------------------------------------------------------------------------------------- the branch
@@ -592,7 +555,9 @@ class _Follower:
         q0, v0, T = self.state(z)
         e, w = self.energy(q0, v0), 2 * math.pi / T
         self.points += 1
-        self.reached = (max(self.reached[0], abs(float(z[self.c]))), max(self.reached[1], e))
+        x = float(z[self.c])  # (an angle's swing taken the shorter way round: q and q ± 2π are one pose)
+        x = abs(math.remainder(x, 2 * math.pi) if self.c in self.system.periodic_tangents else x)
+        self.reached = (max(self.reached[0], x), max(self.reached[1], e))
         if shoot is not None and self.theta.size:
             theta = self.angles(shoot, q0, v0, T)
             if theta is not None and self.last is not None:
