@@ -497,7 +497,7 @@ def search(system, q0, t, cyclic, tol, max_iter, guess=1.0, caller="equilibrium"
                                               target, b["ind"][rest], turns_hint(system, q_given),
                                               check if suggest else None, spun, again if unknown else None, leap),
                                residual=out.residual, best=b["q"])
-    q_end = at(out.x)["q"]
+    q_end = split(out.x)[0]  # (the configuration alone: at() would evaluate the forces again)
     closure = R.closure(q_end)
     if out.converged and closure > 16 * EPS and closure > LOCK_CLOSURE * R.conditioning(q_end):
         # near a lock the loops' Jacobian is ill-conditioned: their closure left at ASSEMBLY_TOL moves the pose by
