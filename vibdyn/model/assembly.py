@@ -49,8 +49,7 @@ import pinocchio as pin
 from ..defaults import ASSEMBLY_TOL, RANK_RTOL
 from ..errors import ConvergenceError, ModelError
 from . import assembly_modes
-from .assembly_modes import partners
-from .loop_batch import rows_of
+from .assembly_modes import partners, rows
 from .loop_metric import SAME, gap, gaps, offsets
 
 #: radii (rad, or × the length scale) of the restarts along ± each coordinate, one round each
@@ -156,7 +155,7 @@ def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), 
     of the steps taken. None where |Φ| stays above ASSEMBLY_TOL after ``iterations``, stops decreasing, or is
     above give_up[1] after give_up[0] iterations."""
     model, cs = c.model, c.col_scale
-    rs = c.row_scale if loops is None else c.row_scale[rows_of(tuple(c.sizes), tuple(loops))]
+    rs = c.row_scale if loops is None else c.row_scale[rows(c, loops)]
     cols = slice(None) if dep is None else dep
     scale = rs[:, None] * cs[None, cols]
     phi, J = c.evaluate(q, loops=loops)
