@@ -58,10 +58,10 @@ def _blocks(c, J, used, dep):
     return out
 
 
-def _full_rank(c, J, rows, cols):
-    """Whether Φ_q's ``rows`` have full column rank on ``cols`` (dimensionless, singular values above RANK_RTOL of
-    the largest)."""
-    s = np.linalg.svd(c.row_scale[rows, None] * J[rows][:, cols] * c.col_scale[None, cols], compute_uv=False)
+def _full_rank(c, J, eqs, cols):
+    """Whether Φ_q's rows ``eqs`` have full column rank on ``cols`` (dimensionless, singular values above RANK_RTOL
+    of the largest)."""
+    s = np.linalg.svd(c.row_scale[eqs, None] * J[eqs][:, cols] * c.col_scale[None, cols], compute_uv=False)
     return s.size >= cols.size and s[cols.size - 1] > RANK_RTOL * s[0]
 
 
