@@ -535,10 +535,8 @@ def _finish(point, N, ignore_zeros, start, travel=0.0):
         q_error = np.zeros(n)
     if N is not None and N.shape[1] < N.shape[0]:  # on the tree's coordinates through N (held offsets: exact)
         q_error = np.abs(N) @ q_error
-        # and the loops closed to their assembly's tolerance: |Φ| (dimensionless) over the Jacobian's
-        # σ_min/σ_max moves every coordinate by up to that many units (0 without loops)
-        R = system.reduction
-        q_error = q_error + R.closure(q) / R.conditioning(q) * system.coordinate_scales
+        # and the loops closed to their assembly's tolerance move the pose along the mechanism (0 without loops)
+        q_error = q_error + system.reduction.closure_shift(q) * system.coordinate_scales
     if point.iterations:  # the offsets carry the round-off of the steps that reached them
         q_error = q_error + 4 * np.finfo(float).eps * (np.abs(system.difference(system.neutral(), q)) + 1.0)
         if m.rigid.any():

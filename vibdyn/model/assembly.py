@@ -15,22 +15,21 @@ within π of the described one (q and q ± 2π are one pose: the shorter way rou
    A closure beyond a coordinate's position limits (``Scene.set_limits``) does not count: the search goes on
    to the next round, and if every closure found is beyond them the assembly is refused naming the first
    coordinate and its limit.
-3. Each closure found is slid along the loops to the closure nearest q_d (steps towards q_d projected on
-   the null space of Φ_q, each closed again). Unless the described pose closes the loops itself (distance 0),
-   the branches are then enumerated before one is called nearest: with mobility 1, each branch is traced
-   by arclength continuation until it comes back to its start (a closed curve, traced whole), the local
-   minima of its distance are slid to the nearest, and at points along it the other assembly modes (the
-   other closures with the same independent coordinates: a four-bar's mirror-image coupler and rocker) are
-   sought by Gauss–Newton restarts of the dependent coordinates, loop block by loop block where the loops can
-   be solved one after another (a Watt six-bar's four-bar, then its dyad from each of the four-bar's
-   closures), and traced in turn. The nearest of all is taken, and called "the closure nearest the neutral
-   configuration" (``Assembly.nearest``) only when every branch met was traced whole, each search for the
-   other modes tried its whole grid of restarts (up to three dependent coordinates a block: :func:`.partners`)
-   and no slide ended beyond a limit; otherwise (mobility 2 or more: surfaces, not traced; a branch cut by a
-   singular position; modes sampled, not enumerated, with more dependent coordinates solved together) it is
-   "a closure found near the neutral configuration",
-   the nearest of those compared, and ``.note`` says why it is not proven. Ties (the mirror images of a
-   symmetric description) go to the closure whose first differing coordinate is larger, and are noted.
+3. Each closure found is slid along the loops to the closure nearest q_d (steps towards q_d projected on the null space
+   of Φ_q, each closed again). Unless the described pose closes the loops itself (distance 0), the branches are then
+   enumerated before one is called nearest: with mobility 1, each branch is traced by arclength continuation until it
+   comes back to its start (a closed curve, traced whole), the local minima of its distance are slid to the nearest, and
+   at points spread along it (and at the nearest minimum of all) the other assembly modes (the other closures with the
+   same independent coordinates: a four-bar's mirror-image coupler and rocker) are sought by Gauss–Newton restarts of
+   the dependent coordinates, loop block by loop block where the loops can be solved one after another (a Watt six-bar's
+   four-bar, then its dyad from each of the four-bar's closures), and traced in turn. The nearest of all is taken, and
+   called "the closure nearest the neutral configuration" (``Assembly.nearest``) only when every branch met was traced
+   whole, each search for the other modes tried its whole grid of restarts (up to three dependent coordinates a block:
+   :func:`.partners`) and no slide ended beyond a limit; otherwise (mobility 2 or more: surfaces, not traced; a branch
+   cut by a singular position; modes sampled, not enumerated, with more dependent coordinates solved together) it is "a
+   closure found near the neutral configuration", the nearest of those compared, and ``.note`` says why it is not
+   proven. Ties (the mirror images of a symmetric description) go to the closure whose first differing coordinate is
+   larger, and are noted.
 4. A closure that is isolated (the loops close only there: links whose lengths add up, stretched flat) locks
    the mechanism: refused (:meth:`Constraints.check_mobility`). The mobility is taken there. A singular
    position (rank of Φ_q below its rank at the closures beside it: a change point) is kept in the
@@ -265,38 +264,49 @@ def _local_minima(d, whole):
 def _branches(c, qd, seeds, system):
     """(candidates, branches, whole, complete) of a one-mobility mechanism: each branch of the loops' closures reached
     from the ``seeds`` is traced (:func:`_trace`); the local minima of its distance to qd (among its samples
-    within the position limits) are the candidates
-    (to be slid to the nearest); at PARTNER_POINTS points along it and at its minima the other assembly modes
-    are sought (:func:`.partners`), and each not on a traced branch is traced in turn. ``whole``: every
-    branch met was traced whole (closed curves) within MAX_BRANCHES; ``complete``: every search for the other
-    modes tried its whole grid of restarts (:func:`.partners`). (A branch reached as a partner is not searched
-    again at its first point; where the searches that found it, or the other partners found on it, are
-    PARTNER_POINTS, only at its minima.)"""
+    within the position limits) are the candidates (to be slid to the nearest). The other assembly modes
+    (:func:`.partners`) are sought at PARTNER_POINTS points spread along each branch not reached as one of them,
+    and, once every branch met is traced, at the nearest candidate (where its own were not sought yet: the
+    closures beside the answer), each not on a traced branch traced in turn, until the nearest candidate's were
+    sought. ``whole``: every branch met was traced whole (closed curves) within MAX_BRANCHES; ``complete``:
+    every search for the other modes tried its whole grid of restarts (:func:`.partners`). (A branch reached
+    as a partner is searched at its spread points only where fewer than PARTNER_POINTS searches found it or
+    partners found on it.)"""
     queue, branches, candidates, whole, complete = [(q, False) for q in seeds], [], [], True, True
-    while queue:
-        q, partner = queue.pop(0)
-        if any(_on_branch(c, q, *b) for b in branches):  # (on a traced branch)
-            continue
-        if len(branches) == MAX_BRANCHES:
-            return candidates, len(branches), False, complete
-        samples, tangents, closed = _trace(c, q, qd)
-        whole = whole and closed
-        S = np.array(samples)
-        ends = samples[1:] + (samples[:1] if closed else [samples[-1]])
-        branches.append((S, [gap(c, p, r) for p, r in zip(samples, ends)], tangents))
-        d = np.where(_within(system, S), gaps(c, qd, S), np.inf)  # (the minima within the position limits)
-        mins = [i for i in _local_minima(d, closed) if np.isfinite(d[i])]
-        candidates += [samples[i] for i in mins]
-        met = [p for p, _ in queue if _on_branch(c, p, *branches[-1])]  # (searched there: not queued again)
-        queue = [(p, f) for p, f in queue if not any(p is m for m in met)]
-        points = set(mins)
-        if partner + len(met) < PARTNER_POINTS:
-            points |= set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS)
-        for i in sorted(points - ({0} if partner else set())):
-            found, grid = partners(c, samples[i], qd)
-            complete = complete and grid
-            queue += [(p, True) for p in found]
-    return candidates, len(branches), whole, complete
+    searched: list = []  # closures whose other assembly modes were sought (or were found by a search)
+
+    def search(q):
+        found, grid = partners(c, q, qd)
+        searched.extend([q] + found)
+        queue.extend((p, True) for p in found)
+        return grid
+
+    while True:
+        while queue:
+            q, partner = queue.pop(0)
+            if any(_on_branch(c, q, *b) for b in branches):  # (on a traced branch)
+                continue
+            if len(branches) == MAX_BRANCHES:
+                return candidates, len(branches), False, complete
+            samples, tangents, closed = _trace(c, q, qd)
+            whole = whole and closed
+            S = np.array(samples)
+            ends = samples[1:] + (samples[:1] if closed else [samples[-1]])
+            branches.append((S, [gap(c, p, r) for p, r in zip(samples, ends)], tangents))
+            d = np.where(_within(system, S), gaps(c, qd, S), np.inf)  # (the minima within the position limits)
+            candidates += [samples[i] for i in _local_minima(d, closed) if np.isfinite(d[i])]
+            met = [p for p, _ in queue if _on_branch(c, p, *branches[-1])]  # (searched there: not queued again)
+            queue = [(p, f) for p, f in queue if not any(p is m for m in met)]
+            if partner + len(met) < PARTNER_POINTS:
+                spread = set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS) - ({0} if partner else set())
+                for i in sorted(spread):
+                    complete = search(samples[i]) and complete
+        if not candidates:
+            return candidates, len(branches), whole, complete
+        best = candidates[int(np.argmin(gaps(c, qd, np.array(candidates))))]
+        if searched and gaps(c, best, np.array(searched)).min() <= SAME:
+            return candidates, len(branches), whole, complete
+        complete = search(best) and complete
 
 
 def _nearest(c, qd, q):

@@ -19,6 +19,7 @@ or drives. The reduction of a tree is the identity (``kind`` "tree", n = nv, N =
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -267,6 +268,15 @@ class Reduction:
         if self._loops is None:
             return np.array(q, dtype=float), np.array(v, dtype=float)
         return self._loops.project(q, v, M(q) if callable(M) else M)
+
+    def closure_shift(self, q) -> float:
+        """The most (dimensionless: rad, or × the length scale) the loops' closure left at q can move the pose:
+        |Φ|₂ / σ_min of the dimensionless Φ_q (|Φ|₂ ≤ √m |Φ|∞), 0 without loops."""
+        c = self._loops
+        if c is None:
+            return 0.0
+        rank, _, s, _ = c.decompose(c.jacobian(q))
+        return math.sqrt(c.m) * self.closure(q) / s[rank - 1] if rank else 0.0
 
     def conditioning(self, q) -> float:
         """σ_min/σ_max of the loops' dimensionless Jacobian at q (1 without loops)."""
