@@ -215,11 +215,33 @@ def linearize(system, reduction, at=None, *, v=None, t=0.0, a=None, method="fd",
         rows = np.abs(N).T @ rounding
         rows *= rows
         K_err += np.sqrt(rows @ (N * N))
+    if not moving:
+        K_err = K_err + _pose_spread(system, R, at, q0, N, K_r, lambda q: linearize(
+            system, R, q, t=t0, method=method, step=step, independent=ind).K)
     rank = R.free.size - ind.size  # (what the loops tie; 0 without them)
     cls = ConstrainedLinearModel if rank else DrivenLinearModel
     return cls(system, q0, v0, a0, t0, M_r, C_r, K_r, K_err, C_err, tree.method, time.perf_counter() - start,
                evaluations, terms_r, null_space=N, tree=tree, multipliers=lam if lam.size else None, rank=rank,
                independent=tuple(int(i) for i in ind), reduction=R)
+
+
+POSE_CONDITIONING = 1e-2  # σ_min/σ_max of the loops' Jacobian below which K's change over the pose error joins K_error
+POSE_STEP = 1e-7  # dimensionless step along each motion of the mechanism for that change
+
+
+def _pose_spread(system, R, at, q0, N, K, again):
+    """What an operating point's pose error (its ``q_error``) can change K by near a singular position of the
+    loops (a four-bar short of locking: K's loop-force curvature turns fast with the pose): the change of K
+    (``again(q)``: K at q in the same coordinates) along each of the mechanism's motions N over POSE_STEP, times
+    the error's dimensionless size; 0 elsewhere, or without an error."""
+    err = getattr(at, "q_error", None)
+    if err is None or not np.any(err) or R.conditioning(q0) >= POSE_CONDITIONING:
+        return 0.0
+    scales = system.coordinate_scales
+    size, out = float(np.linalg.norm(err / scales)), np.zeros_like(K)
+    for n in N.T:
+        out += np.abs(again(system.integrate(q0, POSE_STEP * n / np.linalg.norm(n / scales))) - K)
+    return out * (size / POSE_STEP)
 
 
 CURVATURE_STEP = 1e-3  # rad, or × the length scale: the step of the loops' curvature (smooth in q at fixed λ)

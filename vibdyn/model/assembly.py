@@ -275,10 +275,12 @@ def _branches(c, qd, seeds, system):
     queue, branches, candidates, whole, complete = [(q, False) for q in seeds], [], [], True, True
     searched: list = []  # closures whose other assembly modes were sought (or were found by a search)
 
-    def search(q):
-        found, grid = partners(c, q, qd)
-        searched.extend([q] + found)
-        queue.extend((p, True) for p in found)
+    def search(points):
+        grid = True
+        for q, (found, whole) in zip(points, partners(c, points, qd)):
+            searched.extend([q] + found)
+            queue.extend((p, True) for p in found)
+            grid = grid and whole
         return grid
 
     while True:
@@ -299,14 +301,13 @@ def _branches(c, qd, seeds, system):
             queue = [(p, f) for p, f in queue if not any(p is m for m in met)]
             if partner + len(met) < PARTNER_POINTS:
                 spread = set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS) - ({0} if partner else set())
-                for i in sorted(spread):
-                    complete = search(samples[i]) and complete
+                complete = search([samples[i] for i in sorted(spread)]) and complete
         if not candidates:
             return candidates, len(branches), whole, complete
         best = candidates[int(np.argmin(gaps(c, qd, np.array(candidates))))]
         if searched and gaps(c, best, np.array(searched)).min() <= SAME:
             return candidates, len(branches), whole, complete
-        complete = search(best) and complete
+        complete = search([best]) and complete
 
 
 def _nearest(c, qd, q):
@@ -522,7 +523,7 @@ def assemble_described(c, system):
                        f"({assembly_modes.PARTNER_MAX} restarts of its dependent coordinates at each point), not "
                        "enumerated")
         else:
-            more = [p for q in seeds for p in partners(c, q, qd)[0]]
+            more = [p for found, _ in partners(c, seeds, qd) for p in found]
             why = (f"the mechanism has mobility {dof} there: its closures form surfaces, which are not traced (the "
                    f"closures of {tried} starts and their other assembly modes were compared)")
         unique, held = _compared(c, qd, seeds + more, system)

@@ -111,33 +111,42 @@ def _grid(c, cols):
     return singles + [others[i] for i in np.sort(pick)], False
 
 
-def partners(c, q, qd) -> tuple[list, bool]:
-    """(closures, complete): the other closures with q's independent coordinates (the other assembly modes
-    there: the mirror image of a four-bar's coupler and rocker about the line they span), block by block of the
-    dependent coordinates (:func:`_blocks`): from each closure of the blocks before, Gauss–Newton on the block's
-    coordinates and equations from each restart of its grid (:func:`_grid`; ``complete`` False where one is
-    sampled), all in step (:func:`~vibdyn.model.loop_batch.close_many`: a restart still open by PARTNER_OPEN
-    after PARTNER_ITER[0] iterations is dropped, as is one converging to a closure found already)."""
+def partners(c, points, qd) -> list[tuple[list, bool]]:
+    """[(closures, complete)] per closure of ``points``: the other closures with its independent coordinates (the
+    other assembly modes there: the mirror image of a four-bar's coupler and rocker about the line they span),
+    block by block of the dependent coordinates (:func:`_blocks`): from each closure of the blocks before,
+    Gauss–Newton on the block's coordinates and equations from each restart of its grid (:func:`_grid`;
+    ``complete`` False where one is sampled), all in step, those of points with alike blocks together
+    (:func:`~vibdyn.model.loop_batch.close_many`: a restart still open by PARTNER_OPEN after PARTNER_ITER[0]
+    iterations is dropped, as is one converging to a closure found already from the same one)."""
     model, cs, nv = c.model, c.col_scale, c.nv
-    partial, complete = [q], True
-    for loops, cols in _fibres(c, q):
-        combos, whole = _grid(c, cols)
-        complete = complete and whole
-        starts, owner = [], []
-        for j, p in enumerate(partial):
-            for combo in [np.zeros(cols.size)] + combos:  # (p's own first: it closes the block's loops from q's)
-                x = np.zeros(nv)
-                x[cols] = combo
-                starts.append(pin.integrate(model, p, cs * x))
-                owner.append(j)
-        closed = close_many(LoopBatch(c, loops), starts, owner, cols, (PARTNER_ITER, PARTNER_OPEN),
-                            (KNOWN_STEP, KNOWN_GAP), functools.partial(gaps, c))
-        reached: list = []
-        for j in range(len(partial)):
-            found: list = []
-            for q1 in (c.within_pi(x, qd) for x, o in zip(closed, owner) if o == j and x is not None):
-                if all(gap(c, o, q1) > SAME for o in found):
-                    found.append(q1)
-            reached += found
-        partial = reached
-    return [p for p in partial if gap(c, q, p) > SAME], complete
+    fibres = [_fibres(c, q) for q in points]
+    out: list[tuple[list, bool]] = [([], True)] * len(points)
+    groups: dict = {}
+    for i, blocks in enumerate(fibres):
+        groups.setdefault(tuple((loops, tuple(cols)) for loops, cols in blocks), []).append(i)
+    for members in groups.values():
+        partial, complete = [(i, points[i]) for i in members], True  # (the point searched, a closure)
+        for loops, cols in fibres[members[0]]:
+            combos, whole = _grid(c, cols)
+            complete = complete and whole
+            starts, owner = [], []
+            for j, (_, p) in enumerate(partial):
+                for combo in [np.zeros(cols.size)] + combos:  # (p's own first: it closes the block's loops from q's)
+                    x = np.zeros(nv)
+                    x[cols] = combo
+                    starts.append(pin.integrate(model, p, cs * x))
+                    owner.append(j)
+            closed = close_many(LoopBatch(c, loops), starts, owner, cols, (PARTNER_ITER, PARTNER_OPEN),
+                                (KNOWN_STEP, KNOWN_GAP), functools.partial(gaps, c))
+            reached: list = []
+            for j, (i, _) in enumerate(partial):
+                found: list = []
+                for q1 in (c.within_pi(x, qd) for x, o in zip(closed, owner) if o == j and x is not None):
+                    if all(gap(c, o, q1) > SAME for o in found):
+                        found.append(q1)
+                reached += [(i, p) for p in found]
+            partial = reached
+        for i in members:
+            out[i] = ([p for k, p in partial if k == i and gap(c, points[i], p) > SAME], complete)
+    return out
