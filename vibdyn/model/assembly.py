@@ -38,6 +38,7 @@ within π of the described one (q and q ± 2π are one pose: the shorter way rou
    moves increasing.
 """
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -61,6 +62,7 @@ TIE_RTOL = 1e-7  # distances within this (relative) are a tie
 BESIDE = 1e-3  # step to the closures beside one, for the rank there (dimensionless)
 LEAVE = (1e-3, 1e-2, 1e-1)  # steps along the motion off a closure where the forces are undefined
 TRACE_STEP, TRACE_MAX_STEP, TRACE_MIN_STEP = 0.2, 0.8, 1e-3  # arclength steps (dimensionless) of the trace
+TRACE_TOL = 1e-7  # dimensionless |Φ| a trace's samples are closed to (each closed on to ASSEMBLY_TOL where it is used)
 CORRECT_ITER = 8  # Gauss–Newton iterations of one corrector (a trace step, a slide step)
 TRACE_MAX = 2000  # samples of one branch before its trace is given up (the nearest is then not proven)
 PARTNER_POINTS = 2  # points along each traced branch where the other assembly modes are sought
@@ -147,11 +149,11 @@ def _tangent(c, J, previous):
     return -t if previous is not None and t @ previous < 0 else t
 
 
-def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), loops=None):
+def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), loops=None, tol=ASSEMBLY_TOL):
     """(q, Φ_q, corrections) of the closure reached from q by Gauss–Newton (minimum-norm dimensionless steps of
     all coordinates, or of ``dep`` only, each halved until |Φ| decreases), Φ and Φ_q from one evaluation per
     point, of the ``loops`` (indices; None: all, and Φ_q is then the whole Jacobian); ``corrections`` the sizes
-    of the steps taken. None where |Φ| stays above ASSEMBLY_TOL after ``iterations``, stops decreasing, or is
+    of the steps taken. None where |Φ| stays above ``tol`` after ``iterations``, stops decreasing, or is
     above give_up[1] after give_up[0] iterations."""
     model, cs = c.model, c.col_scale
     rs = c.row_scale if loops is None else c.row_scale[rows(c, loops)]
@@ -163,7 +165,7 @@ def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), 
     with np.errstate(over="ignore", invalid="ignore"):  # (a trial step too far: its |Φ| is not finite, refused)
         for k in range(iterations + 1):
             res = float(np.abs(r).max(initial=0.0))
-            if res <= ASSEMBLY_TOL:
+            if res <= tol:
                 return q, J, steps
             if k == iterations or not np.isfinite(res) or (k >= give_up[0] and res > give_up[1]):
                 return None
@@ -184,15 +186,27 @@ def _correct(c, q, dep=None, iterations=CORRECT_ITER, give_up=(np.inf, np.inf), 
     return None
 
 
+def _polish(c, q):
+    """A trace's sample q (closed to TRACE_TOL) closed on to ASSEMBLY_TOL (q itself where that fails)."""
+    out = _correct(c, q)
+    return q if out is None else out[0]
+
+
+@functools.cache
+def _lapack():
+    """scipy's LAPACK wrappers (imported on first use: not at `import vibdyn`)."""
+    from scipy.linalg import lapack
+
+    return lapack
+
+
 def _min_norm(A, b):
     """The minimum-norm least-squares x of A x ≈ b on A's rank (LAPACK's complete orthogonal factorisation,
     gelsy, rank to RANK_RTOL: numpy's lstsq, an SVD, costs several times more on these small systems)."""
-    from scipy.linalg import lapack  # (on first use: not at `import vibdyn`)
-
     m, n = A.shape
     B = np.zeros((max(m, n), 1))
     B[:m, 0] = b
-    x = lapack.dgelsy(A, B, np.zeros(n, dtype=np.int32), RANK_RTOL, max(4 * n + 1, 2 * min(m, n) + 64))[1]
+    x = _lapack().dgelsy(A, B, np.zeros(n, dtype=np.int32), RANK_RTOL, max(4 * n + 1, 2 * min(m, n) + 64))[1]
     return x[:n, 0]
 
 
@@ -208,7 +222,7 @@ def _trace(c, q0, qd):
     samples, tangents, q, h, bend = [q0], [t], q0, TRACE_STEP, 0.0
     while t is not None and len(samples) < TRACE_MAX:
         # (second order: the tangent's turn per unit length over the last step, the corrector's work then O(h³))
-        out = _correct(c, pin.integrate(model, q, cs * (h * t + 0.5 * h * h * bend)))
+        out = _correct(c, pin.integrate(model, q, cs * (h * t + 0.5 * h * h * bend)), tol=TRACE_TOL)
         t1 = None if out is None else _tangent(c, out[1], t)
         if t1 is not None:
             q1, _, steps = out
@@ -296,7 +310,7 @@ def _branches(c, qd, seeds, system):
             ends = samples[1:] + (samples[:1] if closed else [samples[-1]])
             branches.append((S, [gap(c, p, r) for p, r in zip(samples, ends)], tangents))
             d = np.where(_within(system, S), gaps(c, qd, S), np.inf)  # (the minima within the position limits)
-            candidates += [samples[i] for i in _local_minima(d, closed) if np.isfinite(d[i])]
+            candidates += [_polish(c, samples[i]) for i in _local_minima(d, closed) if np.isfinite(d[i])]
             met = [p for p, _ in queue if _on_branch(c, p, *branches[-1])]  # (searched there: not queued again)
             queue = [(p, f) for p, f in queue if not any(p is m for m in met)]
             if partner + len(met) < PARTNER_POINTS:
@@ -378,7 +392,7 @@ def _inside(c, qd, closures, system):
         S = np.array(_trace(c, q, qd)[0])
         d = np.where(_within(system, S), gaps(c, qd, S), np.inf)
         if np.isfinite(d.min()):
-            out.append(S[int(np.argmin(d))])
+            out.append(_polish(c, S[int(np.argmin(d))]))
     return out
 
 

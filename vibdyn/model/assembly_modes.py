@@ -116,28 +116,30 @@ def partners(c, points, qd) -> list[tuple[list, bool]]:
     other assembly modes there: the mirror image of a four-bar's coupler and rocker about the line they span),
     block by block of the dependent coordinates (:func:`_blocks`): from each closure of the blocks before,
     Gauss–Newton on the block's coordinates and equations from each restart of its grid (:func:`_grid`;
-    ``complete`` False where one is sampled), all in step, those of points with alike blocks together
-    (:func:`~vibdyn.model.loop_batch.close_many`: a restart still open by PARTNER_OPEN after PARTNER_ITER[0]
-    iterations is dropped, as is one converging to a closure found already from the same one)."""
+    ``complete`` False where one is sampled), all in step, those of points whose blocks solve the same loops
+    together (:func:`~vibdyn.model.loop_batch.close_many`: a restart still open by PARTNER_OPEN after
+    PARTNER_ITER[0] iterations is dropped, as is one converging to a closure found already from the same one)."""
     model, cs, nv = c.model, c.col_scale, c.nv
     fibres = [_fibres(c, q) for q in points]
-    out: list[tuple[list, bool]] = [([], True)] * len(points)
+    grids = [[_grid(c, cols) for _, cols in blocks] for blocks in fibres]
+    out: list[tuple[list, bool]] = []
     groups: dict = {}
     for i, blocks in enumerate(fibres):
-        groups.setdefault(tuple((loops, tuple(cols)) for loops, cols in blocks), []).append(i)
-    for members in groups.values():
-        partial, complete = [(i, points[i]) for i in members], True  # (the point searched, a closure)
-        for loops, cols in fibres[members[0]]:
-            combos, whole = _grid(c, cols)
-            complete = complete and whole
-            starts, owner = [], []
-            for j, (_, p) in enumerate(partial):
+        groups.setdefault(tuple(loops for loops, _ in blocks), []).append(i)
+    found_at: dict = {}
+    for key, members in groups.items():
+        partial = [(i, points[i]) for i in members]  # (the point searched, a closure of the blocks so far)
+        for b, loops in enumerate(key):
+            starts, owner, columns = [], [], []
+            for j, (i, p) in enumerate(partial):
+                cols, (combos, _) = fibres[i][b][1], grids[i][b]
                 for combo in [np.zeros(cols.size)] + combos:  # (p's own first: it closes the block's loops from q's)
                     x = np.zeros(nv)
                     x[cols] = combo
                     starts.append(pin.integrate(model, p, cs * x))
                     owner.append(j)
-            closed = close_many(LoopBatch(c, loops), starts, owner, cols, (PARTNER_ITER, PARTNER_OPEN),
+                    columns.append(cols)
+            closed = close_many(LoopBatch(c, loops), starts, owner, columns, (PARTNER_ITER, PARTNER_OPEN),
                                 (KNOWN_STEP, KNOWN_GAP), functools.partial(gaps, c))
             reached: list = []
             for j, (i, _) in enumerate(partial):
@@ -148,5 +150,7 @@ def partners(c, points, qd) -> list[tuple[list, bool]]:
                 reached += [(i, p) for p in found]
             partial = reached
         for i in members:
-            out[i] = ([p for k, p in partial if k == i and gap(c, points[i], p) > SAME], complete)
+            found_at[i] = [p for k, p in partial if k == i and gap(c, points[i], p) > SAME]
+    for i in range(len(points)):
+        out.append((found_at[i], all(whole for _, whole in grids[i])))
     return out

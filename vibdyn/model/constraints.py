@@ -82,6 +82,9 @@ class Constraints:
                     ends.append((info.joint_id, B.act(np.array(point)), B.rotation.copy()))
             self.ends.append(ends)
             self.axes.append((lp.joint.loop_normals(), lp.joint.loop_alignments()))
+        self.placements = [[pin.SE3(Rl, r) for _, r, Rl in ends] for ends in self.ends]  # (the ends' in their joints)
+        self._rows = [(list(zip(e, P)), n, u, "position" in lp.joint.loop_rows, "locked" in lp.joint.loop_rows)
+                      for lp, e, P, (n, u) in zip(self.loops, self.ends, self.placements, self.axes)]
         self.sizes, self._every = tuple(lp.equations for lp in self.loops), tuple(range(len(self.loops)))
         self.m = sum(self.sizes)
         L = system.length_scale
@@ -148,9 +151,9 @@ class Constraints:
             pin.forwardKinematics(model, data, q)
         nv = model.nv
         out = []
-        for ends in self.ends:
+        for ends, places in zip(self.ends, self.placements):
             fr = []
-            for jid, r, Rl in ends:
+            for (jid, r, Rl), P in zip(ends, places):
                 e = _End()
                 if jid == 0:
                     e.p, e.R = r.copy(), Rl.copy()
@@ -158,7 +161,7 @@ class Constraints:
                     e.dp = e.ddp = e.w = e.dw = np.zeros(3)
                     fr.append(e)
                     continue
-                e.p, e.R, e.Jv, e.Jw = self._end(data, jid, r, Rl, jacobians)
+                e.p, e.R, e.Jv, e.Jw = self._end(data, jid, P, jacobians)
                 if v is not None:
                     R = data.oMi[jid].rotation
                     vel, acc = data.v[jid], data.a[jid]  # LOCAL: d/dt of the local components
@@ -170,16 +173,14 @@ class Constraints:
             out.append(fr)
         return out
 
-    def _end(self, data, jid, r, Rl, jacobian):
-        """(p, R, Jv, Jw) of a loop end fixed at r, Rl in joint jid's frame (jid > 0): world position (m), rotation
-        and LOCAL_WORLD_ALIGNED Jacobians (3 × nv each; None without ``jacobian``), one formula for both forms."""
-        oMi = data.oMi[jid]
-        R = oMi.rotation
-        Rr = R @ r
+    def _end(self, data, jid, placement, jacobian):
+        """(p, R, Jv, Jw) of a loop end at ``placement`` (SE3) in joint jid's frame (jid > 0): world position (m),
+        rotation and LOCAL_WORLD_ALIGNED Jacobians at the end (3 × nv each; None without ``jacobian``)."""
+        H = (data.oMi[jid] * placement).homogeneous
         if not jacobian:
-            return oMi.translation + Rr, R @ Rl, None, None
-        Jo = pin.getJointJacobian(self.model, data, jid, pin.LOCAL_WORLD_ALIGNED)  # (world axes, at the joint)
-        return oMi.translation + Rr, R @ Rl, Jo[:3] - pin.skew(Rr) @ Jo[3:], Jo[3:]
+            return H[:3, 3], H[:3, :3], None, None
+        J = pin.getFrameJacobian(self.model, data, jid, placement, pin.LOCAL_WORLD_ALIGNED)
+        return H[:3, 3], H[:3, :3], J[:3], J[3:]
 
     def evaluate(self, q, jacobian=True, wrenches=False, loops=None):
         """(Φ (m,), Φ_q (m × nv) or None) at q: positions in m, orientations in rad; ``loops`` (indices): their
@@ -235,18 +236,19 @@ class Constraints:
         nv, m = model.nv, self.m if loops is self._every else sum(self.sizes[i] for i in loops)
         phi, J, zero, k = np.empty(m), np.empty((m, nv)) if jacobian else None, None, 0
         for i in loops:
-            (normals, pairs), kinds, frames = self.axes[i], self.loops[i].joint.loop_rows, []
-            for jid, r, Rl in self.ends[i]:
+            ends, normals, pairs, position, locked = self._rows[i]
+            frames = []
+            for (jid, r, Rl), P in ends:
                 if jid == 0:
                     if jacobian and zero is None:
                         zero = np.zeros((3, nv))
                     frames.append((r, Rl, zero, zero))
                     continue
-                frames.append(self._end(data, jid, r, Rl, jacobian))
+                frames.append(self._end(data, jid, P, jacobian))
             (pa, Ra, Jva, Jwa), (pb, Rb, Jvb, Jwb) = frames
             e = pb - pa
             de = Jvb - Jva if jacobian else None
-            if "position" in kinds:
+            if position:
                 phi[k:k + 3] = e
                 if jacobian:
                     J[k:k + 3] = de
@@ -257,13 +259,14 @@ class Constraints:
                 if jacobian:
                     J[k] = w @ de + (pin.skew(w) @ e) @ Jwa
                 k += 1
+            dw = Jwa - Jwb if jacobian and pairs else None
             for n, u in pairs:
                 wa, wb = Ra @ n, Rb @ u
                 phi[k] = wa @ wb
                 if jacobian:
-                    J[k] = (pin.skew(wa) @ wb) @ (Jwa - Jwb)
+                    J[k] = (pin.skew(wa) @ wb) @ dw
                 k += 1
-            if "locked" in kinds:
+            if locked:
                 Rab = Ra.T @ Rb
                 phi[k:k + 3] = pin.log3(Rab)
                 if jacobian:
@@ -487,7 +490,7 @@ class Constraints:
         iq = self.periodic_coordinates
         if iq.size:
             d = q[iq] - q0[iq]
-            q[iq] = q0[iq] + (d - 2 * np.pi * np.round(d / (2 * np.pi)))
+            q[iq] = q0[iq] + (d - 2 * np.pi * np.rint(d / (2 * np.pi)))
         return q
 
     def assembly(self, system: Any = None) -> Any:

@@ -13,14 +13,11 @@ from ..defaults import ASSEMBLY_TOL, RANK_RTOL
 
 HALVINGS = 4  # :func:`close_many` tries this many halvings of each refused step at once
 
-_LEVI = np.zeros((3, 3, 3))
-_LEVI[0, 1, 2] = _LEVI[1, 2, 0] = _LEVI[2, 0, 1] = 1.0
-_LEVI[0, 2, 1] = _LEVI[2, 1, 0] = _LEVI[1, 0, 2] = -1.0
-
-
 def _cross(a, b):
-    """a × b along axis 1 of arrays (B × 3 × k), k of a and b broadcast (Levi-Civita: one numpy call)."""
-    return np.einsum("ijk,bjn,bkn->bin", _LEVI, a, b)
+    """a × b along axis 1 of arrays (B × 3 × k), k of a and b broadcast (by components: numpy's cross and a
+    Levi-Civita einsum cost 2–3× more on these small arrays)."""
+    a0, a1, a2, b0, b1, b2 = a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
 
 
 @functools.lru_cache(maxsize=256)
@@ -40,15 +37,8 @@ class LoopBatch:
         self.c, self.loops = c, tuple(loops)
         self.row_scale = c.row_scale[rows_of(tuple(c.sizes), self.loops)]
         ends = [end for i in self.loops for end in c.ends[i]]
-        self.ends, self.moving = ends, [k for k, (jid, _, _) in enumerate(ends) if jid]
-        self.joints = [ends[k][0] for k in self.moving]
-        r = np.array([ends[k][1] for k in self.moving]).reshape(-1, 3)
-        # a point r fixed in a joint's frame moves at R (v + ω × r) of the joint's local (v, ω): [I, −[r]×; 0, I]
-        self.G = np.zeros((len(r), 1, 6, 6))
-        self.G[:, 0] = np.eye(6)
-        for k, x in enumerate(r):
-            self.G[k, 0, :3, 3:] = -pin.skew(x)
-        self.r, self.Rl = r[:, None, :, None], np.array([ends[k][2] for k in self.moving]).reshape(-1, 1, 3, 3)
+        places = [P for i in self.loops for P in c.placements[i]]
+        self.ends, self.moving = ends, [(jid, P) for (jid, _, _), P in zip(ends, places) if jid]
         self.rows = []
         for i in self.loops:
             (normals, pairs), kinds = c.axes[i], c.loops[i].joint.loop_rows
@@ -58,20 +48,18 @@ class LoopBatch:
     def evaluate(self, Q) -> tuple[np.ndarray, np.ndarray]:
         """(Φ (B × m), Φ_q (B × m × nv)) at each row of Q (B × nq): per configuration the rows of
         ``c.evaluate(q, loops=loops)`` (to round-off)."""
-        c, ends, joints = self.c, self.ends, self.joints
-        model, data, nv, B, E = c.model, c.data, c.nv, len(Q), len(self.joints)
-        oMi, H, JL = data.oMi, [], []
+        c, ends, moving = self.c, self.ends, self.moving
+        model, data, nv, B, E = c.model, c.data, c.nv, len(Q), len(moving)
+        oMi, H, J = data.oMi, [], []
         for q in Q:
             pin.computeJointJacobians(model, data, q)
-            for jid in joints:
-                H.append(oMi[jid].homogeneous)
-                JL.append(pin.getJointJacobian(model, data, jid, pin.LOCAL))
+            for jid, P in moving:  # (each end's placement and LOCAL_WORLD_ALIGNED Jacobian at it: Pinocchio's)
+                H.append((oMi[jid] * P).homogeneous)
+                J.append(pin.getFrameJacobian(model, data, jid, P, pin.LOCAL_WORLD_ALIGNED))
         H = np.array(H).reshape(B, E, 4, 4).swapaxes(0, 1)
-        T, Rj, JL = H[:, :, :3, 3], H[:, :, :3, :3], np.array(JL).reshape(B, E, 6, nv).swapaxes(0, 1)
-        P, R = T + (Rj @ self.r)[..., 0], Rj @ self.Rl
-        J = (Rj[:, :, None] @ (self.G @ JL).reshape(E, B, 2, 3, nv))  # (E × B × (linear, angular) × 3 × nv)
+        J = np.array(J).reshape(B, E, 6, nv).swapaxes(0, 1)
         world = (np.zeros((B, 3, nv)),) * 2
-        frames = [(P[k], R[k], J[k, :, 0], J[k, :, 1]) for k in range(E)][::-1]
+        frames = [(H[k, :, :3, 3], H[k, :, :3, :3], J[k, :, :3], J[k, :, 3:]) for k in range(E)][::-1]
         frames = [frames.pop() if jid else (np.broadcast_to(r, (B, 3)), np.broadcast_to(Rl, (B, 3, 3))) + world
                   for jid, r, Rl in ends]
         phis, jacs = [], []
@@ -97,17 +85,18 @@ class LoopBatch:
 
 
 def close_many(batch: LoopBatch, starts, owner, cols, iterations, known, gaps) -> list:
-    """The closure (or None) each of the ``starts`` reaches by Gauss–Newton on the coordinates ``cols`` and the
-    equations of ``batch``, all in step, each as one Gauss–Newton would: minimum-norm dimensionless steps on the
-    rank (RANK_RTOL), each halved until |Φ| decreases (dropped below 1/10⁴), converged at ASSEMBLY_TOL;
-    ``iterations`` = ((n₁, n₂), open): dropped where still above ``open`` after n₁ iterations or open after
-    n₁ + n₂; ``known`` = (step, gap): dropped where a step below ``step`` lands within ``gap`` (``gaps(q, Q)``:
-    dimensionless distances from q to the rows of Q) of a closure that a start of the same ``owner`` reached
-    before (it converges to that one)."""
+    """The closure (or None) each of the ``starts`` reaches by Gauss–Newton on the coordinates ``cols`` (indices in
+    v; or one such array per start) and the equations of ``batch``, all in step, each as one Gauss–Newton would:
+    minimum-norm dimensionless steps on the rank (RANK_RTOL), each halved until |Φ| decreases (dropped below
+    1/10⁴), converged at ASSEMBLY_TOL; ``iterations`` = ((n₁, n₂), open): dropped where still above ``open``
+    after n₁ iterations or open after n₁ + n₂; ``known`` = (step, gap): dropped where a step below ``step``
+    lands within ``gap`` (``gaps(q, Q)``: dimensionless distances from q to the rows of Q) of a closure that a
+    start of the same ``owner`` reached before (it converges to that one)."""
     c = batch.c
-    model, rs, scale = c.model, batch.row_scale, c.col_scale[cols]
+    model, rs = batch.c.model, batch.row_scale
     (n1, n2), opened = iterations
     Q = np.array(starts)
+    groups = _column_groups(cols, len(starts))
     phi, J = batch.evaluate(Q)
     R, out = rs * phi, [None] * len(starts)
     live = np.arange(len(starts))
@@ -120,13 +109,18 @@ def close_many(batch: LoopBatch, starts, owner, cols, iterations, known, gaps) -
         live = live[keep] if k < n1 + n2 else live[:0]
         if not live.size:
             break
-        U, sv, Vt = np.linalg.svd(rs[None, :, None] * J[live][:, :, cols] * scale, full_matrices=False)
-        inv = np.divide(1.0, sv, out=np.zeros_like(sv), where=sv > RANK_RTOL * sv[:, :1])
-        dx = np.zeros((live.size, c.nv))
-        x = Vt.swapaxes(1, 2) @ (inv[:, :, None] * (U.swapaxes(1, 2) @ -R[live][:, :, None]))  # (minimum norm)
-        dx[:, cols] = scale * x[..., 0]
+        dx, size = np.zeros((live.size, c.nv)), np.zeros(live.size)
+        for cols, member in groups:  # (the minimum-norm step on each group's coordinates: one batched SVD)
+            at = np.flatnonzero(member[live])
+            if not at.size:
+                continue
+            scale = c.col_scale[cols]
+            U, sv, Vt = np.linalg.svd(rs[None, :, None] * J[live[at]][:, :, cols] * scale, full_matrices=False)
+            inv = np.divide(1.0, sv, out=np.zeros_like(sv), where=sv > RANK_RTOL * sv[:, :1])
+            x = Vt.swapaxes(1, 2) @ (inv[:, :, None] * (U.swapaxes(1, 2) @ -R[live[at]][:, :, None]))
+            dx[np.ix_(at, cols)] = scale * x[..., 0]
+            size[at] = np.sqrt((x[..., 0] ** 2).sum(axis=1))  # (dimensionless)
         norm0, alpha, steps = (R[live] ** 2).sum(axis=1), np.ones(live.size), np.zeros(live.size)
-        size = np.sqrt((x[..., 0] ** 2).sum(axis=1))  # (dimensionless)
         trying, ladder = np.arange(live.size), np.ones(1)
         while trying.size:  # (the full steps, then the next HALVINGS halvings of each refused one at once)
             a = alpha[trying, None] * ladder
@@ -148,3 +142,12 @@ def close_many(batch: LoopBatch, starts, owner, cols, iterations, known, gaps) -
                 moved[j] = False
         live = live[moved]
     return out
+
+
+def _column_groups(cols, n) -> list:
+    """[(columns, member mask over the n starts)]: the starts of :func:`close_many` by the coordinates they solve
+    (``cols``: one index array for all, or one per start)."""
+    if isinstance(cols, np.ndarray):
+        return [(cols, np.ones(n, dtype=bool))]
+    keys = [tuple(int(i) for i in x) for x in cols]
+    return [(np.array(key, dtype=int), np.array([k == key for k in keys])) for key in dict.fromkeys(keys)]

@@ -26,5 +26,5 @@ def gaps(c, q, samples) -> np.ndarray:
     if model.nq != model.nv:  # (a Lie group other than ℝⁿ: one by one)
         return np.array([gap(c, q, s) for s in samples])
     d = samples - q
-    d[:, iq] -= 2 * np.pi * np.round(d[:, iq] / (2 * np.pi))
+    d[:, iq] -= 2 * np.pi * np.rint(d[:, iq] / (2 * np.pi))
     return np.linalg.norm(d / c.col_scale, axis=1)
