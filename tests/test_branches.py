@@ -482,3 +482,25 @@ def test_four_bars_whose_slide_stopped_short_reach_the_hand_nearest(tmp_path, gr
     assert a.distance == pytest.approx(best, abs=1e-8)
     x = system.difference(system.neutral(), a.q)
     assert_on_a_branch(x, branches, np.ones(3), ALL, 1e-9)
+
+
+def test_other_modes_of_closures_solving_different_coordinates_searched_together_are_those_of_each_alone():
+    """The searches for the other assembly modes of several closures run in one batch, each start on its own
+    block's coordinates (the Watt six-bar's four-bar solves its crank and rocker at one closure, its coupler and
+    rocker at another: QR's choice there). Together they find what each finds alone, closed, with the
+    coordinates left independent unchanged, and the four-bar's two modes times the dyad's two at each."""
+    system = watt(0.0).build()
+    c = system.constraints
+    q1 = c.assembly().q
+    samples = assembly._trace(c, q1, system.neutral())[0]
+    cols = [tuple(x) for _, x in assembly_modes._fibres(c, q1)]
+    q2 = next(q for q in samples if [tuple(x) for _, x in assembly_modes._fibres(c, q)] != cols)
+    together = assembly_modes.partners(c, [q1, q2], system.neutral())
+    for q, (found, complete) in zip([q1, q2], together):
+        (alone, whole), = assembly_modes.partners(c, [q], system.neutral())
+        assert complete and whole and len(found) == len(alone) == 3
+        assert all(np.abs(system.difference(a, b)).max() <= 1e-12 for a, b in zip(alone, found))
+        free = np.setdiff1d(np.arange(system.nv), np.concatenate([x for _, x in assembly_modes._fibres(c, q)]))
+        for p in found:
+            assert np.abs(c.scaled_phi(c.phi(p))).max() <= ASSEMBLY_TOL
+            assert np.abs(system.difference(q, p)[free]).max() <= 1e-12
