@@ -142,6 +142,10 @@ def differences_along(pipeline, base_values, j, h, at_bound, base=None, finer=Tr
         if errors:  # a model's own estimate, relative to its matrix, times the derivative
             rel = max(float(np.abs(x).max(initial=0.0)) for x in errors) / max(float(size.max(initial=0.0)), 1e-300)
             e += rel * np.abs(d)
+            # an entry within its own error of zero at every point (a cyclic coordinate's: zero but for a rounding
+            # that need not be random in p, so the differences do not show it) is zero within that error over the step
+            within = np.all([np.abs(x[0][k]) <= x[1][k] for x in X if x[1][k] is not None], axis=0)
+            e += np.where(within & moved, np.max(errors, axis=0) * weight, 0.0)
         err.append(e)
         rels.append(rel)
     if base is not None and not at_bound:
