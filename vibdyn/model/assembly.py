@@ -50,6 +50,7 @@ from ..defaults import ASSEMBLY_TOL, RANK_RTOL
 from ..errors import ConvergenceError, ModelError
 from . import assembly_modes
 from .assembly_modes import partners, rows
+from .configuration import beyond_limits
 from .loop_metric import SAME, gap, gaps, offsets
 
 #: radii (rad, or × the length scale) of the restarts along ± each coordinate, one round each
@@ -379,7 +380,7 @@ def _within(system, samples):
     if not system.limits:
         return np.ones(len(samples), dtype=bool)
     x = np.array([system.difference(system.neutral(), q) for q in samples])
-    return ((x >= system.lower_limits) & (x <= system.upper_limits)).all(axis=1)
+    return ~beyond_limits(system, x).any(axis=1)
 
 
 def _inside(c, qd, closures, system):

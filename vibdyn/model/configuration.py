@@ -56,13 +56,18 @@ def configuration(system: System, offsets: Any) -> np.ndarray:
     return system.integrate(system.neutral(), dv)
 
 
+def beyond_limits(system: System, x: np.ndarray) -> np.ndarray:
+    """Which offsets x from neutral (m or rad; a vector, or one a row) lie beyond their position limits."""
+    return (x < system.lower_limits) | (x > system.upper_limits)
+
+
 def check_limits(system: System, q: Any, what: str) -> None:
     """ModelError naming the first coordinate of ``q`` outside its position limits (m or rad from neutral)."""
     if not system.limits:
         return
     lower, upper = system.lower_limits, system.upper_limits
     x = system.difference(system.neutral(), q)
-    for i in np.flatnonzero((x < lower) | (x > upper)):
+    for i in np.flatnonzero(beyond_limits(system, x)):
         side, bound = ("lower", lower[i]) if x[i] < lower[i] else ("upper", upper[i])
         u = system.units[i]
         raise ModelError(f"{what}: coordinate '{system.coordinates[i]}' = {x[i]:.6g} {u} is beyond its {side} "
