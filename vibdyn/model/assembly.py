@@ -58,7 +58,8 @@ RESTART_RADII = (0.25, 1.0, np.pi / 2)
 RANDOM_RESTARTS = 8  # the last round: seeded random poses, half with std 1, half with std 2 (dimensionless)
 OPEN_TOL = 1e-6  # a least-squares result with dimensionless |Φ| below this is polished by Gauss–Newton
 SLIDE_TOL, SLIDE_ITER = 1e-10, 300  # the slide to the nearest closure: last projected step (dimensionless)
-SLIDE_HALVINGS = 6  # a slide's step halved this many times where the closure reached is farther or not found
+SLIDE_HALVINGS = 20  # a slide's step halved this many times where the closure reached is farther or not found
+# (down to a millionth: a four-bar 2e-5 of its length short of flat closes on a curve a few mrad long)
 TIE_RTOL = 1e-7  # distances within this (relative) are a tie
 BESIDE = 1e-3  # step to the closures beside one, for the rank there (dimensionless)
 LEAVE = (1e-3, 1e-2, 1e-1)  # steps along the motion off a closure where the forces are undefined
@@ -289,14 +290,21 @@ def _branches(c, qd, seeds, system):
     partners found on it.)"""
     queue, branches, candidates, whole, complete = [(q, False) for q in seeds], [], [], True, True
     searched: list = []  # closures whose other assembly modes were sought (or were found by a search)
+    blocks: list = []  # the blocks of loops solved one after another, as the first search solved them
+    opened: list = []  # loops that no restart closed from a closure of the blocks before them
 
     def search(points):
         grid = True
-        for q, (found, whole) in zip(points, partners(c, points, qd)):
+        for q, (found, whole, solved, loop) in zip(points, partners(c, points, qd)):
             searched.extend([q] + found)
             queue.extend((p, True) for p in found)
             grid = grid and whole
+            blocks[:] = blocks or solved
+            opened.extend([loop] if loop else [])
         return grid
+
+    def done():
+        return candidates, len(branches), whole, complete, (opened or [_folded(c, blocks, branches)])[0]
 
     while True:
         while queue:
@@ -304,7 +312,8 @@ def _branches(c, qd, seeds, system):
             if any(_on_branch(c, q, *b) for b in branches):  # (on a traced branch)
                 continue
             if len(branches) == MAX_BRANCHES:
-                return candidates, len(branches), False, complete
+                whole = False
+                return done()
             samples, tangents, closed = _trace(c, q, qd)
             whole = whole and closed
             S = np.array(samples)
@@ -318,11 +327,26 @@ def _branches(c, qd, seeds, system):
                 spread = set(np.arange(PARTNER_POINTS) * len(samples) // PARTNER_POINTS) - ({0} if partner else set())
                 complete = search([samples[i] for i in sorted(spread)]) and complete
         if not candidates:
-            return candidates, len(branches), whole, complete
+            return done()
         best = candidates[int(np.argmin(gaps(c, qd, np.array(candidates))))]
         if searched and gaps(c, best, np.array(searched)).min() <= SAME:
-            return candidates, len(branches), whole, complete
+            return done()
         complete = search([best]) and complete
+
+
+def _folded(c, blocks, branches):
+    """The name of a loop solved after others (``blocks``, in order) that folds along a traced branch ('' if none):
+    the branch's motion of the coordinates the loop does not solve turns back between two samples (the loop's
+    own coordinates alone move there: it reaches the end of its reach), so it closes over part of the motion of
+    the loops before it only, and closures over the rest lie on branches of their own that no search for the
+    other modes need meet."""
+    for k in range(1, len(blocks)):
+        before = np.setdiff1d(np.arange(c.nv), np.concatenate([cols for _, cols in blocks[k:]]))
+        for _, _, tangents in branches:
+            T = np.array([t for t in tangents if t is not None])[:, before]
+            if len(T) > 1 and np.any(np.einsum("ij,ij->i", T, np.roll(T, -1, axis=0))[:-1] < 0):
+                return c.loops[blocks[k][0][0]].name
+    return ""
 
 
 def _nearest(c, qd, q):
@@ -530,15 +554,20 @@ def assemble_described(c, system):
         dof = system.nv - c.rank(min(unique, key=lambda u: u[0])[2])
         seeds = [q for _, _, q in unique]
         if dof == 1:
-            more, branches, whole, complete = _branches(c, qd, seeds, system)
+            more, branches, whole, complete, folded = _branches(c, qd, seeds, system)
             why = "" if whole else (f"a branch of its closures could not be traced whole ({branches} traced: a "
                                     "singular position, a step that could not be closed on it, or too many)")
             if whole and not complete:
                 why = (f"its {branches} branches were traced whole, but its assembly modes were sampled "
                        f"({assembly_modes.PARTNER_MAX} restarts of its dependent coordinates at each point), not "
                        "enumerated")
+            elif whole and folded:
+                why = (f"its {branches} branches were traced whole, but loop '{folded}' closes over part of the "
+                       "motion of the loops solved before it only (it folds along a branch, or does not close from "
+                       "one of their closures): closures over the rest lie on branches of their own, which the "
+                       "search need not meet")
         else:
-            more = [p for found, _ in partners(c, seeds, qd) for p in found]
+            more = [p for found, _, _, _ in partners(c, seeds, qd) for p in found]
             why = (f"the mechanism has mobility {dof} there: its closures form surfaces, which are not traced (the "
                    f"closures of {tried} starts and their other assembly modes were compared)")
         unique, held = _compared(c, qd, seeds + more, system)

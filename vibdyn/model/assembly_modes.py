@@ -111,18 +111,21 @@ def _grid(c, cols):
     return singles + [others[i] for i in np.sort(pick)], False
 
 
-def partners(c, points, qd) -> list[tuple[list, bool]]:
-    """[(closures, complete)] per closure of ``points``: the other closures with its independent coordinates (the
-    other assembly modes there: the mirror image of a four-bar's coupler and rocker about the line they span),
-    block by block of the dependent coordinates (:func:`_blocks`): from each closure of the blocks before,
-    Gauss–Newton on the block's coordinates and equations from each restart of its grid (:func:`_grid`;
-    ``complete`` False where one is sampled), all in step, those of points whose blocks solve the same loops
-    together (:func:`~vibdyn.model.loop_batch.close_many`: a restart still open by PARTNER_OPEN after
-    PARTNER_ITER[0] iterations is dropped, as is one converging to a closure found already from the same one)."""
+def partners(c, points, qd) -> list[tuple[list, bool, list, str]]:
+    """[(closures, complete, blocks, open)] per closure of ``points``: the other closures with its independent
+    coordinates (the other assembly modes there: the mirror image of a four-bar's coupler and rocker about the line
+    they span), block by block of the dependent coordinates (:func:`_blocks`): from each closure of the blocks
+    before, Gauss–Newton on the block's coordinates and equations from each restart of its grid (:func:`_grid`;
+    ``complete`` False where one is sampled; ``blocks`` [(loops, coordinates)] as solved there; ``open`` the name of
+    a loop no restart closes from some closure of the blocks before it, '' if none), all in step, those of points
+    whose blocks solve the same loops together (:func:`~vibdyn.model.loop_batch.close_many`: a restart still open by
+    PARTNER_OPEN after PARTNER_ITER[0] iterations is dropped, as is one converging to a closure found already from
+    the same one)."""
     model, cs, nv = c.model, c.col_scale, c.nv
     fibres = [_fibres(c, q) for q in points]
     grids = [[_grid(c, cols) for _, cols in blocks] for blocks in fibres]
-    out: list[tuple[list, bool]] = []
+    out: list[tuple[list, bool, list, str]] = []
+    opened = [""] * len(points)
     groups: dict = {}
     for i, blocks in enumerate(fibres):
         groups.setdefault(tuple(loops for loops, _ in blocks), []).append(i)
@@ -148,9 +151,10 @@ def partners(c, points, qd) -> list[tuple[list, bool]]:
                     if all(gap(c, o, q1) > SAME for o in found):
                         found.append(q1)
                 reached += [(i, p) for p in found]
+                opened[i] = opened[i] or ("" if found else c.loops[loops[0]].name)
             partial = reached
         for i in members:
             found_at[i] = [p for k, p in partial if k == i and gap(c, points[i], p) > SAME]
     for i in range(len(points)):
-        out.append((found_at[i], all(whole for _, whole in grids[i])))
+        out.append((found_at[i], all(whole for _, whole in grids[i]), fibres[i], opened[i]))
     return out
