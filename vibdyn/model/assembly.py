@@ -39,6 +39,7 @@ within π of the described one (q and q ± 2π are one pose: the shorter way rou
 """
 
 import functools
+import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -364,14 +365,14 @@ def _nearest(c, qd, q):
         step = V0.T @ (V0 @ v)
         if np.abs(step).max(initial=0.0) <= SLIDE_TOL:
             break
-        tries, t = [step * 0.5**k for k in range(SLIDE_HALVINGS + 1)], None
+        tries, t = (step * 0.5**k for k in range(SLIDE_HALVINGS + 1)), None
         if len(V0) == 1:
             t = V0[0] if last is None or V0[0] @ last[2] >= 0 else -V0[0]
             g = float(t @ v)
             if last is not None and last[0] != 0:
                 H = (last[1] - g) / last[0]
                 if 0.02 <= H <= 50 and abs(H - 1) > 1e-3:
-                    tries.insert(0, (g / H) * t)
+                    tries = itertools.chain([(g / H) * t], tries)
         for st in tries:
             out = _correct(c, pin.integrate(model, q, cs * st))
             q1 = _close(c, pin.integrate(model, q, cs * st), qd) if out is None else c.within_pi(out[0], qd)
