@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 from scipy.optimize import minimize, minimize_scalar
+from test_branches import circle_intersections  # (the points at r1 from P and r2 from Q, or None)
 
 import vibdyn as vd
 
@@ -32,19 +33,6 @@ def wrap(x):
 
 def ang(v):
     return math.atan2(v[1], v[0])
-
-
-def circle_intersections(P, r1, Q, r2):
-    """The two points at r1 from P and r2 from Q (the left one of P→Q first); None where the circles miss."""
-    ev = np.asarray(Q, float) - P
-    dist = np.linalg.norm(ev)
-    x = (dist**2 + r1**2 - r2**2) / (2 * dist)
-    h2 = r1**2 - x**2
-    if h2 < 0:
-        return None
-    n = np.array([-ev[1], ev[0]]) / dist
-    m = P + x * ev / dist
-    return m + math.sqrt(h2) * n, m - math.sqrt(h2) * n
 
 
 def four_bar(p):
