@@ -25,11 +25,12 @@ within π of the described one (q and q ± 2π are one pose: the shorter way rou
    four-bar, then its dyad from each of the four-bar's closures), and traced in turn. The nearest of all is taken, and
    called "the closure nearest the neutral configuration" (``Assembly.nearest``) only when every branch met was traced
    whole, each search for the other modes tried its whole grid of restarts (up to three dependent coordinates a block:
-   :func:`.partners`) and no slide ended beyond a limit; otherwise (mobility 2 or more: surfaces, not traced; a branch
-   cut by a singular position; modes sampled, not enumerated, with more dependent coordinates solved together) it is "a
-   closure found near the neutral configuration", the nearest of those compared, and ``.note`` says why it is not
-   proven. Ties (the mirror images of a symmetric description) go to the closure whose first differing coordinate is
-   larger, and are noted.
+   :func:`.partners`), no loop solved after others closes over part of their motion only (it folds along a branch, or
+   does not close from one of their closures: closures over the rest may lie on branches no search meets) and no slide
+   ended beyond a limit; otherwise (mobility 2 or more: surfaces, not traced; a branch cut by a singular position; modes
+   sampled, not enumerated, with more dependent coordinates solved together) it is "a closure found near the neutral
+   configuration", the nearest of those compared, and ``.note`` says why it is not proven. Ties (the mirror images of a
+   symmetric description) go to the closure whose first differing coordinate is larger, and are noted.
 4. A closure that is isolated (the loops close only there: links whose lengths add up, stretched flat) locks
    the mechanism: refused (:meth:`Constraints.check_mobility`). The mobility is taken there. A singular
    position (rank of Φ_q below its rank at the closures beside it: a change point) is kept in the
