@@ -280,16 +280,17 @@ def _local_minima(d, whole):
 
 
 def _branches(c, qd, seeds, system):
-    """(candidates, branches, whole, complete) of a one-mobility mechanism: each branch of the loops' closures reached
-    from the ``seeds`` is traced (:func:`_trace`); the local minima of its distance to qd (among its samples
+    """(candidates, branches, whole, complete, folded) of a one-mobility mechanism: each branch of the loops' closures
+    reached from the ``seeds`` is traced (:func:`_trace`); the local minima of its distance to qd (among its samples
     within the position limits) are the candidates (to be slid to the nearest). The other assembly modes
     (:func:`.partners`) are sought at PARTNER_POINTS points spread along each branch not reached as one of them,
-    and, once every branch met is traced, at the nearest candidate (where its own were not sought yet: the
-    closures beside the answer), each not on a traced branch traced in turn, until the nearest candidate's were
-    sought. ``whole``: every branch met was traced whole (closed curves) within MAX_BRANCHES; ``complete``:
-    every search for the other modes tried its whole grid of restarts (:func:`.partners`). (A branch reached
-    as a partner is searched at its spread points only where fewer than PARTNER_POINTS searches found it or
-    partners found on it.)"""
+    and, once every branch met is traced, at the nearest candidate (where its own were not sought yet: the closures
+    beside the answer), each not on a traced branch traced in turn, until the nearest candidate's were sought.
+    ``whole``: every branch met was traced whole (closed curves) within MAX_BRANCHES; ``complete``: every search for
+    the other modes tried its whole grid of restarts (:func:`.partners`); ``folded``: a loop solved after others
+    that closes over part of their motion only (no restart closed it from one of their closures, or it folds along a
+    branch: :func:`_folded`), '' if none. (A branch reached as a partner is searched at its spread points only where
+    fewer than PARTNER_POINTS searches found it or partners found on it.)"""
     queue, branches, candidates, whole, complete = [(q, False) for q in seeds], [], [], True, True
     searched: list = []  # closures whose other assembly modes were sought (or were found by a search)
     blocks: list = []  # the blocks of loops solved one after another, as the first search solved them

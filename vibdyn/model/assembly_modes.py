@@ -124,7 +124,6 @@ def partners(c, points, qd) -> list[tuple[list, bool, list, str]]:
     model, cs, nv = c.model, c.col_scale, c.nv
     fibres = [_fibres(c, q) for q in points]
     grids = [[_grid(c, cols) for _, cols in blocks] for blocks in fibres]
-    out: list[tuple[list, bool, list, str]] = []
     opened = [""] * len(points)
     groups: dict = {}
     for i, blocks in enumerate(fibres):
@@ -155,6 +154,4 @@ def partners(c, points, qd) -> list[tuple[list, bool, list, str]]:
             partial = reached
         for i in members:
             found_at[i] = [p for k, p in partial if k == i and gap(c, points[i], p) > SAME]
-    for i in range(len(points)):
-        out.append((found_at[i], all(whole for _, whole in grids[i]), fibres[i], opened[i]))
-    return out
+    return [(found_at[i], all(whole for _, whole in grids[i]), fibres[i], opened[i]) for i in range(len(points))]

@@ -93,7 +93,7 @@ def close_many(batch: LoopBatch, starts, owner, cols, iterations, known, gaps) -
     lands within ``gap`` (``gaps(q, Q)``: dimensionless distances from q to the rows of Q) of a closure that a
     start of the same ``owner`` reached before (it converges to that one)."""
     c = batch.c
-    model, rs = batch.c.model, batch.row_scale
+    model, rs = c.model, batch.row_scale
     (n1, n2), opened = iterations
     Q = np.array(starts)
     groups = _column_groups(cols, len(starts))
