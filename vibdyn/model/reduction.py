@@ -275,8 +275,9 @@ class Reduction:
         c = self._loops
         if c is None:
             return 0.0
-        rank, _, s, _ = c.decompose(c.jacobian(q))
-        return math.sqrt(c.m) * self.closure(q) / s[rank - 1] if rank else 0.0
+        phi, J = c.evaluate(q)
+        rank, _, s, _ = c.decompose(J)
+        return math.sqrt(c.m) * float(np.abs(c.scaled_phi(phi)).max(initial=0.0)) / s[rank - 1] if rank else 0.0
 
     def conditioning(self, q) -> float:
         """σ_min/σ_max of the loops' dimensionless Jacobian at q (1 without loops)."""
